@@ -1,0 +1,250 @@
+"""Spring constants and isolated-dome analysis (MODEL.md §3-§4), vectorised with NumPy.
+
+Every function broadcasts over its array arguments, so the same code serves one design, one
+unit, or a padded ``(n_designs, n_units)`` batch. Lengths in mm, ``E`` in MPa, linear stiffness
+in N/mm, torsional stiffness in N·mm/rad, energy in N·mm.
+
+The closed forms are the paper's regressions (eq. kb_model, alpha_model, d_model) with the
+coefficients of the authors' implementation, which the paper prints rounded. They were fitted for
+5 <= E <= 40 MPa and the paper's unit geometries; :func:`constants_are_valid` flags the results
+that are nonsense outside that domain.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+#: Unit-cell size per dome base radius, ``UC = 3 r_b`` (MODEL.md §2).
+UNIT_CELL_PER_BASE_RADIUS = 3.0
+#: Dome energy ratio at which the isolated dome loses its second minimum (saddle-node).
+ALPHA_BISTABLE = 1.0 / 9.0
+#: Dome energy ratio above which the force-extension curve has no dip left: no "ghost" of the
+#: lost minimum slows the dome down, so we call it monostable rather than metastable.
+ALPHA_GHOST = 1.0 / 3.0
+#: The implementation's replacement for a negative dome reach ``d`` (mm).
+NO_CONTACT_REACH = 0.01
+
+
+def dome_radius(H: ArrayLike, r_b: ArrayLike) -> NDArray:
+    """Radius of curvature of a spherical cap, ``R = (H² + r_b²) / (2 H)`` in mm."""
+    H = np.asarray(H, dtype=float)
+    return (H * H + np.asarray(r_b, dtype=float) ** 2) / (2.0 * H)
+
+
+def dome_stiffness(E: ArrayLike, H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
+    """Linear stiffness ``k_b`` of the dome spring in N/mm (paper eq. kb_model, exactly).
+
+    Parameters
+    ----------
+    E : array_like, MPa
+        Young's modulus.
+    H, t, R : array_like, mm
+        Dome height, dome thickness and dome radius of curvature.
+    """
+    E, H, t, R = (np.asarray(a, dtype=float) for a in (E, H, t, R))
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t3 * t
+    t5 = t4 * t
+    poly = (
+        -1.97 * R * t5 / H**3
+        + 7.4 * H**2 * t3 / R**2
+        + 3.5 * R * t4 / H**2
+        + 0.37 * H**2 * t2 / R
+        + 42.2 * t5 / H**2
+        - 35.8 * H * t4 / R**2
+        + 71.8 * t5 / (H * R)
+        - 3.4 * R * t3 / H
+        - 67.7 * t4 / H
+        + 4.2 * R * t2
+        + 11.1 * t3
+    )
+    return E / R**2 * poly
+
+
+def dome_alpha(H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
+    """Dimensionless energy ratio ``α`` of the dome spring (MODEL.md §3, implementation's digits).
+
+    ``α`` is the inverted-state energy ``E_NL(d)`` over the energy ``½ k_b d²`` a linear spring
+    would store at the same extension; the isolated dome is bistable iff ``α < 1/9``.
+    """
+    H, t, R = (np.asarray(a, dtype=float) for a in (H, t, R))
+    return (
+        0.3823 * H**3 / R**3
+        - 0.5736 * t**3 / H**3
+        - 2.8677 * H**2 * t / R**3
+        - 0.9559 * H**2 / R**2
+        - 8.9853 * t**3 / (H**2 * R)
+        + 1.5295 * t**2 / H**2
+        - 4.0147 * t**3 / (H * R**2)
+        + 9.1764 * H * t / R**2
+        + 17.3971 * t**2 / (H * R)
+        + 0.5736 * H / R
+        + 17.7795 * t**3 / R**3
+        - 19.5 * t**2 / R**2
+        - 6.1177 * t / R
+    )
+
+
+def dome_reach(
+    H: ArrayLike, t: ArrayLike, U_sep: ArrayLike, t_ch: ArrayLike
+) -> tuple[NDArray, NDArray]:
+    """Extension ``d`` (mm) at which the inverted dome meets the next unit's chamber wall.
+
+    ``d = (0.2565 t + 2.1425 H) - H - U_sep - t_ch/2 - t/2`` (paper eq. d_model with the
+    implementation's digits). Where that is not positive the dome cannot reach the wall; the
+    implementation then uses ``d = 0.01``, which we keep for comparability while flagging it.
+
+    Returns
+    -------
+    d : ndarray, mm
+        Reach used by the model (``NO_CONTACT_REACH`` where clamped).
+    no_contact : ndarray of bool
+        True where the closed form gave ``d <= 0`` and was clamped: such a dome cannot bend the
+        finger.
+    """
+    H, t, U_sep, t_ch = (np.asarray(a, dtype=float) for a in (H, t, U_sep, t_ch))
+    raw = (0.2565 * t + 2.1425 * H) - H - U_sep - t_ch / 2.0 - t / 2.0
+    # d == 0 exactly would divide by zero in u = x/d, so it is clamped along with d < 0.
+    no_contact = raw <= 0.0
+    return np.where(no_contact, NO_CONTACT_REACH, raw), no_contact
+
+
+def limiting_layer_stiffness(
+    E: ArrayLike, t_lim: ArrayLike, r_b: ArrayLike, U_L: ArrayLike, t: ArrayLike, t_ch: ArrayLike
+) -> NDArray:
+    """Axial stiffness of a limiting-layer segment, ``k_lim = E t_lim UC / (U_L + t + t_ch)``, N/mm.
+
+    The denominator is the implementation's; the paper's text writes ``U_L`` alone.
+    """
+    UC = UNIT_CELL_PER_BASE_RADIUS * np.asarray(r_b, dtype=float)
+    return np.asarray(E, float) * np.asarray(t_lim, float) * UC / (
+        np.asarray(U_L, float) + np.asarray(t, float) + np.asarray(t_ch, float)
+    )
+
+
+#: Posts (chamber walls) are this many times stiffer than the limiting layer of their unit.
+POST_STIFFNESS_FACTOR = 5.0
+
+
+def torsion_stiffness(
+    E: ArrayLike,
+    t_lim: ArrayLike,
+    nu: ArrayLike,
+    r_b: ArrayLike,
+    U_sep: ArrayLike,
+    t: ArrayLike,
+    t_ch: ArrayLike,
+) -> NDArray:
+    """Bending stiffness of the limiting layer at a node, N·mm/rad.
+
+    ``k_t = E t_lim³ / (12 (1 - ν²)) · UC / (U_sep + t + t_ch)``; the denominator is the
+    implementation's (the paper's text writes ``U_sep`` alone).
+    """
+    UC = UNIT_CELL_PER_BASE_RADIUS * np.asarray(r_b, dtype=float)
+    t_lim = np.asarray(t_lim, dtype=float)
+    plate = np.asarray(E, float) * t_lim**3 / (12.0 * (1.0 - np.asarray(nu, float) ** 2))
+    return plate * UC / (np.asarray(U_sep, float) + np.asarray(t, float) + np.asarray(t_ch, float))
+
+
+def constants_are_valid(k_b: ArrayLike, alpha: ArrayLike) -> NDArray:
+    """Where the closed forms describe a physical dome.
+
+    ``k_b <= 0`` is not a spring; ``α >= 1`` makes the quartic dome energy unbounded below;
+    ``α <= 0`` makes the inverted state at least as cheap as the flat, stress-free dome. All three
+    happen only outside the fitted domain (thin layers of very thick, very shallow domes).
+    """
+    k_b = np.asarray(k_b, dtype=float)
+    alpha = np.asarray(alpha, dtype=float)
+    return np.isfinite(k_b) & np.isfinite(alpha) & (k_b > 0.0) & (alpha > 0.0) & (alpha < 1.0)
+
+
+@dataclass(frozen=True)
+class DomeAnalysis:
+    """Isolated-dome landscape of the bistable spring (MODEL.md §4), one entry per dome.
+
+    Extensions are in units of the reach ``d`` (``u = x̄ / d``). Entries that do not exist for a
+    dome's regime are NaN (a monostable dome has no barrier).
+
+    Attributes
+    ----------
+    regime : ndarray of str
+        ``"bistable"`` (``α < 1/9``: a second minimum exists), ``"metastable"``
+        (``1/9 <= α < 1/3``: no second minimum, but the force dips, so the dome creeps back
+        slowly through the ghost of the lost minimum) or ``"monostable"`` (``α >= 1/3``: the
+        restoring force grows monotonically). This is the isolated dome's static regime; the
+        class of a unit inside its finger comes from the dynamics (MODEL.md §8).
+    u_barrier : ndarray
+        Energy maximum between the two minima, ``(3 - √((1-9α)/(1-α)))/4``.
+    u_second_min : ndarray
+        The inverted minimum, ``(3 + √((1-9α)/(1-α)))/4``.
+    u_inversion : ndarray
+        Threshold past which a unit counts as inverted: ``u_barrier`` where it exists, else 3/4
+        (MODEL.md §6).
+    barrier_energy, second_min_energy : ndarray, N·mm
+        Dome energy at the barrier and at the second minimum.
+    peak_force : ndarray, N
+        Largest restoring force before the snap, ``max f'(x̄)`` on the rising branch (the force
+        needed to push the dome through); NaN for monostable domes, whose force never peaks.
+    peak_u : ndarray
+        Where the force peaks.
+    """
+
+    regime: NDArray
+    u_barrier: NDArray
+    u_second_min: NDArray
+    u_inversion: NDArray
+    barrier_energy: NDArray
+    second_min_energy: NDArray
+    peak_force: NDArray
+    peak_u: NDArray
+
+
+def dome_energy(x_bar: ArrayLike, k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> NDArray:
+    """Dome spring energy ``½ k_b x̄² (1 + (1-α)(u² - 2u))`` in N·mm, ``u = x̄/d``."""
+    x_bar = np.asarray(x_bar, dtype=float)
+    u = x_bar / np.asarray(d, dtype=float)
+    return 0.5 * np.asarray(k_b, float) * x_bar**2 * (1.0 + (1.0 - np.asarray(alpha)) * (u * u - 2 * u))
+
+
+def dome_force(x_bar: ArrayLike, k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> NDArray:
+    """Dome spring force ``k_b x̄ (1 + (1-α)(2u² - 3u))`` in N (derivative of the energy)."""
+    x_bar = np.asarray(x_bar, dtype=float)
+    u = x_bar / np.asarray(d, dtype=float)
+    return np.asarray(k_b, float) * x_bar * (1.0 + (1.0 - np.asarray(alpha)) * (2 * u * u - 3 * u))
+
+
+def analyse_domes(k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> DomeAnalysis:
+    """Regime, barrier, second minimum and peak force of isolated domes (vectorised).
+
+    Parameters
+    ----------
+    k_b : array_like, N/mm
+    alpha : array_like
+    d : array_like, mm
+    """
+    k_b, alpha, d = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (k_b, alpha, d)))
+    one_minus = 1.0 - alpha
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disc = (1.0 - 9.0 * alpha) / one_minus
+        bistable = alpha < ALPHA_BISTABLE
+        root = np.sqrt(np.where(bistable, disc, np.nan))
+        u_barrier = (3.0 - root) / 4.0
+        u_second = (3.0 + root) / 4.0
+        # f''(u) = k_b (1 + 6 (1-α)(u² - u)) vanishes at u = (1 ∓ √(1 - 2/(3(1-α))))/2.
+        has_peak = alpha < ALPHA_GHOST
+        peak_u = (1.0 - np.sqrt(np.where(has_peak, 1.0 - 2.0 / (3.0 * one_minus), np.nan))) / 2.0
+    regime = np.where(bistable, "bistable", np.where(has_peak, "metastable", "monostable"))
+    return DomeAnalysis(
+        regime=regime,
+        u_barrier=u_barrier,
+        u_second_min=u_second,
+        u_inversion=np.where(bistable, u_barrier, 0.75),
+        barrier_energy=dome_energy(u_barrier * d, k_b, alpha, d),
+        second_min_energy=dome_energy(u_second * d, k_b, alpha, d),
+        peak_force=dome_force(peak_u * d, k_b, alpha, d),
+        peak_u=peak_u,
+    )

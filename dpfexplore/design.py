@@ -1,0 +1,368 @@
+"""Designs, materials and their validation: the one place where inputs are checked.
+
+A :class:`Design` is one finger (MODEL.md §2); a :class:`DesignBatch` is many fingers as a
+struct of arrays, padded to ``MAX_UNITS`` units, for the batch kernels. A single bad design raises
+``ValueError`` naming the field and the value; a batch never raises for a bad row, it gives the
+row a status code (:func:`DesignBatch.status`) so that one bad design never stops a sweep.
+
+Lengths in mm, ``E`` in MPa.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import status as st
+from ._kernels.layout import MAX_UNITS
+from .constants import constants_are_valid, dome_alpha, dome_radius, dome_stiffness
+
+__all__ = [
+    "MATERIALS",
+    "MAX_UNITS",
+    "Design",
+    "DesignBatch",
+    "Material",
+    "load_design",
+    "material",
+]
+
+
+@dataclass(frozen=True)
+class Material:
+    """A printing material.
+
+    Attributes
+    ----------
+    name : str
+        Trade name.
+    E : float, MPa
+        Young's modulus.
+    nu : float
+        Poisson ratio.
+    """
+
+    name: str
+    E: float
+    nu: float = 0.35
+
+
+#: Material presets (MODEL.md §2): Cheetah 95A at the implementation's modulus, NinjaFlex 85A at
+#: the manufacturer's.
+MATERIALS: dict[str, Material] = {
+    "cheetah-95a": Material("Cheetah 95A", 26.0),
+    "ninjaflex-85a": Material("NinjaFlex 85A", 12.0),
+}
+
+
+def material(key: str) -> Material:
+    """Look up a material preset by key (``"cheetah-95a"`` or ``"ninjaflex-85a"``)."""
+    try:
+        return MATERIALS[key.lower()]
+    except KeyError:
+        raise ValueError(
+            f"material = {key!r}: unknown material; choose one of {sorted(MATERIALS)}"
+        ) from None
+
+
+PER_UNIT_FIELDS = ("H", "U_L", "U_sep")
+SHARED_FIELDS = ("t", "t_lim", "E", "nu", "r_b", "t_ch")
+DEFAULTS = {"E": 26.0, "nu": 0.35, "r_b": 5.0, "t_ch": 1.0}
+
+
+def _problems(
+    n_units: NDArray,
+    per_unit: Mapping[str, NDArray],
+    shared: Mapping[str, NDArray],
+) -> tuple[NDArray, list[str | None]]:
+    """Vectorised validation of padded design arrays.
+
+    Returns each design's status code (``OK``, ``INVALID_INPUT`` or ``INVALID_CONSTANTS``) and a
+    one-line description of its first problem (None when valid).
+    """
+    n = n_units.shape[0]
+    code = np.full(n, st.OK, dtype=np.int8)
+    message: list[str | None] = [None] * n
+
+    def flag(mask: NDArray, status: int, describe) -> None:
+        for i in np.flatnonzero(mask & (code == st.OK)):
+            code[i] = status
+            message[i] = describe(i)
+
+    n_ok = (n_units >= 1) & (n_units <= MAX_UNITS)
+    flag(~n_ok, st.INVALID_INPUT, lambda i: f"N = {n_units[i]}: must be between 1 and {MAX_UNITS}")
+    active = np.arange(MAX_UNITS)[None, :] < np.clip(n_units, 0, MAX_UNITS)[:, None]
+    for name in PER_UNIT_FIELDS:
+        values = per_unit[name]
+        bad = active & ~(np.isfinite(values) & (values > 0.0))
+
+        def describe(i, name=name, values=values, bad=bad):
+            k = int(np.flatnonzero(bad[i])[0])
+            return f"{name}[unit {k + 1}] = {values[i, k]!r}: must be a finite length > 0 mm"
+
+        flag(bad.any(axis=1), st.INVALID_INPUT, describe)
+    for name in SHARED_FIELDS:
+        values = shared[name]
+        if name == "nu":
+            bad = ~(np.isfinite(values) & (values >= 0.0) & (values < 0.5))
+            rule = "must be finite, 0 <= nu < 0.5"
+        else:
+            bad = ~(np.isfinite(values) & (values > 0.0))
+            rule = "must be finite and > 0" + (" MPa" if name == "E" else " mm")
+        flag(bad, st.INVALID_INPUT, lambda i, name=name, v=values, r=rule: f"{name} = {v[i]!r}: {r}")
+    # The closed forms of MODEL.md §3 leave their fitted domain silently; catch the nonsense.
+    with np.errstate(all="ignore"):
+        H = np.where(active, per_unit["H"], 1.0)
+        t = shared["t"][:, None]
+        R = dome_radius(H, shared["r_b"][:, None])
+        k_b = dome_stiffness(shared["E"][:, None], H, t, R)
+        alpha = dome_alpha(H, t, R)
+    bad_const = active & ~constants_are_valid(k_b, alpha)
+
+    def describe_const(i):
+        k = int(np.flatnonzero(bad_const[i])[0])
+        return (
+            f"H[unit {k + 1}] = {H[i, k]!r} with t = {shared['t'][i]!r}: the closed forms give "
+            f"k_b = {k_b[i, k]:.4g} N/mm, alpha = {alpha[i, k]:.4g} "
+            "(need k_b > 0 and 0 < alpha < 1; outside the fitted domain)"
+        )
+
+    flag(bad_const.any(axis=1), st.INVALID_CONSTANTS, describe_const)
+    return code, message
+
+
+def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} = {value!r}: must be a number or a list of numbers")
+    if np.ndim(value) == 0:
+        return (_number(name, value),) * n_units
+    values = tuple(_number(f"{name}[unit {k + 1}]", v) for k, v in enumerate(value))
+    if len(values) != n_units:
+        raise ValueError(
+            f"{name} = {list(value)!r}: has {len(values)} values but the design has "
+            f"{n_units} units (len(H)); give one value or one per unit"
+        )
+    return values
+
+
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} = {value!r}: must be a number")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Design:
+    """One Dome Phalanx Finger (MODEL.md §2).
+
+    Per-unit parameters accept a scalar (same for every unit) or one value per unit, unit 1
+    (the base) first; the number of units ``N`` is ``len(H)``.
+
+    Parameters
+    ----------
+    H : sequence of float, mm
+        Dome height per unit.
+    U_L : float or sequence of float, mm
+        Unit length per unit (the implementation's "channel length").
+    U_sep : float or sequence of float, mm
+        Unit separation per unit.
+    t : float, mm
+        Dome thickness.
+    t_lim : float, mm
+        Limiting-layer thickness.
+    E : float, MPa
+        Young's modulus (26 MPa: Cheetah 95A).
+    nu : float
+        Poisson ratio.
+    r_b : float, mm
+        Dome base radius.
+    t_ch : float, mm
+        Chamber wall thickness.
+    name : str
+        Free-form label (not part of the physics).
+
+    Raises
+    ------
+    ValueError
+        Naming the field and its value, for non-finite or non-positive lengths, ``N`` outside
+        1-12, per-unit lists of the wrong length, or constants the closed forms make nonsense
+        (``k_b <= 0``, ``alpha`` outside (0, 1)).
+    """
+
+    H: tuple[float, ...]
+    U_L: tuple[float, ...]
+    U_sep: tuple[float, ...]
+    t: float
+    t_lim: float
+    E: float = DEFAULTS["E"]
+    nu: float = DEFAULTS["nu"]
+    r_b: float = DEFAULTS["r_b"]
+    t_ch: float = DEFAULTS["t_ch"]
+    name: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        H = self.H
+        if isinstance(H, (str, bytes)) or np.ndim(H) != 1:
+            raise ValueError(f"H = {H!r}: must be a list with one dome height per unit")
+        n_units = len(H)
+        if not 1 <= n_units <= MAX_UNITS:
+            raise ValueError(f"N = {n_units} (len(H)): must be between 1 and {MAX_UNITS}")
+        object.__setattr__(self, "H", _per_unit("H", H, n_units))
+        for name in ("U_L", "U_sep"):
+            object.__setattr__(self, name, _per_unit(name, getattr(self, name), n_units))
+        for name in SHARED_FIELDS:
+            object.__setattr__(self, name, _number(name, getattr(self, name)))
+        code, message = DesignBatch.from_designs([self]).problems()
+        if code[0] != st.OK:
+            raise ValueError(message[0])
+
+    @property
+    def n_units(self) -> int:
+        """Number of units ``N``."""
+        return len(self.H)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Design:
+        """Build a design from a mapping such as a TOML ``[design]`` table.
+
+        ``material = "cheetah-95a"`` sets ``E`` and ``nu`` from :data:`MATERIALS`; giving both
+        ``material`` and ``E`` is an error (which one would win is a guess).
+        """
+        known = {"H", "U_L", "U_sep", *SHARED_FIELDS, "material", "name"}
+        for key in data:
+            if key not in known:
+                raise ValueError(f"{key} = {data[key]!r}: unknown design key; known: {sorted(known)}")
+        for key in ("H", "U_L", "U_sep", "t", "t_lim"):
+            if key not in data:
+                raise ValueError(f"{key}: missing design key")
+        values = dict(data)
+        if "material" in values:
+            if "E" in values:
+                raise ValueError(
+                    f"material = {values['material']!r}: give either material or E, not both"
+                )
+            preset = material(str(values.pop("material")))
+            values["E"] = preset.E
+            values.setdefault("nu", preset.nu)
+        return cls(**values)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain mapping (lists for per-unit fields) that :meth:`from_dict` reads back."""
+        out: dict[str, Any] = {"H": list(self.H), "U_L": list(self.U_L), "U_sep": list(self.U_sep)}
+        out.update({name: getattr(self, name) for name in SHARED_FIELDS})
+        if self.name:
+            out["name"] = self.name
+        return out
+
+    def replace(self, **changes: Any) -> Design:
+        """Copy with some fields changed (validated again)."""
+        values = self.to_dict()
+        values.update(changes)
+        return Design(**values)
+
+
+def load_design(path: str | Path) -> Design:
+    """Read a design from the ``[design]`` table of a TOML file.
+
+    Raises
+    ------
+    ValueError
+        If the file has no ``[design]`` table or the design is invalid (naming the key).
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            document = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML ({exc})") from None
+    if "design" not in document:
+        raise ValueError(f"{path}: missing [design] table")
+    data = dict(document["design"])
+    data.setdefault("name", path.stem)
+    return Design.from_dict(data)
+
+
+@dataclass(frozen=True)
+class DesignBatch:
+    """Many designs as a struct of arrays (per-unit arrays NaN-padded to ``MAX_UNITS``).
+
+    Attributes
+    ----------
+    n_units : ndarray of int64, shape (n,)
+    H, U_L, U_sep : ndarray of shape (n, MAX_UNITS), mm
+    t, t_lim, E, nu, r_b, t_ch : ndarray of shape (n,)
+        As in :class:`Design` (mm, MPa).
+    """
+
+    n_units: NDArray[np.int64]
+    H: NDArray[np.float64]
+    U_L: NDArray[np.float64]
+    U_sep: NDArray[np.float64]
+    t: NDArray[np.float64]
+    t_lim: NDArray[np.float64]
+    E: NDArray[np.float64]
+    nu: NDArray[np.float64]
+    r_b: NDArray[np.float64]
+    t_ch: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.n_units).shape[0]
+        object.__setattr__(self, "n_units", np.asarray(self.n_units, dtype=np.int64).reshape(n))
+        for name in PER_UNIT_FIELDS:
+            arr = np.asarray(getattr(self, name), dtype=np.float64)
+            if arr.shape != (n, MAX_UNITS):
+                raise ValueError(f"{name}: batch array has shape {arr.shape}, need {(n, MAX_UNITS)}")
+            object.__setattr__(self, name, arr)
+        for name in SHARED_FIELDS:
+            arr = np.broadcast_to(np.asarray(getattr(self, name), dtype=np.float64), (n,)).copy()
+            object.__setattr__(self, name, arr)
+
+    def __len__(self) -> int:
+        return self.n_units.shape[0]
+
+    @classmethod
+    def from_designs(cls, designs: Sequence[Design]) -> DesignBatch:
+        """Stack designs into a batch."""
+        n = len(designs)
+        per_unit = {name: np.full((n, MAX_UNITS), np.nan) for name in PER_UNIT_FIELDS}
+        for i, design in enumerate(designs):
+            for name in PER_UNIT_FIELDS:
+                values = getattr(design, name)
+                per_unit[name][i, : len(values)] = values
+        return cls(
+            n_units=np.array([d.n_units for d in designs], dtype=np.int64),
+            **per_unit,
+            **{name: np.array([getattr(d, name) for d in designs], float) for name in SHARED_FIELDS},
+        )
+
+    def problems(self) -> tuple[NDArray[np.int8], list[str | None]]:
+        """Status code per design and a description of its first problem (None if valid)."""
+        per_unit = {name: getattr(self, name) for name in PER_UNIT_FIELDS}
+        shared = {name: getattr(self, name) for name in SHARED_FIELDS}
+        return _problems(self.n_units, per_unit, shared)
+
+    def status(self) -> NDArray[np.int8]:
+        """Status code per design: ``OK``, ``INVALID_INPUT`` or ``INVALID_CONSTANTS``."""
+        return self.problems()[0]
+
+    def design(self, i: int) -> Design:
+        """Row ``i`` as a :class:`Design` (raises ``ValueError`` if that row is invalid)."""
+        n = int(self.n_units[i])
+        if not 1 <= n <= MAX_UNITS:
+            raise ValueError(f"N = {n}: must be between 1 and {MAX_UNITS}")
+        return Design(
+            H=tuple(self.H[i, :n]),
+            U_L=tuple(self.U_L[i, :n]),
+            U_sep=tuple(self.U_sep[i, :n]),
+            **{name: float(getattr(self, name)[i]) for name in SHARED_FIELDS},
+        )
+
+    def take(self, index: NDArray) -> DesignBatch:
+        """Sub-batch of the given rows."""
+        return DesignBatch(**{name: getattr(self, name)[index] for name in self.__dataclass_fields__})

@@ -17,7 +17,64 @@ Every Numba function in :mod:`dpfexplore._kernels` is decorated through :func:`k
 
 from __future__ import annotations
 
+import hashlib
+import logging
+from pathlib import Path
+
 import numba
+
+logger = logging.getLogger(__name__)
+
+_KERNELS_DIR = Path(__file__).parent / "_kernels"
+_MARKER = "dpfexplore-sources.sha256"
+
+
+def _kernel_sources_digest() -> str:
+    digest = hashlib.sha256(Path(__file__).read_bytes())
+    for path in sorted(_KERNELS_DIR.glob("*.py")):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _cache_dirs() -> list[Path]:
+    """Where Numba caches the kernels: beside the sources, or under ``NUMBA_CACHE_DIR``."""
+    dirs = [_KERNELS_DIR / "__pycache__"]
+    if numba.config.CACHE_DIR:
+        from numba.core.caching import _CacheLocator
+
+        subpath = _CacheLocator.get_suitable_cache_subpath(str(_KERNELS_DIR / "lattice.py"))
+        dirs.append(Path(numba.config.CACHE_DIR) / subpath)
+    return dirs
+
+
+def invalidate_stale_cache() -> None:
+    """Drop cached kernels compiled from other versions of the kernel sources.
+
+    Numba invalidates a cached function only when *its own* file changes, not when a function
+    it calls (and inlines) from another file does: after an edit of ``lattice.py`` the cached
+    batch kernel in ``batch.py`` would keep the old energy. So the cache carries a digest of all
+    kernel sources, and a mismatch clears it. Runs at import, before anything is compiled or
+    loaded; an installed package never changes, so this only ever acts during development.
+    """
+    digest = _kernel_sources_digest()
+    for directory in _cache_dirs():
+        marker = directory / _MARKER
+        try:
+            if marker.exists() and marker.read_text() == digest:
+                continue
+            stale = [*directory.glob("*.nbi"), *directory.glob("*.nbc")]
+            for path in stale:
+                path.unlink(missing_ok=True)
+            directory.mkdir(parents=True, exist_ok=True)
+            marker.write_text(digest)
+            if stale:
+                logger.info("cleared %d stale cached kernels in %s", len(stale), directory)
+        except OSError:  # read-only install: Numba falls back to not caching there anyway
+            continue
+
+
+invalidate_stale_cache()
 
 _COMMON = {"cache": True, "error_model": "numpy"}
 

@@ -38,6 +38,7 @@ from .design import Design, DesignBatch
 
 __all__ = [
     "LatticeParams",
+    "batch_constants",
     "SpringConstants",
     "free_node_names",
     "lattice_params",
@@ -173,6 +174,21 @@ def lattice_params(design: Design) -> LatticeParams:
     return LatticeParams(table[0, : design.n_units].copy(), float(h[0]))
 
 
+def batch_constants(batch: DesignBatch) -> dict:
+    """The constants of :class:`SpringConstants` for a whole batch, as ``(n, MAX_UNITS)`` arrays.
+
+    Padding and invalid designs give NaN or meaningless entries: check
+    :meth:`DesignBatch.status` before using a row.
+    """
+    with np.errstate(all="ignore"):
+        return _unit_constants(
+            batch.H, batch.U_L, batch.U_sep, *(
+                getattr(batch, name)[:, None]
+                for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")
+            )
+        )
+
+
 def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:
     """Kernel inputs of a batch.
 
@@ -185,13 +201,7 @@ def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:
     n_units : ndarray of int64, shape (n,)
     """
     active = np.arange(lay.MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, lay.MAX_UNITS)[:, None]
-    with np.errstate(all="ignore"):
-        c = _unit_constants(
-            batch.H, batch.U_L, batch.U_sep, *(
-                getattr(batch, name)[:, None]
-                for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")
-            )
-        )
+    c = batch_constants(batch)
     table = np.empty((len(batch), lay.MAX_UNITS, lay.N_COLS))
     _fill_table(table, c)
     table[~active] = np.nan

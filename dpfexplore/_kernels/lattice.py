@@ -97,7 +97,7 @@ def pack_free(pos, n_units, x):
         x[2 * f + 1] = pos[node, 1]
 
 
-@kernel
+@kernel(inline="always")
 def _dome_scalar(x_bar, row):
     """Dome energy ``f`` and its first two derivatives in the extension ``x̄`` (+ penalty).
 
@@ -128,7 +128,7 @@ def _dome_scalar(x_bar, row):
     return f, f1, f2, pen_energy
 
 
-@kernel
+@kernel(inline="always")
 def _add_block(hess, fi, fj, m00, m01, m10, m11):
     """Add a 2x2 block at free nodes ``(fi, fj)`` (skipped when either is clamped)."""
     if fi < 0 or fj < 0:
@@ -141,14 +141,14 @@ def _add_block(hess, fi, fj, m00, m01, m10, m11):
     hess[i + 1, j + 1] += m11
 
 
-@kernel
+@kernel(inline="always")
 def _add_vector(grad, fi, vx, vy):
     if fi >= 0:
         grad[2 * fi] += vx
         grad[2 * fi + 1] += vy
 
 
-@kernel
+@kernel(inline="always")
 def _scatter_pair(a, b, ex, ey, ell, f1, f2, mode, grad, hess):
     """Add gradient/Hessian of a two-node spring with energy ``f(ℓ)``, ``e = (x_a - x_b)/ℓ``."""
     fa = free_node(a)
@@ -167,7 +167,7 @@ def _scatter_pair(a, b, ex, ey, ell, f1, f2, mode, grad, hess):
     _add_block(hess, fb, fa, -kxx, -kxy, -kxy, -kyy)
 
 
-@kernel
+@kernel(inline="always")
 def _torsion(pos, a, c, b, kt, mode, grad, hess):
     """Torsional spring on the angle ``a-c-b`` (arms ``c→a`` and ``c→b``); returns its energy."""
     vax = pos[a, 0] - pos[c, 0]
@@ -209,30 +209,26 @@ def _torsion(pos, a, c, b, kt, mode, grad, hess):
     # Blocks of ∇²δ: aa = -Ha, ac = Ha, cc = Hb - Ha, cb = -Hb, bb = Hb, ab = 0.
     # Each Hφ is symmetric with H11 = -H00, so two numbers describe it.
     k = kt
-    _pair_block(hess, fa, fa, k, g0x, g0y, g0x, g0y, s, -ha00, -ha01)
-    _pair_block(hess, fc, fc, k, g1x, g1y, g1x, g1y, s, hb00 - ha00, hb01 - ha01)
-    _pair_block(hess, fb, fb, k, g2x, g2y, g2x, g2y, s, hb00, hb01)
+    _pair_block(hess, fa, k, g0x, g0y, s, -ha00, -ha01)
+    _pair_block(hess, fc, k, g1x, g1y, s, hb00 - ha00, hb01 - ha01)
+    _pair_block(hess, fb, k, g2x, g2y, s, hb00, hb01)
     _pair_block_sym(hess, fa, fc, k, g0x, g0y, g1x, g1y, s, ha00, ha01)
     _pair_block_sym(hess, fc, fb, k, g1x, g1y, g2x, g2y, s, -hb00, -hb01)
     _pair_block_sym(hess, fa, fb, k, g0x, g0y, g2x, g2y, s, 0.0, 0.0)
     return energy
 
 
-@kernel
-def _pair_block(hess, fi, fj, k, gix, giy, gjx, gjy, s, h00, h01):
-    """Add ``k gᵢ gⱼᵀ + s B`` where ``B = [[h00, h01], [h01, -h00]]``."""
-    _add_block(
-        hess,
-        fi,
-        fj,
-        k * gix * gjx + s * h00,
-        k * gix * gjy + s * h01,
-        k * giy * gjx + s * h01,
-        k * giy * gjy - s * h00,
-    )
+@kernel(inline="always")
+def _pair_block(hess, fi, k, gx, gy, s, h00, h01):
+    """Add the diagonal block ``k g gᵀ + s B``, ``B = [[h00, h01], [h01, -h00]]``.
+
+    The off-diagonal entry is computed once so that the Hessian is exactly symmetric.
+    """
+    m01 = k * gx * gy + s * h01
+    _add_block(hess, fi, fi, k * gx * gx + s * h00, m01, m01, k * gy * gy - s * h00)
 
 
-@kernel
+@kernel(inline="always")
 def _pair_block_sym(hess, fi, fj, k, gix, giy, gjx, gjy, s, h00, h01):
     """Add the ``(i, j)`` block of :func:`_pair_block` and its transpose at ``(j, i)``."""
     m00 = k * gix * gjx + s * h00

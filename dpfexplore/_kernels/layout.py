@@ -49,19 +49,19 @@ NODE_L0 = 1
 NODE_L1 = 3
 
 
-@kernel
+@kernel(inline="always")
 def n_nodes(n_units):
     """Number of lattice nodes, ``2N + 2``."""
     return 2 * n_units + 2
 
 
-@kernel
+@kernel(inline="always")
 def n_free(n_units):
     """Number of free coordinates, ``4N - 2``."""
     return 4 * n_units - 2
 
 
-@kernel
+@kernel(inline="always")
 def free_node(node):
     """Free-node index of lattice node ``node``, or -1 if it is clamped."""
     if node == 2:
@@ -71,13 +71,13 @@ def free_node(node):
     return -1
 
 
-@kernel
+@kernel(inline="always")
 def dome_node(k):
     """Index of ``D_k``."""
     return 2 * k
 
 
-@kernel
+@kernel(inline="always")
 def layer_node(k):
     """Index of ``L_k``."""
     return 2 * k + 1

@@ -1,0 +1,332 @@
+"""Stable states of one design: geometric guess, state search and per-state outputs.
+
+State numbering: an inversion vector ``s`` (unit 1 first) is the integer with unit 1 as the most
+significant bit (``11110`` is 30; the implementation's 1-based state number is that plus one).
+
+The search (:func:`find_state`) must find a requested state whenever a minimum with that
+inversion vector exists (MODEL.md §6). It tries, in order, until the minimum it reaches has the
+requested inversion vector:
+
+1. Newton from the geometric guess with the statics extension factor ``c = 1.0``;
+2. *constrained pre-relaxation*: the same guess relaxed with a penalty that holds each dome on
+   its requested side of the barrier (``u >= u_inv + margin`` or ``u <= u_inv - margin``), then
+   released. If the requested minimum exists it is a stationary point of the penalised energy
+   too, and the held shape sits in its basin, so the release stays there. If the state does not
+   exist, the release shows where the finger goes when let go: that is the state it reports as
+   "collapses to";
+3. the same two steps from the guess with ``c = 1.2`` (the implementation's dynamics factor).
+
+Only when every attempt ends elsewhere is the state reported as ``COLLAPSED``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import status as st
+from .._jit import kernel
+from .lattice import GRADIENT, HESSIAN, assemble, dome_extensions, unpack_nodes
+from .layout import (
+    COL_D,
+    COL_KB,
+    COL_P,
+    COL_PEN,
+    COL_U_HI,
+    COL_U_INV,
+    COL_U_LO,
+    free_node,
+    n_free,
+)
+from .linalg import (
+    cholesky,
+    cholesky_solve,
+    smallest_eigenvalue,
+    smallest_eigenvalue_factored,
+)
+from .newton import minimize
+
+#: Extension factors of the geometric guess tried in turn (statics, then dynamics value).
+GUESS_FACTORS = (1.0, 1.2)
+#: Distance (in units of ``d``) from the inversion threshold the penalty holds each dome at.
+PENALTY_MARGIN = 0.05
+#: Penalty stiffness relative to the dome's ``k_b``.
+PENALTY_FACTOR = 100.0
+#: Tolerance factor for the steering (penalised) solve: it only needs the right basin.
+STEERING_TOL_FACTOR = 1e4
+
+#: Inverse iteration for the smallest eigenvalue: residual tolerance and iteration cap.
+EIG_RTOL = 1e-7
+EIG_MAX_ITER = 200
+
+# Columns of the per-state output vector.
+OUT_ENERGY = 0
+OUT_ENERGY_LINEAR = 1
+OUT_ENERGY_DOME = 2
+OUT_ENERGY_TORSION = 3
+OUT_TIP_X = 4
+OUT_TIP_Y = 5
+OUT_BEND = 6
+OUT_CURVATURE = 7
+OUT_MIN_EIG = 8
+OUT_STIFFNESS = 9
+OUT_GRAD_NORM = 10
+N_OUT = 11
+
+
+@kernel
+def unit_bit(k, n_units):
+    """Bit of unit ``k`` (1-based) in a state integer: unit 1 is the most significant."""
+    return 1 << (n_units - k)
+
+
+@kernel
+def geometric_guess(unit_params, h, state, c, x):
+    """Fill ``x`` with the paper's geometric guess for ``state`` (MODEL.md §6).
+
+    Each inverted unit's dome segment is lengthened by ``c·d`` by turning the following post
+    (and everything beyond it) by ``atan(c·d/h)`` about the unit's limiting-layer node; the
+    limiting layer keeps its length.
+    """
+    n_units = unit_params.shape[0]
+    phi = 0.0
+    lx = 0.0
+    ly = h
+    for k in range(1, n_units + 1):
+        row = unit_params[k - 1]
+        lx += row[COL_P] * math.cos(phi)
+        ly += row[COL_P] * math.sin(phi)
+        if state & unit_bit(k, n_units):
+            phi += math.atan(c * row[COL_D] / h)
+        dx = lx + h * math.sin(phi)
+        dy = ly - h * math.cos(phi)
+        fd = free_node(2 * k)
+        x[2 * fd] = dx
+        x[2 * fd + 1] = dy
+        fl = free_node(2 * k + 1)
+        if fl >= 0:
+            x[2 * fl] = lx
+            x[2 * fl + 1] = ly
+
+
+@kernel
+def inversion_state(x, unit_params, h, pos, u):
+    """State integer of configuration ``x``: unit k inverted when ``u_k > u_inv,k``."""
+    n_units = unit_params.shape[0]
+    dome_extensions(x, unit_params, h, pos, u)
+    state = 0
+    for k in range(1, n_units + 1):
+        if u[k - 1] > unit_params[k - 1, COL_U_INV]:
+            state |= unit_bit(k, n_units)
+    return state
+
+
+@kernel
+def _steering_params(unit_params, state, steer):
+    """Copy of ``unit_params`` with penalties holding every dome on its side for ``state``."""
+    n_units = unit_params.shape[0]
+    for k in range(n_units):
+        for j in range(unit_params.shape[1]):
+            steer[k, j] = unit_params[k, j]
+        threshold = unit_params[k, COL_U_INV]
+        if state & unit_bit(k + 1, n_units):
+            steer[k, COL_U_LO] = threshold + PENALTY_MARGIN
+            steer[k, COL_U_HI] = np.inf
+        else:
+            steer[k, COL_U_LO] = -np.inf
+            steer[k, COL_U_HI] = threshold - PENALTY_MARGIN
+        steer[k, COL_PEN] = PENALTY_FACTOR * unit_params[k, COL_KB]
+
+
+@kernel
+def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws):
+    """Search the minimum with inversion vector ``requested`` (see the module docstring).
+
+    Parameters
+    ----------
+    unit_params : ndarray of shape (N, N_COLS)
+    h : float, mm
+    requested : int
+        Requested state.
+    gtol, xtol, max_iter, max_step
+        Newton controls (see :func:`.newton.minimize`).
+    x : ndarray of shape (>= 4N - 2,)
+        Receives the minimum found (the requested one, or where the finger collapses to).
+    ws : tuple
+        From :func:`.newton.workspace`.
+
+    Returns
+    -------
+    status : int
+        ``OK`` (requested state found), ``COLLAPSED`` (``found`` differs), or the Newton
+        failure of the last attempt when no attempt converged.
+    found : int
+        State of ``x`` (-1 when nothing converged).
+    n_iter : int
+        Newton iterations over all attempts.
+    """
+    n_units = unit_params.shape[0]
+    n = n_free(n_units)
+    pos = ws[0]
+    u = np.empty(n_units)
+    steer = np.empty_like(unit_params)
+    _steering_params(unit_params, requested, steer)
+    best = np.empty(n)
+    best_found = -1
+    best_is_release = False
+    last_status = st.NOT_CONVERGED
+    total_iter = 0
+    for c in GUESS_FACTORS:
+        for steered in (False, True):
+            geometric_guess(unit_params, h, requested, c, x)
+            if steered:
+                status, it = minimize(
+                    x, steer, h, gtol * STEERING_TOL_FACTOR, xtol * STEERING_TOL_FACTOR,
+                    max_iter, max_step, ws,
+                )
+                total_iter += it
+            status, it = minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws)
+            total_iter += it
+            if status != st.OK:
+                last_status = status
+                continue
+            found = inversion_state(x, unit_params, h, pos, u)
+            if found == requested:
+                return st.OK, found, total_iter
+            # Remember where the finger goes; the held-and-released outcome is the physical
+            # answer to "where does it collapse to", so it wins over a plain start.
+            if best_found < 0 or (steered and not best_is_release):
+                best_found = found
+                best_is_release = steered
+                best[:] = x[:n]
+    if best_found >= 0:
+        x[:n] = best
+        return st.COLLAPSED, best_found, total_iter
+    return last_status, -1, total_iter
+
+
+@kernel
+def _wrap(angle):
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+@kernel
+def state_outputs(x, unit_params, h, want_stiffness, want_min_eig, factored, out, ws):
+    """Fill ``out`` (``N_OUT`` entries) with the outputs of MODEL.md §7 at minimum ``x``.
+
+    Energy total and split (N·mm), tip ``L_N`` (mm), bend angle of the last limiting-layer
+    segment (rad, unwrapped through the finger), mean curvature = bend angle / layer length
+    (1/mm), smallest Hessian eigenvalue (N/mm), tip stiffness ``1/(nᵀ H⁻¹ n)`` for a force normal
+    to the last layer segment (N/mm; ``inf`` for N = 1, whose tip ``L_1`` is clamped), and the
+    largest gradient component (N). Unrequested entries are NaN.
+
+    ``factored`` says that the workspace already holds the Hessian at ``x`` and its Cholesky
+    factor (as :func:`.newton.minimize` leaves them on success), which saves an assembly.
+    """
+    pos, grad, hess, low, step, trial, split = ws
+    n_units = unit_params.shape[0]
+    n = n_free(n_units)
+    need_hessian = (want_stiffness or want_min_eig) and not factored
+    mode = HESSIAN if need_hessian else GRADIENT  # the gradient only for its norm
+    e = assemble(x, unit_params, h, pos, grad, hess, mode, split)
+    if need_hessian:
+        factored = cholesky(hess, 0.0, low, n)
+    gnorm = 0.0
+    for i in range(n):
+        gnorm = max(gnorm, abs(grad[i]))
+    out[OUT_ENERGY] = e
+    out[OUT_ENERGY_LINEAR] = split[0]
+    out[OUT_ENERGY_DOME] = split[1]
+    out[OUT_ENERGY_TORSION] = split[2]
+    out[OUT_GRAD_NORM] = gnorm
+    tip = 2 * n_units + 1
+    out[OUT_TIP_X] = pos[tip, 0]
+    out[OUT_TIP_Y] = pos[tip, 1]
+    bend = 0.0
+    length = 0.0
+    previous = 0.0
+    for k in range(1, n_units + 1):
+        dx = pos[2 * k + 1, 0] - pos[2 * k - 1, 0]
+        dy = pos[2 * k + 1, 1] - pos[2 * k - 1, 1]
+        heading = math.atan2(dy, dx)
+        bend += _wrap(heading - previous)
+        previous = heading
+        length += math.sqrt(dx * dx + dy * dy)
+    out[OUT_BEND] = bend
+    out[OUT_CURVATURE] = bend / length
+    out[OUT_MIN_EIG] = np.nan
+    out[OUT_STIFFNESS] = np.nan
+    if want_min_eig:
+        if factored:
+            out[OUT_MIN_EIG] = smallest_eigenvalue_factored(
+                hess, low, n, EIG_RTOL, EIG_MAX_ITER, step, trial
+            )
+        else:  # not positive definite: LAPACK gives the (non-positive) value
+            out[OUT_MIN_EIG] = smallest_eigenvalue(hess, n)
+    if want_stiffness:
+        out[OUT_STIFFNESS] = tip_stiffness(pos, low, factored, step, trial, n_units)
+
+
+@kernel
+def tip_stiffness(pos, low, factored, load, response, n_units):
+    """``K = 1/(nᵀ H⁻¹ n)`` (N/mm) for a unit force at ``L_N`` normal to the last layer segment.
+
+    ``low`` is the Cholesky factor of the Hessian at ``pos`` (``factored`` False: the Hessian
+    is not positive definite, and the stiffness is NaN). ``inf`` when the tip is clamped (N = 1).
+    """
+    tip = 2 * n_units + 1
+    f = free_node(tip)
+    if f < 0:
+        return np.inf
+    if not factored:
+        return np.nan
+    n = n_free(n_units)
+    dx = pos[tip, 0] - pos[tip - 2, 0]
+    dy = pos[tip, 1] - pos[tip - 2, 1]
+    norm = math.sqrt(dx * dx + dy * dy)
+    for i in range(n):
+        load[i] = 0.0
+    load[2 * f] = -dy / norm
+    load[2 * f + 1] = dx / norm
+    cholesky_solve(low, load, response, n)
+    compliance = load[2 * f] * response[2 * f] + load[2 * f + 1] * response[2 * f + 1]
+    return 1.0 / compliance
+
+
+@kernel
+def solve_state(
+    unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig, x,
+    out, ws,
+):
+    """Find a state and evaluate its outputs; returns ``(status, found, n_iter)``.
+
+    ``out`` is NaN-filled when no minimum was reached. A minimum whose outputs are not all
+    finite (which would be a bug or a degenerate design) is reported as ``NONFINITE`` rather
+    than stored as a converged row.
+    """
+    for j in range(out.shape[0]):
+        out[j] = np.nan
+    status, found, n_iter = find_state(
+        unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws
+    )
+    if status == st.OK or status == st.COLLAPSED:
+        # On OK the last Newton check left H(x) and its factor in the workspace; a collapsed
+        # result was copied from an earlier attempt, so its Hessian is assembled afresh.
+        state_outputs(
+            x, unit_params, h, want_stiffness, want_min_eig, status == st.OK, out, ws
+        )
+        for j in range(out.shape[0]):
+            if out[j] != out[j]:
+                is_requested_nan = (j == OUT_MIN_EIG and not want_min_eig) or (
+                    j == OUT_STIFFNESS and not want_stiffness
+                )
+                if not is_requested_nan:
+                    return st.NONFINITE, found, n_iter
+    return status, found, n_iter
+
+
+@kernel
+def nodes_of(x, unit_params, h, pos):
+    """Node positions ``(2N + 2, 2)`` of free coordinates ``x`` (for plots and shapes)."""
+    unpack_nodes(x, unit_params, h, pos)

@@ -1,0 +1,234 @@
+"""``dpfexplore bench statics``: all-inverted state + tip stiffness, ours against SciPy.
+
+For each finger size the benchmark samples designs in the paper's box (Table var_ranges) whose
+domes are all bistable, so the all-inverted state exists, and times
+
+* ours on one core: :func:`dpfexplore.statics.solve_batch` (state search, Newton, stiffness) with
+  Numba limited to one thread; also with the smallest eigenvalue;
+* ours on all cores: the same batch call with every thread (designs/s);
+* the baseline: ``scipy.optimize.minimize(method="BFGS")`` with the analytic gradient of a
+  vectorised NumPy energy (:mod:`.numpy_model`), from the same geometric guess, to the same
+  gradient tolerance, and the stiffness from a central-difference Hessian of that gradient.
+
+Errors are against a tight reference: our Newton to a step below 1e-13 mm, whose gradient is
+re-checked with the independent NumPy implementation. Compile time is measured in a fresh
+process with an empty Numba cache, apart from run times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ._common import emit, machine_info, median_time
+
+#: The paper's model time per design (Table sim_time, 2-6 units), s.
+PAPER_SECONDS = (0.58, 0.76)
+GTOL = 1e-9
+
+
+def register(subparsers) -> None:
+    """Add ``bench statics``."""
+    parser = subparsers.add_parser(
+        "statics",
+        help="all-inverted state + stiffness: ours vs SciPy BFGS (times in µs per design)",
+        description=__doc__.split("\n\n")[1],
+    )
+    parser.add_argument("--json", action="store_true", help="print the JSON record")
+    parser.add_argument("--units", default="2,5,8", help="finger sizes N (default 2,5,8)")
+    parser.add_argument("--designs", type=int, default=500, help="designs per N for ours")
+    parser.add_argument("--scipy-designs", type=int, default=30, help="designs per N for SciPy")
+    parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument("--save", type=Path, help="also write the JSON record to this file")
+    parser.set_defaults(handler=run)
+
+
+def sample_bistable_batch(n_units: int, n_designs: int, seed: int):
+    """Designs from the paper's box whose domes are all bistable (rejection sampling)."""
+    from ..constants import ALPHA_BISTABLE
+    from ..design import MAX_UNITS, DesignBatch
+    from ..lattice import batch_constants
+
+    rng = np.random.default_rng(seed)
+    rows: list[DesignBatch] = []
+    total = 0
+    while total < n_designs:
+        m = 2 * n_designs
+        H = np.full((m, MAX_UNITS), np.nan)
+        U_L = H.copy()
+        U_sep = H.copy()
+        H[:, :n_units] = rng.uniform(3.0, 5.0, (m, n_units))
+        U_L[:, :n_units] = rng.uniform(5.5, 10.0, (m, 1))
+        U_sep[:, :n_units] = rng.uniform(1.0, 5.0, (m, 1))
+        batch = DesignBatch(
+            n_units=np.full(m, n_units), H=H, U_L=U_L, U_sep=U_sep,
+            t=rng.uniform(0.5, 1.0, m), t_lim=rng.uniform(1.0, 2.0, m),
+            E=26.0, nu=0.35, r_b=5.0, t_ch=1.0,
+        )
+        alpha = batch_constants(batch)["alpha"][:, :n_units]
+        keep = np.flatnonzero((alpha < ALPHA_BISTABLE).all(axis=1))
+        rows.append(batch.take(keep))
+        total += keep.size
+    merged = {
+        name: np.concatenate([getattr(b, name) for b in rows])[:n_designs]
+        for name in DesignBatch.__dataclass_fields__
+    }
+    return DesignBatch(**merged)
+
+
+def _scipy_solve(lattice, state: int):
+    """BFGS to the same gradient tolerance, then a central-difference Hessian for stiffness."""
+    from scipy.optimize import minimize
+
+    x0 = lattice.geometric_guess(state, 1.0)
+    res = minimize(
+        lattice.energy_and_gradient, x0, jac=True, method="BFGS",
+        options={"gtol": GTOL, "maxiter": 20000},
+    )
+    x = res.x
+    n = x.size
+    step = 1e-6
+    hess = np.empty((n, n))
+    for i in range(n):
+        e = np.zeros(n)
+        e[i] = step
+        hess[:, i] = (lattice.energy_and_gradient(x + e)[1] - lattice.energy_and_gradient(x - e)[1]) / (
+            2 * step
+        )
+    hess = 0.5 * (hess + hess.T)
+    pos = lattice.nodes(x)
+    v = pos[-1] - pos[-3]
+    normal = np.array([-v[1], v[0]]) / np.hypot(*v)
+    load = np.zeros(n)
+    load[-2:] = normal
+    stiffness = 1.0 / (load @ np.linalg.solve(hess, load))
+    return pos[-1], stiffness
+
+
+def _compile_seconds() -> dict[str, float]:
+    """Cold compile and warm cache-load times of the statics batch kernel, each in a new process."""
+    probe = textwrap.dedent(
+        """
+        import time, numpy as np
+        t0 = time.perf_counter()
+        from dpfexplore import Design, DesignBatch, solve_batch
+        batch = DesignBatch.from_designs([Design(H=[4.0, 4.2], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)])
+        t1 = time.perf_counter()
+        solve_batch(batch)
+        print(t1 - t0, time.perf_counter() - t1)
+        """
+    )
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        cold = subprocess.run(
+            [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True
+        )
+        warm = subprocess.run(
+            [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True
+        )
+    import_s, cold_s = map(float, cold.stdout.split())
+    _, warm_s = map(float, warm.stdout.split())
+    return {"compile_s": cold_s, "cache_load_s": warm_s, "import_s": import_s}
+
+
+def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int) -> dict:
+    """One finger size: timings, errors and ratios."""
+    import numba
+
+    from ..lattice import lattice_params
+    from ..statics import SolverOptions, solve_batch
+    from .numpy_model import NumpyLattice
+
+    TIGHT = SolverOptions(gtol=1e-14, xtol=1e-13)  # noqa: N806 - converges on the step
+    batch = sample_bistable_batch(n_units, n_designs, seed)
+    tight = solve_batch(batch, "all_inverted", min_eig=False, options=TIGHT)
+    ok = np.flatnonzero(tight["status"] == 0)
+    batch = batch.take(ok)
+    ref_tip = np.column_stack([tight["tip_x"][ok], tight["tip_y"][ok]])
+    ref_k = tight["stiffness"][ok]
+    state = 2**n_units - 1
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        ours = solve_batch(batch, "all_inverted", min_eig=False)
+        t_one = median_time(lambda: solve_batch(batch, "all_inverted", min_eig=False), repeats=7)
+        t_one_eig = median_time(lambda: solve_batch(batch, "all_inverted"), repeats=5)
+    finally:
+        numba.set_num_threads(threads)
+    t_all = median_time(lambda: solve_batch(batch, "all_inverted", min_eig=False), repeats=7)
+    ours_tip = np.column_stack([ours["tip_x"], ours["tip_y"]])
+
+    # The reference gradient checked by the independent NumPy implementation.
+    ref_grad = 0.0
+    sc_times, sc_tip_err, sc_k_err, sc_state_ok = [], [], [], 0
+    for i in range(min(n_scipy, len(batch))):
+        params = lattice_params(batch.design(i))
+        lattice = NumpyLattice.from_params(params.unit_params, params.h)
+        start = time.perf_counter()
+        tip, k = _scipy_solve(lattice, state)
+        sc_times.append(time.perf_counter() - start)
+        sc_tip_err.append(float(np.max(np.abs(tip - ref_tip[i]))))
+        sc_k_err.append(abs(k - ref_k[i]) / ref_k[i])
+        sc_state_ok += sc_tip_err[-1] < 0.1
+        one = solve_batch(batch.take(np.array([i])), "all_inverted", min_eig=False,
+                          options=TIGHT, shapes=True)
+        x_ref = one["x"][0, : 4 * n_units - 2]
+        ref_grad = max(ref_grad, float(np.max(np.abs(lattice.energy_and_gradient(x_ref)[1]))))
+    ours_us = t_one / len(batch) * 1e6
+    scipy_us = float(np.median(sc_times)) * 1e6
+    return {
+        "n_units": n_units,
+        "designs": len(batch),
+        "ours_us_per_design": ours_us,
+        "ours_with_min_eig_us_per_design": t_one_eig / len(batch) * 1e6,
+        "scipy_us_per_design": scipy_us,
+        "scipy_designs": len(sc_times),
+        "speedup_vs_scipy": scipy_us / ours_us,
+        "ours_tip_err_mm": float(np.max(np.abs(ours_tip - ref_tip))),
+        "scipy_tip_err_mm": float(np.max(sc_tip_err)),
+        "scipy_tip_err_median_mm": float(np.median(sc_tip_err)),
+        "scipy_same_state": f"{sc_state_ok}/{len(sc_times)}",
+        "ours_stiffness_rel_err": float(np.max(np.abs(ours["stiffness"] - ref_k) / ref_k)),
+        "scipy_stiffness_rel_err": float(np.max(sc_k_err)),
+        "reference_grad_max_N": ref_grad,
+        "ours_newton_evals_median": float(np.median(ours["n_iter"])),
+        "designs_per_s_all_cores": len(batch) / t_all,
+        "threads_all_cores": threads,
+        "speedup_vs_paper": [p / (ours_us * 1e-6) for p in PAPER_SECONDS],
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``dpfexplore bench statics``."""
+    sizes = [int(s) for s in args.units.split(",")]
+    compile_times = _compile_seconds()
+    records = [bench_size(n, args.designs, args.scipy_designs, args.seed + n) for n in sizes]
+    main = next((r for r in records if r["n_units"] == 5), records[0])
+    record = {**main, **compile_times, "by_n_units": records, "machine": machine_info()}
+    lines = [
+        "statics: all-inverted state + tip stiffness, median per design on one core",
+        f"machine: {record['machine']['cpu']}, {record['machine']['cores']} cores",
+        f"compile (cold cache) {compile_times['compile_s']:.1f} s, cache load "
+        f"{compile_times['cache_load_s']:.2f} s",
+        f"{'N':>3} {'ours µs':>9} {'+eig µs':>9} {'SciPy µs':>10} {'speedup':>8} "
+        f"{'ours tip err':>13} {'SciPy tip err':>14} {'designs/s all cores':>20} {'vs paper':>14}",
+    ]
+    for r in records:
+        lines.append(
+            f"{r['n_units']:>3} {r['ours_us_per_design']:>9.1f} "
+            f"{r['ours_with_min_eig_us_per_design']:>9.1f} {r['scipy_us_per_design']:>10.0f} "
+            f"{r['speedup_vs_scipy']:>7.0f}x {r['ours_tip_err_mm']:>13.1e} "
+            f"{r['scipy_tip_err_mm']:>14.1e} {r['designs_per_s_all_cores']:>20.0f} "
+            f"{r['speedup_vs_paper'][0]:>6.0f}-{r['speedup_vs_paper'][1]:.0f}x"
+        )
+    emit(record, as_json=args.json, text="\n".join(lines), save=args.save)
+    return 0

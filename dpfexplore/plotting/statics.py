@@ -1,0 +1,57 @@
+"""Finger shapes at their stable states (the paper's Fig. 3b style)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.axes import Axes
+
+from ..statics import StateResult
+
+__all__ = ["plot_finger", "plot_states"]
+
+
+def plot_finger(nodes: np.ndarray, ax: Axes | None = None, *, color=None, label=None) -> Axes:
+    """Draw one lattice: dome line, limiting layer and posts.
+
+    Parameters
+    ----------
+    nodes : ndarray of shape (2N + 2, 2), mm
+        Node positions (row ``2k`` is ``D_k``, ``2k + 1`` is ``L_k``).
+    ax : Axes, optional
+    color, label
+        Passed to matplotlib.
+    """
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(6, 5))
+    dome, layer = nodes[0::2], nodes[1::2]
+    (line,) = ax.plot(layer[:, 0], layer[:, 1], "-", color=color, lw=2.0, label=label)
+    color = line.get_color()
+    ax.plot(dome[:, 0], dome[:, 1], "--", color=color, lw=1.0)
+    for d, l in zip(dome, layer, strict=True):
+        ax.plot([d[0], l[0]], [d[1], l[1]], "-", color=color, lw=0.8)
+    ax.plot(*layer[-1], "o", color=color, ms=4)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    return ax
+
+
+def plot_states(results: Sequence[StateResult], ax: Axes | None = None) -> Axes:
+    """Overlay every stable state of a finger (collapsed and failed states are skipped)."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(7, 6))
+    import matplotlib as mpl
+
+    stable = [r for r in results if r.stable]
+    colors = mpl.colormaps["viridis"](np.linspace(0.0, 0.9, max(len(stable), 1)))
+    for result, color in zip(stable, colors, strict=False):
+        plot_finger(result.nodes, ax, color=color, label=result.requested)
+    ax.legend(title="state", fontsize="small", ncols=2 if len(stable) > 8 else 1)
+    ax.set_title("Stable states (solid: limiting layer, dashed: dome line)")
+    return ax

@@ -1,0 +1,372 @@
+"""Stable states, their shapes and stiffness (MODEL.md §6-§7): the Python API over the kernels.
+
+Single designs::
+
+    >>> from dpfexplore import Design, find_state
+    >>> finger = Design(H=[3.8187, 4.1549, 4.5246, 4.8239, 2.5], U_L=8.5773, U_sep=1.8232,
+    ...                 t=0.8326, t_lim=1.056)
+    >>> result = find_state(finger, "11110")
+    >>> result.stable, round(float(result.tip[1]), 3)
+    (True, 36.029)
+
+Batches (the sweep's entry point): :func:`solve_batch` evaluates every requested state of every
+design in parallel and returns plain column arrays.
+
+State conventions: a state is the inversion vector, unit 1 (the base) first, written as a bit
+string (``"11110"``) or as the integer with unit 1 as the most significant bit (30).
+
+Sequential states (:func:`sequential_states`) are the ``N + 1`` states met when the units invert
+one at a time, as under a slowly rising pressure (MODEL.md §6). The model does not fix the order;
+we invert the bistable domes (isolated-dome regime) first, by rising snap force
+(:attr:`DomeAnalysis.peak_force`: the dome that needs the least force goes first), then the
+domes that cannot stay inverted on their own, ties broken toward the base. For heights rising
+toward the tip this is base-first, giving the gripper's 10000, 11000, 11100, 11110 sequence.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import status as st
+from ._kernels import states as kstates
+from ._kernels.batch import solve_rows
+from ._kernels.layout import MAX_UNITS, n_free, n_nodes
+from .design import Design, DesignBatch
+from .lattice import batch_constants, lattice_params, pack_batch
+from .status import Status
+
+__all__ = [
+    "SolverOptions",
+    "StateResult",
+    "enumerate_states",
+    "find_state",
+    "parse_state",
+    "sequential_states",
+    "solve_batch",
+    "state_string",
+]
+
+StateSet = Literal["all_inverted", "sequential", "all"]
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Controls of the Newton solver.
+
+    Attributes
+    ----------
+    gtol : float, N
+        Converged when the largest gradient component is below this (Hessian positive
+        definite) ...
+    xtol : float, mm
+        ... or when the full Newton step is below this.
+    max_iter : int
+        Hessian evaluations per attempt before giving up (``NOT_CONVERGED``).
+    max_step : float, mm
+        Largest coordinate change of a step taken where the Hessian is indefinite.
+    """
+
+    gtol: float = 1e-9
+    xtol: float = 1e-10
+    max_iter: int = 100
+    max_step: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("gtol", "xtol", "max_step"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
+            raise ValueError(f"max_iter = {self.max_iter!r}: must be an integer >= 1")
+
+    def kernel_args(self) -> tuple[float, float, int, float]:
+        """``(gtol, xtol, max_iter, max_step)`` in kernel order."""
+        return float(self.gtol), float(self.xtol), int(self.max_iter), float(self.max_step)
+
+
+DEFAULT_OPTIONS = SolverOptions()
+
+
+def parse_state(state: str | int | Sequence[int], n_units: int) -> int:
+    """State integer (unit 1 = most significant bit) from a bit string, integer or 0/1 sequence.
+
+    Raises
+    ------
+    ValueError
+        If the state does not fit ``n_units`` units.
+    """
+    if isinstance(state, str):
+        text = state.strip()
+        if len(text) != n_units or set(text) - {"0", "1"}:
+            raise ValueError(
+                f"state = {state!r}: need a string of {n_units} characters 0/1, unit 1 first"
+            )
+        return int(text, 2)
+    if isinstance(state, (int, np.integer)) and not isinstance(state, bool):
+        if not 0 <= int(state) < 2**n_units:
+            raise ValueError(f"state = {state!r}: must be in [0, {2**n_units - 1}] for {n_units} units")
+        return int(state)
+    bits = list(state)
+    if len(bits) != n_units or any(b not in (0, 1, True, False) for b in bits):
+        raise ValueError(f"state = {state!r}: need {n_units} entries of 0/1, unit 1 first")
+    return int("".join(str(int(b)) for b in bits), 2)
+
+
+def state_string(state: int, n_units: int) -> str:
+    """Bit string of a state integer, unit 1 first (``state_string(30, 5) == "11110"``)."""
+    return format(int(state), f"0{n_units}b")
+
+
+@dataclass(frozen=True)
+class StateResult:
+    """One stable-state search (MODEL.md §7 outputs).
+
+    Attributes
+    ----------
+    requested, found : str
+        Inversion vectors, unit 1 first; ``found`` is where the solver settled ("" if nowhere).
+    status : Status
+        ``OK`` (requested state exists and was found), ``COLLAPSED`` (it does not: the outputs
+        describe ``found``), or a solver failure (outputs NaN).
+    energy : float, N·mm
+        Total lattice energy.
+    energy_split : dict of str to float, N·mm
+        ``linear`` (posts and limiting layer), ``dome`` and ``torsion`` parts.
+    tip : ndarray of shape (2,), mm
+        Tip node ``L_N``.
+    bend_angle : float, rad
+        Heading of the last limiting-layer segment (unwrapped along the finger).
+    curvature : float, 1/mm
+        Bend angle over the limiting layer's length.
+    min_eig : float, N/mm
+        Smallest Hessian eigenvalue (positive at a stable state).
+    stiffness : float, N/mm
+        Tip stiffness for a force normal to the last layer segment (``inf`` for N = 1).
+    grad_norm : float, N
+        Largest gradient component at the returned shape.
+    nodes : ndarray of shape (2N + 2, 2), mm
+        Node positions (row ``2k`` is ``D_k``, row ``2k + 1`` is ``L_k``).
+    x : ndarray of shape (4N - 2,), mm
+        Free coordinates (kernel order).
+    n_iter : int
+        Hessian evaluations over all search attempts.
+    """
+
+    requested: str
+    found: str
+    status: Status
+    energy: float
+    energy_split: dict[str, float]
+    tip: NDArray
+    bend_angle: float
+    curvature: float
+    min_eig: float
+    stiffness: float
+    grad_norm: float
+    nodes: NDArray
+    x: NDArray
+    n_iter: int
+
+    @property
+    def stable(self) -> bool:
+        """True when the requested state exists (a local minimum with that inversion vector)."""
+        return self.status == Status.OK
+
+
+def sequential_states(design: Design) -> list[int]:
+    """The ``N + 1`` states of sequential activation (see the module docstring for the order)."""
+    return _sequential_states(DesignBatch.from_designs([design]))[0, : design.n_units + 1].tolist()
+
+
+def _sequential_states(batch: DesignBatch) -> NDArray:
+    """Sequential states of every design, ``(n, MAX_UNITS + 1)``; row i's first N+1 are valid."""
+    domes = batch_constants(batch)["domes"]
+    n_units = np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
+    unit = np.arange(MAX_UNITS)[None, :]
+    # Bistable domes by rising snap force, then the others (they cannot stay inverted on their
+    # own), then padding; ties toward the base (lexsort is stable).
+    group = np.where(unit >= n_units, 2, np.where(domes.regime == "bistable", 0, 1))
+    peak = np.nan_to_num(domes.peak_force, nan=-np.inf)
+    order = np.lexsort((peak, group), axis=-1)
+    bits = np.where(order < n_units, 1 << np.maximum(n_units - 1 - order, 0), 0)
+    return np.concatenate([np.zeros((len(batch), 1), np.int64), np.cumsum(bits, axis=1)], axis=1)
+
+
+def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], valid: NDArray):
+    """Rows (design index, requested state) for a state set; invalid designs get one row (-1)."""
+    n_designs = len(batch)
+    n_units = np.where(valid, batch.n_units, 0)
+    if isinstance(states, str):
+        if states not in ("all_inverted", "sequential", "all"):
+            raise ValueError(f"states = {states!r}: choose 'all_inverted', 'sequential' or 'all'")
+        if states == "all_inverted":
+            return np.arange(n_designs, dtype=np.int64), np.where(valid, 2**n_units - 1, -1)
+        counts = np.where(valid, 2**n_units if states == "all" else n_units + 1, 1)
+        row_design = np.repeat(np.arange(n_designs, dtype=np.int64), counts)
+        position = np.arange(row_design.size) - np.repeat(np.cumsum(counts) - counts, counts)
+        if states == "all":
+            requested = position
+        else:
+            requested = _sequential_states(batch)[row_design, position]
+        return row_design, np.where(valid[row_design], requested, -1).astype(np.int64)
+    requested = np.asarray(states, dtype=np.int64)
+    if requested.shape != (n_designs,):
+        raise ValueError(f"states: need one requested state per design, got shape {requested.shape}")
+    if np.any(valid & ((requested < 0) | (requested >= 2**n_units))):
+        raise ValueError("states: a requested state does not fit its design's units")
+    return np.arange(n_designs, dtype=np.int64), np.where(valid, requested, -1)
+
+
+#: Output columns of :func:`solve_batch` (besides the index and status columns).
+OUTPUT_COLUMNS = {
+    "energy": kstates.OUT_ENERGY,
+    "energy_linear": kstates.OUT_ENERGY_LINEAR,
+    "energy_dome": kstates.OUT_ENERGY_DOME,
+    "energy_torsion": kstates.OUT_ENERGY_TORSION,
+    "tip_x": kstates.OUT_TIP_X,
+    "tip_y": kstates.OUT_TIP_Y,
+    "bend_angle": kstates.OUT_BEND,
+    "curvature": kstates.OUT_CURVATURE,
+    "min_eig": kstates.OUT_MIN_EIG,
+    "stiffness": kstates.OUT_STIFFNESS,
+    "grad_norm": kstates.OUT_GRAD_NORM,
+}
+
+
+def solve_batch(
+    batch: DesignBatch,
+    states: StateSet | Sequence[int] = "all_inverted",
+    *,
+    stiffness: bool = True,
+    min_eig: bool = True,
+    options: SolverOptions | None = None,
+    shapes: bool = False,
+) -> dict[str, NDArray]:
+    """Find the requested states of many designs in parallel (Numba ``prange``).
+
+    Parameters
+    ----------
+    batch : DesignBatch
+        Designs; invalid ones (:meth:`DesignBatch.status`) keep one row with their status.
+    states : {"all_inverted", "sequential", "all"} or sequence of int
+        Which states: the all-inverted one, the ``N + 1`` sequential ones, all ``2^N``, or one
+        given state per design.
+    stiffness, min_eig : bool
+        Compute the tip stiffness / the smallest Hessian eigenvalue (skip what you don't need).
+    options : SolverOptions, optional
+    shapes : bool
+        Also return the free coordinates of every row (``"x"``, NaN-padded to 46 columns).
+
+    Returns
+    -------
+    dict of str to ndarray
+        One entry per row: ``design_index`` (int64), ``requested`` and ``found`` (int64 state
+        integers; -1 for none), ``status`` (int8 :class:`Status` codes), ``n_iter`` (int32),
+        and the float64 outputs ``energy``, ``energy_linear``, ``energy_dome``,
+        ``energy_torsion`` (N·mm), ``tip_x``, ``tip_y`` (mm), ``bend_angle`` (rad),
+        ``curvature`` (1/mm), ``min_eig`` (N/mm), ``stiffness`` (N/mm), ``grad_norm`` (N);
+        NaN where not computed or not converged.
+
+    Notes
+    -----
+    Thread safety: do not call this from several threads of one process at once (Numba's
+    default threading layer aborts); run one call per process, e.g. Dask worker processes with
+    one thread each.
+    """
+    options = options or DEFAULT_OPTIONS
+    design_status = batch.status()
+    valid = design_status == st.OK
+    row_design, row_state = _row_plan(batch, states, valid)
+    unit_params, h, n_units = pack_batch(batch)
+    n_rows = row_design.shape[0]
+    out = np.empty((n_rows, kstates.N_OUT))
+    status = np.empty(n_rows, dtype=np.int8)
+    found = np.empty(n_rows, dtype=np.int64)
+    n_iter = np.empty(n_rows, dtype=np.int32)
+    x = np.empty((n_rows, n_free(MAX_UNITS) if shapes else 0))
+    solve_rows(
+        unit_params, h, n_units, design_status, row_design, row_state, *options.kernel_args(),
+        stiffness, min_eig, out, status, found, n_iter, x,
+    )
+    result = {
+        "design_index": row_design,
+        "requested": row_state,
+        "found": found,
+        "status": status,
+        "n_iter": n_iter,
+    }
+    result.update({name: np.ascontiguousarray(out[:, col]) for name, col in OUTPUT_COLUMNS.items()})
+    if shapes:
+        result["x"] = x
+    return result
+
+
+def _results(design: Design, columns: dict[str, NDArray]) -> list[StateResult]:
+    params = lattice_params(design)
+    n = design.n_units
+    results = []
+    for r in range(columns["status"].shape[0]):
+        x = columns["x"][r, : n_free(n)].copy()
+        found = int(columns["found"][r])
+        nodes = np.empty((n_nodes(n), 2))
+        kstates.nodes_of(x, params.unit_params, params.h, nodes)
+        results.append(
+            StateResult(
+                requested=state_string(columns["requested"][r], n),
+                found=state_string(found, n) if found >= 0 else "",
+                status=Status(int(columns["status"][r])),
+                energy=float(columns["energy"][r]),
+                energy_split={
+                    "linear": float(columns["energy_linear"][r]),
+                    "dome": float(columns["energy_dome"][r]),
+                    "torsion": float(columns["energy_torsion"][r]),
+                },
+                tip=np.array([columns["tip_x"][r], columns["tip_y"][r]]),
+                bend_angle=float(columns["bend_angle"][r]),
+                curvature=float(columns["curvature"][r]),
+                min_eig=float(columns["min_eig"][r]),
+                stiffness=float(columns["stiffness"][r]),
+                grad_norm=float(columns["grad_norm"][r]),
+                nodes=nodes,
+                x=x,
+                n_iter=int(columns["n_iter"][r]),
+            )
+        )
+    return results
+
+
+def find_state(
+    design: Design,
+    state: str | int | Sequence[int],
+    *,
+    options: SolverOptions | None = None,
+) -> StateResult:
+    """Search the stable state ``state`` of one design (see :mod:`dpfexplore._kernels.states`).
+
+    Returns the requested minimum when it exists (``status == OK``); otherwise the state it
+    collapses to, with ``status == COLLAPSED``.
+    """
+    requested = parse_state(state, design.n_units)
+    batch = DesignBatch.from_designs([design])
+    columns = solve_batch(batch, [requested], options=options, shapes=True)
+    return _results(design, columns)[0]
+
+
+def enumerate_states(
+    design: Design,
+    which: Literal["all", "sequential"] = "all",
+    *,
+    options: SolverOptions | None = None,
+) -> list[StateResult]:
+    """Every state (``2^N``) or the ``N + 1`` sequential ones, each found or marked collapsed."""
+    if which not in ("all", "sequential"):
+        raise ValueError(f"which = {which!r}: choose 'all' or 'sequential'")
+    batch = DesignBatch.from_designs([design])
+    columns = solve_batch(batch, which, options=options, shapes=True)
+    return _results(design, columns)

@@ -32,6 +32,20 @@ ARMIJO = 1e-4
 MAX_BACKTRACKS = 40
 #: Energy changes this many ulps of the energy are round-off, not increase.
 ROUNDOFF_ULPS = 16.0
+#: Springs shorter than this fraction of the segment height make the geometry degenerate.
+DEGENERATE_LENGTH = 1e-9
+
+
+@kernel
+def shortest_spring(pos, n_units):
+    """Length (mm) of the shortest two-node spring (posts, layer segments, domes) at ``pos``."""
+    shortest = np.inf
+    for k in range(1, n_units + 1):
+        for a, b in ((2 * k, 2 * k + 1), (2 * k + 1, 2 * k - 1), (2 * k, 2 * k - 2)):
+            dx = pos[a, 0] - pos[b, 0]
+            dy = pos[a, 1] - pos[b, 1]
+            shortest = min(shortest, math.sqrt(dx * dx + dy * dy))
+    return shortest
 
 
 @kernel
@@ -97,7 +111,9 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
     Returns
     -------
     status : int
-        ``OK``, ``NOT_CONVERGED``, ``NONFINITE`` or ``UNSTABLE`` (stationary, not a minimum).
+        ``OK``, ``NOT_CONVERGED``, ``NONFINITE``, ``DEGENERATE_GEOMETRY`` (two connected nodes
+        coincide, so the energy has no direction there) or ``UNSTABLE`` (stationary, not a
+        minimum).
         On ``OK`` the workspace's Hessian and its Cholesky factor describe the returned ``x``,
         so callers can reuse them (stiffness, smallest eigenvalue) without reassembling.
     n_iter : int
@@ -113,9 +129,15 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
     n = n_free(unit_params.shape[0])
     e = assemble(x, unit_params, h, pos, grad, hess, HESSIAN, split)
     n_eval = 1
+    # A start with (nearly) coincident connected nodes has no spring direction there; Newton
+    # would crawl for its whole budget at forces of ~1e14 N/mm stiffness. Say so at once.
+    if shortest_spring(pos, unit_params.shape[0]) <= DEGENERATE_LENGTH * h:
+        return st.DEGENERATE_GEOMETRY, n_eval
     while True:
         gnorm = max_abs(grad, n)
         if not (math.isfinite(e) and math.isfinite(gnorm)):
+            if shortest_spring(pos, unit_params.shape[0]) <= DEGENERATE_LENGTH * h:
+                return st.DEGENERATE_GEOMETRY, n_eval
             return st.NONFINITE, n_eval
         tau, ok = _factor_modified(hess, low, n)
         if not ok:
@@ -166,7 +188,7 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             a *= 0.5
         if not accepted:
             # No measurable decrease: at round-off level with a PD Hessian this is convergence.
-            if tau == 0.0 and gnorm <= 1e3 * gtol:
+            if tau == 0.0 and gnorm <= 1e3 * gtol and n_eval < max_iter:
                 e = assemble(x, unit_params, h, pos, grad, hess, HESSIAN, split)
                 if cholesky(hess, 0.0, low, n):
                     return st.OK, n_eval + 1
@@ -175,5 +197,7 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             x[i] = trial[i]
         e = e_trial
         if a < 1.0:
+            if n_eval >= max_iter:
+                return st.NOT_CONVERGED, n_eval
             e = assemble(x, unit_params, h, pos, grad, hess, HESSIAN, split)
             n_eval += 1

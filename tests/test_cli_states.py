@@ -1,0 +1,59 @@
+"""``dpfexplore states``: table, JSON, plot and bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from dpfexplore.cli import main
+from dpfexplore.examples import example_path
+
+
+def test_json_lists_every_state_with_units_of_the_model(capsys):
+    assert main(["states", str(example_path("gripper")), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["design"]["H"] == [3.8187, 4.1549, 4.5246, 4.8239, 2.5]
+    states = {s["state"]: s for s in data["states"]}
+    assert len(states) == 32 and sum(s["stable"] for s in states.values()) == 16
+    s = states["11110"]
+    assert s["found"] == "11110" and s["stable"] and s["status"] == "ok"
+    assert s["tip"] == pytest.approx([46.5099407429, 36.0294188529], abs=1e-8)
+    assert s["min_eig"] == pytest.approx(0.00893536, rel=1e-5)
+    assert s["stiffness"] > 0
+    assert states["11111"]["found"] == "11110" and not states["11111"]["stable"]
+
+
+def test_sequential_table_with_gripper_apertures(capsys):
+    assert main(["states", str(example_path("gripper")), "--sequential",
+                 "--gripper", "20.081", "-27.065"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 + 6
+    row = next(line for line in lines if line.startswith("11110"))
+    assert row.split()[-1] == "35.04"
+
+
+def test_plot_writes_a_png(tmp_path, capsys):
+    out = tmp_path / "states.png"
+    assert main(["states", str(example_path("pickplace")), "--sequential", "--plot", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("body", ["[design]\nH = [4.0]\n", "not toml ["])
+def test_bad_design_file_exits_2_with_one_line(tmp_path, capsys, body):
+    path = tmp_path / "bad.toml"
+    path.write_text(body)
+    assert main(["states", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error" in err[0]
+
+
+def test_missing_file_exits_2(tmp_path, capsys):
+    assert main(["states", str(tmp_path / "nope.toml")]) == 2
+    assert "nope.toml" in capsys.readouterr().err
+
+
+def test_help_states_units(capsys):
+    with pytest.raises(SystemExit):
+        main(["states", "--help"])
+    assert "N/mm" in capsys.readouterr().out

@@ -1,0 +1,291 @@
+"""Stable states, shapes and stiffness against the seed implementation, invariants and hard cases."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import GRIPPER, PICKPLACE, read_reference
+from hypothesis import given, settings
+from hypothesis import strategies as hs
+from test_constants import height_for_alpha
+
+from dpfexplore import Design, DesignBatch, Status, enumerate_states, find_state, solve_batch
+from dpfexplore._kernels import layout as lay
+from dpfexplore._kernels.lattice import lattice_hessian
+from dpfexplore._kernels.newton import minimize, workspace
+from dpfexplore._kernels.states import N_OUT, geometric_guess, inversion_state, solve_state
+from dpfexplore.bench.numpy_model import NumpyLattice
+from dpfexplore.constants import ALPHA_BISTABLE
+from dpfexplore.follower import follower_force_stiffness
+from dpfexplore.lattice import lattice_params, spring_constants
+from dpfexplore.scenes import PAPER_GRIPPER_BASE, gripper_aperture
+from dpfexplore.statics import SolverOptions, parse_state, sequential_states, state_string
+
+STATES = read_reference("gripper_states.csv")
+
+
+def reference_minima(design_id: int) -> dict[str, dict]:
+    """Stable states of a reference finger: every state some guess of the seed reached."""
+    rows = STATES[STATES.design == design_id]
+    minima = {}
+    for row in rows.itertuples():
+        minima[row.found[1:]] = {
+            "energy": row.energy, "tip": (row.tip_x, row.tip_y), "min_eig": row.min_eig
+        }
+    return minima
+
+
+def independent_check(design: Design, x: np.ndarray) -> tuple[float, float]:
+    """Largest gradient component (NumPy oracle) and smallest Hessian eigenvalue (LAPACK)."""
+    p = lattice_params(design)
+    _, g = NumpyLattice.from_params(p.unit_params, p.h).energy_and_gradient(x)
+    hm = np.empty((x.size, x.size))
+    lattice_hessian(x, p.unit_params, p.h, np.empty(x.size), hm)
+    return float(np.abs(g).max()), float(np.linalg.eigvalsh(hm)[0])
+
+
+@pytest.mark.parametrize(("design_id", "params"), [(1, GRIPPER), (2, PICKPLACE)])
+def test_every_reference_state_is_found_and_the_rest_collapse(design_id, params):
+    design = Design(**params)
+    minima = reference_minima(design_id)
+    assert len(minima) == 16
+    results = enumerate_states(design)
+    assert len(results) == 2**design.n_units
+    for r in results:
+        if r.requested in minima:
+            ref = minima[r.requested]
+            assert r.status == Status.OK and r.found == r.requested
+            assert r.energy == pytest.approx(ref["energy"], rel=1e-9, abs=1e-9)
+            np.testing.assert_allclose(r.tip, ref["tip"], atol=1e-8)
+            assert r.min_eig == pytest.approx(ref["min_eig"], rel=1e-4)  # CSV keeps 6 digits
+            gmax, eig = independent_check(design, r.x)
+            assert gmax < 1e-8 and eig == pytest.approx(r.min_eig, rel=1e-9)
+        else:
+            assert r.status == Status.COLLAPSED and r.found in minima
+            np.testing.assert_allclose(r.tip, minima[r.found]["tip"], atol=1e-8)
+    assert sum(r.stable for r in results) == 16
+
+
+def test_gripper_state_11110_that_the_seeds_first_guess_misses():
+    rows = STATES[(STATES.design == 1) & (STATES.requested == "b11110")]
+    assert set(rows.found) == {"b01110", "b11110"}  # the seed: lost from c = 1.0, found from 1.2
+    r = find_state(Design(**GRIPPER), "11110")
+    assert r.stable and r.found == "11110"
+
+
+def test_constrained_pre_relaxation_finds_a_state_plain_newton_misses():
+    design = Design(
+        H=[4.057178526520043, 3.9186717657708074, 3.124699158299751, 4.28265633827875],
+        U_L=9.336847773162955, U_sep=3.371764072417136, t=0.6300487238686117,
+        t_lim=1.8398815210314088,
+    )
+    p = lattice_params(design)
+    ws = workspace()
+    x = np.empty(46)
+    geometric_guess(p.unit_params, p.h, 0b0011, 1.0, x)
+    status, _ = minimize(x, p.unit_params, p.h, 1e-9, 1e-10, 100, 1.0, ws)
+    plain = inversion_state(x, p.unit_params, p.h, ws[0], np.empty(4))
+    assert status == 0 and plain != 0b0011  # the plain start falls into another basin
+    r = find_state(design, "0011")
+    assert r.stable and r.found == "0011"
+    gmax, eig = independent_check(design, r.x)
+    assert gmax < 1e-8 and eig > 0
+
+
+@pytest.mark.parametrize(("t_lim", "all_stable"), [(1.0, True), (2.0, False)])
+def test_a_stiff_limiting_layer_loses_states_a_soft_one_keeps(t_lim, all_stable):
+    design = Design(H=[4.6, 4.6, 4.6], U_L=6.0, U_sep=1.0, t=0.6, t_lim=t_lim)
+    assert (spring_constants(design).domes.regime == "bistable").all()
+    results = enumerate_states(design)
+    stable = [r for r in results if r.stable]
+    if all_stable:
+        assert len(stable) == 8
+    else:
+        assert 0 < len(stable) < 8
+        assert all(r.status == Status.COLLAPSED for r in results if not r.stable)
+
+
+def test_shapes_do_not_depend_on_E_and_stiffness_scales_with_it():
+    results = {E: find_state(Design(**{**GRIPPER, "E": E}), "11100") for E in (5.0, 12.0, 40.0)}
+    for E, r in results.items():
+        assert r.stable
+        np.testing.assert_allclose(r.x, results[12.0].x, atol=1e-9)
+        assert r.stiffness == pytest.approx(results[12.0].stiffness * E / 12.0, rel=1e-8)
+        assert r.energy == pytest.approx(results[12.0].energy * E / 12.0, rel=1e-8)
+        assert r.min_eig == pytest.approx(results[12.0].min_eig * E / 12.0, rel=1e-8)
+
+
+@pytest.mark.parametrize(("params", "state"), [(GRIPPER, "11110"), (PICKPLACE, "111100"),
+                                               (dict(H=[4.2, 4.4], U_L=7.0, U_sep=1.5, t=0.7,
+                                                     t_lim=1.2), "11")])
+def test_hessian_stiffness_agrees_with_the_follower_force_ramp(params, state):
+    design = Design(**params)
+    r = find_state(design, state)
+    ramp = follower_force_stiffness(design, state)
+    assert ramp.displacement[-1] == pytest.approx(0.02, rel=0.05)
+    assert ramp.stiffness == pytest.approx(r.stiffness, rel=0.01)
+    # the record is a straight line: force over displacement equals the fitted slope
+    ratio = ramp.force[1:] / ramp.displacement[1:]
+    np.testing.assert_allclose(ratio, ramp.stiffness, rtol=0.01)
+
+
+def test_smallest_eigenvalue_matches_lapack():
+    design = Design(**PICKPLACE)
+    for r in enumerate_states(design, "sequential"):
+        _, eig = independent_check(design, r.x)
+        assert r.min_eig == pytest.approx(eig, rel=1e-10)
+
+
+def test_gripper_apertures_of_the_paper():
+    design = Design(**GRIPPER)
+    h = spring_constants(design).h
+    expected = {"11000": 59.95, "11100": 44.86, "11110": 35.04}
+    for state, aperture in expected.items():
+        tip = find_state(design, state).tip
+        assert gripper_aperture(tip, h, *PAPER_GRIPPER_BASE) == pytest.approx(aperture, abs=0.01)
+
+
+def test_sequential_states_of_the_reference_fingers():
+    assert [state_string(s, 5) for s in sequential_states(Design(**GRIPPER))] == [
+        "00000", "10000", "11000", "11100", "11110", "11111"]
+    assert [state_string(s, 6) for s in sequential_states(Design(**PICKPLACE))] == [
+        "000000", "100000", "110000", "111000", "111100", "111110", "111111"]
+    descending = Design(H=[5.0, 4.5, 4.0], U_L=7.0, U_sep=1.5, t=0.7, t_lim=1.2)
+    assert [state_string(s, 3) for s in sequential_states(descending)] == [
+        "000", "001", "011", "111"]
+
+
+def test_one_unit_finger():
+    design = Design(H=[4.5], U_L=8.0, U_sep=1.5, t=0.7, t_lim=1.2)
+    results = enumerate_states(design)
+    for r in results:
+        assert r.status in (Status.OK, Status.COLLAPSED)
+        assert r.stiffness == np.inf  # the tip L_1 is clamped
+        np.testing.assert_allclose(r.tip, [8.0 + 1.0 + 1.5, 7.5 + 1.2 + 0.7])
+        assert np.isfinite([r.energy, r.min_eig, r.curvature]).all()
+    assert results[0].stable and results[0].energy == 0.0
+    assert results[1].stable and results[1].energy > 0.0
+
+
+def test_twelve_unit_finger():
+    design = Design(H=list(np.linspace(3.6, 5.0, 12)), U_L=7.0, U_sep=1.2, t=0.6, t_lim=1.0)
+    sequence = enumerate_states(design, "sequential")
+    assert [r.status for r in sequence] == [Status.OK] * 13
+    bends = [r.bend_angle for r in sequence]
+    assert np.all(np.diff(bends) > 0)
+    assert bends[-1] > np.pi  # curls past a half turn: headings must be unwrapped
+    for r in (sequence[0], sequence[-1]):
+        gmax, eig = independent_check(design, r.x)
+        assert gmax < 1e-8 and eig > 0
+
+
+@pytest.mark.parametrize("offset", [-1e-6, 1e-6])
+def test_a_unit_at_the_saddle_node_converges_or_collapses_cleanly(offset):
+    H = height_for_alpha(ALPHA_BISTABLE + offset)
+    design = Design(H=[4.5, H, 4.5], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0)
+    assert spring_constants(design).alpha[1] == pytest.approx(ALPHA_BISTABLE + offset, abs=1e-12)
+    for r in enumerate_states(design):
+        assert r.status in (Status.OK, Status.COLLAPSED)
+        assert np.isfinite([r.energy, r.min_eig, r.stiffness, *r.tip]).all()
+        assert r.min_eig > 0 and r.n_iter < 400
+
+
+def test_a_dome_that_cannot_reach_its_wall():
+    design = Design(H=[4.5, 3.0, 4.5], U_L=6.0, U_sep=[1.0, 4.9, 1.0], t=0.8, t_lim=1.0)
+    assert list(spring_constants(design).no_contact) == [False, True, False]
+    results = {r.requested: r for r in enumerate_states(design)}
+    assert all(r.status in (Status.OK, Status.COLLAPSED) for r in results.values())
+    # the no-contact dome barely moves the finger: its state changes the tip by < 0.1 mm
+    np.testing.assert_allclose(results["101"].tip, results[results["111"].found].tip, atol=0.1)
+
+
+@pytest.mark.parametrize("factor", [100.0, 1e4])
+def test_stiff_posts_still_converge(factor):
+    design = Design(**GRIPPER)
+    p = lattice_params(design).scaled(lay.COL_KPOST, factor)
+    ws = workspace()
+    x = np.empty(46)
+    out = np.empty(N_OUT)
+    status, found, n_iter = solve_state(p.unit_params, p.h, 0b11110, 1e-9, 1e-10, 100, 1.0, True,
+                                        True, x, out, ws)
+    assert status == 0 and found == 0b11110 and n_iter < 60
+    assert np.isfinite(out).all() and out[8] > 0
+    base = find_state(design, "11110")
+    # stiffer posts, nearly inextensible: the shape moves by less than the posts' strain did
+    assert np.abs(out[4:6] - base.tip).max() < 0.05
+
+
+def test_nearly_coincident_nodes_in_the_start():
+    design = Design(**GRIPPER)
+    p = lattice_params(design)
+    ws = workspace()
+    outcomes = {}
+    for gap in (1e-3, 1e-6, 1e-12, 0.0):
+        x = np.empty(46)
+        geometric_guess(p.unit_params, p.h, 0b11110, 1.0, x)
+        x[4:6] = x[2:4] + gap  # D2 on top of D1: the dome of unit 2 has (almost) no length
+        status, n_iter = minimize(x, p.unit_params, p.h, 1e-9, 1e-10, 100, 1.0, ws)
+        outcomes[gap] = status
+        assert n_iter <= 100
+        if status == Status.OK:
+            gmax, eig = independent_check(design, x[:18])
+            assert gmax < 1e-8 and eig > 0
+    assert outcomes[1e-3] == outcomes[1e-6] == Status.OK  # pushed apart and relaxed
+    assert outcomes[1e-12] == outcomes[0.0] == Status.DEGENERATE_GEOMETRY
+
+
+def test_solver_options_are_validated_and_used():
+    with pytest.raises(ValueError, match="gtol"):
+        SolverOptions(gtol=-1.0)
+    with pytest.raises(ValueError, match="max_iter"):
+        SolverOptions(max_iter=0)
+    r = find_state(Design(**GRIPPER), "11100", options=SolverOptions(max_iter=1))
+    assert r.status == Status.NOT_CONVERGED and np.isnan(r.energy)
+
+
+def test_parse_state():
+    assert parse_state("11110", 5) == 30 == parse_state([1, 1, 1, 1, 0], 5) == parse_state(30, 5)
+    for bad in ("1111", "11112", 32, -1, [1, 2, 0, 0, 0]):
+        with pytest.raises(ValueError, match="state"):
+            parse_state(bad, 5)
+
+
+def test_batch_keeps_invalid_rows_and_matches_single_designs():
+    good = Design(**PICKPLACE)
+    batch = DesignBatch.from_designs([good, Design(**GRIPPER)])
+    H = batch.H.copy()
+    H[1, 2] = -1.0
+    fields = {name: getattr(batch, name) for name in DesignBatch.__dataclass_fields__}
+    mixed = DesignBatch(**{**fields, "H": H})
+    rows = solve_batch(mixed, "sequential")
+    assert list(rows["design_index"]) == [0] * 7 + [1]
+    assert rows["status"][-1] == Status.INVALID_INPUT and rows["requested"][-1] == -1
+    assert np.isnan(rows["energy"][-1])
+    single = enumerate_states(good, "sequential")
+    np.testing.assert_allclose(rows["tip_x"][:7], [r.tip[0] for r in single], rtol=0, atol=0)
+    everything = solve_batch(DesignBatch.from_designs([good]), "all", stiffness=False,
+                             min_eig=False)
+    assert len(everything["status"]) == 64 and np.isnan(everything["stiffness"]).all()
+    assert (everything["status"] == Status.OK).sum() == 16
+
+
+BOX = dict(H=(3.0, 5.0), U_L=(5.5, 10.0), U_sep=(1.0, 5.0), t=(0.5, 1.0), t_lim=(1.0, 2.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(n_units=hs.integers(2, 8), seed=hs.integers(0, 2**32 - 1))
+def test_random_designs_give_a_verified_minimum_or_a_collapse(n_units, seed):
+    rng = np.random.default_rng(seed)
+    design = Design(
+        H=list(rng.uniform(*BOX["H"], n_units)), U_L=float(rng.uniform(*BOX["U_L"])),
+        U_sep=float(rng.uniform(*BOX["U_sep"])), t=float(rng.uniform(*BOX["t"])),
+        t_lim=float(rng.uniform(*BOX["t_lim"])),
+    )
+    state = int(rng.integers(2**n_units))
+    r = find_state(design, state)
+    assert r.status in (Status.OK, Status.COLLAPSED)
+    assert np.isfinite([r.energy, r.stiffness, r.min_eig, r.curvature, *r.tip]).all()
+    gmax, eig = independent_check(design, r.x)
+    assert gmax < 1e-7 and eig > 0 and r.min_eig == pytest.approx(eig, rel=1e-8)
+    if r.status == Status.OK:
+        assert r.found == state_string(state, n_units)

@@ -121,8 +121,11 @@ def limiting_layer_stiffness(
     The denominator is the implementation's; the paper's text writes ``U_L`` alone.
     """
     UC = UNIT_CELL_PER_BASE_RADIUS * np.asarray(r_b, dtype=float)
-    return np.asarray(E, float) * np.asarray(t_lim, float) * UC / (
-        np.asarray(U_L, float) + np.asarray(t, float) + np.asarray(t_ch, float)
+    return (
+        np.asarray(E, float)
+        * np.asarray(t_lim, float)
+        * UC
+        / (np.asarray(U_L, float) + np.asarray(t, float) + np.asarray(t_ch, float))
     )
 
 
@@ -207,7 +210,12 @@ def dome_energy(x_bar: ArrayLike, k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike
     """Dome spring energy ``½ k_b x̄² (1 + (1-α)(u² - 2u))`` in N·mm, ``u = x̄/d``."""
     x_bar = np.asarray(x_bar, dtype=float)
     u = x_bar / np.asarray(d, dtype=float)
-    return 0.5 * np.asarray(k_b, float) * x_bar**2 * (1.0 + (1.0 - np.asarray(alpha)) * (u * u - 2 * u))
+    return (
+        0.5
+        * np.asarray(k_b, float)
+        * x_bar**2
+        * (1.0 + (1.0 - np.asarray(alpha)) * (u * u - 2 * u))
+    )
 
 
 def dome_force(x_bar: ArrayLike, k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> NDArray:

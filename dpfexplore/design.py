@@ -115,7 +115,9 @@ def _problems(
         else:
             bad = ~(np.isfinite(values) & (values > 0.0))
             rule = "must be finite and > 0" + (" MPa" if name == "E" else " mm")
-        flag(bad, st.INVALID_INPUT, lambda i, name=name, v=values, r=rule: f"{name} = {v[i]!r}: {r}")
+        flag(
+            bad, st.INVALID_INPUT, lambda i, name=name, v=values, r=rule: f"{name} = {v[i]!r}: {r}"
+        )
     # The closed forms of MODEL.md §3 leave their fitted domain silently; catch the nonsense.
     with np.errstate(all="ignore"):
         H = np.where(active, per_unit["H"], 1.0)
@@ -237,7 +239,9 @@ class Design:
         known = {"H", "U_L", "U_sep", *SHARED_FIELDS, "material", "name"}
         for key in data:
             if key not in known:
-                raise ValueError(f"{key} = {data[key]!r}: unknown design key; known: {sorted(known)}")
+                raise ValueError(
+                    f"{key} = {data[key]!r}: unknown design key; known: {sorted(known)}"
+                )
         for key in ("H", "U_L", "U_sep", "t", "t_lim"):
             if key not in data:
                 raise ValueError(f"{key}: missing design key")
@@ -317,7 +321,9 @@ class DesignBatch:
         for name in PER_UNIT_FIELDS:
             arr = np.asarray(getattr(self, name), dtype=np.float64)
             if arr.shape != (n, MAX_UNITS):
-                raise ValueError(f"{name}: batch array has shape {arr.shape}, need {(n, MAX_UNITS)}")
+                raise ValueError(
+                    f"{name}: batch array has shape {arr.shape}, need {(n, MAX_UNITS)}"
+                )
             object.__setattr__(self, name, arr)
         for name in SHARED_FIELDS:
             arr = np.broadcast_to(np.asarray(getattr(self, name), dtype=np.float64), (n,)).copy()
@@ -338,7 +344,9 @@ class DesignBatch:
         return cls(
             n_units=np.array([d.n_units for d in designs], dtype=np.int64),
             **per_unit,
-            **{name: np.array([getattr(d, name) for d in designs], float) for name in SHARED_FIELDS},
+            **{
+                name: np.array([getattr(d, name) for d in designs], float) for name in SHARED_FIELDS
+            },
         )
 
     def problems(self) -> tuple[NDArray[np.int8], list[str | None]]:
@@ -365,4 +373,6 @@ class DesignBatch:
 
     def take(self, index: NDArray) -> DesignBatch:
         """Sub-batch of the given rows."""
-        return DesignBatch(**{name: getattr(self, name)[index] for name in self.__dataclass_fields__})
+        return DesignBatch(
+            **{name: getattr(self, name)[index] for name in self.__dataclass_fields__}
+        )

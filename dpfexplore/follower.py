@@ -95,7 +95,9 @@ def follower_force_stiffness(
         raise ValueError("n_units = 1: the tip node L_1 is clamped, there is nothing to push")
     start = find_state(design, state, options=options)
     if start.status != Status.OK:
-        raise ValueError(f"state = {state!r}: not stable ({start.status.label}, found {start.found})")
+        raise ValueError(
+            f"state = {state!r}: not stable ({start.status.label}, found {start.found})"
+        )
     params = lattice_params(design)
     up, h = params.unit_params, params.h
     n = n_free(design.n_units)

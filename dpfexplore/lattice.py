@@ -38,8 +38,8 @@ from .design import Design, DesignBatch
 
 __all__ = [
     "LatticeParams",
-    "batch_constants",
     "SpringConstants",
+    "batch_constants",
     "free_node_names",
     "lattice_params",
     "pack_batch",
@@ -115,8 +115,15 @@ def _unit_constants(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch) -> dict:
 def spring_constants(design: Design) -> SpringConstants:
     """Evaluate the closed forms of MODEL.md §3 for one design."""
     c = _unit_constants(
-        np.asarray(design.H), np.asarray(design.U_L), np.asarray(design.U_sep), design.t,
-        design.t_lim, design.E, design.nu, design.r_b, design.t_ch,
+        np.asarray(design.H),
+        np.asarray(design.U_L),
+        np.asarray(design.U_sep),
+        design.t,
+        design.t_lim,
+        design.E,
+        design.nu,
+        design.r_b,
+        design.t_ch,
     )
     c["h"] = float(c["h"])
     return SpringConstants(**c)
@@ -182,10 +189,10 @@ def batch_constants(batch: DesignBatch) -> dict:
     """
     with np.errstate(all="ignore"):
         return _unit_constants(
-            batch.H, batch.U_L, batch.U_sep, *(
-                getattr(batch, name)[:, None]
-                for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")
-            )
+            batch.H,
+            batch.U_L,
+            batch.U_sep,
+            *(getattr(batch, name)[:, None] for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")),
         )
 
 

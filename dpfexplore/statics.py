@@ -65,7 +65,8 @@ class SolverOptions:
         Converged when the largest gradient component is below this (Hessian positive
         definite) ...
     xtol : float, mm
-        ... or when the full Newton step is below this.
+        ... or when the full Newton step is below this (the step is then taken: in the
+        quadratic regime the result is then far closer than ``xtol``).
     max_iter : int
         Hessian evaluations per attempt before giving up (``NOT_CONVERGED``).
     max_step : float, mm
@@ -73,7 +74,7 @@ class SolverOptions:
     """
 
     gtol: float = 1e-9
-    xtol: float = 1e-10
+    xtol: float = 1e-8
     max_iter: int = 100
     max_step: float = 1.0
 
@@ -82,7 +83,11 @@ class SolverOptions:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
-        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
+        if (
+            isinstance(self.max_iter, bool)
+            or not isinstance(self.max_iter, int)
+            or self.max_iter < 1
+        ):
             raise ValueError(f"max_iter = {self.max_iter!r}: must be an integer >= 1")
 
     def kernel_args(self) -> tuple[float, float, int, float]:
@@ -110,7 +115,9 @@ def parse_state(state: str | int | Sequence[int], n_units: int) -> int:
         return int(text, 2)
     if isinstance(state, (int, np.integer)) and not isinstance(state, bool):
         if not 0 <= int(state) < 2**n_units:
-            raise ValueError(f"state = {state!r}: must be in [0, {2**n_units - 1}] for {n_units} units")
+            raise ValueError(
+                f"state = {state!r}: must be in [0, {2**n_units - 1}] for {n_units} units"
+            )
         return int(state)
     bits = list(state)
     if len(bits) != n_units or any(b not in (0, 1, True, False) for b in bits):
@@ -217,7 +224,9 @@ def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], valid: NDArr
         return row_design, np.where(valid[row_design], requested, -1).astype(np.int64)
     requested = np.asarray(states, dtype=np.int64)
     if requested.shape != (n_designs,):
-        raise ValueError(f"states: need one requested state per design, got shape {requested.shape}")
+        raise ValueError(
+            f"states: need one requested state per design, got shape {requested.shape}"
+        )
     if np.any(valid & ((requested < 0) | (requested >= 2**n_units))):
         raise ValueError("states: a requested state does not fit its design's units")
     return np.arange(n_designs, dtype=np.int64), np.where(valid, requested, -1)
@@ -291,8 +300,20 @@ def solve_batch(
     n_iter = np.empty(n_rows, dtype=np.int32)
     x = np.empty((n_rows, n_free(MAX_UNITS) if shapes else 0))
     solve_rows(
-        unit_params, h, n_units, design_status, row_design, row_state, *options.kernel_args(),
-        stiffness, min_eig, out, status, found, n_iter, x,
+        unit_params,
+        h,
+        n_units,
+        design_status,
+        row_design,
+        row_state,
+        *options.kernel_args(),
+        stiffness,
+        min_eig,
+        out,
+        status,
+        found,
+        n_iter,
+        x,
     )
     result = {
         "design_index": row_design,

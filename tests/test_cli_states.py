@@ -25,8 +25,19 @@ def test_json_lists_every_state_with_units_of_the_model(capsys):
 
 
 def test_sequential_table_with_gripper_apertures(capsys):
-    assert main(["states", str(example_path("gripper")), "--sequential",
-                 "--gripper", "20.081", "-27.065"]) == 0
+    assert (
+        main(
+            [
+                "states",
+                str(example_path("gripper")),
+                "--sequential",
+                "--gripper",
+                "20.081",
+                "-27.065",
+            ]
+        )
+        == 0
+    )
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 2 + 6
     row = next(line for line in lines if line.startswith("11110"))

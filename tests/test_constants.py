@@ -42,7 +42,9 @@ def test_alpha_within_1e6_of_the_saddle_node_on_both_sides(offset):
         for u, curvature_sign in ((a.u_barrier, -1), (a.u_second_min, 1)):
             assert dome_force(u * d, k_b, alpha, d) == pytest.approx(0.0, abs=1e-12 * k_b * d)
             eps = 1e-4
-            second = (dome_force((u + eps) * d, k_b, alpha, d) - dome_force((u - eps) * d, k_b, alpha, d))
+            second = dome_force((u + eps) * d, k_b, alpha, d) - dome_force(
+                (u - eps) * d, k_b, alpha, d
+            )
             assert np.sign(second) == curvature_sign
         # they merge at 3/4 like the square root of the distance to the bifurcation
         gap = a.u_second_min - a.u_barrier
@@ -77,7 +79,9 @@ def test_regimes_over_alpha():
 
 def test_reach_is_clamped_and_flagged_when_the_dome_cannot_touch():
     d, no_contact = dome_reach(np.array([4.0, 3.0]), 0.8, np.array([1.0, 4.0]), 1.0)
-    assert not no_contact[0] and d[0] == pytest.approx(0.2565 * 0.8 + 1.1425 * 4.0 - 1.0 - 0.5 - 0.4)
+    assert not no_contact[0] and d[0] == pytest.approx(
+        0.2565 * 0.8 + 1.1425 * 4.0 - 1.0 - 0.5 - 0.4
+    )
     assert no_contact[1] and d[1] == NO_CONTACT_REACH
     c = spring_constants(Design(H=[4.0, 3.0], U_L=6.0, U_sep=[1.0, 4.0], t=0.8, t_lim=1.0))
     assert list(c.no_contact) == [False, True]
@@ -93,4 +97,6 @@ def test_stiffnesses_are_proportional_to_E_and_alpha_is_not():
     np.testing.assert_allclose(one.k_post, 5 * one.k_lim)
     # implementation's denominators: U_L + t + t_ch and U_sep + t + t_ch
     assert one.k_lim[0] == pytest.approx(10.0 * 1.3 * 15.0 / (7.0 + 0.7 + 1.0))
-    assert one.k_t[0] == pytest.approx(10.0 * 1.3**3 / (12 * (1 - 0.35**2)) * 15.0 / (2.0 + 0.7 + 1.0))
+    assert one.k_t[0] == pytest.approx(
+        10.0 * 1.3**3 / (12 * (1 - 0.35**2)) * 15.0 / (2.0 + 0.7 + 1.0)
+    )

@@ -50,8 +50,10 @@ def test_material_presets_and_toml(tmp_path):
     g = load_design(example_path("gripper"))
     assert g.H == (3.8187, 4.1549, 4.5246, 4.8239, 2.5) and g.U_L == (8.5773,) * 5
     path = tmp_path / "ninja.toml"
-    path.write_text('[design]\nH = [4.0, 4.5]\nU_L = 7\nU_sep = 2\nt = 0.8\nt_lim = 1.2\n'
-                    'material = "ninjaflex-85a"\n')
+    path.write_text(
+        "[design]\nH = [4.0, 4.5]\nU_L = 7\nU_sep = 2\nt = 0.8\nt_lim = 1.2\n"
+        'material = "ninjaflex-85a"\n'
+    )
     assert load_design(path).E == 12.0
 
 
@@ -61,8 +63,10 @@ def test_material_presets_and_toml(tmp_path):
         ('H = [4.0]\nU_L = 7\nU_sep = 2\nt = 0.8\nt_lim = 1.2\ncolour = "red"', "colour"),
         ("H = [4.0]\nU_L = 7\nU_sep = 2\nt = 0.8", "t_lim: missing"),
         ('H = [4.0]\nU_L = 7\nU_sep = 2\nt = 0.8\nt_lim = 1.2\nmaterial = "steel"', "steel"),
-        ('H = [4.0]\nU_L = 7\nU_sep = 2\nt = 0.8\nt_lim = 1.2\nmaterial = "cheetah-95a"\nE = 20',
-         "not both"),
+        (
+            'H = [4.0]\nU_L = 7\nU_sep = 2\nt = 0.8\nt_lim = 1.2\nmaterial = "cheetah-95a"\nE = 20',
+            "not both",
+        ),
     ],
 )
 def test_bad_toml_names_the_key(tmp_path, body, message):

@@ -87,7 +87,13 @@ def check_derivatives(design: Design, x: np.ndarray) -> None:
     np.testing.assert_allclose(hm, fd_h, rtol=1e-5, atol=1e-6 * np.abs(hm).max())
 
 
-BOX = {"H": (3.0, 5.0), "U_sep": (1.0, 5.0), "U_L": (5.5, 10.0), "t": (0.5, 1.0), "t_lim": (1.0, 2.0)}
+BOX = {
+    "H": (3.0, 5.0),
+    "U_sep": (1.0, 5.0),
+    "U_L": (5.5, 10.0),
+    "t": (0.5, 1.0),
+    "t_lim": (1.0, 2.0),
+}
 
 
 def perturbed_guess(design: Design, state: int, rng: np.random.Generator, scale: float = 0.3):
@@ -100,8 +106,13 @@ def perturbed_guess(design: Design, state: int, rng: np.random.Generator, scale:
 @pytest.mark.parametrize("corner", list(itertools.product((0, 1), repeat=5)))
 def test_derivatives_at_every_corner_of_the_paper_box(corner):
     values = {name: BOX[name][c] for name, c in zip(BOX, corner, strict=True)}
-    design = Design(H=[values["H"]] * 3, U_L=values["U_L"], U_sep=values["U_sep"],
-                    t=values["t"], t_lim=values["t_lim"])
+    design = Design(
+        H=[values["H"]] * 3,
+        U_L=values["U_L"],
+        U_sep=values["U_sep"],
+        t=values["t"],
+        t_lim=values["t_lim"],
+    )
     rng = np.random.default_rng(sum(c << i for i, c in enumerate(corner)))
     check_derivatives(design, perturbed_guess(design, int(rng.integers(8)), rng))
 
@@ -109,8 +120,9 @@ def test_derivatives_at_every_corner_of_the_paper_box(corner):
 @settings(max_examples=40, deadline=None)
 @given(
     n_units=hs.integers(1, 8),
-    unit=hs.lists(hs.tuples(*(hs.floats(*BOX[k]) for k in ("H", "U_L", "U_sep"))), min_size=8,
-                  max_size=8),
+    unit=hs.lists(
+        hs.tuples(*(hs.floats(*BOX[k]) for k in ("H", "U_L", "U_sep"))), min_size=8, max_size=8
+    ),
     t=hs.floats(*BOX["t"]),
     t_lim=hs.floats(*BOX["t_lim"]),
     seed=hs.integers(0, 2**32 - 1),
@@ -122,7 +134,9 @@ def test_derivatives_on_random_designs(n_units, unit, t, t_lim, seed):
     check_derivatives(design, perturbed_guess(design, int(rng.integers(2**n_units)), rng))
 
 
-@pytest.mark.parametrize("theta", [1e-7, 1e-3, np.pi / 2, np.pi - 1e-3, np.pi - 1e-7, np.pi, np.pi + 1e-3])
+@pytest.mark.parametrize(
+    "theta", [1e-7, 1e-3, np.pi / 2, np.pi - 1e-3, np.pi - 1e-7, np.pi, np.pi + 1e-3]
+)
 def test_torsion_terms_are_smooth_near_0_and_pi(theta):
     """The angle L1-L2-D2 set to θ: the implementation's arccos form divides by sin θ there."""
     design = Design(H=[4.0, 4.0], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)
@@ -169,8 +183,11 @@ def test_torsion_energy_passes_smoothly_through_a_straight_angle():
 def test_kernels_agree_with_the_independent_numpy_lattice(n_units, seed):
     rng = np.random.default_rng(seed)
     design = Design(
-        H=list(rng.uniform(3, 5, n_units)), U_L=list(rng.uniform(5.5, 10, n_units)),
-        U_sep=list(rng.uniform(1, 5, n_units)), t=rng.uniform(0.5, 1.0), t_lim=rng.uniform(1, 2),
+        H=list(rng.uniform(3, 5, n_units)),
+        U_L=list(rng.uniform(5.5, 10, n_units)),
+        U_sep=list(rng.uniform(1, 5, n_units)),
+        t=rng.uniform(0.5, 1.0),
+        t_lim=rng.uniform(1, 2),
         E=rng.uniform(5, 40),
     )
     x = perturbed_guess(design, int(rng.integers(2**n_units)), rng)

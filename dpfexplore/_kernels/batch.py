@@ -26,8 +26,25 @@ BLOCK_ROWS = 16
 
 @kernel
 def _solve_rows(
-    unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol, xtol,
-    max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes,
+    unit_params,
+    h,
+    n_units,
+    design_status,
+    row_design,
+    row_state,
+    first,
+    last,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    out,
+    status,
+    found,
+    n_iter,
+    shapes,
 ):
     ws = workspace()
     x = np.empty(n_free(MAX_UNITS))
@@ -42,8 +59,18 @@ def _solve_rows(
             continue
         up = unit_params[i, : n_units[i]]
         s, f, it = solve_state(
-            up, h[i], row_state[r], gtol, xtol, max_iter, max_step, want_stiffness,
-            want_min_eig, x, out[r], ws,
+            up,
+            h[i],
+            row_state[r],
+            gtol,
+            xtol,
+            max_iter,
+            max_step,
+            want_stiffness,
+            want_min_eig,
+            x,
+            out[r],
+            ws,
         )
         status[r] = s
         found[r] = f
@@ -56,8 +83,23 @@ def _solve_rows(
 
 @batch_kernel
 def solve_rows(
-    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter,
-    max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes,
+    unit_params,
+    h,
+    n_units,
+    design_status,
+    row_design,
+    row_state,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    out,
+    status,
+    found,
+    n_iter,
+    shapes,
 ):
     """Solve every (design, state) row in parallel.
 
@@ -90,8 +132,24 @@ def solve_rows(
         first = b * BLOCK_ROWS
         last = min(first + BLOCK_ROWS, n_rows)
         _solve_rows(
-            unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol,
-            xtol, max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter,
+            unit_params,
+            h,
+            n_units,
+            design_status,
+            row_design,
+            row_state,
+            first,
+            last,
+            gtol,
+            xtol,
+            max_iter,
+            max_step,
+            want_stiffness,
+            want_min_eig,
+            out,
+            status,
+            found,
+            n_iter,
             shapes,
         )
 

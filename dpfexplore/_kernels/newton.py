@@ -9,9 +9,10 @@ At a stationary point that is not a minimum (a saddle reached by symmetry), the 
 along the eigenvector of the most negative curvature.
 
 Convergence: the Hessian is positive definite and either the largest gradient component is below
-``gtol`` (N) or the full Newton step is below ``xtol`` (mm). The second test keeps very stiff
-lattices (posts 100x stiffer), whose gradient cannot get below the round-off of their large
-forces, from being reported as unconverged.
+``gtol`` (N) or the full Newton step is below ``xtol`` (mm), in which case that last step is
+taken. The second test keeps very stiff lattices (posts 100x stiffer), whose gradient cannot get
+below the round-off of their large forces, from being reported as unconverged, and saves the
+Hessian evaluation that would only confirm what the quadratic convergence already shows.
 """
 
 from __future__ import annotations
@@ -146,7 +147,15 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             grad[i] = -grad[i]
         cholesky_solve(low, grad, step, n)  # grad now holds -g
         snorm = max_abs(step, n)
-        if tau == 0.0 and (gnorm <= gtol or snorm <= xtol):
+        if tau == 0.0 and gnorm <= gtol:
+            return st.OK, n_eval
+        if tau == 0.0 and snorm <= xtol:
+            # Converged on the step: take it. Newton converges quadratically here, so the
+            # stepped point is far closer than xtol; the Hessian and factor left in the
+            # workspace are those of the point a step (<= xtol) before, which moves the
+            # stiffness and smallest eigenvalue by a relative O(xtol / segment length).
+            for i in range(n):
+                x[i] += step[i]
             return st.OK, n_eval
         if n_eval >= max_iter:
             return st.NOT_CONVERGED, n_eval

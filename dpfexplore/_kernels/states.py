@@ -169,37 +169,49 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     pos = ws[0]
-    u = np.empty(n_units)
+    u = ws[5]  # the line-search scratch is free between solves; N <= its length
+    # Attempt 1 needs no steering table: most states are found here, without allocating.
+    geometric_guess(unit_params, h, requested, GUESS_FACTORS[0], x)
+    status, total_iter = minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws)
+    best_found = -1
+    last_status = status
+    if status == st.OK:
+        best_found = inversion_state(x, unit_params, h, pos, u)
+        if best_found == requested:
+            return st.OK, best_found, total_iter
+    best = x[:n].copy()
+    best_is_release = False
     steer = np.empty_like(unit_params)
     _steering_params(unit_params, requested, steer)
-    best = np.empty(n)
-    best_found = -1
-    best_is_release = False
-    last_status = st.NOT_CONVERGED
-    total_iter = 0
-    for c in GUESS_FACTORS:
-        for steered in (False, True):
-            geometric_guess(unit_params, h, requested, c, x)
-            if steered:
-                status, it = minimize(
-                    x, steer, h, gtol * STEERING_TOL_FACTOR, xtol * STEERING_TOL_FACTOR,
-                    max_iter, max_step, ws,
-                )
-                total_iter += it
-            status, it = minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws)
+    for attempt in range(1, 2 * len(GUESS_FACTORS)):
+        steered = attempt % 2 == 1
+        geometric_guess(unit_params, h, requested, GUESS_FACTORS[attempt // 2], x)
+        if steered:
+            status, it = minimize(
+                x,
+                steer,
+                h,
+                gtol * STEERING_TOL_FACTOR,
+                xtol * STEERING_TOL_FACTOR,
+                max_iter,
+                max_step,
+                ws,
+            )
             total_iter += it
-            if status != st.OK:
-                last_status = status
-                continue
-            found = inversion_state(x, unit_params, h, pos, u)
-            if found == requested:
-                return st.OK, found, total_iter
-            # Remember where the finger goes; the held-and-released outcome is the physical
-            # answer to "where does it collapse to", so it wins over a plain start.
-            if best_found < 0 or (steered and not best_is_release):
-                best_found = found
-                best_is_release = steered
-                best[:] = x[:n]
+        status, it = minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws)
+        total_iter += it
+        if status != st.OK:
+            last_status = status
+            continue
+        found = inversion_state(x, unit_params, h, pos, u)
+        if found == requested:
+            return st.OK, found, total_iter
+        # Remember where the finger goes; the held-and-released outcome is the physical
+        # answer to "where does it collapse to", so it wins over a plain start.
+        if best_found < 0 or (steered and not best_is_release):
+            best_found = found
+            best_is_release = steered
+            best[:] = x[:n]
     if best_found >= 0:
         x[:n] = best
         return st.COLLAPSED, best_found, total_iter
@@ -296,8 +308,18 @@ def tip_stiffness(pos, low, factored, load, response, n_units):
 
 @kernel
 def solve_state(
-    unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig, x,
-    out, ws,
+    unit_params,
+    h,
+    requested,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    x,
+    out,
+    ws,
 ):
     """Find a state and evaluate its outputs; returns ``(status, found, n_iter)``.
 
@@ -313,9 +335,7 @@ def solve_state(
     if status == st.OK or status == st.COLLAPSED:
         # On OK the last Newton check left H(x) and its factor in the workspace; a collapsed
         # result was copied from an earlier attempt, so its Hessian is assembled afresh.
-        state_outputs(
-            x, unit_params, h, want_stiffness, want_min_eig, status == st.OK, out, ws
-        )
+        state_outputs(x, unit_params, h, want_stiffness, want_min_eig, status == st.OK, out, ws)
         for j in range(out.shape[0]):
             if out[j] != out[j]:
                 is_requested_nan = (j == OUT_MIN_EIG and not want_min_eig) or (

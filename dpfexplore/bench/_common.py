@@ -50,7 +50,7 @@ def _threading_layer() -> str:
 
 
 def median_time(func: Callable[[], object], *, repeats: int = 7, min_time: float = 0.05) -> float:
-    """Median wall time (s) of one call, over ``repeats`` rounds of enough calls for ``min_time``."""
+    """Median wall time (s) of one call over ``repeats`` rounds, each of >= ``min_time`` s."""
     calls = 1
     while True:
         start = time.perf_counter()

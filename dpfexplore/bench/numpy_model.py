@@ -56,9 +56,23 @@ class NumpyLattice:
         kt = np.concatenate([col[lay.COL_KT], col[lay.COL_KT][:-1]])
         clamped = np.array([[0.0, 0.0], [0.0, h], [col[lay.COL_P][0], h]])
         return cls(
-            n, h, clamped, lin_a, lin_b, lin_rest, lin_k, 2 * k, 2 * k - 2, col[lay.COL_P].copy(),
-            col[lay.COL_KB].copy(), col[lay.COL_ALPHA].copy(), col[lay.COL_D].copy(),
-            tor_a, tor_c, tor_b, kt,
+            n,
+            h,
+            clamped,
+            lin_a,
+            lin_b,
+            lin_rest,
+            lin_k,
+            2 * k,
+            2 * k - 2,
+            col[lay.COL_P].copy(),
+            col[lay.COL_KB].copy(),
+            col[lay.COL_ALPHA].copy(),
+            col[lay.COL_D].copy(),
+            tor_a,
+            tor_c,
+            tor_b,
+            kt,
         )
 
     def nodes(self, x: NDArray) -> NDArray:

@@ -69,9 +69,16 @@ def sample_bistable_batch(n_units: int, n_designs: int, seed: int):
         U_L[:, :n_units] = rng.uniform(5.5, 10.0, (m, 1))
         U_sep[:, :n_units] = rng.uniform(1.0, 5.0, (m, 1))
         batch = DesignBatch(
-            n_units=np.full(m, n_units), H=H, U_L=U_L, U_sep=U_sep,
-            t=rng.uniform(0.5, 1.0, m), t_lim=rng.uniform(1.0, 2.0, m),
-            E=26.0, nu=0.35, r_b=5.0, t_ch=1.0,
+            n_units=np.full(m, n_units),
+            H=H,
+            U_L=U_L,
+            U_sep=U_sep,
+            t=rng.uniform(0.5, 1.0, m),
+            t_lim=rng.uniform(1.0, 2.0, m),
+            E=26.0,
+            nu=0.35,
+            r_b=5.0,
+            t_ch=1.0,
         )
         alpha = batch_constants(batch)["alpha"][:, :n_units]
         keep = np.flatnonzero((alpha < ALPHA_BISTABLE).all(axis=1))
@@ -90,7 +97,10 @@ def _scipy_solve(lattice, state: int):
 
     x0 = lattice.geometric_guess(state, 1.0)
     res = minimize(
-        lattice.energy_and_gradient, x0, jac=True, method="BFGS",
+        lattice.energy_and_gradient,
+        x0,
+        jac=True,
+        method="BFGS",
         options={"gtol": GTOL, "maxiter": 20000},
     )
     x = res.x
@@ -100,9 +110,9 @@ def _scipy_solve(lattice, state: int):
     for i in range(n):
         e = np.zeros(n)
         e[i] = step
-        hess[:, i] = (lattice.energy_and_gradient(x + e)[1] - lattice.energy_and_gradient(x - e)[1]) / (
-            2 * step
-        )
+        hess[:, i] = (
+            lattice.energy_and_gradient(x + e)[1] - lattice.energy_and_gradient(x - e)[1]
+        ) / (2 * step)
     hess = 0.5 * (hess + hess.T)
     pos = lattice.nodes(x)
     v = pos[-1] - pos[-3]
@@ -120,7 +130,8 @@ def _compile_seconds() -> dict[str, float]:
         import time, numpy as np
         t0 = time.perf_counter()
         from dpfexplore import Design, DesignBatch, solve_batch
-        batch = DesignBatch.from_designs([Design(H=[4.0, 4.2], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)])
+        design = Design(H=[4.0, 4.2], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)
+        batch = DesignBatch.from_designs([design])
         t1 = time.perf_counter()
         solve_batch(batch)
         print(t1 - t0, time.perf_counter() - t1)
@@ -147,7 +158,7 @@ def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int) -> dict:
     from ..statics import SolverOptions, solve_batch
     from .numpy_model import NumpyLattice
 
-    TIGHT = SolverOptions(gtol=1e-14, xtol=1e-13)  # noqa: N806 - converges on the step
+    TIGHT = SolverOptions(gtol=1e-14, xtol=1e-13)
     batch = sample_bistable_batch(n_units, n_designs, seed)
     tight = solve_batch(batch, "all_inverted", min_eig=False, options=TIGHT)
     ok = np.flatnonzero(tight["status"] == 0)
@@ -179,8 +190,9 @@ def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int) -> dict:
         sc_tip_err.append(float(np.max(np.abs(tip - ref_tip[i]))))
         sc_k_err.append(abs(k - ref_k[i]) / ref_k[i])
         sc_state_ok += sc_tip_err[-1] < 0.1
-        one = solve_batch(batch.take(np.array([i])), "all_inverted", min_eig=False,
-                          options=TIGHT, shapes=True)
+        one = solve_batch(
+            batch.take(np.array([i])), "all_inverted", min_eig=False, options=TIGHT, shapes=True
+        )
         x_ref = one["x"][0, : 4 * n_units - 2]
         ref_grad = max(ref_grad, float(np.max(np.abs(lattice.energy_and_gradient(x_ref)[1]))))
     ours_us = t_one / len(batch) * 1e6

@@ -103,8 +103,10 @@ def _print_table(rows: list[dict], n_units: int, gripper: bool) -> None:
     )
     if gripper:
         header += f"  {'aperture':>8}"
-    print(header + "\n" + f"{'':<{width}}  {'':<{width}}  {'':<6}  {'N·mm':>10}  {'mm':>8}  "
-          f"{'mm':>8}  {'N/mm':>9}  {'N/mm':>9}" + (f"  {'mm':>8}" if gripper else ""))
+    print(
+        header + "\n" + f"{'':<{width}}  {'':<{width}}  {'':<6}  {'N·mm':>10}  {'mm':>8}  "
+        f"{'mm':>8}  {'N/mm':>9}  {'N/mm':>9}" + (f"  {'mm':>8}" if gripper else "")
+    )
 
     def fmt(value, spec):
         if value is None:

@@ -31,8 +31,8 @@ def plot_finger(nodes: np.ndarray, ax: Axes | None = None, *, color=None, label=
     (line,) = ax.plot(layer[:, 0], layer[:, 1], "-", color=color, lw=2.0, label=label)
     color = line.get_color()
     ax.plot(dome[:, 0], dome[:, 1], "--", color=color, lw=1.0)
-    for d, l in zip(dome, layer, strict=True):
-        ax.plot([d[0], l[0]], [d[1], l[1]], "-", color=color, lw=0.8)
+    for lower, upper in zip(dome, layer, strict=True):
+        ax.plot([lower[0], upper[0]], [lower[1], upper[1]], "-", color=color, lw=0.8)
     ax.plot(*layer[-1], "o", color=color, ms=4)
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")

@@ -1,0 +1,220 @@
+"""What a sweep computes for a chunk of designs, and the dataset columns it fills.
+
+An *evaluator* turns a :class:`~dpfexplore.design.DesignBatch` into row-aligned column arrays:
+one row per design-state, with ``design_index`` pointing into the batch. It declares its columns
+up front (:meth:`StaticsEvaluator.fields`), which fixes the dataset schema before anything is
+evaluated. Evaluators are plain picklable objects so that Dask workers can run them.
+
+:class:`StaticsEvaluator` is the evaluator of every job: it calls
+:func:`dpfexplore.statics.solve_batch` for the states the job asks for and, when the job asks
+for reset times, :func:`dpfexplore.dynamics.reset_times_batch` for the designs that have a unit
+that is not bistable in isolation (``alpha >= 1/9``, MODEL.md §4); a design whose domes are all
+bistable cannot reset, so it is not simulated and its dynamics columns say ``not_computed``.
+Nothing the job does not ask for is computed: ``stiffness`` and ``min_eig`` are passed through to
+the solver, and their columns exist only when asked for.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+import pyarrow as pa
+from numpy.typing import NDArray
+
+from . import status as st
+from ._kernels.layout import MAX_UNITS
+from .constants import ALPHA_BISTABLE, dome_alpha, dome_radius
+from .design import DesignBatch
+from .space import ComputeSpec, PressureLoad
+from .store import STATUS_TYPE, column
+
+__all__ = ["Evaluator", "StaticsEvaluator", "state_labels"]
+
+#: Type of the state bit-string columns: one dictionary entry per state of the chunk's N.
+STATE_BITS_TYPE = pa.dictionary(pa.int32(), pa.string())
+
+
+class Evaluator(Protocol):
+    """The contract between the sweep and what it computes."""
+
+    def fields(self, max_units: int) -> list[pa.Field]:
+        """Output columns (after the design columns), for designs of up to ``max_units`` units."""
+
+    def __call__(self, batch: DesignBatch) -> dict[str, NDArray]:
+        """Row-aligned outputs, with ``design_index`` (int64) into ``batch``.
+
+        Keys are the names of :meth:`fields`; a per-unit column ``name_k`` may instead come as
+        one array ``name`` of shape ``(n_rows, MAX_UNITS)``.
+        """
+
+    def warm_up(self) -> float:
+        """Compile (or load from the cache) the kernels it calls; returns seconds."""
+
+
+def state_labels(n_units: int) -> pa.Array:
+    """Bit strings of every state of ``n_units`` units, indexed by state integer."""
+    return pa.array([format(s, f"0{n_units}b") for s in range(2**n_units)], pa.string())
+
+
+def _bits_column(states: NDArray, n_units: int) -> pa.DictionaryArray:
+    states = np.asarray(states, dtype=np.int64)
+    missing = states < 0
+    indices = pa.array(np.where(missing, 0, states).astype(np.int32), pa.int32(), mask=missing)
+    return pa.DictionaryArray.from_arrays(indices, state_labels(n_units))
+
+
+class StaticsEvaluator:
+    """Stable states (and optionally reset times) of each design, as a job's ``[compute]`` asks.
+
+    Parameters
+    ----------
+    compute : ComputeSpec
+        What to compute.
+    """
+
+    def __init__(self, compute: ComputeSpec) -> None:
+        self.compute = compute
+
+    def __repr__(self) -> str:
+        return f"StaticsEvaluator({self.compute!r})"
+
+    def warm_up(self) -> float:
+        """Compile the kernels this job calls (:func:`dpfexplore.warmup.compile_kernels`)."""
+        from .warmup import compile_kernels
+
+        return compile_kernels(self.compute)
+
+    def fields(self, max_units: int) -> list[pa.Field]:
+        """State columns, then (with reset times) the per-design dynamics columns."""
+        fields = [
+            column("requested", pa.int64(), "1",
+                   "requested state: inversion vector as an integer, unit 1 = most significant "
+                   "bit (-1: none, invalid design)"),
+            column("requested_bits", STATE_BITS_TYPE, "1",
+                   "requested state as a bit string, unit 1 first ('11110')"),
+            column("found", pa.int64(), "1",
+                   "state the solver settled in (differs from requested when collapsed; -1: none)"),
+            column("found_bits", STATE_BITS_TYPE, "1", "found state as a bit string, unit 1 first"),
+            column("status", pa.int8(), "1", "outcome code of the row (dpfexplore.status.Status)"),
+            column("status_label", STATUS_TYPE, "1",
+                   "outcome: ok, invalid_input, invalid_constants, not_converged, collapsed "
+                   "(requested state does not exist; outputs describe the found state), "
+                   "nonfinite, degenerate_geometry, unstable"),
+            column("energy", pa.float64(), "N·mm", "total elastic energy of the state"),
+            column("energy_linear", pa.float64(), "N·mm", "energy of posts and limiting layer"),
+            column("energy_dome", pa.float64(), "N·mm", "energy of the dome springs"),
+            column("energy_torsion", pa.float64(), "N·mm", "energy of the torsional springs"),
+            column("tip_x", pa.float64(), "mm", "x of the tip node L_N (MODEL.md §5 frame)"),
+            column("tip_y", pa.float64(), "mm", "y of the tip node L_N"),
+            column("bend_angle", pa.float64(), "rad",
+                   "heading of the last limiting-layer segment (unwrapped along the finger)"),
+            column("curvature", pa.float64(), "1/mm",
+                   "mean curvature: bend angle over the limiting layer's length"),
+        ]
+        if self.compute.min_eig:
+            fields.append(column("min_eig", pa.float64(), "N/mm",
+                                 "smallest eigenvalue of the Hessian on the free coordinates"))
+        if self.compute.stiffness:
+            fields.append(column("stiffness", pa.float64(), "N/mm",
+                                 "tip stiffness 1/(n^T H^-1 n) for a force normal to the last "
+                                 "limiting-layer segment (MODEL.md §7)"))
+        fields += [
+            column("grad_norm", pa.float64(), "N", "largest gradient component at the solution"),
+            column("n_iter", pa.int32(), "1", "Hessian evaluations over all search attempts"),
+        ]
+        if self.compute.reset_times is not None:
+            fields += _dynamics_fields(max_units)
+        return fields
+
+    def __call__(self, batch: DesignBatch) -> dict[str, NDArray]:
+        """Solve the requested states (and reset times) of a batch of designs of one ``N``."""
+        from .statics import solve_batch
+
+        compute = self.compute
+        rows = solve_batch(
+            batch, compute.states, stiffness=compute.stiffness, min_eig=compute.min_eig
+        )
+        if not compute.stiffness:
+            rows.pop("stiffness", None)
+        if not compute.min_eig:
+            rows.pop("min_eig", None)
+        n_units = np.unique(batch.n_units)
+        if n_units.size > 1:  # the sweep evaluates one N per chunk; bit labels rely on it
+            raise ValueError(f"batch mixes numbers of units {n_units.tolist()}")
+        n = int(n_units[0]) if n_units.size else 1
+        rows["requested_bits"] = _bits_column(rows["requested"], n)
+        rows["found_bits"] = _bits_column(rows["found"], n)
+        rows["status_label"] = rows["status"]
+        if compute.reset_times is not None:
+            per_design = reset_times(batch, compute.reset_times)
+            index = rows["design_index"]
+            for name, values in per_design.items():
+                rows[name] = values[index]
+        return rows
+
+
+def _dynamics_fields(max_units: int) -> list[pa.Field]:
+    fields = [
+        column("dyn_status", pa.int8(), "1",
+               "outcome code of the pressure-cycle simulation (per design; not_computed when "
+               "every dome is bistable in isolation)"),
+        column("dyn_status_label", STATUS_TYPE, "1", "outcome of the simulation, as a label"),
+        column("final_state", pa.int64(), "1",
+               "state at the end of the simulation horizon (-1: not simulated)"),
+    ]
+    per_unit = (
+        ("reset_time", pa.float64(), "s",
+         "time from the end of release until unit {k} falls back below its barrier "
+         "(inf: not within the horizon; NaN: never inverted or not simulated)"),
+        ("snap_through", pa.float64(), "s", "time unit {k} snapped through (inverted)"),
+        ("snap_back", pa.float64(), "s", "time unit {k} snapped back"),
+        ("unit_class", pa.int8(), "1",
+         "class of unit {k} in its finger: 0 bistable, 1 metastable, 2 monostable, "
+         "-1 never inverted or not simulated"),
+    )
+    for name, dtype, unit, text in per_unit:
+        fields += [
+            column(f"{name}_{k}", dtype, unit, text.format(k=k), per_unit=True)
+            for k in range(1, max_units + 1)
+        ]
+    return fields
+
+
+def needs_dynamics(batch: DesignBatch) -> NDArray[np.bool_]:
+    """Valid designs with at least one unit that is not bistable in isolation (``alpha >= 1/9``)."""
+    active = np.arange(MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
+    with np.errstate(all="ignore"):
+        alpha = dome_alpha(batch.H, batch.t[:, None], dome_radius(batch.H, batch.r_b[:, None]))
+    return (batch.status() == st.OK) & np.any(active & (alpha >= ALPHA_BISTABLE), axis=1)
+
+
+def reset_times(batch: DesignBatch, load: PressureLoad) -> dict[str, NDArray]:
+    """Per-design dynamics columns; only designs that :func:`needs_dynamics` are simulated."""
+    n = len(batch)
+    design_status = batch.status()
+    out = {
+        "dyn_status": np.where(design_status == st.OK, st.NOT_COMPUTED, design_status).astype(
+            np.int8
+        ),
+        "final_state": np.full(n, -1, dtype=np.int64),
+        "reset_time": np.full((n, MAX_UNITS), np.nan),
+        "snap_through": np.full((n, MAX_UNITS), np.nan),
+        "snap_back": np.full((n, MAX_UNITS), np.nan),
+        "unit_class": np.full((n, MAX_UNITS), -1, dtype=np.int8),
+    }
+    simulate = np.flatnonzero(needs_dynamics(batch))
+    if simulate.size:
+        from .dynamics import PressureProfile, reset_times_batch
+
+        profile = PressureProfile(P0=load.P0, tau=load.tau)
+        kwargs = {"t_end": load.t_end}
+        if load.method is not None:
+            kwargs["method"] = load.method
+        result = reset_times_batch(batch.take(simulate), profile, **kwargs)
+        out["dyn_status"][simulate] = result["status"]
+        out["final_state"][simulate] = result["final_state"]
+        for name in ("reset_time", "snap_through", "snap_back", "unit_class"):
+            out[name][simulate] = result[name]
+    out["dyn_status_label"] = out["dyn_status"]
+    return out

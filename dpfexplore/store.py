@@ -1,0 +1,559 @@
+"""Parquet storage of sweep results: schema, atomic chunk commits, manifest, readers.
+
+Layout of a sweep directory::
+
+    results/paper-design-space/
+        _manifest.json          committed chunks (row counts, sizes, SHA-256), job, versions
+        _common_metadata        the dataset's Arrow schema and metadata (Parquet convention)
+        N02/part-000000.parquet one chunk: designs [start, stop) of the plan for N = 2
+        N02/part-000001.parquet
+        N03/...
+
+* One row per design-state, partitioned by number of units (one directory per ``N``; every
+  file also holds the ``n_units`` column, so a chunk file is self-describing). The directory
+  names are not ``key=value`` (Hive) names on purpose: Hive partitioning would hand ``n_units``
+  back to pandas as a categorical that conflicts with the column in the files, whereas
+  ``pandas.read_parquet(DIR)`` of this layout reads plain ``int8``. Readers that want to prune
+  by ``N`` get it from each file's row-group statistics (min = max = N) or from the manifest.
+* The schema is fixed before the first design is evaluated (:func:`dataset_schema`); every
+  field carries its physical unit and a description in its Arrow field metadata
+  (``unit``, ``description``), and the schema metadata key ``dpfexplore`` holds the job
+  spec, seed, fingerprint, model version and package versions (:func:`dataset_metadata`).
+* A chunk is written to a unique temporary name (a leading ``.``, which Parquet readers skip),
+  flushed and fsync-ed, then renamed onto its deterministic name ``N05/part-000012.parquet``:
+  a retried chunk overwrites, it never duplicates, and a reader never sees half a file.
+* ``_manifest.json`` is rewritten (atomically, by rename) *after* each chunk file is in place.
+  It is the commit record: a chunk file the manifest does not list (a crash between rename
+  and manifest write) does not exist for readers or for ``--resume``, which recomputes it.
+  Use :func:`read_results` / :func:`open_dataset`, which read only manifest-listed files;
+  ``pandas.read_parquet(DIR)`` reads every ``part-*.parquet`` and agrees with them once a
+  sweep is complete.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import time
+import uuid
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.dataset as pads
+import pyarrow.parquet as pq
+from numpy.typing import NDArray
+
+from . import status as st
+from .space import JobSpec
+from .version import MODEL_VERSION, package_versions
+
+__all__ = [
+    "FORMAT",
+    "MANIFEST",
+    "ChunkRecord",
+    "Manifest",
+    "StoreError",
+    "chunk_path",
+    "column",
+    "dataset_metadata",
+    "describe_schema",
+    "design_fields",
+    "open_dataset",
+    "read_manifest",
+    "read_results",
+    "remove_leftovers",
+    "table_from_columns",
+    "verify_chunk",
+    "write_chunk",
+    "write_manifest",
+]
+
+#: Identifies the layout; bump when it changes incompatibly.
+FORMAT = "dpfexplore-sweep/1"
+MANIFEST = "_manifest.json"
+COMMON_METADATA = "_common_metadata"
+#: Schema-metadata key of the dataset's JSON metadata.
+METADATA_KEY = b"dpfexplore"
+TEMP_SUFFIX = ".tmp"
+_PART = re.compile(r"^N(\d+)/part-(\d+)\.parquet$")
+
+
+class StoreError(Exception):
+    """A sweep directory that cannot be used as asked (another job's, corrupt, not a sweep)."""
+
+
+# ----------------------------------------------------------------------------- schema
+
+
+def column(
+    name: str, dtype: pa.DataType, unit: str, description: str, *, per_unit: bool = False
+) -> pa.Field:
+    """An Arrow field with its physical unit and description in the field metadata.
+
+    ``per_unit=True`` marks a column of unit ``k`` (``H_3``, ``reset_time_3``): it is null in
+    rows of designs with fewer than ``k`` units.
+    """
+    metadata = {"unit": unit, "description": description}
+    if per_unit:
+        metadata["per_unit"] = "true"
+    return pa.field(name, dtype, nullable=True, metadata=metadata)
+
+
+#: Label of each status code, indexed by code (the codes are 0..n-1; Status(i) fails loudly
+#: at import if that ever stops being true).
+STATUS_LABELS = [st.Status(code).label for code in range(len(st.Status))]
+STATUS_TYPE = pa.dictionary(pa.int8(), pa.string())
+
+_VARIABLE_DOCS = {
+    "H": ("mm", "dome height of unit {k}"),
+    "U_L": ("mm", "unit length of unit {k}"),
+    "U_sep": ("mm", "unit separation of unit {k}"),
+}
+_SHARED_DOCS = {
+    "t": ("mm", "dome thickness"),
+    "t_lim": ("mm", "limiting-layer thickness"),
+    "E": ("MPa", "Young's modulus"),
+    "nu": ("1", "Poisson ratio"),
+    "r_b": ("mm", "dome base radius"),
+    "t_ch": ("mm", "chamber wall thickness"),
+}
+
+
+def design_fields(max_units: int) -> list[pa.Field]:
+    """Columns that identify and describe a design (repeated on each of its state rows)."""
+    fields = [
+        column("design_id", pa.int64(), "1",
+               "design number within the sweep: designs of smaller N first, then plan order"),
+        column("n_units", pa.int8(), "1", "number of units N"),
+        column("sample", pa.int64(), "1", "index of the design in the sample plan of its N"),
+    ]
+    for name, (unit, text) in _VARIABLE_DOCS.items():
+        fields += [
+            column(f"{name}_{k}", pa.float64(), unit, text.format(k=k), per_unit=True)
+            for k in range(1, max_units + 1)
+        ]
+    fields += [
+        column(name, pa.float64(), unit, text) for name, (unit, text) in _SHARED_DOCS.items()
+    ]
+    fields.append(column(
+        "problem", pa.string(), "1",
+        "why the design is invalid (null for a valid design); see status",
+    ))
+    return fields
+
+
+def dataset_metadata(spec: JobSpec) -> dict[str, Any]:
+    """The dataset-level metadata: job spec, seed, fingerprint, model and package versions."""
+    return {
+        "format": FORMAT,
+        "job": spec.to_dict(),
+        "seed": spec.seed,
+        "fingerprint": spec.fingerprint(),
+        "model_version": MODEL_VERSION,
+        "versions": package_versions(),
+    }
+
+
+def with_dataset_metadata(schema: pa.Schema, metadata: Mapping[str, Any]) -> pa.Schema:
+    """``schema`` carrying ``metadata`` as JSON under the ``dpfexplore`` key."""
+    return schema.with_metadata({METADATA_KEY: json.dumps(metadata, sort_keys=True).encode()})
+
+
+def schema_metadata(schema: pa.Schema) -> dict[str, Any]:
+    """The JSON metadata a dataset schema carries (empty if none)."""
+    raw = (schema.metadata or {}).get(METADATA_KEY)
+    return json.loads(raw) if raw else {}
+
+
+def describe_schema(schema: pa.Schema) -> pd.DataFrame:
+    """One row per column: name, Arrow type, unit, description (for documentation)."""
+    rows = []
+    for f in schema:
+        meta = {k.decode(): v.decode() for k, v in (f.metadata or {}).items()}
+        rows.append({
+            "column": f.name,
+            "type": str(f.type),
+            "unit": meta.get("unit", ""),
+            "description": meta.get("description", ""),
+        })
+    return pd.DataFrame(rows)
+
+
+def _unit_of_column(f: pa.Field) -> int | None:
+    if not f.metadata or f.metadata.get(b"per_unit") != b"true":
+        return None
+    return int(f.name.rsplit("_", 1)[1])
+
+
+def table_from_columns(
+    schema: pa.Schema, columns: Mapping[str, Any], n_units: NDArray[np.integer]
+) -> pa.Table:
+    """Build a table of ``schema`` from row-aligned arrays.
+
+    Parameters
+    ----------
+    schema : pyarrow.Schema
+    columns : mapping of str to array_like
+        One entry per field, all of the same length: a NumPy array, or a ready Arrow array of
+        the field's type. A per-unit field ``name_k`` may come as one array ``name`` of shape
+        ``(n_rows, MAX_UNITS)``. Status-label fields (``dictionary<int8, string>``) take the
+        integer codes of :mod:`dpfexplore.status`; string fields take sequences of str/None.
+    n_units : ndarray of int, shape (n_rows,)
+        Units of each row's design: per-unit columns are null past it.
+
+    Raises
+    ------
+    KeyError
+        If a field of the schema has no array (the schema is the contract).
+    """
+    arrays = []
+    n_units = np.asarray(n_units)
+    for f in schema:
+        unit = _unit_of_column(f)
+        if f.name in columns:
+            values = columns[f.name]
+        elif unit is not None and f.name.rsplit("_", 1)[0] in columns:
+            values = np.asarray(columns[f.name.rsplit("_", 1)[0]])[:, unit - 1]
+        else:
+            raise KeyError(f"no values for column {f.name!r}")
+        if isinstance(values, (pa.Array, pa.ChunkedArray)):
+            arrays.append(values if values.type == f.type else values.cast(f.type))
+        elif f.type == STATUS_TYPE:
+            codes = pa.array(np.asarray(values, dtype=np.int8), pa.int8())
+            arrays.append(pa.DictionaryArray.from_arrays(codes, pa.array(STATUS_LABELS)))
+        elif pa.types.is_string(f.type):
+            arrays.append(pa.array(list(values), pa.string()))
+        else:
+            mask = (n_units < unit) if unit is not None else None
+            arrays.append(pa.array(np.asarray(values), type=f.type, mask=mask))
+    return pa.Table.from_arrays(arrays, schema=schema)
+
+
+# ----------------------------------------------------------------------------- chunks
+
+
+@dataclass(frozen=True)
+class ChunkRecord:
+    """A committed chunk file.
+
+    Attributes
+    ----------
+    path : str
+        Relative POSIX path, ``N05/part-000012.parquet``.
+    n_units, index : int
+        Number of units and chunk number within its ``N``.
+    start, stop : int
+        Plan rows (designs) the chunk holds.
+    rows : int
+        Design-state rows in the file.
+    bytes : int
+        File size.
+    sha256 : str
+        Hex digest of the file's bytes.
+    statuses : dict of str to int
+        Rows per status label (for summaries without reading the data).
+    """
+
+    path: str
+    n_units: int
+    index: int
+    start: int
+    stop: int
+    rows: int
+    bytes: int
+    sha256: str
+    statuses: dict[str, int] = field(default_factory=dict)
+
+
+def chunk_path(n_units: int, index: int) -> str:
+    """Deterministic relative path of chunk ``index`` of the plan for ``n_units``."""
+    return f"N{n_units:02d}/part-{index:06d}.parquet"
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:  # not every platform can open a directory
+        return
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _atomic_write(path: Path, data: bytes | memoryview) -> None:
+    """Write ``data`` to ``path`` through a unique temporary file and a rename."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}{TEMP_SUFFIX}")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+
+
+def write_chunk(
+    root: str | Path, n_units: int, index: int, start: int, stop: int, table: pa.Table
+) -> ChunkRecord:
+    """Write one chunk file atomically and return its record (the manifest is not touched).
+
+    Safe to run twice for the same chunk, even concurrently (a retried task): each writer has
+    its own temporary file and the last rename wins; both wrote the same bytes.
+    """
+    root = Path(root)
+    relpath = chunk_path(n_units, index)
+    target = root / relpath
+    target.parent.mkdir(parents=True, exist_ok=True)
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink, compression="zstd")
+    buffer = sink.getvalue()
+    digest = hashlib.sha256(memoryview(buffer)).hexdigest()
+    _atomic_write(target, memoryview(buffer))
+    return ChunkRecord(
+        path=relpath, n_units=n_units, index=index, start=start, stop=stop,
+        rows=table.num_rows, bytes=buffer.size, sha256=digest,
+    )
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def verify_chunk(root: str | Path, record: ChunkRecord, *, checksum: bool = True) -> str | None:
+    """Why a committed chunk cannot be trusted any more, or None if it is intact."""
+    path = Path(root) / record.path
+    try:
+        size = path.stat().st_size
+    except FileNotFoundError:
+        return "missing"
+    if size != record.bytes:
+        return f"size {size} != {record.bytes} bytes"
+    if checksum and file_sha256(path) != record.sha256:
+        return "checksum mismatch"
+    return None
+
+
+def remove_leftovers(root: str | Path) -> list[Path]:
+    """Delete temporary files of interrupted writes; returns what was removed.
+
+    Call it only while no writer runs (before a sweep starts or after it ends).
+    """
+    root = Path(root)
+    removed = []
+    for path in [*root.glob(f".*{TEMP_SUFFIX}"), *root.glob(f"N*/.*{TEMP_SUFFIX}")]:
+        path.unlink(missing_ok=True)
+        removed.append(path)
+    return removed
+
+
+def part_files(root: str | Path) -> list[str]:
+    """Relative paths of every chunk file present, committed or not."""
+    root = Path(root)
+    found = []
+    for path in root.glob("N*/part-*.parquet"):
+        rel = path.relative_to(root).as_posix()
+        if _PART.match(rel):
+            found.append(rel)
+    return sorted(found)
+
+
+# ----------------------------------------------------------------------------- manifest
+
+
+@dataclass
+class Manifest:
+    """The commit record of a sweep directory (``_manifest.json``).
+
+    Attributes
+    ----------
+    fingerprint : str
+        :meth:`JobSpec.fingerprint` of the job that owns the directory.
+    job : dict
+        The job as :meth:`JobSpec.to_dict`.
+    result_defining : dict
+        :meth:`JobSpec.result_defining`, to name the first differing key on a refused resume.
+    model_version : str
+    versions : dict
+        Package versions of the run that created the directory.
+    plan : dict of int to int
+        Designs per ``N``.
+    chunk_sizes : dict of int to int
+        Designs per chunk for each ``N`` (fixed when the directory is created).
+    chunks : dict of str to ChunkRecord
+        Committed chunks by relative path.
+    complete : bool
+        Every chunk of the plan is committed.
+    """
+
+    fingerprint: str
+    job: dict[str, Any]
+    result_defining: dict[str, Any]
+    model_version: str
+    versions: dict[str, str]
+    plan: dict[int, int]
+    chunk_sizes: dict[int, int]
+    chunks: dict[str, ChunkRecord] = field(default_factory=dict)
+    complete: bool = False
+    format: str = FORMAT
+    created: str = ""
+    updated: str = ""
+
+    @property
+    def n_rows(self) -> int:
+        """Committed design-state rows."""
+        return sum(record.rows for record in self.chunks.values())
+
+    @property
+    def n_designs_committed(self) -> int:
+        """Committed designs."""
+        return sum(record.stop - record.start for record in self.chunks.values())
+
+    def to_json(self) -> str:
+        """Canonical JSON text."""
+        data = asdict(self)
+        data["plan"] = {str(k): v for k, v in self.plan.items()}
+        data["chunk_sizes"] = {str(k): v for k, v in self.chunk_sizes.items()}
+        data["chunks"] = {k: asdict(v) for k, v in sorted(self.chunks.items())}
+        return json.dumps(data, indent=1, sort_keys=True) + "\n"
+
+    @classmethod
+    def from_json(cls, text: str) -> Manifest:
+        """Parse :meth:`to_json` output."""
+        data = json.loads(text)
+        data["plan"] = {int(k): int(v) for k, v in data["plan"].items()}
+        data["chunk_sizes"] = {int(k): int(v) for k, v in data["chunk_sizes"].items()}
+        data["chunks"] = {k: ChunkRecord(**v) for k, v in data["chunks"].items()}
+        return cls(**data)
+
+
+def write_manifest(root: str | Path, manifest: Manifest) -> None:
+    """Replace ``_manifest.json`` atomically (the commit point of every chunk it lists)."""
+    now = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    if not manifest.created:
+        manifest.created = now
+    manifest.updated = now
+    _atomic_write(Path(root) / MANIFEST, manifest.to_json().encode())
+
+
+def read_manifest(root: str | Path) -> Manifest:
+    """The manifest of a sweep directory.
+
+    Raises
+    ------
+    StoreError
+        If the directory has no manifest or an unreadable one.
+    """
+    path = Path(root) / MANIFEST
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise StoreError(f"{root}: not a sweep directory (no {MANIFEST})") from None
+    try:
+        manifest = Manifest.from_json(text)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise StoreError(f"{path}: unreadable manifest ({exc})") from None
+    if manifest.format != FORMAT:
+        raise StoreError(f"{path}: format {manifest.format!r}, this dpfexplore reads {FORMAT!r}")
+    return manifest
+
+
+def write_common_metadata(root: str | Path, schema: pa.Schema) -> None:
+    """Write the dataset schema to ``_common_metadata`` (atomically)."""
+    sink = pa.BufferOutputStream()
+    pq.write_metadata(schema, sink)
+    _atomic_write(Path(root) / COMMON_METADATA, memoryview(sink.getvalue()))
+
+
+def read_schema(root: str | Path) -> pa.Schema:
+    """The dataset schema (with field and dataset metadata) of a sweep directory."""
+    path = Path(root) / COMMON_METADATA
+    try:
+        return pq.read_schema(path)
+    except FileNotFoundError:
+        raise StoreError(f"{root}: not a sweep directory (no {COMMON_METADATA})") from None
+
+
+# ----------------------------------------------------------------------------- readers
+
+
+def committed_files(root: str | Path, manifest: Manifest | None = None) -> list[Path]:
+    """Manifest-listed chunk files, in (N, chunk) order."""
+    root = Path(root)
+    manifest = manifest or read_manifest(root)
+    records = sorted(manifest.chunks.values(), key=lambda r: (r.n_units, r.index))
+    return [root / record.path for record in records]
+
+
+def open_dataset(root: str | Path) -> pads.Dataset:
+    """A :mod:`pyarrow.dataset` over the committed chunks only, with the dataset schema."""
+    root = Path(root)
+    files = [str(p) for p in committed_files(root)]
+    return pads.dataset(files, schema=read_schema(root), format="parquet")
+
+
+def _referenced_columns(where: str, names: Sequence[str]) -> list[str]:
+    tokens = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", where))
+    return [name for name in names if name in tokens]
+
+
+def iter_results(
+    root: str | Path, *, columns: Sequence[str] | None = None, where: str | None = None
+) -> Iterator[pd.DataFrame]:
+    """Committed rows chunk by chunk, filtered with ``DataFrame.query(where)``.
+
+    Memory stays bounded by one chunk (plus what the caller keeps).
+
+    Raises
+    ------
+    KeyError
+        For a column that is not in the dataset.
+    ValueError
+        For a ``where`` expression pandas cannot evaluate on these columns.
+    """
+    root = Path(root)
+    schema = read_schema(root)
+    names = schema.names
+    wanted = list(columns) if columns else list(names)
+    unknown = [c for c in wanted if c not in names]
+    if unknown:
+        raise KeyError(f"unknown column {unknown[0]!r}; columns: {', '.join(names)}")
+    needed = list(dict.fromkeys([*wanted, *(_referenced_columns(where, names) if where else [])]))
+    for path in committed_files(root):
+        frame = pq.read_table(path, columns=needed, schema=schema).to_pandas()
+        if where:
+            try:
+                frame = frame.query(where)
+            except Exception as exc:  # pandas raises many types for bad expressions
+                message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                raise ValueError(f"--where {where!r}: {message}") from None
+        yield frame[wanted]
+
+
+def read_results(
+    root: str | Path, *, columns: Sequence[str] | None = None, where: str | None = None
+) -> pd.DataFrame:
+    """Committed rows of a sweep directory as one DataFrame (see :func:`iter_results`)."""
+    frames = list(iter_results(root, columns=columns, where=where))
+    non_empty = [f for f in frames if len(f)]
+    if non_empty:
+        return pd.concat(non_empty, ignore_index=True)
+    if frames:
+        return frames[0].reset_index(drop=True)
+    empty = read_schema(root).empty_table().to_pandas()
+    return empty[list(columns)] if columns else empty

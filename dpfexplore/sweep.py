@@ -1,0 +1,561 @@
+"""Chunked evaluation of a sweep job into a resumable Parquet dataset.
+
+:func:`run_sweep` is the whole job: it checks the output directory, rebuilds the plan of chunks
+from the job, hands the chunks that are not committed yet to an engine
+(:mod:`dpfexplore.engines`: this process, or Dask workers), and commits each finished chunk in
+the manifest (:mod:`dpfexplore.store`). A chunk is ``[start, stop)`` of the sample plan of one
+number of units ``N``; the chunk evaluates its designs through the batch kernels
+(:func:`run_chunk`), writes one Parquet file, and returns its
+:class:`~dpfexplore.store.ChunkRecord`.
+
+Invariants (tested in ``tests/test_sweep*.py``)
+    * Every design of the plan has at least one row, whatever its fate: an invalid design keeps
+      one row with its status (``invalid_input``, ``invalid_constants``) and the reason in
+      ``problem``; a state that does not exist keeps its row as ``collapsed``.
+    * Rows do not depend on the chunk size, the engine or the number of workers: sampling is
+      chunk-invariant (:mod:`dpfexplore.sampling`) and each row is computed from its own design.
+    * Resume (``resume=True``) recomputes exactly the chunks the manifest does not list or whose
+      files fail their size and checksum test, after removing temporary leftovers and unlisted
+      part files; it refuses a directory made by another job or another model version.
+    * Peak memory is bounded by the chunk size: a chunk's designs and rows live only while it is
+      evaluated and written; the driver keeps only chunk records.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import logging
+import threading
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+import pyarrow as pa
+
+from . import store
+from .design import DesignBatch
+from .evaluation import Evaluator, StaticsEvaluator
+from .sampling import sample_designs
+from .space import PER_UNIT_VARIABLES, SHARED_VARIABLES, ComputeSpec, JobSpec
+from .store import ChunkRecord, Manifest, StoreError
+from .version import MODEL_VERSION, package_versions
+
+if TYPE_CHECKING:
+    from .engines import Engine
+
+__all__ = [
+    "ChunkFailure",
+    "ChunkTask",
+    "Progress",
+    "SweepContext",
+    "SweepSummary",
+    "compute_chunk",
+    "dataset_schema",
+    "default_chunk_size",
+    "evaluate_chunk",
+    "plan_chunks",
+    "run_chunk",
+    "run_sweep",
+    "write_chunk_file",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Target design-state rows per chunk when the job does not set ``chunk_size``: about 10-20 MB
+#: of rows in memory, a few seconds of work on two cores.
+TARGET_CHUNK_ROWS = 1 << 15
+#: Bounds of the default chunk size, in designs.
+MIN_CHUNK_DESIGNS, MAX_CHUNK_DESIGNS = 16, 4096
+
+
+def rows_per_design(states: str, n_units: int) -> int:
+    """Design-state rows of one valid design: 1, ``N + 1`` or ``2^N``."""
+    return {"all_inverted": 1, "sequential": n_units + 1, "all": 2**n_units}[states]
+
+
+def default_chunk_size(compute: ComputeSpec, n_units: int) -> int:
+    """Designs per chunk for ``n_units`` when the job does not say.
+
+    About :data:`TARGET_CHUNK_ROWS` rows, clipped to [:data:`MIN_CHUNK_DESIGNS`,
+    :data:`MAX_CHUNK_DESIGNS`] designs.
+    """
+    per = rows_per_design(compute.states, n_units)
+    return int(np.clip(TARGET_CHUNK_ROWS // per, MIN_CHUNK_DESIGNS, MAX_CHUNK_DESIGNS))
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """Designs ``[start, stop)`` of the plan for ``n_units`` units, chunk number ``index``."""
+
+    n_units: int
+    index: int
+    start: int
+    stop: int
+
+    @property
+    def path(self) -> str:
+        """Relative path of the chunk's file."""
+        return store.chunk_path(self.n_units, self.index)
+
+    @property
+    def n_designs(self) -> int:
+        """Designs in the chunk."""
+        return self.stop - self.start
+
+
+@dataclass(frozen=True)
+class ChunkFailure:
+    """A chunk an engine could not complete (after its retries); the sweep goes on without it."""
+
+    task: ChunkTask
+    error: str
+
+
+def plan_chunks(spec: JobSpec, chunk_sizes: Mapping[int, int]) -> list[ChunkTask]:
+    """Every chunk of the job, in (N, start) order."""
+    tasks = []
+    for n_units in spec.space.n_units:
+        size = chunk_sizes[n_units]
+        for index, start in enumerate(range(0, spec.samples_per_n, size)):
+            tasks.append(ChunkTask(n_units, index, start, min(start + size, spec.samples_per_n)))
+    return tasks
+
+
+def dataset_schema(spec: JobSpec, evaluator: Evaluator) -> pa.Schema:
+    """The dataset's schema: design columns, the evaluator's columns, the dataset metadata."""
+    fields = [*store.design_fields(spec.max_units), *evaluator.fields(spec.max_units)]
+    return store.with_dataset_metadata(pa.schema(fields), store.dataset_metadata(spec))
+
+
+@dataclass(frozen=True)
+class SweepContext:
+    """Everything a worker needs to evaluate and write a chunk (picklable).
+
+    Attributes
+    ----------
+    spec : JobSpec
+    evaluator : Evaluator
+    schema : pyarrow.Schema
+        The dataset schema (:func:`dataset_schema`).
+    root : str
+        Sweep directory (on a filesystem the workers share with the driver).
+    """
+
+    spec: JobSpec
+    evaluator: Evaluator
+    schema: pa.Schema
+    root: str
+
+
+def _design_columns(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
+    n_units_list = spec.space.n_units
+    offset = n_units_list.index(task.n_units) * spec.samples_per_n
+    sample = np.arange(task.start, task.stop, dtype=np.int64)
+    columns: dict[str, object] = {
+        "design_id": offset + sample,
+        "n_units": batch.n_units.astype(np.int8),
+        "sample": sample,
+    }
+    for name in PER_UNIT_VARIABLES:
+        columns[name] = getattr(batch, name)
+    for name in SHARED_VARIABLES:
+        columns[name] = getattr(batch, name)
+    columns["problem"] = batch.problems()[1]
+    return columns
+
+
+def evaluate_chunk(
+    spec: JobSpec, evaluator: Evaluator, schema: pa.Schema, task: ChunkTask
+) -> pa.Table:
+    """Sample, evaluate and tabulate one chunk (no file I/O)."""
+    batch = sample_designs(spec, task.n_units, task.start, task.stop)
+    rows = dict(evaluator(batch))
+    index = np.asarray(rows.pop("design_index"), dtype=np.int64)
+    missing = np.setdiff1d(np.arange(len(batch)), index)
+    if missing.size:  # the contract: every design keeps a row
+        raise RuntimeError(f"evaluator returned no row for designs {missing[:5].tolist()} ...")
+    columns: dict[str, object] = {}
+    for name, values in _design_columns(spec, batch, task).items():
+        if isinstance(values, list):
+            columns[name] = [values[i] for i in index]
+        else:
+            columns[name] = np.asarray(values)[index]
+    columns.update(rows)
+    return store.table_from_columns(schema, columns, n_units=batch.n_units[index])
+
+
+# Batch kernels must not run from two threads of one process at once (Numba's workqueue layer
+# aborts, and any layer would oversubscribe the cores); a Dask worker with several threads runs
+# its chunks one after another through this lock.
+_PROCESS_LOCK = threading.Lock()
+
+
+def compute_chunk(
+    context: SweepContext, task: ChunkTask, numba_threads: int | None = None
+) -> pa.Table:
+    """Evaluate one chunk into its table, holding the process's kernel lock.
+
+    Parameters
+    ----------
+    context : SweepContext
+    task : ChunkTask
+    numba_threads : int, optional
+        Threads for the batch kernels in this call (``numba.set_num_threads``, which is per
+        calling thread); None leaves Numba's setting alone.
+    """
+    with _PROCESS_LOCK:
+        if numba_threads is not None:
+            import numba
+
+            numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
+        return evaluate_chunk(context.spec, context.evaluator, context.schema, task)
+
+
+def write_chunk_file(context: SweepContext, task: ChunkTask, table: pa.Table) -> ChunkRecord:
+    """Write a computed chunk atomically; its record carries the row count per status."""
+    record = store.write_chunk(context.root, task.n_units, task.index, task.start, task.stop, table)
+    if "status_label" in table.column_names:
+        counts = table.column("status_label").combine_chunks().dictionary_decode().value_counts()
+        statuses = {str(entry["values"]): int(entry["counts"]) for entry in counts.to_pylist()}
+        record = dataclasses.replace(record, statuses=dict(sorted(statuses.items())))
+    return record
+
+
+def run_chunk(
+    context: SweepContext, task: ChunkTask, numba_threads: int | None = None
+) -> ChunkRecord:
+    """Evaluate one chunk and write its file (not the manifest): what a worker does."""
+    return write_chunk_file(context, task, compute_chunk(context, task, numba_threads))
+
+
+# ----------------------------------------------------------------------------- driver
+
+
+class Progress(Protocol):
+    """Receives the sweep's progress (the CLI shows a bar or log lines)."""
+
+    def start(self, total_designs: int, done_designs: int) -> None:
+        """Called once before the first chunk, with designs already committed."""
+
+    def advance(self, record: ChunkRecord) -> None:
+        """Called after each chunk is committed."""
+
+    def close(self) -> None:
+        """Called once at the end."""
+
+    # Optional: ``note(text)``, told what the sweep is doing before the first chunk (compiling
+    # kernels takes a minute on a cold cache).
+
+
+def _note(progress: Progress, text: str) -> None:
+    note = getattr(progress, "note", None)
+    if note is not None:
+        note(text)
+    logger.info("sweep: %s", text)
+
+
+class LogProgress:
+    """Progress as log lines (INFO) at most every ``interval`` seconds: done, rate, ETA."""
+
+    def __init__(self, interval: float = 10.0, log: logging.Logger = logger) -> None:
+        self.interval = interval
+        self.log = log
+        self.total = self.done = self.at_start = 0
+        self.started = self.last = 0.0
+
+    def start(self, total_designs: int, done_designs: int) -> None:
+        self.total, self.done, self.at_start = total_designs, done_designs, done_designs
+        self.started = self.last = time.perf_counter()
+        self.log.info("sweep: %d of %d designs already committed", done_designs, total_designs)
+
+    def advance(self, record: ChunkRecord) -> None:
+        self.done += record.stop - record.start
+        now = time.perf_counter()
+        if now - self.last >= self.interval or self.done >= self.total:
+            self.last = now
+            rate = (self.done - self.at_start) / max(now - self.started, 1e-9)
+            eta = (self.total - self.done) / rate if rate > 0 else float("inf")
+            self.log.info(
+                "sweep: %d/%d designs (%.1f %%), %.0f designs/s, ETA %.0f s",
+                self.done, self.total, 100.0 * self.done / max(self.total, 1), rate, eta,
+            )
+
+    def close(self) -> None:
+        pass
+
+
+@dataclass
+class SweepSummary:
+    """What a :func:`run_sweep` call did.
+
+    Attributes
+    ----------
+    out : Path
+    n_designs : int
+        Designs in the whole job.
+    designs_computed : int
+        Designs evaluated by this call (the rest were committed before).
+    rows : int
+        Committed design-state rows in the dataset.
+    chunks_total, chunks_computed, chunks_reused : int
+    failures : list of ChunkFailure
+        Chunks that could not be computed; the manifest stays incomplete, ``--resume`` retries.
+    complete : bool
+    statuses : dict of str to int
+        Rows per status label in the whole dataset.
+    wall_s : float
+        Wall time of the call, s.
+    timings : dict of str to float
+        Phases, s: the engine's (``compile_s``; Dask: ``cluster_start_s``,
+        ``worker_warmup_s``, ``cluster_close_s``) and ``chunks_s``, from the first chunk
+        submitted to the last one committed.
+    engine : str
+    """
+
+    out: Path
+    n_designs: int
+    designs_computed: int = 0
+    rows: int = 0
+    chunks_total: int = 0
+    chunks_computed: int = 0
+    chunks_reused: int = 0
+    failures: list[ChunkFailure] = field(default_factory=list)
+    complete: bool = False
+    statuses: dict[str, int] = field(default_factory=dict)
+    wall_s: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+    engine: str = ""
+
+
+@dataclass
+class _Prepared:
+    manifest: Manifest
+    tasks: list[ChunkTask]
+    pending: list[ChunkTask]
+    fresh: bool
+    dropped: list[tuple[str, str]] = field(default_factory=list)
+
+
+def _chunk_sizes(spec: JobSpec, chunk_size: int | None) -> dict[int, int]:
+    size = chunk_size if chunk_size is not None else spec.chunk_size
+    return {
+        n: (size if size is not None else default_chunk_size(spec.compute, n))
+        for n in spec.space.n_units
+    }
+
+
+def check_output(
+    spec: JobSpec, out: str | Path, *, resume: bool = False, chunk_size: int | None = None
+) -> _Prepared:
+    """Decide what a sweep into ``out`` will do, without writing anything.
+
+    Raises
+    ------
+    StoreError
+        ``out`` holds another job's data, data of another model version, files that are not a
+        sweep, or this job's data without ``resume``; or ``chunk_size`` contradicts the
+        directory's.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise StoreError(f"--out {out}: exists and is not a directory")
+    # A run killed while creating the directory leaves at most temporary files behind.
+    has_files = out.is_dir() and any(
+        not (p.name.startswith(".") and p.name.endswith(store.TEMP_SUFFIX)) for p in out.iterdir()
+    )
+    if not has_files:
+        sizes = _chunk_sizes(spec, chunk_size)
+        manifest = Manifest(
+            fingerprint=spec.fingerprint(),
+            job=spec.to_dict(),
+            result_defining=spec.result_defining(),
+            model_version=MODEL_VERSION,
+            versions=package_versions(),
+            plan={n: spec.samples_per_n for n in spec.space.n_units},
+            chunk_sizes=sizes,
+        )
+        tasks = plan_chunks(spec, sizes)
+        return _Prepared(manifest, tasks, list(tasks), fresh=True)
+    if not (out / store.MANIFEST).exists():
+        raise StoreError(f"--out {out}: not empty and not a sweep directory (no {store.MANIFEST})")
+    manifest = store.read_manifest(out)
+    if manifest.fingerprint != spec.fingerprint():
+        key = spec.first_difference(manifest.result_defining) or "job"
+        raise StoreError(
+            f"--out {out}: holds another job's data ({key} differs: this job has "
+            f"{_lookup(spec.result_defining(), key)!r}, the directory's has "
+            f"{_lookup(manifest.result_defining, key)!r}); choose another --out"
+        )
+    if manifest.model_version != MODEL_VERSION:
+        raise StoreError(
+            f"--out {out}: written by model version {manifest.model_version!r}, this is "
+            f"{MODEL_VERSION!r}; results of two model versions cannot share a dataset"
+        )
+    if not resume:
+        raise StoreError(
+            f"--out {out}: already holds this job ({manifest.n_designs_committed} of "
+            f"{spec.n_designs} designs committed); pass --resume to continue it"
+        )
+    if chunk_size is not None and any(s != chunk_size for s in manifest.chunk_sizes.values()):
+        raise StoreError(
+            f"--chunk-size {chunk_size}: the directory was started with chunk sizes "
+            f"{sorted(set(manifest.chunk_sizes.values()))}; resume keeps them"
+        )
+    tasks = plan_chunks(spec, manifest.chunk_sizes)
+    expected = {task.path: task for task in tasks}
+    dropped = []
+    for path, record in list(manifest.chunks.items()):
+        task = expected.get(path)
+        if task is None or (record.start, record.stop) != (task.start, task.stop):
+            dropped.append((path, "not in the plan"))
+            continue
+        problem = store.verify_chunk(out, record)
+        if problem is not None:
+            dropped.append((path, problem))
+    pending = [t for t in tasks if t.path not in manifest.chunks or t.path in dict(dropped)]
+    return _Prepared(manifest, tasks, pending, fresh=False, dropped=dropped)
+
+
+def _lookup(data: Mapping, dotted: str) -> object:
+    for part in dotted.split("."):
+        if not isinstance(data, Mapping) or part not in data:
+            return None
+        data = data[part]
+    return data
+
+
+def _open_output(out: Path, prepared: _Prepared, schema: pa.Schema) -> None:
+    """Create a fresh directory, or clean a resumed one, so that only committed chunks remain."""
+    manifest = prepared.manifest
+    if prepared.fresh:
+        out.mkdir(parents=True, exist_ok=True)
+        store.remove_leftovers(out)
+        # Manifest first: from then on the directory is this job's, whatever happens next.
+        store.write_manifest(out, manifest)
+        store.write_common_metadata(out, schema)
+        return
+    for path, why in prepared.dropped:
+        logger.warning("resume: recomputing %s (%s)", path, why)
+        manifest.chunks.pop(path, None)
+    manifest.complete = False
+    store.write_manifest(out, manifest)
+    removed = store.remove_leftovers(out)
+    if removed:
+        logger.info("resume: removed %d temporary leftovers", len(removed))
+    for rel in store.part_files(out):
+        if rel not in manifest.chunks:  # renamed into place, never committed: recomputed
+            (out / rel).unlink(missing_ok=True)
+    if not (out / store.COMMON_METADATA).exists():
+        store.write_common_metadata(out, schema)
+
+
+def run_sweep(
+    spec: JobSpec,
+    out: str | Path,
+    *,
+    resume: bool = False,
+    engine: Engine | None = None,
+    evaluator: Evaluator | None = None,
+    chunk_size: int | None = None,
+    progress: Progress | None = None,
+) -> SweepSummary:
+    """Evaluate a job into a sweep directory (or finish one with ``resume=True``).
+
+    Parameters
+    ----------
+    spec : JobSpec
+    out : path
+        Sweep directory; created if absent. It must be empty, or (with ``resume``) hold this job.
+    resume : bool
+        Continue a directory made by the same job and model version.
+    engine : Engine, optional
+        Where chunks run (:class:`dpfexplore.engines.LocalEngine` by default).
+    evaluator : Evaluator, optional
+        What a chunk computes (:class:`~dpfexplore.evaluation.StaticsEvaluator` of
+        ``spec.compute`` by default).
+    chunk_size : int, optional
+        Designs per chunk for a new directory (overrides the job's ``chunk_size``).
+    progress : Progress, optional
+        Progress receiver (log lines by default).
+
+    Returns
+    -------
+    SweepSummary
+
+    Raises
+    ------
+    StoreError
+        If ``out`` cannot be used (see :func:`check_output`); nothing is written then.
+    """
+    from .engines import LocalEngine
+
+    started = time.perf_counter()
+    out = Path(out)
+    evaluator = evaluator if evaluator is not None else StaticsEvaluator(spec.compute)
+    engine = engine if engine is not None else LocalEngine()
+    progress = progress if progress is not None else LogProgress()
+    prepared = check_output(spec, out, resume=resume, chunk_size=chunk_size)
+    schema = dataset_schema(spec, evaluator)
+    _open_output(out, prepared, schema)
+    manifest = prepared.manifest
+    summary = SweepSummary(
+        out=out,
+        n_designs=spec.n_designs,
+        chunks_total=len(prepared.tasks),
+        chunks_reused=len(prepared.tasks) - len(prepared.pending),
+        engine=engine.name,
+    )
+    context = SweepContext(spec=spec, evaluator=evaluator, schema=schema, root=str(out.resolve()))
+    try:
+        if prepared.pending:
+            _note(progress, f"compiling kernels and starting the {engine.name} engine")
+            engine.start(context)
+        progress.start(spec.n_designs, manifest.n_designs_committed)
+        chunks_started = time.perf_counter()
+        try:
+            for outcome in engine.run(context, prepared.pending) if prepared.pending else ():
+                if isinstance(outcome, ChunkFailure):
+                    logger.error("chunk %s failed: %s", outcome.task.path, outcome.error)
+                    summary.failures.append(outcome)
+                    continue
+                _commit(out, manifest, outcome)
+                summary.chunks_computed += 1
+                summary.designs_computed += outcome.stop - outcome.start
+                progress.advance(outcome)
+        finally:
+            progress.close()
+            chunks_s = time.perf_counter() - chunks_started
+    finally:
+        engine.close()
+    manifest.complete = len(manifest.chunks) == len(prepared.tasks)
+    store.write_manifest(out, manifest)
+    store.remove_leftovers(out)
+    summary.complete = manifest.complete
+    summary.rows = manifest.n_rows
+    summary.statuses = _status_totals(manifest.chunks.values())
+    summary.timings = {**engine.timings, "chunks_s": chunks_s}
+    summary.wall_s = time.perf_counter() - started
+    return summary
+
+
+def _commit(out: Path, manifest: Manifest, record: ChunkRecord) -> None:
+    problem = store.verify_chunk(out, record, checksum=False)
+    if problem is not None:
+        raise StoreError(
+            f"chunk {record.path}: a worker reported it written, but here it is {problem}; "
+            "with --scheduler, --out must be a directory the workers share with this machine"
+        )
+    manifest.chunks[record.path] = record
+    store.write_manifest(out, manifest)
+
+
+def _status_totals(records: Iterable[ChunkRecord]) -> dict[str, int]:
+    totals: collections.Counter[str] = collections.Counter()
+    for record in records:
+        totals.update(record.statuses)
+    return dict(sorted(totals.items()))
+

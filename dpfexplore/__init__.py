@@ -29,9 +29,11 @@ Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as _distribution_version
 
 from .design import MATERIALS, Design, DesignBatch, Material, load_design
+from .dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
 from .lattice import spring_constants
 from .statics import (
     SolverOptions,
@@ -41,10 +43,13 @@ from .statics import (
     sequential_states,
     solve_batch,
 )
+from .space import load_job
 from .status import Status
+from .store import read_results
+from .sweep import run_sweep
 
 try:
-    __version__ = version("dpfexplore")
+    __version__ = _distribution_version("dpfexplore")
 except PackageNotFoundError:  # running from a source tree without installing
     __version__ = "0+unknown"
 
@@ -53,13 +58,20 @@ __all__ = [
     "Design",
     "DesignBatch",
     "Material",
+    "PressureProfile",
+    "SimulationResult",
     "SolverOptions",
     "StateResult",
     "Status",
     "enumerate_states",
     "find_state",
     "load_design",
+    "load_job",
+    "read_results",
+    "reset_times_batch",
+    "run_sweep",
     "sequential_states",
+    "simulate",
     "solve_batch",
     "spring_constants",
 ]

@@ -38,7 +38,7 @@ Layout of a job file (lengths in mm, ``E`` in MPa, pressure in MPa, times in s):
     stiffness = true              # tip stiffness of each state
     min_eig = false               # smallest Hessian eigenvalue of each state
 
-    [compute.reset_times]         # optional: reset times of the non-bistable units
+    [compute.reset_times]         # optional: simulate the pressure cycle; reset times per unit
     P0 = 0.7                      # pressure plateau, MPa
     tau = [0.0, 1.0, 5.0, 5.1]    # tau1..tau4 of the pressure profile (MODEL.md §8), s
     t_end = 10.0                  # simulation horizon, s
@@ -205,8 +205,10 @@ class ComputeSpec:
     min_eig : bool
         Smallest Hessian eigenvalue of each state (N/mm).
     reset_times : PressureLoad or None
-        Simulate the pressure cycle and store reset times, for designs with at least one
-        unit that is not bistable in isolation (the others cannot reset).
+        Simulate the pressure cycle of every valid design and store each unit's snap and
+        reset times and its class in the finger (bistable units report ``inf``). No static
+        screen is safe: a dome that is bistable in isolation (``alpha < 1/9``) can still
+        reset inside its finger, whose bending stiffness adds to its restoring force.
     """
 
     states: str = "all_inverted"

@@ -14,4 +14,16 @@ states
     Geometric guess, stable-state search and per-state outputs (MODEL.md §6-§7).
 batch
     ``prange`` entry points evaluating many designs on the kernels above.
+dynamics
+    Right-hand side of the damped lattice under pressure (MODEL.md §8) and its Jacobians.
+dense_lu
+    Banded LU with partial pivoting for the (unsymmetric) stage matrices of the integrators.
+integrators_rosenbrock, integrators_explicit
+    Rodas4 (full and overdamped models) and Dormand-Prince 5(4), with step and time caps.
+events
+    Dense-output event location: snap-through, snap-back and reset times.
+reduced
+    The release model: a cheaper reset-time model with its error measured.
+dynamics_batch
+    ``prange`` entry point for reset times of many designs.
 """

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
-BENCHMARKS = ("statics",)
+BENCHMARKS = ("statics", "sweep", "dynamics")
 
 
 def register(subparsers) -> None:

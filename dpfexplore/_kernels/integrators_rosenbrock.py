@@ -1,0 +1,347 @@
+"""Rodas4: a stiffly accurate, L-stable Rosenbrock method on the analytic Jacobian.
+
+Why Rosenbrock, why Rodas4
+    The lattice is small (``4N - 2 <= 46`` coordinates) and its Jacobian is cheap and exact:
+    the Hessian from :func:`.lattice.assemble`, the damping matrix, the damping's position
+    derivative and the pressure-follower Jacobian (:mod:`.dynamics`). A Rosenbrock method uses it
+    directly: one LU factorisation per step and six linear solves, no Newton iterations whose
+    convergence could fail or need tuning. Rodas4 (Hairer & Wanner, *Solving ODEs II*, §VI.4,
+    coefficients of their code RODAS) is L-stable and stiffly accurate, of order 4 with an
+    embedded order-3 error estimate, and keeps its order on index-1 differential-algebraic
+    systems. That last property lets one kernel integrate both models:
+
+    * the full model, ``ẋ = v``, ``m v̇ = R(x, v, t)`` with ``R = F_ext - ∇E - F_damp - η_iso v``:
+      the velocities relax on ``m/η ≈ 1e-5 s``, which L-stability damps without resolving;
+    * the overdamped model, the same equations with ``m = 0``: ``0 = R(x, v, t)`` is an
+      index-1 algebraic equation for ``v`` (``C(x) v = F_ext - ∇E``), solved by the method itself
+      instead of factorising ``C`` at every stage.
+
+Linear algebra
+    With the mass matrix ``diag(I, m I)`` the stage system
+    ``(diag(I, mI)/(hγ) - J) k = r`` reduces, eliminating ``k_v = k_x/(hγ) - r_x``, to
+    ``S k_x = r_v + (m/(hγ) + C) r_x`` with ``S = m/(hγ)² + C/(hγ) + H + D - P_J``:
+    ``H`` the Hessian, ``C`` the damping matrix, ``D = ∂F_damp/∂x`` at the step's velocities,
+    ``P_J = ∂F_ext/∂x``. ``S`` is not symmetric (``P_J``), hence an LU factorisation.
+
+Error control
+    On the positions only (mixed ``atol`` mm / ``rtol``): events and outputs depend only on
+    positions, and the velocities of both models are slaved to them on every time scale the
+    steps resolve. A failed factorisation or a non-finite stage counts as a rejected step
+    (step divided by 4); steps below ``CTRL_H_MIN`` or more than ``CTRL_MAX_STEPS`` end the run
+    with a status instead of hanging.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import status as st
+from .._jit import kernel
+from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
+from .dense_lu import lu_factor, lu_solve
+from .dynamics import (
+    PHYS_ETA,
+    PHYS_ETA_ISO,
+    PHYS_MASS,
+    add_pressure_forces,
+    damping_matrix,
+    force_residual,
+    stiffness_jacobian,
+)
+from .events import (
+    CTRL_ATOL,
+    CTRL_H_INIT,
+    CTRL_H_MAX,
+    CTRL_H_MIN,
+    CTRL_MAX_STEPS,
+    CTRL_RTOL,
+    CTRL_STOP_WHEN_RESET,
+    CTRL_TAU_END,
+    STAT_FACTOR,
+    STAT_REJECTED,
+    STAT_RHS,
+    STAT_STEPS,
+    STAT_STOPPED_EARLY,
+    all_reset,
+    error_norm,
+    init_record,
+    next_knot,
+    pressure_slope,
+    process_step,
+    record_initial_samples,
+)
+from .layout import n_free, n_nodes
+
+# Rodas4 in the transformed form of Hairer & Wanner's RODAS code:
+#   (M/(hγ) - J) K_i = f(t + α_i h, y + Σ_j A_ij K_j) + M Σ_j C_ij K_j / h + γ_i h ∂f/∂t,
+#   y_new = y + Σ_j B_j K_j,  error estimate K_6.
+RODAS4_GAMMA = 0.25
+RODAS4_ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
+RODAS4_GAMMA_SUM = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
+RODAS4_A = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.1544e01, 0.0, 0.0, 0.0, 0.0],
+        [0.9466785280815826, 0.2557011698983284, 0.0, 0.0, 0.0],
+        [0.3314825187068521e01, 0.2896124015972201e01, 0.9986419139977817, 0.0, 0.0],
+        [
+            0.1221224509226641e01,
+            0.6019134481288629e01,
+            0.1253708332932087e02,
+            -0.6878860361058950,
+            0.0,
+        ],
+        [
+            0.1221224509226641e01,
+            0.6019134481288629e01,
+            0.1253708332932087e02,
+            -0.6878860361058950,
+            1.0,
+        ],
+    ]
+)
+RODAS4_C = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.0, 0.0],
+        [-0.56688e01, 0.0, 0.0, 0.0, 0.0],
+        [-0.2430093356833875e01, -0.2063599157091915, 0.0, 0.0, 0.0],
+        [-0.1073529058151375, -0.9594562251023355e01, -0.2047028614809616e02, 0.0, 0.0],
+        [
+            0.7496443313967647e01,
+            -0.1024680431464352e02,
+            -0.3399990352819905e02,
+            0.1170890893206160e02,
+            0.0,
+        ],
+        [
+            0.8083246795921522e01,
+            -0.7981132988064893e01,
+            -0.3152159432874371e02,
+            0.1631930543123136e02,
+            -0.6058818238834054e01,
+        ],
+    ]
+)
+RODAS4_B = np.array(
+    [
+        0.1221224509226641e01,
+        0.6019134481288629e01,
+        0.1253708332932087e02,
+        -0.6878860361058950,
+        1.0,
+        1.0,
+    ]
+)
+N_STAGES = 6
+
+_SAFETY = 0.9
+_FAC_MIN = 0.2
+_FAC_MAX = 6.0
+
+
+@kernel
+def _consistent_velocity(x, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v):
+    """Overdamped velocities ``v = C(x)⁻¹ (F_ext - ∇E)`` (the algebraic equation at ``t``)."""
+    n = x.shape[0]
+    for i in range(n):
+        v[i] = 0.0
+    force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, v)
+    damping_matrix(pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], work, cmat)
+    if lu_factor(cmat, n, piv, BAND) != 0:
+        return 1
+    lu_solve(cmat, n, piv, v, BAND)
+    return 0
+
+
+@kernel
+def rodas4(
+    y, t0, t_end, unit_params, h, knot_t, knot_p, phys, ctrl,
+    t_out, x_out, unit_rec, event_log, stats,
+):  # fmt: skip
+    """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
+
+    Parameters
+    ----------
+    y : ndarray of shape (2 (4N - 2),)
+        Positions (mm) then velocities (mm/s); overwritten with the final state. For the
+        overdamped model (``phys[PHYS_MASS] == 0``) the velocities are recomputed consistently.
+    t0, t_end : float, s
+    unit_params, h
+        Lattice parameters (:mod:`.layout`).
+    knot_t, knot_p : ndarray
+        Piecewise-linear pressure profile (s, MPa).
+    phys : ndarray of shape (N_PHYS,)
+        ``(η, η_iso, node mass)``; mass 0 selects the overdamped model.
+    ctrl : ndarray of shape (N_CTRL,)
+        Solver controls (:mod:`.events`).
+    t_out : ndarray of shape (m,)
+        Increasing output times (s); ``x_out`` (shape ``(m, 4N - 2)``) receives the positions.
+    unit_rec, event_log, stats
+        Event records and counters (:mod:`.events`).
+    """
+    n_units = unit_params.shape[0]
+    n = n_free(n_units)
+    mass = phys[PHYS_MASS]
+    eta = phys[PHYS_ETA]
+    eta_iso = phys[PHYS_ETA_ISO]
+    rtol = ctrl[CTRL_RTOL]
+    atol = ctrl[CTRL_ATOL]
+    h_max = ctrl[CTRL_H_MAX]
+    h_min = ctrl[CTRL_H_MIN]
+    max_steps = int(ctrl[CTRL_MAX_STEPS])
+    tau_end = ctrl[CTRL_TAU_END]
+    stop_when_reset = ctrl[CTRL_STOP_WHEN_RESET] > 0.0
+
+    pos = np.empty((n_nodes(n_units), 2))
+    vel = np.empty((n_nodes(n_units), 2))
+    work = np.empty(n)
+    grad = np.empty(n)  # stage residuals
+    smat = np.empty((n, n))
+    cmat = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    kx = np.empty((N_STAGES, n))
+    kv = np.empty((N_STAGES, n))
+    yx = np.empty(n)
+    yv = np.empty(n)
+    rx = np.empty(n)
+    rv = np.empty(n)
+    ft = np.empty(n)
+    x_new = np.empty(n)
+    v_new = np.empty(n)
+    g0 = np.empty(n_units)
+    g1 = np.empty(n_units)
+    x = y[:n]
+    v = y[n:]
+
+    if mass == 0.0:
+        if _consistent_velocity(
+            x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v
+        ) != 0:
+            return st.DEGENERATE_GEOMETRY
+    init_record(x, t0, unit_params, unit_rec, stats, g0)
+    record_initial_samples(t0, x, t_out, x_out, stats)
+
+    t = t0
+    step = ctrl[CTRL_H_INIT]
+    if step <= 0.0:
+        step = 1e-6
+    step = min(step, h_max)
+    last_rejected = False
+    h_acc = 0.0  # last accepted step and its error, for the predictive controller
+    err_acc = 1.0
+    while t < t_end:
+        if stats[STAT_STEPS] + stats[STAT_REJECTED] >= max_steps:
+            return st.STEP_LIMIT
+        if stop_when_reset and t >= tau_end and all_reset(unit_rec):
+            stats[STAT_STOPPED_EARLY] = 1
+            return st.OK
+        t_stop = next_knot(t, knot_t, t_end)
+        lands = False
+        if t + step >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
+            step = t_stop - t
+            lands = True
+        if step < h_min:
+            return st.NOT_CONVERGED
+
+        # Jacobian at (t, x, v): S = m/(hγ)² + C/(hγ) + H + D - P_J.
+        stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, smat)
+        damping_matrix(pos, unit_params, h, eta, eta_iso, work, cmat)
+        hg = step * RODAS4_GAMMA
+        inv_hg = 1.0 / hg
+        diag_m = mass * inv_hg * inv_hg
+        for i in range(n):
+            for j in range(n):
+                smat[i, j] = cmat[i, j] * inv_hg - smat[i, j]
+            smat[i, i] += diag_m
+        stats[STAT_FACTOR] += 1
+        ok = lu_factor(smat, n, piv, BAND) == 0
+        # ∂R/∂t: the pressure load at unit pressure times dP/dt on this profile segment.
+        slope = pressure_slope(t + 0.5 * step, knot_t, knot_p)
+        for i in range(n):
+            ft[i] = 0.0
+        if slope != 0.0:
+            add_pressure_forces(pos, n_units, slope, ft)
+
+        if ok:
+            for s in range(N_STAGES):
+                for i in range(n):
+                    ax_ = x[i]
+                    av_ = v[i]
+                    cx = 0.0
+                    cv = 0.0
+                    for j in range(s):
+                        ax_ += RODAS4_A[s, j] * kx[j, i]
+                        av_ += RODAS4_A[s, j] * kv[j, i]
+                        cx += RODAS4_C[s, j] * kx[j, i]
+                        cv += RODAS4_C[s, j] * kv[j, i]
+                    yx[i] = ax_
+                    yv[i] = av_
+                    rx[i] = av_ + cx / step
+                    rv[i] = mass * cv / step
+                t_stage = t + RODAS4_ALPHA[s] * step
+                force_residual(
+                    yx, yv, t_stage, unit_params, h, knot_t, knot_p, phys, pos, vel, work, grad
+                )
+                stats[STAT_RHS] += 1
+                gam_h = RODAS4_GAMMA_SUM[s] * step
+                for i in range(n):
+                    rv[i] += grad[i] + gam_h * ft[i]
+                # right-hand side r_v + (m/(hγ) + C) r_x, then k_v = k_x/(hγ) - r_x
+                for i in range(n):
+                    acc = rv[i] + mass * inv_hg * rx[i]
+                    for j in range(max(0, i - BAND), min(n, i + BAND + 1)):
+                        acc += cmat[i, j] * rx[j]
+                    kx[s, i] = acc
+                lu_solve(smat, n, piv, kx[s], BAND)
+                for i in range(n):
+                    kv[s, i] = kx[s, i] * inv_hg - rx[i]
+            for i in range(n):
+                bx = x[i]
+                bv = v[i]
+                for s in range(N_STAGES):
+                    bx += RODAS4_B[s] * kx[s, i]
+                    bv += RODAS4_B[s] * kv[s, i]
+                x_new[i] = bx
+                v_new[i] = bv
+            err = error_norm(kx[N_STAGES - 1], x, x_new, n, rtol, atol)
+            ok = math.isfinite(err)
+            for i in range(n):
+                if not (math.isfinite(x_new[i]) and math.isfinite(v_new[i])):
+                    ok = False
+        if not ok:
+            stats[STAT_REJECTED] += 1
+            step *= 0.25
+            last_rejected = True
+            continue
+
+        if err <= 1.0:
+            process_step(
+                t, step, x, v, x_new, v_new, g0, g1, unit_params, unit_rec, event_log, stats,
+                t_out, x_out,
+            )
+            t = t_stop if lands else t + step
+            for i in range(n):
+                x[i] = x_new[i]
+                v[i] = v_new[i]
+            stats[STAT_STEPS] += 1
+            fac = _SAFETY * err ** -0.25 if err > 0.0 else _FAC_MAX
+            fac = min(_FAC_MAX, max(_FAC_MIN, fac))
+            if h_acc > 0.0 and err > 0.0:
+                # Gustafsson's predictive controller (as in Hairer & Wanner's RODAS): use the
+                # error trend over the last two steps; take the more cautious factor.
+                fac_gus = _SAFETY * (step / h_acc) * (err_acc / (err * err)) ** 0.25
+                fac = min(fac, min(_FAC_MAX, max(_FAC_MIN, fac_gus)))
+            h_acc = step
+            err_acc = max(1e-2, err)
+            if last_rejected:
+                fac = min(fac, 1.0)
+            last_rejected = False
+            step = min(step * fac, h_max)
+        else:
+            stats[STAT_REJECTED] += 1
+            fac = max(_FAC_MIN, _SAFETY * err ** -0.25)
+            step *= fac
+            last_rejected = True
+    return st.OK

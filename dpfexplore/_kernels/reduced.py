@@ -1,0 +1,207 @@
+"""The release model: a loose loading, a Newton jump to the end of the hold, the release.
+
+Reset times depend on the loading through the state at the start of the release. Two things
+make the full run expensive and neither needs full accuracy for that state: the snap-through
+cascade during loading (about half the steps), whose outcome is an inversion pattern, and the
+slow settling during the hold, whose end is the loaded equilibrium
+``F_ext(x, P0) - ∇E(x) = 0``. The release model integrates the loading (overdamped Rodas4) at
+a loose tolerance (:data:`LOADING_ATOL`), replaces the state at ``τ3`` by the loaded
+equilibrium reached by Newton from it (so the pattern is the dynamics', the settling exact),
+and integrates the release at the requested tolerance.
+
+Assumptions, and what breaks them (the error is measured by ``dpfexplore bench dynamics``):
+the hold lasts several of the slowest relaxation times (1.2 /s for the pick-and-place finger;
+a shorter hold leaves the finger short of equilibrium, up to ~1 % in reset time, see the
+hold-time map); a unit whose snap-through is decided within the loose tolerance may be
+misclassified; the profile is a single pulse.
+
+Newton on the non-symmetric system uses the Jacobian ``P_J - H`` of
+:func:`.dynamics.stiffness_jacobian` (at zero velocity) and the banded LU, with Armijo
+backtracking on ``½|R|²`` and the step capped so no coordinate moves more than ``max_move`` mm
+per iteration. Converged when the largest residual force is below ``ftol`` N or the Newton
+step below 1e-11 mm.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .. import status as st
+from .._jit import batch_kernel, kernel
+from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
+from .dense_lu import lu_factor, lu_solve
+from .dynamics import N_PHYS, force_residual, stiffness_jacobian
+from .dynamics_batch import rest_state, summarise_units
+from .events import (
+    CTRL_ATOL,
+    CTRL_STOP_WHEN_RESET,
+    N_REC,
+    N_STATS,
+    REC_EVER,
+    REC_FIRST_UP,
+    REC_LAST_DOWN,
+    STAT_STEPS,
+)
+from .integrators_rosenbrock import rodas4
+from .layout import n_free, n_nodes
+
+#: Position tolerance (mm) of the loading phase: loose, because only the inversion pattern and
+#: the snap-through times (to ~1e-3 s) are taken from it; the Newton solve fixes the state.
+LOADING_ATOL = 1e-2
+
+
+@kernel
+def _max_abs(v):
+    m = 0.0
+    for i in range(v.shape[0]):
+        m = max(m, abs(v[i]))
+    return m
+
+
+@kernel
+def _sum_sq(v):
+    s = 0.0
+    for i in range(v.shape[0]):
+        s += v[i] * v[i]
+    return s
+
+
+@kernel
+def loaded_equilibrium(x, unit_params, h, pressure, ftol, max_iter, max_move):
+    """Solve ``F_ext(x, P) = ∇E(x)`` in place from ``x`` by damped Newton; returns a status."""
+    n_units = unit_params.shape[0]
+    n = n_free(n_units)
+    pos = np.empty((n_nodes(n_units), 2))
+    vel = np.empty((n_nodes(n_units), 2))
+    work = np.empty(n)
+    res = np.empty(n)
+    trial_res = np.empty(n)
+    step = np.empty(n)
+    trial = np.empty(n)
+    jac = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    zero = np.zeros(n)
+    knot_t = np.zeros(1)
+    knot_p = np.full(1, pressure)
+    phys = np.zeros(N_PHYS)
+    force_residual(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res)
+    norm = _max_abs(res)
+    merit = _sum_sq(res)
+    for _ in range(max_iter):
+        if not math.isfinite(merit):
+            return st.NONFINITE
+        if norm < ftol:
+            return st.OK
+        stiffness_jacobian(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
+                           jac)  # fmt: skip
+        for i in range(n):
+            for j in range(n):
+                jac[i, j] = -jac[i, j]  # H - P_J: solve (H - P_J) dx = R
+        if lu_factor(jac, n, piv, BAND) != 0:
+            return st.DEGENERATE_GEOMETRY
+        for i in range(n):
+            step[i] = res[i]
+        lu_solve(jac, n, piv, step, BAND)
+        scale = 1.0
+        biggest = _max_abs(step)
+        if biggest < 1e-11:
+            return st.OK  # converged to round-off: stiff posts keep |R| above ftol
+        if biggest > max_move:
+            scale = max_move / biggest
+        accepted = False
+        for _ in range(30):
+            for i in range(n):
+                trial[i] = x[i] + scale * step[i]
+            force_residual(trial, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel,
+                           work, trial_res)  # fmt: skip
+            # Armijo on ½|R|²: the Newton step is a descent direction for it
+            trial_merit = _sum_sq(trial_res)
+            if trial_merit <= (1.0 - 2e-4 * scale) * merit:
+                accepted = True
+                break
+            scale *= 0.5
+        if not accepted:
+            return st.NOT_CONVERGED
+        for i in range(n):
+            x[i] = trial[i]
+            res[i] = trial_res[i]
+        merit = trial_merit
+        norm = _max_abs(res)
+    return st.OK if norm < ftol else st.NOT_CONVERGED
+
+
+@kernel
+def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, stats, y):
+    """Loose loading, the loaded equilibrium at ``τ3`` by Newton, then the release.
+
+    ``knot_t`` must be a single pulse ``(τ1, τ2, τ3, τ4)``. ``y`` (shape ``(2 (4N - 2),)``)
+    receives the final state; ``rec`` the per-unit record of both phases (snap-through times
+    from the loose loading). Returns a status.
+    """
+    n_units = unit_params.shape[0]
+    n = n_free(n_units)
+    rest_state(unit_params, h, y)
+    phys = np.empty(N_PHYS)
+    phys[0] = eta
+    phys[1] = eta_iso
+    phys[2] = 0.0
+    t_out = np.empty(0)
+    x_out = np.empty((0, n))
+    log = np.empty((0, 3))
+    tau3 = knot_t[2]
+    loose = ctrl.copy()
+    loose[CTRL_ATOL] = max(ctrl[CTRL_ATOL], LOADING_ATOL)
+    loose[CTRL_STOP_WHEN_RESET] = 0.0
+    loading = np.empty((n_units, N_REC))
+    code = rodas4(y, 0.0, tau3, unit_params, h, knot_t, knot_p, phys, loose, t_out, x_out,
+                  loading, log, stats)  # fmt: skip
+    if code != st.OK:
+        return code
+    steps = stats[STAT_STEPS]
+    # The state at the end of a long hold: the loaded equilibrium, polished from where the
+    # loose loading left the finger (so its inversion pattern is the dynamics').
+    code = loaded_equilibrium(y[:n], unit_params, h, knot_p[2], 1e-9, 50, 0.5)
+    if code != st.OK:
+        return code
+    code = rodas4(y, tau3, t_end, unit_params, h, knot_t, knot_p, phys, ctrl, t_out, x_out, rec,
+                  log, stats)  # fmt: skip
+    stats[STAT_STEPS] += steps
+    for k in range(n_units):
+        # carry over what happened during the loading
+        rec[k, REC_FIRST_UP] = loading[k, REC_FIRST_UP]
+        if loading[k, REC_EVER] > 0.0:
+            rec[k, REC_EVER] = 1.0
+            if rec[k, REC_LAST_DOWN] != rec[k, REC_LAST_DOWN]:
+                rec[k, REC_LAST_DOWN] = loading[k, REC_LAST_DOWN]
+    return code
+
+
+@batch_kernel
+def release_batch(
+    unit_params, h, n_units, valid, knot_t, knot_p, eta, eta_iso, ctrl, t_end,
+    status, final_state, reset, snap_through, snap_back, unit_class,
+):  # fmt: skip
+    """:func:`release_run` over many designs in parallel (layout as ``reset_times_kernel``)."""
+    n = unit_params.shape[0]
+    tau_end = knot_t[knot_t.shape[0] - 1]
+    for i in prange(n):
+        if not valid[i]:
+            continue
+        nu = n_units[i]
+        params = unit_params[i, :nu]
+        y = np.empty(2 * n_free(nu))
+        rec = np.empty((nu, N_REC))
+        stats = np.zeros(N_STATS, dtype=np.int64)
+        code = release_run(params, h[i], knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, stats, y)
+        status[i] = code
+        if code != st.OK and stats[STAT_STEPS] == 0:
+            continue  # failed before any step: nothing to summarise
+        cls = np.empty(nu, dtype=np.int64)
+        final_state[i] = summarise_units(
+            rec, tau_end, code, reset[i, :nu], snap_through[i, :nu], snap_back[i, :nu], cls
+        )
+        for k in range(nu):
+            unit_class[i, k] = cls[k]

@@ -1,0 +1,122 @@
+"""Plots of simulations, reset-time maps and the dynamics benchmark.
+
+Every function draws on the given Axes (or a new one from :func:`matplotlib.pyplot.subplots`)
+and returns it; nothing here writes files or shows windows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "plot_extensions",
+    "plot_reset_map",
+    "plot_simulation",
+    "plot_time_vs_error",
+    "plot_tip_and_pressure",
+]
+
+
+def _axes(ax):
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots()
+    return ax
+
+
+def plot_tip_and_pressure(result, ax=None):
+    """Tip displacement ``|tip(t) - tip(0)|`` (mm) and pressure (MPa, right axis) against time.
+
+    The paper's Fig. 2c/2d style. Returns the left Axes (the pressure axis is its twin).
+    """
+    ax = _axes(ax)
+    displacement = np.linalg.norm(result.tip - result.tip[0], axis=1)
+    ax.plot(result.t, displacement, color="C0", label="tip displacement")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("tip displacement (mm)", color="C0")
+    twin = ax.twinx()
+    twin.plot(result.t, result.pressure, color="C3", linestyle="--", label="pressure")
+    twin.set_ylabel("pressure (MPa)", color="C3")
+    twin.set_ylim(bottom=min(0.0, float(np.min(result.pressure))))
+    ax.set_title(f"{result.design.name or 'finger'}: state {result.final_state} ({result.method})")
+    return ax
+
+
+def plot_extensions(result, ax=None):
+    """Each dome's extension ``u = x̄/d`` against time, thresholds dashed, snaps marked."""
+    from ..lattice import spring_constants
+
+    ax = _axes(ax)
+    thresholds = spring_constants(result.design).domes.u_inversion
+    for k in range(result.design.n_units):
+        color = f"C{k % 10}"
+        label = f"unit {k + 1}"
+        if result.unit_class[k]:
+            label += f" ({result.unit_class[k]})"
+        ax.plot(result.t, result.extensions[:, k], color=color, label=label)
+        ax.axhline(thresholds[k], color=color, linestyle=":", linewidth=0.8)
+        for when, marker in ((result.snap_through[k], "^"), (result.snap_back[k], "v")):
+            if np.isfinite(when):
+                ax.plot([when], [thresholds[k]], marker=marker, color=color, linestyle="none")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("dome extension x̄/d")
+    ax.legend(fontsize="small", ncol=2)
+    return ax
+
+
+def plot_simulation(result, axes: Sequence[Any] | None = None):
+    """Tip/pressure above, extensions below (two Axes, created if not given)."""
+    if axes is None:
+        import matplotlib.pyplot as plt
+
+        _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 7))
+    plot_tip_and_pressure(result, axes[0])
+    plot_extensions(result, axes[1])
+    return axes
+
+
+def plot_reset_map(frame, x: str, *, hue: str | None = None, ax=None, xlabel: str | None = None):
+    """Reset time against one parameter, one line per value of ``hue``.
+
+    ``frame`` holds the columns ``x``, ``reset_time`` (s; ``inf`` = never resets within the
+    horizon, drawn as open markers at the top) and optionally ``hue``.
+    """
+    ax = _axes(ax)
+    groups = [(None, frame)] if hue is None else list(frame.groupby(hue, sort=True))
+    finite_max = np.nanmax(np.where(np.isfinite(frame["reset_time"]), frame["reset_time"], np.nan))
+    top = 1.1 * finite_max if np.isfinite(finite_max) else 1.0
+    for i, (value, group) in enumerate(groups):
+        color = f"C{i % 10}"
+        label = None if hue is None else f"{hue} = {value:g}"
+        finite = np.isfinite(group["reset_time"])
+        ax.plot(group[x][finite], group["reset_time"][finite], marker="o", color=color,
+                label=label)  # fmt: skip
+        never = np.isinf(group["reset_time"])
+        if never.any():
+            ax.plot(group[x][never], np.full(never.sum(), top), marker="o", color=color,
+                    markerfacecolor="none", linestyle="none")  # fmt: skip
+    ax.set_xlabel(xlabel or x)
+    ax.set_ylabel("reset time after release (s)")
+    if hue is not None:
+        ax.legend(fontsize="small")
+    return ax
+
+
+def plot_time_vs_error(records: Sequence[dict], ax=None, *, case: str | None = None):
+    """Benchmark records: time per reset-time evaluation against its error (log-log)."""
+    ax = _axes(ax)
+    for i, rec in enumerate(r for r in records if case is None or r.get("case") == case):
+        err = max(float(rec["reset_time_rel_err"]), 1e-9)
+        ax.loglog([rec["us_per_design"]], [err], marker="o", linestyle="none", color=f"C{i % 10}",
+                  label=rec["method"])  # fmt: skip
+    ax.set_xlabel("time per design (µs)")
+    ax.set_ylabel("reset time relative error")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small")
+    if case:
+        ax.set_title(case)
+    return ax

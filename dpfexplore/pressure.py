@@ -1,0 +1,151 @@
+"""Chamber pressure against time: the paper's τ1-τ4 pulse and any piecewise-linear profile.
+
+A :class:`PressureProfile` is data (knot times and pressures) that the integrators read as two
+arrays; its last knot, ``t_release``, is where reset times are measured from (MODEL.md §8).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from itertools import pairwise
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["PressureProfile"]
+
+
+@dataclass(frozen=True, init=False)
+class PressureProfile:
+    """Piecewise-linear chamber pressure ``P(t)`` (MPa against s).
+
+    Before the first knot the first pressure holds, after the last knot the last one. The end
+    of the profile, ``t_release`` (the last knot), is where reset times are measured from.
+
+    ``PressureProfile(times, pressures)`` takes knots; ``PressureProfile(P0=0.7,
+    tau=(0, 1, 5, 5.1))`` is the paper's single pulse (same as :meth:`pulse`).
+
+    Parameters
+    ----------
+    times : sequence of float, s
+        Knot times, non-decreasing (equal times make a step).
+    pressures : sequence of float, MPa
+        Pressure at each knot.
+    P0 : float, MPa, keyword-only
+        Plateau pressure of a single pulse (instead of knots).
+    tau : sequence of 4 floats, s, keyword-only
+        ``τ1 <= τ2 <= τ3 <= τ4`` of that pulse.
+
+    Raises
+    ------
+    ValueError
+        Naming the field, for empty, non-finite, decreasing or mismatched knots.
+    """
+
+    times: tuple[float, ...]
+    pressures: tuple[float, ...]
+
+    def __init__(
+        self,
+        times: Sequence[float] | None = None,
+        pressures: Sequence[float] | None = None,
+        *,
+        P0: float | None = None,
+        tau: Sequence[float] | None = None,
+    ) -> None:
+        if P0 is not None or tau is not None:
+            if times is not None or pressures is not None:
+                raise ValueError("give either knots (times, pressures) or a pulse (P0, tau)")
+            if P0 is None or tau is None:
+                raise ValueError(f"P0 = {P0!r}, tau = {tau!r}: a pulse needs both")
+            pulse = PressureProfile.pulse(P0, tau)
+            times, pressures = pulse.times, pulse.pressures
+        if times is None or pressures is None:
+            raise ValueError("times, pressures: a pressure profile needs knots (or P0 and tau)")
+        times = tuple(float(v) for v in np.ravel(times))
+        pressures = tuple(float(v) for v in np.ravel(pressures))
+        if not times:
+            raise ValueError("times = (): a pressure profile needs at least one knot")
+        if len(times) != len(pressures):
+            raise ValueError(
+                f"pressures = {list(pressures)!r}: {len(pressures)} values for {len(times)} times"
+            )
+        if not all(math.isfinite(v) for v in times):
+            raise ValueError(f"times = {list(times)!r}: must be finite")
+        if not all(math.isfinite(v) for v in pressures):
+            raise ValueError(f"pressures = {list(pressures)!r}: must be finite")
+        if any(b < a for a, b in pairwise(times)):
+            raise ValueError(f"times = {list(times)!r}: must be non-decreasing")
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "pressures", pressures)
+
+    @classmethod
+    def pulse(cls, P0: float, tau: Sequence[float]) -> PressureProfile:
+        """The paper's pulse: 0 until ``τ1``, up to ``P0`` at ``τ2``, held to ``τ3``, 0 at ``τ4``.
+
+        Parameters
+        ----------
+        P0 : float, MPa
+        tau : sequence of 4 floats, s
+            ``τ1 <= τ2 <= τ3 <= τ4``.
+        """
+        return cls.pulses([(P0, *tau)])
+
+    @classmethod
+    def pulses(cls, pulses: Sequence[Sequence[float]]) -> PressureProfile:
+        """Several trapezoidal pulses ``(P0, τ1, τ2, τ3, τ4)`` in time order, not overlapping."""
+        times: list[float] = []
+        pressures: list[float] = []
+        last_end = -math.inf
+        for i, pulse in enumerate(pulses):
+            if len(pulse) != 5:
+                raise ValueError(f"pulses[{i}] = {pulse!r}: need (P0, tau1, tau2, tau3, tau4)")
+            P0, *tau = (float(v) for v in pulse)
+            if not math.isfinite(P0):
+                raise ValueError(f"P0 = {P0!r}: must be finite (MPa)")
+            if not all(math.isfinite(v) for v in tau) or any(b < a for a, b in pairwise(tau)):
+                raise ValueError(
+                    f"tau = {tau!r}: need finite times with tau1 <= tau2 <= tau3 <= tau4 (s)"
+                )
+            if tau[0] < last_end:
+                raise ValueError(
+                    f"pulses[{i}] starts at tau1 = {tau[0]} s, before the previous pulse ends "
+                    f"({last_end} s)"
+                )
+            times += tau
+            pressures += [0.0, P0, P0, 0.0]
+            last_end = tau[3]
+        if not times:
+            raise ValueError("pulses = []: give at least one pulse")
+        return cls(tuple(times), tuple(pressures))
+
+    @classmethod
+    def parse(cls, text: str) -> PressureProfile:
+        """Read ``"t:P, t:P, ..."`` knots (s:MPa), e.g. ``"0:0, 1:0.7, 5:0.7, 5.1:0"``."""
+        times, pressures = [], []
+        for item in text.split(","):
+            try:
+                t_text, p_text = item.split(":")
+                times.append(float(t_text))
+                pressures.append(float(p_text))
+            except ValueError:
+                raise ValueError(
+                    f"profile = {text!r}: write knots as 'time:pressure' separated by commas"
+                ) from None
+        return cls(tuple(times), tuple(pressures))
+
+    @property
+    def t_release(self) -> float:
+        """End of the profile (the last knot, ``τ_end``), s."""
+        return self.times[-1]
+
+    def knots(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Knot arrays ``(times, pressures)`` for the kernels."""
+        return np.array(self.times), np.array(self.pressures)
+
+    def __call__(self, t: Any) -> NDArray[np.float64]:
+        """Pressure (MPa) at times ``t`` (s)."""
+        return np.interp(t, self.times, self.pressures)

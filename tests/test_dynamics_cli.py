@@ -1,0 +1,102 @@
+"""``dpfexplore simulate``, ``dpfexplore reset-maps`` and ``dpfexplore bench dynamics``."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import dpfexplore.cli as cli
+import dpfexplore.cli.bench as cli_bench
+from dpfexplore.examples import example_path
+
+
+@pytest.fixture
+def main(monkeypatch):
+    """The CLI with the dynamics commands registered (independent of the other commands)."""
+    monkeypatch.setattr(cli, "COMMAND_MODULES", ("simulate", "resetmaps", "bench"))
+    monkeypatch.setattr(cli_bench, "BENCHMARKS", ("dynamics",))
+    return cli.main
+
+
+def test_simulate_json(main, capsys):
+    code = main(["simulate", str(example_path("pickplace")), "--P0", "0.7", "--tau",
+                 "0,1,5,5.1", "--t-end", "15", "--json"])  # fmt: skip
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["final_state"] == "111100"
+    assert out["reset_times"][:4] == ["inf"] * 4
+    assert out["reset_times"][4] == pytest.approx(2.6568, rel=1e-3)
+    assert out["snap_back"][:4] == [None] * 4
+    assert out["classes"] == ["bistable"] * 4 + ["metastable"] * 2
+    assert out["status"] == "ok" and out["method"] == "rodas4"
+
+
+def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path):
+    design = tmp_path / "weak.toml"
+    design.write_text("[design]\nH = [4.0, 3.0]\nU_L = 6.0\nU_sep = 1.0\nt = 0.83\nt_lim = 1.0\n")
+    png = tmp_path / "run.png"
+    code = main(["simulate", str(design), "--P0", "0.05", "--tau", "0,0.1,0.3,0.4", "--t-end",
+                 "1", "--json", "--plot", str(png)])  # fmt: skip
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["reset_times"] == [None, None] and out["classes"] == [None, None]
+    assert out["final_state"] == "00"
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_simulate_text_and_profile(main, capsys):
+    code = main(["simulate", "pickplace", "--profile", "0:0,0.2:0.7,0.5:0.7,0.55:0",
+                 "--t-end", "3", "--method", "rodas4-overdamped"])  # fmt: skip
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "rodas4-overdamped" in text and "final state" in text
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["simulate", "no-such-file.toml"], "no such design"),
+        (["simulate", "pickplace", "--tau", "0,1,5"], "--tau"),
+        (["simulate", "pickplace", "--t-end", "3"], "t_end"),
+        (["simulate", "pickplace", "--profile", "0-0,1-1"], "profile"),
+    ],
+)
+def test_simulate_bad_input_exits_2(main, capsys, argv, message):
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path):
+    code = main(["reset-maps", "--quick", "--out", str(tmp_path)])
+    assert code == 0
+    for name in ("H", "t", "hold"):
+        frame = pd.read_parquet(tmp_path / f"reset_map_{name}.parquet")
+        assert {"value", "H", "t", "hold", "unit", "reset_time", "unit_class", "status"} <= set(
+            frame.columns
+        )
+        assert (frame["status"] == "ok").all()
+    h_map = pd.read_parquet(tmp_path / "reset_map_H.parquet").sort_values("value")
+    # lower domes are further from bistability: they reset sooner; the 3.2 mm one never does
+    finite = h_map[np.isfinite(h_map.reset_time)]
+    assert finite.reset_time.is_monotonic_increasing and np.isinf(h_map.reset_time.iloc[-1])
+    assert (tmp_path / "reset_maps.png").read_bytes()[:4] == b"\x89PNG"
+    assert "reset_map_hold.parquet" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_bench_dynamics_json(main, capsys, tmp_path, monkeypatch):
+    """A tiny run of the benchmark: one record per method, the Radau baseline's time."""
+    monkeypatch.chdir(tmp_path)
+    code = main(["bench", "dynamics", "--json", "--designs", "2", "--radau-designs", "1",
+                 "--explicit-designs", "0", "--no-compile", "--save"])  # fmt: skip
+    assert code == 0
+    record = json.loads(capsys.readouterr().out)
+    methods = {r["method"] for r in record["records"]}
+    assert {"rodas4", "rodas4-overdamped", "release", "scipy-radau"} <= methods
+    for r in record["records"]:
+        assert r["us_per_design"] > 0 and np.isfinite(r["reset_time_rel_err"])
+    assert record["radau_baseline_us_per_design"]["pickplace"] > 0
+    assert (tmp_path / "results" / "reports" / "bench_dynamics.png").exists()

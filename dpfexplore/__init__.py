@@ -35,6 +35,7 @@ from importlib.metadata import version as _distribution_version
 from .design import MATERIALS, Design, DesignBatch, Material, load_design
 from .dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
 from .lattice import spring_constants
+from .space import load_job
 from .statics import (
     SolverOptions,
     StateResult,
@@ -43,7 +44,6 @@ from .statics import (
     sequential_states,
     solve_batch,
 )
-from .space import load_job
 from .status import Status
 from .store import read_results
 from .sweep import run_sweep

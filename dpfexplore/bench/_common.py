@@ -12,6 +12,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+#: Where ``--save`` writes benchmark records (kept in git as the latest figures).
+REPORTS = Path("results") / "reports"
+
 
 def machine_info() -> dict[str, Any]:
     """Facts about the machine and software a benchmark ran on."""

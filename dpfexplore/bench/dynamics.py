@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import emit, machine_info, median_time
+from ._common import REPORTS, emit, machine_info, median_time
 
 #: (method, atol in mm or None for the default) rows of the time-vs-error table.
 LADDER = (
@@ -57,7 +57,6 @@ PULSE = (0.7, (0.0, 1.0, 5.0, 5.1))
 #: Evaluation cap of the SciPy runs (its Radau can stall; such a run counts as failed).
 MAX_NFEV = 300_000
 T_END = 15.0
-REPORTS = Path("results") / "reports"
 
 logger = logging.getLogger(__name__)
 
@@ -80,7 +79,7 @@ def register(subparsers) -> None:
     parser.add_argument("--no-compile", action="store_true",
                         help="skip the cold-compile measurement (two fresh processes)")
     parser.add_argument("--save", action="store_true",
-                        help=f"write bench_dynamics.json and .png to {REPORTS}/")
+                        help=f"write bench-dynamics.json and .png to {REPORTS}/")
     parser.set_defaults(handler=run)
 
 
@@ -355,9 +354,9 @@ def run(args: argparse.Namespace) -> int:
         )
     save = None
     if args.save:
-        save = REPORTS / "bench_dynamics.json"
-        _plot(records, REPORTS / "bench_dynamics.png")
-        lines.append(f"saved {save} and {REPORTS / 'bench_dynamics.png'}")
+        save = REPORTS / "bench-dynamics.json"
+        _plot(records, REPORTS / "bench-dynamics.png")
+        lines.append(f"saved {save} and {REPORTS / 'bench-dynamics.png'}")
     emit(record, as_json=args.json, text="\n".join(lines), save=save)
     return 0
 

@@ -24,11 +24,10 @@ import sys
 import tempfile
 import textwrap
 import time
-from pathlib import Path
 
 import numpy as np
 
-from ._common import emit, machine_info, median_time
+from ._common import REPORTS, emit, machine_info, median_time
 
 #: The paper's model time per design (Table sim_time, 2-6 units), s.
 PAPER_SECONDS = (0.58, 0.76)
@@ -47,7 +46,8 @@ def register(subparsers) -> None:
     parser.add_argument("--designs", type=int, default=500, help="designs per N for ours")
     parser.add_argument("--scipy-designs", type=int, default=30, help="designs per N for SciPy")
     parser.add_argument("--seed", type=int, default=2024)
-    parser.add_argument("--save", type=Path, help="also write the JSON record to this file")
+    parser.add_argument("--save", action="store_true",
+                        help=f"also write the record to {REPORTS}/bench-statics.json")
     parser.set_defaults(handler=run)
 
 
@@ -242,5 +242,6 @@ def run(args: argparse.Namespace) -> int:
             f"{r['scipy_tip_err_mm']:>14.1e} {r['designs_per_s_all_cores']:>20.0f} "
             f"{r['speedup_vs_paper'][0]:>6.0f}-{r['speedup_vs_paper'][1]:.0f}x"
         )
-    emit(record, as_json=args.json, text="\n".join(lines), save=args.save)
+    emit(record, as_json=args.json, text="\n".join(lines),
+         save=REPORTS / "bench-statics.json" if args.save else None)
     return 0

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import emit, machine_info
+from ._common import REPORTS, emit, machine_info
 
 #: The paper's model time per design (Table sim_time), s; the issue's figure for the job.
 PAPER_SECONDS_PER_DESIGN = 0.66
@@ -51,8 +51,8 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--save", type=Path,
-                        help="also write the JSON record here (e.g. results/reports/sweep.json)")
+    parser.add_argument("--save", action="store_true",
+                        help=f"also write the record to {REPORTS}/bench-sweep.json")
     parser.add_argument("--jobs-dir", type=Path, default=JOBS, help="where the job files are")
     parser.add_argument("--repeats", type=int, default=3, help="runs of the paper job (median)")
     parser.add_argument("--baseline-designs", type=int, default=30,
@@ -335,7 +335,8 @@ def run(args: argparse.Namespace) -> int:
                 "small": _rss_run(max(10, args.rss_designs // 10), tmp),
                 "large": _rss_run(args.rss_designs, tmp),
             }
-    emit(record, as_json=args.json, text=_text(record), save=args.save)
+    emit(record, as_json=args.json, text=_text(record),
+         save=REPORTS / "bench-sweep.json" if args.save else None)
     return 0
 
 

@@ -45,24 +45,27 @@ def dome_stiffness(E: ArrayLike, H: ArrayLike, t: ArrayLike, R: ArrayLike) -> ND
         Dome height, dome thickness and dome radius of curvature.
     """
     E, H, t, R = (np.asarray(a, dtype=float) for a in (E, H, t, R))
+    # Powers by multiplication: ``**`` with float exponents costs a pow() call per entry.
     t2 = t * t
     t3 = t2 * t
     t4 = t3 * t
     t5 = t4 * t
+    H2 = H * H
+    R2 = R * R
     poly = (
-        -1.97 * R * t5 / H**3
-        + 7.4 * H**2 * t3 / R**2
-        + 3.5 * R * t4 / H**2
-        + 0.37 * H**2 * t2 / R
-        + 42.2 * t5 / H**2
-        - 35.8 * H * t4 / R**2
+        -1.97 * R * t5 / (H2 * H)
+        + 7.4 * H2 * t3 / R2
+        + 3.5 * R * t4 / H2
+        + 0.37 * H2 * t2 / R
+        + 42.2 * t5 / H2
+        - 35.8 * H * t4 / R2
         + 71.8 * t5 / (H * R)
         - 3.4 * R * t3 / H
         - 67.7 * t4 / H
         + 4.2 * R * t2
         + 11.1 * t3
     )
-    return E / R**2 * poly
+    return E / R2 * poly
 
 
 def dome_alpha(H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
@@ -72,19 +75,25 @@ def dome_alpha(H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
     would store at the same extension; the isolated dome is bistable iff ``α < 1/9``.
     """
     H, t, R = (np.asarray(a, dtype=float) for a in (H, t, R))
+    H2 = H * H
+    H3 = H2 * H
+    R2 = R * R
+    R3 = R2 * R
+    t2 = t * t
+    t3 = t2 * t
     return (
-        0.3823 * H**3 / R**3
-        - 0.5736 * t**3 / H**3
-        - 2.8677 * H**2 * t / R**3
-        - 0.9559 * H**2 / R**2
-        - 8.9853 * t**3 / (H**2 * R)
-        + 1.5295 * t**2 / H**2
-        - 4.0147 * t**3 / (H * R**2)
-        + 9.1764 * H * t / R**2
-        + 17.3971 * t**2 / (H * R)
+        0.3823 * H3 / R3
+        - 0.5736 * t3 / H3
+        - 2.8677 * H2 * t / R3
+        - 0.9559 * H2 / R2
+        - 8.9853 * t3 / (H2 * R)
+        + 1.5295 * t2 / H2
+        - 4.0147 * t3 / (H * R2)
+        + 9.1764 * H * t / R2
+        + 17.3971 * t2 / (H * R)
         + 0.5736 * H / R
-        + 17.7795 * t**3 / R**3
-        - 19.5 * t**2 / R**2
+        + 17.7795 * t3 / R3
+        - 19.5 * t2 / R2
         - 6.1177 * t / R
     )
 

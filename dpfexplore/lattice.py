@@ -173,6 +173,8 @@ def _fill_table(table: NDArray, c: dict) -> None:
     table[..., lay.COL_U_HI] = np.inf
     table[..., lay.COL_PEN] = 0.0
     table[..., lay.COL_U_INV] = c["domes"].u_inversion
+    table[..., lay.COL_U_HELD] = np.where(np.isnan(c["domes"].u_second_min), 1.0,
+                                          c["domes"].u_second_min)
 
 
 def lattice_params(design: Design) -> LatticeParams:

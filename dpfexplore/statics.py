@@ -65,8 +65,10 @@ class SolverOptions:
         Converged when the largest gradient component is below this (Hessian positive
         definite) ...
     xtol : float, mm
-        ... or when the full Newton step is below this (the step is then taken: in the
-        quadratic regime the result is then far closer than ``xtol``).
+        ... or when the full Newton step is below this. The last Newton step is then taken,
+        so in the quadratic regime the result is far closer to the minimum than either
+        tolerance; stiffness and smallest eigenvalue come from the Hessian one step earlier
+        (relative difference ~1e-6 or less).
     max_iter : int
         Hessian evaluations per attempt before giving up (``NOT_CONVERGED``).
     max_step : float, mm

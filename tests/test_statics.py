@@ -13,7 +13,13 @@ from dpfexplore import Design, DesignBatch, Status, enumerate_states, find_state
 from dpfexplore._kernels import layout as lay
 from dpfexplore._kernels.lattice import lattice_hessian
 from dpfexplore._kernels.newton import minimize, workspace
-from dpfexplore._kernels.states import N_OUT, geometric_guess, inversion_state, solve_state
+from dpfexplore._kernels.states import (
+    N_OUT,
+    _steering_params,
+    geometric_guess,
+    inversion_state,
+    solve_state,
+)
 from dpfexplore.bench.numpy_model import NumpyLattice
 from dpfexplore.constants import ALPHA_BISTABLE
 from dpfexplore.follower import follower_force_stiffness
@@ -22,8 +28,8 @@ from dpfexplore.scenes import PAPER_GRIPPER_BASE, gripper_aperture
 from dpfexplore.statics import SolverOptions, parse_state, sequential_states, state_string
 
 STATES = read_reference("gripper_states.csv")
-#: The smallest eigenvalue comes from the Hessian one converged Newton step (<= xtol = 1e-8 mm)
-#: before the returned shape; the dome's third derivative moves it by up to ~1e-6 relative.
+#: The smallest eigenvalue comes from the Hessian one converged Newton step before the returned
+#: shape; the dome's third derivative moves it by up to ~1e-6 relative.
 EIG_REL = 1e-6
 
 
@@ -81,21 +87,56 @@ def test_gripper_state_11110_that_the_seeds_first_guess_misses():
 
 def test_constrained_pre_relaxation_finds_a_state_plain_newton_misses():
     design = Design(
-        H=[4.057178526520043, 3.9186717657708074, 3.124699158299751, 4.28265633827875],
-        U_L=9.336847773162955,
-        U_sep=3.371764072417136,
-        t=0.6300487238686117,
-        t_lim=1.8398815210314088,
+        H=[
+            3.0551182264861367,
+            4.507026217349614,
+            4.076286626438557,
+            3.6594634329981846,
+            4.576857406856808,
+        ],
+        U_L=6.864376731812403,
+        U_sep=2.813991557922606,
+        t=0.5670208486235824,
+        t_lim=1.4031129864471292,
     )
     p = lattice_params(design)
     ws = workspace()
     x = np.empty(46)
-    geometric_guess(p.unit_params, p.h, 0b0011, 1.0, x)
-    status, _ = minimize(x, p.unit_params, p.h, 1e-9, 1e-10, 100, 1.0, ws)
-    plain = inversion_state(x, p.unit_params, p.h, ws[0], np.empty(4))
-    assert status == 0 and plain != 0b0011  # the plain start falls into another basin
-    r = find_state(design, "0011")
-    assert r.stable and r.found == "0011"
+    geometric_guess(p.unit_params, p.h, 0b11101, 1.0, x)
+    status, _ = minimize(x, p.unit_params, p.h, 1e-9, 1e-8, 100, 1.0, ws)
+    plain = inversion_state(x, p.unit_params, p.h, ws[0], np.empty(5))
+    assert status == 0 and plain != 0b11101  # the plain start falls into another basin
+    r = find_state(design, "11101")
+    assert r.stable and r.found == "11101"
+    gmax, eig = independent_check(design, r.x)
+    assert gmax < 1e-8 and eig > 0
+
+
+def test_holding_domes_at_their_own_minima_finds_states_a_gentler_hold_misses():
+    """Design 44 of the paper job's N = 2 plan: the lattice moves the effective barrier of unit 1
+    out past the isolated one, so a dome held just past the isolated barrier falls back."""
+    design = Design(
+        H=[3.0040859780235225, 4.524003119236759],
+        U_L=[6.063813515773196, 6.082647186639287],
+        U_sep=[4.248101983380609, 3.84816040226036],
+        t=0.7398388892108854,
+        t_lim=1.50077568918231,
+    )
+    p = lattice_params(design)
+    ws = workspace()
+    outcomes = []
+    for at_minima in (False, True):
+        x = np.empty(46)
+        geometric_guess(p.unit_params, p.h, 0b11, 1.0, x)
+        held = np.empty_like(p.unit_params)
+        _steering_params(p.unit_params, 0b11, at_minima, held)
+        minimize(x, held, p.h, 1e-5, 1e-4, 100, 1.0, ws)
+        status, _ = minimize(x, p.unit_params, p.h, 1e-9, 1e-8, 100, 1.0, ws)
+        assert status == 0
+        outcomes.append(inversion_state(x, p.unit_params, p.h, ws[0], np.empty(2)))
+    assert outcomes == [0b01, 0b11]
+    r = find_state(design, "11")
+    assert r.stable
     gmax, eig = independent_check(design, r.x)
     assert gmax < 1e-8 and eig > 0
 
@@ -323,3 +364,43 @@ def test_random_designs_give_a_verified_minimum_or_a_collapse(n_units, seed):
     assert gmax < 1e-7 and eig > 0 and r.min_eig == pytest.approx(eig, rel=EIG_REL)
     if r.status == Status.OK:
         assert r.found == state_string(state, n_units)
+
+
+def test_collapsed_states_survive_a_multi_start_check():
+    """A state reported as collapsing is not found by twelve other starts and holds either."""
+    rng = np.random.default_rng(7)
+    designs = []
+    for n_units in (2, 3, 4, 5):
+        for _ in range(60):
+            designs.append(
+                Design(
+                    H=list(rng.uniform(*BOX["H"], n_units)),
+                    U_L=list(rng.uniform(*BOX["U_L"], n_units)),
+                    U_sep=list(rng.uniform(*BOX["U_sep"], n_units)),
+                    t=float(rng.uniform(*BOX["t"])),
+                    t_lim=float(rng.uniform(*BOX["t_lim"])),
+                )
+            )
+    rows = solve_batch(
+        DesignBatch.from_designs(designs), "all_inverted", stiffness=False, min_eig=False
+    )
+    collapsed = np.flatnonzero(rows["status"] == Status.COLLAPSED)
+    assert 20 < collapsed.size < len(designs)
+    ws = workspace()
+    for i in collapsed:
+        design = designs[i]
+        p = lattice_params(design)
+        state = 2**design.n_units - 1
+        for c in (0.6, 1.0, 1.5):
+            for margin in (None, 0.15, 0.3, 0.5):
+                x = np.empty(46)
+                geometric_guess(p.unit_params, p.h, state, c, x)
+                if margin is not None:
+                    held = p.unit_params.copy()
+                    held[:, lay.COL_U_LO] = p.unit_params[:, lay.COL_U_INV] + margin
+                    held[:, lay.COL_PEN] = 100.0 * p.unit_params[:, lay.COL_KB]
+                    minimize(x, held, p.h, 1e-5, 1e-4, 200, 1.0, ws)
+                status, _ = minimize(x, p.unit_params, p.h, 1e-9, 1e-8, 300, 1.0, ws)
+                if status == 0:
+                    found = inversion_state(x, p.unit_params, p.h, ws[0], np.empty(design.n_units))
+                    assert found != state, (i, c, margin)

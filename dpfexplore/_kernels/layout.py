@@ -39,7 +39,10 @@ COL_U_HI = 8
 COL_PEN = 9
 #: Extension ``u`` past which the unit counts as inverted (barrier, or 3/4 without one).
 COL_U_INV = 10
-N_COLS = 11
+#: Extension ``u`` of the isolated dome's inverted minimum (1, the reach, without one): where
+#: the state search holds an inverted dome before releasing it.
+COL_U_HELD = 11
+N_COLS = 12
 
 #: Largest number of units a design may have.
 MAX_UNITS = 12

@@ -84,13 +84,6 @@ def max_abs(v, n):
 
 
 @kernel
-def smallest_eigenpair(a, n):
-    """Smallest eigenvalue and its unit eigenvector of the symmetric ``a[:n, :n]`` (LAPACK)."""
-    w, v = np.linalg.eigh(np.ascontiguousarray(a[:n, :n]))
-    return w[0], v[:, 0].copy()
-
-
-@kernel
 def smallest_eigenvalue(a, n):
     """Smallest eigenvalue of the symmetric ``a[:n, :n]`` (LAPACK ``eigvalsh``)."""
     return np.linalg.eigvalsh(np.ascontiguousarray(a[:n, :n]))[0]

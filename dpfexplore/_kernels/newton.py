@@ -1,18 +1,18 @@
 """Globalised Newton minimisation of the lattice energy.
 
-Each iteration factors the analytic Hessian. Where it is positive definite the Newton step is
-taken; where it is not (the guess sits on a dome's unstable branch), a multiple of the identity is
-added until the Cholesky factorisation succeeds (Nocedal & Wright, Algorithm 3.3), which gives a
-descent direction that bends toward steepest descent. A step cap keeps the first steps from
-jumping across basins, and a backtracking Armijo line search on the energy guarantees decrease.
-At a stationary point that is not a minimum (a saddle reached by symmetry), the solver leaves
-along the eigenvector of the most negative curvature.
+Each iteration factors the analytic Hessian (banded Cholesky). Where it is positive definite the
+Newton step is taken; where it is not (the guess sits on a dome's unstable branch), the step is
+Newton's on the Hessian with its eigenvalues replaced by their absolute values
+(:func:`_modified_step`), capped in length so that the first steps do not jump across basins. A
+backtracking Armijo line search on the energy guarantees decrease. At a stationary point that is
+not a minimum (a saddle reached by symmetry), the solver leaves along the eigenvector of the most
+negative curvature.
 
 Convergence: the Hessian is positive definite and either the largest gradient component is below
-``gtol`` (N) or the full Newton step is below ``xtol`` (mm), in which case that last step is
-taken. The second test keeps very stiff lattices (posts 100x stiffer), whose gradient cannot get
-below the round-off of their large forces, from being reported as unconverged, and saves the
-Hessian evaluation that would only confirm what the quadratic convergence already shows.
+``gtol`` (N) or the full Newton step is below ``xtol`` (mm); that last Newton step is then taken.
+The second test keeps very stiff lattices (posts 100x stiffer), whose gradient cannot get below
+the round-off of their large forces, from being reported as unconverged, and saves the Hessian
+evaluation that would only confirm what the quadratic convergence already shows.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from .. import status as st
 from .._jit import kernel
 from .lattice import ENERGY, HESSIAN, N_SPLIT, assemble
 from .layout import MAX_UNITS, n_free, n_nodes
-from .linalg import cholesky, cholesky_solve, max_abs, smallest_eigenpair
+from .linalg import cholesky, cholesky_solve, max_abs
 
 #: Armijo sufficient-decrease constant.
 ARMIJO = 1e-4
@@ -68,24 +68,63 @@ def workspace():
 
 
 @kernel
-def _factor_modified(hess, low, n):
-    """Factor ``hess + τI`` with the smallest ``τ`` of a doubling ladder that works.
+def _modified_step(hess, neg_grad, stationary, max_step, step, trial, n):
+    """Descent step where the Hessian is not positive definite.
 
-    Returns ``(τ, ok)``; ``τ = 0`` means the Hessian itself is positive definite.
+    In the eigenbasis of the Hessian the step is Newton's along every positive-curvature
+    direction, so the soft bending modes keep their own scale, and goes downhill along the
+    negative-curvature directions to the trust boundary ``max_step``, where the quadratic model
+    has no minimum. (A single shift ``H + τI`` large enough to cover the most negative eigenvalue
+    shrinks the step along the softest mode by ``λ_soft/τ``, often 1e-3, and Newton then crawls
+    for hundreds of iterations; dividing by ``|λ|`` instead crawls where a nearly collapsed
+    spring makes ``λ`` hugely negative.) At a stationary point (``stationary``) it leaves along
+    the most negative curvature. Steps are capped at ``max_step``; ``trial`` is scratch.
+
+    Returns ``OK``, ``UNSTABLE`` (stationary with a positive semi-definite, singular Hessian)
+    or ``NONFINITE``.
     """
-    if cholesky(hess, 0.0, low, n):
-        return 0.0, True
-    scale = 0.0
+    w, v = np.linalg.eigh(np.ascontiguousarray(hess[:n, :n]))
+    if not math.isfinite(w[0]) or not math.isfinite(w[n - 1]):
+        return st.NONFINITE
+    if stationary:
+        if w[0] >= 0.0:
+            return st.UNSTABLE
+        sign = 1.0
+        dot = 0.0
+        for i in range(n):
+            dot += neg_grad[i] * v[i, 0]
+        if dot < 0.0:
+            sign = -1.0
+        for i in range(n):
+            step[i] = sign * max_step * v[i, 0]
+        return st.OK
+    floor = 1e-8 * max(abs(w[0]), abs(w[n - 1]))
     for i in range(n):
-        scale = max(scale, abs(hess[i, i]))
-    if not scale > 0.0 or not math.isfinite(scale):
-        return 0.0, False
-    tau = 1e-3 * scale
-    for _ in range(60):
-        if cholesky(hess, tau, low, n):
-            return tau, True
-        tau *= 4.0
-    return tau, False
+        step[i] = 0.0
+        trial[i] = 0.0
+    for k in range(n):
+        c = 0.0
+        for i in range(n):
+            c += v[i, k] * neg_grad[i]
+        if w[k] > 0.0:
+            c /= max(w[k], floor)
+            for i in range(n):
+                step[i] += c * v[i, k]
+        else:
+            for i in range(n):
+                trial[i] += c * v[i, k]
+    # Downhill along negative curvature the quadratic model has no minimum: go to the trust
+    # boundary (max_step), as a trust-region method would; the line search shortens it.
+    tnorm = max_abs(trial, n)
+    if tnorm > 0.0:
+        for i in range(n):
+            step[i] += max_step / tnorm * trial[i]
+    snorm = max_abs(step, n)
+    if snorm > max_step:
+        scale = max_step / snorm
+        for i in range(n):
+            step[i] *= scale
+    return st.OK
 
 
 @kernel
@@ -115,8 +154,9 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
         ``OK``, ``NOT_CONVERGED``, ``NONFINITE``, ``DEGENERATE_GEOMETRY`` (two connected nodes
         coincide, so the energy has no direction there) or ``UNSTABLE`` (stationary, not a
         minimum).
-        On ``OK`` the workspace's Hessian and its Cholesky factor describe the returned ``x``,
-        so callers can reuse them (stiffness, smallest eigenvalue) without reassembling.
+        On ``OK`` the workspace's Hessian and its Cholesky factor are those of the point one
+        converged Newton step before the returned ``x``, so callers can reuse them (stiffness,
+        smallest eigenvalue) without reassembling.
     n_iter : int
         Hessian evaluations used.
 
@@ -140,47 +180,39 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             if shortest_spring(pos, unit_params.shape[0]) <= DEGENERATE_LENGTH * h:
                 return st.DEGENERATE_GEOMETRY, n_eval
             return st.NONFINITE, n_eval
-        tau, ok = _factor_modified(hess, low, n)
-        if not ok:
-            return st.NONFINITE, n_eval
+        positive = cholesky(hess, 0.0, low, n)
         for i in range(n):
-            grad[i] = -grad[i]
-        cholesky_solve(low, grad, step, n)  # grad now holds -g
-        snorm = max_abs(step, n)
-        if tau == 0.0 and gnorm <= gtol:
-            return st.OK, n_eval
-        if tau == 0.0 and snorm <= xtol:
-            # Converged on the step: take it. Newton converges quadratically here, so the
-            # stepped point is far closer than xtol; the Hessian and factor left in the
-            # workspace are those of the point a step (<= xtol) before, which moves the
-            # stiffness and smallest eigenvalue by a relative O(xtol / segment length).
-            for i in range(n):
-                x[i] += step[i]
-            return st.OK, n_eval
+            grad[i] = -grad[i]  # grad holds -g from here on
+        if positive:
+            cholesky_solve(low, grad, step, n)
+            if gnorm <= gtol or max_abs(step, n) <= xtol:
+                # Converged: take the Newton step already computed. In the quadratic regime
+                # the stepped point is far closer to the minimum than either tolerance; the
+                # Hessian and factor left in the workspace are those of the point one (tiny)
+                # step before, which moves stiffness and smallest eigenvalue by O(step/length).
+                for i in range(n):
+                    x[i] += step[i]
+                return st.OK, n_eval
         if n_eval >= max_iter:
             return st.NOT_CONVERGED, n_eval
         slope = 0.0
-        if tau > 0.0 and gnorm <= gtol:
-            # Stationary but not a minimum: leave along the most negative curvature.
-            lam, vec = smallest_eigenpair(hess, n)
-            if lam >= 0.0:
-                return st.UNSTABLE, n_eval  # positive semi-definite and singular
-            for i in range(n):
-                slope -= grad[i] * vec[i]
-            sign = -1.0 if slope > 0.0 else 1.0
-            for i in range(n):
-                step[i] = sign * max_step * vec[i]
-            slope = 0.5 * lam * max_step * max_step  # expected decrease from curvature
-        else:
-            # Cap only modified (non-Newton) steps: a positive definite Newton step is trusted
-            # to the line search, which saves iterations from good guesses; a modified step
-            # far from a minimum is where a large jump would cross into another basin.
-            if tau > 0.0 and snorm > max_step:
-                scale = max_step / snorm
-                for i in range(n):
-                    step[i] *= scale
+        if positive:
             for i in range(n):
                 slope -= grad[i] * step[i]
+        else:
+            status = _modified_step(hess, grad, gnorm <= gtol, max_step, step, trial, n)
+            if status != st.OK:
+                return status, n_eval
+            for i in range(n):
+                slope -= grad[i] * step[i]
+            if slope >= 0.0:  # a saddle: no first-order decrease along its escape direction
+                lam = 0.0
+                for i in range(n):
+                    s_i = 0.0
+                    for j in range(n):
+                        s_i += hess[i, j] * step[j]
+                    lam += step[i] * s_i
+                slope = 0.5 * lam  # expected decrease from the negative curvature
         # Backtracking Armijo search; the full step is tried with its Hessian (see Notes).
         tolerance = ROUNDOFF_ULPS * 2.220446049250313e-16 * abs(e)
         a = 1.0
@@ -197,7 +229,7 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             a *= 0.5
         if not accepted:
             # No measurable decrease: at round-off level with a PD Hessian this is convergence.
-            if tau == 0.0 and gnorm <= 1e3 * gtol and n_eval < max_iter:
+            if positive and gnorm <= 1e3 * gtol and n_eval < max_iter:
                 e = assemble(x, unit_params, h, pos, grad, hess, HESSIAN, split)
                 if cholesky(hess, 0.0, low, n):
                     return st.OK, n_eval + 1

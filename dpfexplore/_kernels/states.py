@@ -8,15 +8,21 @@ inversion vector exists (MODEL.md §6). It tries, in order, until the minimum it
 requested inversion vector:
 
 1. Newton from the geometric guess with the statics extension factor ``c = 1.0``;
-2. *constrained pre-relaxation*: the same guess relaxed with a penalty that holds each dome on
-   its requested side of the barrier (``u >= u_inv + margin`` or ``u <= u_inv - margin``), then
-   released. If the requested minimum exists it is a stationary point of the penalised energy
-   too, and the held shape sits in its basin, so the release stays there. If the state does not
-   exist, the release shows where the finger goes when let go: that is the state it reports as
-   "collapses to";
-3. the same two steps from the guess with ``c = 1.2`` (the implementation's dynamics factor).
+2. *constrained pre-relaxation*: the same guess relaxed with a penalty that holds every dome at
+   its isolated-dome minimum on the requested side (inverted: ``u >= u_second_min``; not
+   inverted: ``u <= 0``), then released. The lattice pushes each dome away from its own minima,
+   which moves its effective barrier; if the requested minimum exists, a dome held at its own
+   minimum is past that barrier and the release rolls into the requested minimum. If the state
+   does not exist, the release shows where the finger goes when let go: that is the state it
+   reports as "collapses to";
+3. the same with the gentler hold just past the isolated barrier (``u_inv ± 0.05``);
+4. the hold at the minima from the guess with ``c = 1.2`` (the implementation's dynamics
+   factor), then 5. Newton from that guess.
 
-Only when every attempt ends elsewhere is the state reported as ``COLLAPSED``.
+Only when every attempt ends elsewhere is the state reported as ``COLLAPSED``. Holding only just
+past the isolated barrier, as an earlier version did, missed 3 % of the existing all-inverted
+states of the paper's design space (found by multi-start checks); holding at the minima finds
+them (``tests/test_statics.py``).
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from .layout import (
     COL_KB,
     COL_P,
     COL_PEN,
+    COL_U_HELD,
     COL_U_HI,
     COL_U_INV,
     COL_U_LO,
@@ -47,8 +54,13 @@ from .linalg import (
 )
 from .newton import minimize
 
-#: Extension factors of the geometric guess tried in turn (statics, then dynamics value).
-GUESS_FACTORS = (1.0, 1.2)
+HOLD_NONE = 0
+HOLD_AT_MINIMA = 1
+HOLD_PAST_BARRIER = 2
+#: The search's attempts in order: extension factor of the geometric guess (statics value 1.0,
+#: the implementation's dynamics value 1.2) and how the domes are held before the release.
+ATTEMPT_GUESS = (1.0, 1.0, 1.0, 1.2, 1.2)
+ATTEMPT_HOLD = (HOLD_NONE, HOLD_AT_MINIMA, HOLD_PAST_BARRIER, HOLD_AT_MINIMA, HOLD_NONE)
 #: Distance (in units of ``d``) from the inversion threshold the penalty holds each dome at.
 PENALTY_MARGIN = 0.05
 #: Penalty stiffness relative to the dome's ``k_b``.
@@ -123,19 +135,27 @@ def inversion_state(x, unit_params, h, pos, u):
 
 
 @kernel
-def _steering_params(unit_params, state, steer):
-    """Copy of ``unit_params`` with penalties holding every dome on its side for ``state``."""
+def _steering_params(unit_params, state, at_minima, steer):
+    """Copy of ``unit_params`` with penalties holding every dome on its side for ``state``.
+
+    ``at_minima`` holds each dome at its isolated-dome minimum (inverted: ``u >= u_held``, the
+    second minimum; not inverted: ``u <= 0``). The lattice pushes a dome away from its isolated
+    minima and so moves its effective barrier; a dome held there is past that barrier whenever
+    the requested minimum exists, so the release finds it. Otherwise each dome is held just past
+    the isolated barrier (``u_inv ± PENALTY_MARGIN``), the gentler hold.
+    """
     n_units = unit_params.shape[0]
     for k in range(n_units):
         for j in range(unit_params.shape[1]):
             steer[k, j] = unit_params[k, j]
         threshold = unit_params[k, COL_U_INV]
         if state & unit_bit(k + 1, n_units):
-            steer[k, COL_U_LO] = threshold + PENALTY_MARGIN
+            bound = unit_params[k, COL_U_HELD] if at_minima else threshold + PENALTY_MARGIN
+            steer[k, COL_U_LO] = bound
             steer[k, COL_U_HI] = np.inf
         else:
             steer[k, COL_U_LO] = -np.inf
-            steer[k, COL_U_HI] = threshold - PENALTY_MARGIN
+            steer[k, COL_U_HI] = 0.0 if at_minima else threshold - PENALTY_MARGIN
         steer[k, COL_PEN] = PENALTY_FACTOR * unit_params[k, COL_KB]
 
 
@@ -171,7 +191,7 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
     pos = ws[0]
     u = ws[5]  # the line-search scratch is free between solves; N <= its length
     # Attempt 1 needs no steering table: most states are found here, without allocating.
-    geometric_guess(unit_params, h, requested, GUESS_FACTORS[0], x)
+    geometric_guess(unit_params, h, requested, ATTEMPT_GUESS[0], x)
     status, total_iter = minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws)
     best_found = -1
     last_status = status
@@ -181,15 +201,17 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
             return st.OK, best_found, total_iter
     best = x[:n].copy()
     best_is_release = False
-    steer = np.empty_like(unit_params)
-    _steering_params(unit_params, requested, steer)
-    for attempt in range(1, 2 * len(GUESS_FACTORS)):
-        steered = attempt % 2 == 1
-        geometric_guess(unit_params, h, requested, GUESS_FACTORS[attempt // 2], x)
-        if steered:
+    held_at_minima = np.empty_like(unit_params)
+    held_past_barrier = np.empty_like(unit_params)
+    _steering_params(unit_params, requested, True, held_at_minima)
+    _steering_params(unit_params, requested, False, held_past_barrier)
+    for attempt in range(1, len(ATTEMPT_GUESS)):
+        hold = ATTEMPT_HOLD[attempt]
+        geometric_guess(unit_params, h, requested, ATTEMPT_GUESS[attempt], x)
+        if hold != HOLD_NONE:
             status, it = minimize(
                 x,
-                steer,
+                held_at_minima if hold == HOLD_AT_MINIMA else held_past_barrier,
                 h,
                 gtol * STEERING_TOL_FACTOR,
                 xtol * STEERING_TOL_FACTOR,
@@ -206,11 +228,12 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
         found = inversion_state(x, unit_params, h, pos, u)
         if found == requested:
             return st.OK, found, total_iter
-        # Remember where the finger goes; the held-and-released outcome is the physical
+        # Remember where the finger goes; the first held-and-released outcome is the physical
         # answer to "where does it collapse to", so it wins over a plain start.
-        if best_found < 0 or (steered and not best_is_release):
+        released = hold != HOLD_NONE
+        if best_found < 0 or (released and not best_is_release):
             best_found = found
-            best_is_release = steered
+            best_is_release = released
             best[:] = x[:n]
     if best_found >= 0:
         x[:n] = best

@@ -1,12 +1,13 @@
 """Globalised Newton minimisation of the lattice energy.
 
 Each iteration factors the analytic Hessian (banded Cholesky). Where it is positive definite the
-Newton step is taken; where it is not (the guess sits on a dome's unstable branch), the step is
-Newton's on the Hessian with its eigenvalues replaced by their absolute values
-(:func:`_modified_step`), capped in length so that the first steps do not jump across basins. A
-backtracking Armijo line search on the energy guarantees decrease. At a stationary point that is
-not a minimum (a saddle reached by symmetry), the solver leaves along the eigenvector of the most
-negative curvature.
+Newton step is taken; where it is not (the guess sits on a dome's unstable branch), the first few
+steps use the Hessian shifted by a multiple of the identity until it factors (Nocedal & Wright,
+Algorithm 3.3; cheap), and later ones an eigenvalue-modified Hessian (:func:`_modified_step`),
+which does not crawl where the shift would; both are capped in length so that steps from a guess
+do not jump across basins. A backtracking Armijo line search on the energy guarantees decrease.
+At a stationary point that is not a minimum (a saddle reached by symmetry), the solver leaves
+along the eigenvector of the most negative curvature.
 
 Convergence: the Hessian is positive definite and either the largest gradient component is below
 ``gtol`` (N) or the full Newton step is below ``xtol`` (mm); that last Newton step is then taken.
@@ -33,6 +34,8 @@ ARMIJO = 1e-4
 MAX_BACKTRACKS = 40
 #: Energy changes this many ulps of the energy are round-off, not increase.
 ROUNDOFF_ULPS = 16.0
+#: Indefinite iterations that use the cheap shifted Hessian before the eigenvalue-modified step.
+SHIFTED_STEPS = 1
 #: Springs shorter than this fraction of the segment height make the geometry degenerate.
 DEGENERATE_LENGTH = 1e-9
 
@@ -65,6 +68,32 @@ def workspace():
         np.empty(nf),
         np.empty(N_SPLIT),
     )
+
+
+@kernel
+def _shifted_step(hess, neg_grad, max_step, low, step, n):
+    """Step on ``H + τI`` with the smallest ``τ`` of a ladder that makes it positive definite.
+
+    Cheap (a few banded Cholesky factorisations), and fine when the negative curvature is
+    mild, as it is for the first steps from a geometric guess. Returns False if no shift
+    worked (non-finite Hessian).
+    """
+    scale = 0.0
+    for i in range(n):
+        scale = max(scale, abs(hess[i, i]))
+    if not (scale > 0.0 and math.isfinite(scale)):
+        return False
+    tau = 1e-3 * scale
+    for _ in range(60):
+        if cholesky(hess, tau, low, n):
+            cholesky_solve(low, neg_grad, step, n)
+            snorm = max_abs(step, n)
+            if snorm > max_step:
+                for i in range(n):
+                    step[i] *= max_step / snorm
+            return True
+        tau *= 4.0
+    return False
 
 
 @kernel
@@ -170,6 +199,7 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
     n = n_free(unit_params.shape[0])
     e = assemble(x, unit_params, h, pos, grad, hess, HESSIAN, split)
     n_eval = 1
+    n_indefinite = 0
     # A start with (nearly) coincident connected nodes has no spring direction there; Newton
     # would crawl for its whole budget at forces of ~1e14 N/mm stiffness. Say so at once.
     if shortest_spring(pos, unit_params.shape[0]) <= DEGENERATE_LENGTH * h:
@@ -200,9 +230,14 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             for i in range(n):
                 slope -= grad[i] * step[i]
         else:
-            status = _modified_step(hess, grad, gnorm <= gtol, max_step, step, trial, n)
-            if status != st.OK:
-                return status, n_eval
+            n_indefinite += 1
+            if n_indefinite <= SHIFTED_STEPS and gnorm > gtol:
+                if not _shifted_step(hess, grad, max_step, low, step, n):
+                    return st.NONFINITE, n_eval
+            else:
+                status = _modified_step(hess, grad, gnorm <= gtol, max_step, step, trial, n)
+                if status != st.OK:
+                    return status, n_eval
             for i in range(n):
                 slope -= grad[i] * step[i]
             if slope >= 0.0:  # a saddle: no first-order decrease along its escape direction

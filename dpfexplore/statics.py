@@ -68,7 +68,7 @@ class SolverOptions:
         ... or when the full Newton step is below this. The last Newton step is then taken,
         so in the quadratic regime the result is far closer to the minimum than either
         tolerance; stiffness and smallest eigenvalue come from the Hessian one step earlier
-        (relative difference ~1e-6 or less).
+        (a point at most ~1e-7 mm away: relative difference below 1e-5).
     max_iter : int
         Hessian evaluations per attempt before giving up (``NOT_CONVERGED``).
     max_step : float, mm

@@ -455,6 +455,22 @@ def _tip_and_extensions(params, x_out: NDArray) -> tuple[NDArray, NDArray]:
     return tip, ext
 
 
+def empty_reset_columns(batch: DesignBatch) -> dict[str, NDArray]:
+    """The arrays of the :func:`reset_times_batch` contract before any simulation.
+
+    ``status`` is each design's input status; every output is NaN, -1 or "never inverted".
+    """
+    n = len(batch)
+    return {
+        "status": batch.status().astype(np.int8),
+        "final_state": np.full(n, -1, dtype=np.int64),
+        "reset_time": np.full((n, MAX_UNITS), np.nan),
+        "snap_through": np.full((n, MAX_UNITS), np.nan),
+        "snap_back": np.full((n, MAX_UNITS), np.nan),
+        "unit_class": np.full((n, MAX_UNITS), CLASS_NEVER_INVERTED, dtype=np.int8),
+    }
+
+
 def reset_times_batch(
     batch: DesignBatch,
     profile: PressureProfile,
@@ -505,16 +521,9 @@ def reset_times_batch(
         return release_reset_times_batch(batch, profile, t_end=t_end, atol=atol)
     if info.integrator < 0:
         raise ValueError(f"method = {method!r}: not available for batches; use a Numba method")
+    out = empty_reset_columns(batch)
+    status = out["status"]
     n = len(batch)
-    status = batch.status().astype(np.int8)
-    out = {
-        "status": status,
-        "final_state": np.full(n, -1, dtype=np.int64),
-        "reset_time": np.full((n, MAX_UNITS), np.nan),
-        "snap_through": np.full((n, MAX_UNITS), np.nan),
-        "snap_back": np.full((n, MAX_UNITS), np.nan),
-        "unit_class": np.full((n, MAX_UNITS), CLASS_NEVER_INVERTED, dtype=np.int8),
-    }
     if n == 0:
         return out
     unit_params, h, n_units = pack_batch(batch)

@@ -23,8 +23,6 @@ import numpy as np
 import pyarrow as pa
 from numpy.typing import NDArray
 
-from . import status as st
-from ._kernels.layout import MAX_UNITS
 from .design import DesignBatch
 from .space import ComputeSpec, PressureLoad
 from .store import STATUS_TYPE, column
@@ -182,31 +180,18 @@ def _dynamics_fields(max_units: int) -> list[pa.Field]:
 
 
 def reset_times(batch: DesignBatch, load: PressureLoad) -> dict[str, NDArray]:
-    """Per-design dynamics columns; every valid design is simulated (see the module docstring)."""
-    n = len(batch)
-    design_status = batch.status()
-    out = {
-        "dyn_status": np.where(design_status == st.OK, st.NOT_COMPUTED, design_status).astype(
-            np.int8
-        ),
-        "final_state": np.full(n, -1, dtype=np.int64),
-        "reset_time": np.full((n, MAX_UNITS), np.nan),
-        "snap_through": np.full((n, MAX_UNITS), np.nan),
-        "snap_back": np.full((n, MAX_UNITS), np.nan),
-        "unit_class": np.full((n, MAX_UNITS), -1, dtype=np.int8),
-    }
-    simulate = np.flatnonzero(design_status == st.OK)
-    if simulate.size:
-        from .dynamics import PressureProfile, reset_times_batch
+    """Per-design dynamics columns; every valid design is simulated (see the module docstring).
 
-        profile = PressureProfile(P0=load.P0, tau=load.tau)
-        kwargs = {"t_end": load.t_end}
-        if load.method is not None:
-            kwargs["method"] = load.method
-        result = reset_times_batch(batch.take(simulate), profile, **kwargs)
-        out["dyn_status"][simulate] = result["status"]
-        out["final_state"][simulate] = result["final_state"]
-        for name in ("reset_time", "snap_through", "snap_back", "unit_class"):
-            out[name][simulate] = result[name]
+    Invalid designs keep their input status as ``dyn_status`` and empty outputs, as
+    :func:`dpfexplore.dynamics.reset_times_batch` returns them.
+    """
+    from .dynamics import PressureProfile, reset_times_batch
+
+    profile = PressureProfile(P0=load.P0, tau=load.tau)
+    kwargs = {"t_end": load.t_end}
+    if load.method is not None:
+        kwargs["method"] = load.method
+    out = reset_times_batch(batch, profile, **kwargs)
+    out["dyn_status"] = out.pop("status")
     out["dyn_status_label"] = out["dyn_status"]
     return out

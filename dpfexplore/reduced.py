@@ -34,8 +34,6 @@ from numpy.typing import NDArray
 
 from . import status as st
 from ._kernels import dynamics as kdyn
-from ._kernels.dynamics_batch import CLASS_NEVER_INVERTED
-from ._kernels.layout import MAX_UNITS
 from ._kernels.reduced import release_batch
 from .design import Design, DesignBatch
 from .lattice import pack_batch
@@ -59,20 +57,13 @@ def release_reset_times_batch(batch: DesignBatch, profile, *, t_end: float,
     Same contract as :func:`dpfexplore.dynamics.reset_times_batch`; the snap-through times
     come from the loose loading phase (~1e-3 s).
     """
-    from .dynamics import METHODS, _check_horizon, _controls
+    from .dynamics import METHODS, _check_horizon, _controls, empty_reset_columns
 
     _single_pulse(profile)
     t_end = _check_horizon(t_end, profile)
+    out = empty_reset_columns(batch)
+    status = out["status"]
     n = len(batch)
-    status = batch.status().astype(np.int8)
-    out = {
-        "status": status,
-        "final_state": np.full(n, -1, dtype=np.int64),
-        "reset_time": np.full((n, MAX_UNITS), np.nan),
-        "snap_through": np.full((n, MAX_UNITS), np.nan),
-        "snap_back": np.full((n, MAX_UNITS), np.nan),
-        "unit_class": np.full((n, MAX_UNITS), CLASS_NEVER_INVERTED, dtype=np.int8),
-    }
     if n == 0:
         return out
     unit_params, h, n_units = pack_batch(batch)

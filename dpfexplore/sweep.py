@@ -259,7 +259,10 @@ def _note(progress: Progress, text: str) -> None:
 
 
 class LogProgress:
-    """Progress as log lines (INFO) at most every ``interval`` seconds: done, rate, ETA."""
+    """Progress as log lines (INFO) at most every ``interval`` seconds: done, rate, ETA.
+
+    Subclasses change where the lines go by overriding :meth:`emit`.
+    """
 
     def __init__(self, interval: float = 10.0, log: logging.Logger = logger) -> None:
         self.interval = interval
@@ -267,10 +270,14 @@ class LogProgress:
         self.total = self.done = self.at_start = 0
         self.started = self.last = 0.0
 
+    def emit(self, text: str) -> None:
+        """Write one progress line."""
+        self.log.info("sweep: %s", text)
+
     def start(self, total_designs: int, done_designs: int) -> None:
         self.total, self.done, self.at_start = total_designs, done_designs, done_designs
         self.started = self.last = time.perf_counter()
-        self.log.info("sweep: %d of %d designs already committed", done_designs, total_designs)
+        self.emit(f"starting: {done_designs}/{total_designs} designs already committed")
 
     def advance(self, record: ChunkRecord) -> None:
         self.done += record.stop - record.start
@@ -279,9 +286,10 @@ class LogProgress:
             self.last = now
             rate = (self.done - self.at_start) / max(now - self.started, 1e-9)
             eta = (self.total - self.done) / rate if rate > 0 else float("inf")
-            self.log.info(
-                "sweep: %d/%d designs (%.1f %%), %.0f designs/s, ETA %.0f s",
-                self.done, self.total, 100.0 * self.done / max(self.total, 1), rate, eta,
+            percent = 100.0 * self.done / max(self.total, 1)
+            self.emit(
+                f"{self.done}/{self.total} designs ({percent:.1f} %), {rate:.0f} designs/s, "
+                f"ETA {eta:.0f} s"
             )
 
     def close(self) -> None:

@@ -42,7 +42,15 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from .lattice import GRADIENT, HESSIAN, N_SPLIT, _scatter_pair, assemble, dome_extensions
+from .lattice import (
+    GRADIENT,
+    HESSIAN,
+    N_SPLIT,
+    _add_block,
+    _scatter_pair,
+    assemble,
+    dome_extensions,
+)
 from .layout import COL_P, COL_U_INV, free_node, n_free, n_nodes
 
 #: Total finger mass per unit, tonne (MODEL.md §8: 7e-6 · N/5).
@@ -129,18 +137,6 @@ def add_pressure_forces(pos, n_units, pressure, out):
 
 
 @kernel
-def _add_jac_block(jac, fi, fj, m00, m01, m10, m11):
-    if fi < 0 or fj < 0:
-        return
-    i = 2 * fi
-    j = 2 * fj
-    jac[i, j] += m00
-    jac[i, j + 1] += m01
-    jac[i + 1, j] += m10
-    jac[i + 1, j + 1] += m11
-
-
-@kernel
 def add_pressure_jacobian(n_units, pressure, jac):
     """Add ``∂F_ext/∂x`` (N/mm) to ``jac``: constant for a given pressure, not symmetric.
 
@@ -165,8 +161,8 @@ def add_pressure_jacobian(n_units, pressure, jac):
             fb = free_node(b)
             for node in (a, b):
                 fn = free_node(node)
-                _add_jac_block(jac, fn, fb, 0.0, r01, r10, 0.0)
-                _add_jac_block(jac, fn, fa, 0.0, -r01, -r10, 0.0)
+                _add_block(jac, fn, fb, 0.0, r01, r10, 0.0)
+                _add_block(jac, fn, fa, 0.0, -r01, -r10, 0.0)
 
 
 @kernel
@@ -262,10 +258,10 @@ def add_damping_position_jacobian(pos, vel, unit_params, h, eta, jac):
             m00 = c * (2.0 * dvx * dx + xv - 3.0 * xv * dx * dx / ell2)
             m01 = c * (dvx * dy + dx * dvy - 3.0 * xv * dx * dy / ell2)
             m11 = c * (2.0 * dvy * dy + xv - 3.0 * xv * dy * dy / ell2)
-            _add_jac_block(jac, fa, fa, m00, m01, m01, m11)
-            _add_jac_block(jac, fb, fb, m00, m01, m01, m11)
-            _add_jac_block(jac, fa, fb, -m00, -m01, -m01, -m11)
-            _add_jac_block(jac, fb, fa, -m00, -m01, -m01, -m11)
+            _add_block(jac, fa, fa, m00, m01, m01, m11)
+            _add_block(jac, fb, fb, m00, m01, m01, m11)
+            _add_block(jac, fa, fb, -m00, -m01, -m01, -m11)
+            _add_block(jac, fb, fa, -m00, -m01, -m01, -m11)
 
 
 @kernel

@@ -18,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+from ..sweep import LogProgress
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 
 
@@ -99,40 +100,13 @@ class _BarProgress:
             self.bar.close()
 
 
-class _LineProgress:
+class _LineProgress(LogProgress):
     """One line on stderr per ``interval`` seconds (and at the end): for logs and pipes."""
 
-    def __init__(self, interval: float = 10.0) -> None:
-        self.interval = interval
-        self.total = self.done = self.at_start = 0
-        self.started = self.last = 0.0
-
     def note(self, text: str) -> None:
-        self._line(text)
+        self.emit(text)
 
-    def start(self, total_designs: int, done_designs: int) -> None:
-        self.total, self.done, self.at_start = total_designs, done_designs, done_designs
-        self.started = self.last = time.perf_counter()
-        self._line(f"starting: {done_designs}/{total_designs} designs already committed")
-
-    def advance(self, record) -> None:
-        self.done += record.stop - record.start
-        now = time.perf_counter()
-        if now - self.last >= self.interval or self.done >= self.total:
-            self.last = now
-            rate = (self.done - self.at_start) / max(now - self.started, 1e-9)
-            eta = (self.total - self.done) / rate if rate > 0 else float("inf")
-            percent = 100.0 * self.done / max(self.total, 1)
-            self._line(
-                f"{self.done}/{self.total} designs ({percent:.1f} %), {rate:.0f} designs/s, "
-                f"ETA {eta:.0f} s"
-            )
-
-    def close(self) -> None:
-        pass
-
-    @staticmethod
-    def _line(text: str) -> None:
+    def emit(self, text: str) -> None:
         print(f"{time.strftime('%H:%M:%S')} sweep: {text}", file=sys.stderr, flush=True)
 
 

@@ -99,4 +99,4 @@ def test_bench_dynamics_json(main, capsys, tmp_path, monkeypatch):
     for r in record["records"]:
         assert r["us_per_design"] > 0 and np.isfinite(r["reset_time_rel_err"])
     assert record["radau_baseline_us_per_design"]["pickplace"] > 0
-    assert (tmp_path / "results" / "reports" / "bench_dynamics.png").exists()
+    assert (tmp_path / "results" / "reports" / "bench-dynamics.png").exists()

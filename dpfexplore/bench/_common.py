@@ -6,7 +6,10 @@ import json
 import os
 import platform
 import statistics
+import subprocess
 import sys
+import tempfile
+import textwrap
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -50,6 +53,24 @@ def _threading_layer() -> str:
         return numba.threading_layer()
     except ValueError:  # no parallel region has run yet
         return "not initialised"
+
+
+def fresh_process_timings(probe: str) -> tuple[list[float], list[float]]:
+    """Run ``probe`` (Python source printing numbers) twice against an empty Numba cache.
+
+    The first run compiles every kernel it touches, the second loads them from the cache the
+    first wrote; each returns the numbers the probe printed (e.g. seconds of its phases).
+    """
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        runs = [
+            subprocess.run(
+                [sys.executable, "-c", textwrap.dedent(probe)], env=env, capture_output=True,
+                text=True, check=True,
+            ).stdout.split()
+            for _ in range(2)
+        ]
+    return [float(v) for v in runs[0]], [float(v) for v in runs[1]]
 
 
 def median_time(func: Callable[[], object], *, repeats: int = 7, min_time: float = 0.05) -> float:

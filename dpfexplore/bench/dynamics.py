@@ -24,17 +24,12 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
-import subprocess
-import sys
-import tempfile
-import textwrap
 import time
 from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, machine_info, median_time
+from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_time
 
 #: (method, atol in mm or None for the default) rows of the time-vs-error table.
 LADDER = (
@@ -201,7 +196,7 @@ def _as_batch_output(results, n_max=12) -> dict:
 
 def _compile_seconds() -> dict[str, float]:
     """Cold compile and warm cache-load of the dynamics kernels, each in a fresh process."""
-    probe = textwrap.dedent(
+    probe = (
         """
         import time
         t0 = time.perf_counter()
@@ -217,12 +212,7 @@ def _compile_seconds() -> dict[str, float]:
         print(t1 - t0, t2 - t1, time.perf_counter() - t2)
         """
     )
-    with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        runs = [subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True,
-                               text=True, check=True).stdout.split() for _ in range(2)]  # fmt: skip
-    cold = [float(v) for v in runs[0]]
-    warm = [float(v) for v in runs[1]]
+    cold, warm = fresh_process_timings(probe)
     return {"import_s": cold[0], "compile_s": cold[1] + cold[2], "cache_load_s": warm[1] + warm[2]}
 
 

@@ -21,16 +21,11 @@ is measured in a fresh process with an empty Numba cache, apart from run times.
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
-import sys
-import tempfile
-import textwrap
 import time
 
 import numpy as np
 
-from ._common import REPORTS, emit, machine_info, median_time
+from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_time
 
 #: The paper's model time per design (Table sim_time, 2-6 units), s.
 PAPER_SECONDS = (0.58, 0.76)
@@ -49,6 +44,8 @@ def register(subparsers) -> None:
     parser.add_argument("--designs", type=int, default=500, help="designs per N for ours")
     parser.add_argument("--scipy-designs", type=int, default=30, help="designs per N for SciPy")
     parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument("--no-compile", action="store_true",
+                        help="skip the compile-time measurement (two fresh processes)")
     parser.add_argument("--rounds", type=int, default=5,
                         help="interleaved rounds of ours and SciPy (medians over rounds)")
     parser.add_argument("--save", action="store_true",
@@ -129,10 +126,10 @@ def _scipy_solve(lattice, state: int):
 
 
 def _compile_seconds() -> dict[str, float]:
-    """Cold compile and warm cache-load times of the statics batch kernel, each in a new process."""
-    probe = textwrap.dedent(
+    """Cold compile and warm cache-load times of the statics batch kernel (fresh processes)."""
+    (import_s, cold_s), (_, warm_s) = fresh_process_timings(
         """
-        import time, numpy as np
+        import time
         t0 = time.perf_counter()
         from dpfexplore import Design, DesignBatch, solve_batch
         design = Design(H=[4.0, 4.2], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)
@@ -142,16 +139,6 @@ def _compile_seconds() -> dict[str, float]:
         print(t1 - t0, time.perf_counter() - t1)
         """
     )
-    with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        cold = subprocess.run(
-            [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True
-        )
-        warm = subprocess.run(
-            [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True
-        )
-    import_s, cold_s = map(float, cold.stdout.split())
-    _, warm_s = map(float, warm.stdout.split())
     return {"compile_s": cold_s, "cache_load_s": warm_s, "import_s": import_s}
 
 
@@ -249,7 +236,11 @@ def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int, rounds: in
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench statics``."""
     sizes = [int(s) for s in args.units.split(",")]
-    compile_times = _compile_seconds()
+    compile_times = (
+        {"compile_s": float("nan"), "cache_load_s": float("nan")}
+        if args.no_compile
+        else _compile_seconds()
+    )
     records = [
         bench_size(n, args.designs, args.scipy_designs, args.seed + n, args.rounds) for n in sizes
     ]

@@ -28,14 +28,13 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import textwrap
 import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, machine_info
+from ._common import REPORTS, emit, fresh_process_timings, machine_info
 
 #: The paper's model time per design (Table sim_time), s; the issue's figure for the job.
 PAPER_SECONDS_PER_DESIGN = 0.66
@@ -64,6 +63,8 @@ def register(subparsers) -> None:
     parser.add_argument("--workers", type=int, default=None,
                         help="Dask worker processes (default: one per core)")
     parser.add_argument("--skip-dask", action="store_true", help="do not run the Dask engine")
+    parser.add_argument("--no-compile", action="store_true",
+                        help="skip the compile-time measurement (two fresh processes)")
     parser.set_defaults(handler=run)
 
 
@@ -115,20 +116,12 @@ class PeakRSS:
 
 def _compile_seconds() -> dict[str, float]:
     """Cold compile and warm cache-load times of every sweep kernel, each in a new process."""
-    probe = textwrap.dedent(
+    (cold,), (warm,) = fresh_process_timings(
         """
         from dpfexplore.warmup import compile_kernels
         print(compile_kernels())
         """
     )
-    with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        runs = [
-            subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True,
-                           text=True, check=True)
-            for _ in range(2)
-        ]
-    cold, warm = (float(r.stdout.split()[-1]) for r in runs)
     return {"compile_cold_s": cold, "cache_load_s": warm}
 
 
@@ -311,7 +304,11 @@ def _rss_run(designs: int, tmp: Path) -> dict:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench sweep``."""
     record: dict = {"machine": machine_info()}
-    record.update(_compile_seconds())
+    record.update(
+        {"compile_cold_s": float("nan"), "cache_load_s": float("nan")}
+        if args.no_compile
+        else _compile_seconds()
+    )
     from ..warmup import compile_kernels
 
     compile_kernels()  # this process: load the cache so no run below includes compilation

@@ -1,0 +1,79 @@
+"""Smoke runs of ``dpfexplore bench statics`` and ``bench sweep``: the records have their fields."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from dpfexplore.cli import main
+
+
+@pytest.mark.slow
+def test_bench_statics_record(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code = main(
+        [
+            "bench",
+            "statics",
+            "--json",
+            "--units",
+            "2,3",
+            "--designs",
+            "20",
+            "--scipy-designs",
+            "2",
+            "--rounds",
+            "1",
+            "--no-compile",
+            "--save",
+        ]
+    )
+    assert code == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["n_units"] == 2 and len(record["by_n_units"]) == 2
+    for key in (
+        "ours_us_per_design",
+        "scipy_us_per_design",
+        "speedup_vs_scipy",
+        "designs_per_s_all_cores",
+    ):
+        assert record[key] > 0
+    # ours is converged far below the SciPy baseline's error, against the tight reference
+    assert record["ours_tip_err_mm"] < 1e-9
+    assert np.isfinite(record["scipy_tip_err_all_mm"])
+    saved = json.loads((tmp_path / "results" / "reports" / "bench-statics.json").read_text())
+    assert saved["by_n_units"][1]["n_units"] == 3
+
+
+@pytest.mark.slow
+def test_bench_sweep_record(capsys, tmp_path, monkeypatch):
+    from dpfexplore.bench.sweep import JOBS
+
+    monkeypatch.chdir(tmp_path)
+    code = main(
+        [
+            "bench",
+            "sweep",
+            "--json",
+            "--jobs-dir",
+            str(JOBS),
+            "--repeats",
+            "1",
+            "--baseline-designs",
+            "3",
+            "--overnight-designs",
+            "3",
+            "--rss-designs",
+            "0",
+            "--skip-dask",
+            "--no-compile",
+        ]
+    )
+    assert code == 0
+    record = json.loads(capsys.readouterr().out)
+    local = record["engines"]["local"]
+    assert local["designs"] == 9000 and local["wall_s"] > 0 and local["peak_rss_mb"] > 0
+    assert record["paper_job"]["one_at_a_time"]["max_abs_difference"] == 0.0
+    assert record["overnight_outputs"]["designs_per_s"] > 0

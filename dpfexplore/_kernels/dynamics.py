@@ -50,6 +50,7 @@ from .lattice import (
     _scatter_pair,
     assemble,
     dome_extensions,
+    spring_nodes,
 )
 from .layout import COL_P, COL_U_INV, free_node, n_free, n_nodes
 
@@ -90,16 +91,6 @@ def pressure_at(t, knot_t, knot_p):
             w = (t - t0) / (t1 - t0)
             return knot_p[i - 1] + w * (knot_p[i] - knot_p[i - 1])
     return knot_p[n - 1]
-
-
-@kernel
-def _spring_nodes(k, spring, h, p):
-    """Nodes ``(a, b)`` and rest length of two-node spring ``spring`` (0 post, 1 layer, 2 dome)."""
-    if spring == 0:
-        return 2 * k, 2 * k + 1, h
-    if spring == 1:
-        return 2 * k + 1, 2 * k - 1, p
-    return 2 * k, 2 * k - 2, p
 
 
 @kernel
@@ -185,7 +176,7 @@ def add_damping_forces(pos, vel, unit_params, h, eta, out):
     for k in range(1, n_units + 1):
         p = unit_params[k - 1, COL_P]
         for spring in range(3):
-            a, b, rest = _spring_nodes(k, spring, h, p)
+            a, b, rest = spring_nodes(k, spring, h, p)
             if free_node(a) < 0 and free_node(b) < 0:
                 continue
             dx = pos[a, 0] - pos[b, 0]
@@ -217,7 +208,7 @@ def damping_matrix(pos, unit_params, h, eta, eta_iso, scratch, cmat):
     for k in range(1, n_units + 1):
         p = unit_params[k - 1, COL_P]
         for spring in range(3):
-            a, b, rest = _spring_nodes(k, spring, h, p)
+            a, b, rest = spring_nodes(k, spring, h, p)
             if free_node(a) < 0 and free_node(b) < 0:
                 continue
             dx = pos[a, 0] - pos[b, 0]
@@ -242,7 +233,7 @@ def add_damping_position_jacobian(pos, vel, unit_params, h, eta, jac):
     for k in range(1, n_units + 1):
         p = unit_params[k - 1, COL_P]
         for spring in range(3):
-            a, b, rest = _spring_nodes(k, spring, h, p)
+            a, b, rest = spring_nodes(k, spring, h, p)
             fa = free_node(a)
             fb = free_node(b)
             if fa < 0 and fb < 0:

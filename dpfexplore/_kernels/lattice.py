@@ -54,6 +54,25 @@ SPLIT_PENALTY = 3  # state-search steering only; zero for physical evaluations
 N_SPLIT = 4
 
 
+#: The two-node springs of a unit, in the order :func:`spring_nodes` numbers them.
+SPRING_POST = 0  # D_k - L_k, the post closing unit k
+SPRING_LAYER = 1  # L_{k-1} - L_k, the limiting-layer segment
+SPRING_DOME = 2  # D_{k-1} - D_k, the dome
+
+
+@kernel(inline="always")
+def spring_nodes(k, spring, h, p):
+    """Nodes ``(a, b)`` and rest length (mm) of two-node spring ``spring`` of unit ``k``.
+
+    ``p`` is the unit's segment length and ``h`` the segment height (the post's rest length).
+    """
+    if spring == SPRING_POST:
+        return 2 * k, 2 * k + 1, h
+    if spring == SPRING_LAYER:
+        return 2 * k + 1, 2 * k - 1, p
+    return 2 * k, 2 * k - 2, p
+
+
 @kernel
 def unpack_nodes(x, unit_params, h, pos):
     """Fill ``pos`` (shape ``(2N + 2, 2)``, mm) from the free coordinates ``x`` and the clamps."""
@@ -286,19 +305,15 @@ def assemble(x, unit_params, h, pos, grad, hess, mode, split):
         p = row[COL_P]
         # Two-node springs of unit k: post D_k-L_k, layer L_{k-1}-L_k, dome D_{k-1}-D_k.
         for spring in range(3):
-            if spring == 0:
-                a, b, rest, stiff = 2 * k, 2 * k + 1, h, row[COL_KPOST]
-            elif spring == 1:
-                a, b, rest, stiff = 2 * k + 1, 2 * k - 1, p, row[COL_KLIM]
-            else:
-                a, b, rest, stiff = 2 * k, 2 * k - 2, p, 0.0
+            a, b, rest = spring_nodes(k, spring, h, p)
+            stiff = row[COL_KPOST] if spring == SPRING_POST else row[COL_KLIM]
             if free_node(a) < 0 and free_node(b) < 0:
                 continue  # both ends clamped (the first unit's layer): constant zero energy
             dx = pos[a, 0] - pos[b, 0]
             dy = pos[a, 1] - pos[b, 1]
             ell = math.sqrt(dx * dx + dy * dy)
             stretch = ell - rest
-            if spring == 2:
+            if spring == SPRING_DOME:
                 f, f1, f2, pen = _dome_scalar(stretch, row)
                 e_dome += f
                 e_penalty += pen

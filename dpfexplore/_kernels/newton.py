@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import status as st
 from .._jit import kernel
-from .lattice import ENERGY, HESSIAN, N_SPLIT, assemble
+from .lattice import ENERGY, HESSIAN, N_SPLIT, assemble, spring_nodes
 from .layout import MAX_UNITS, n_free, n_nodes
 from .linalg import cholesky, cholesky_solve, max_abs
 
@@ -45,7 +45,8 @@ def shortest_spring(pos, n_units):
     """Length (mm) of the shortest two-node spring (posts, layer segments, domes) at ``pos``."""
     shortest = np.inf
     for k in range(1, n_units + 1):
-        for a, b in ((2 * k, 2 * k + 1), (2 * k + 1, 2 * k - 1), (2 * k, 2 * k - 2)):
+        for spring in range(3):
+            a, b, _ = spring_nodes(k, spring, 0.0, 0.0)
             dx = pos[a, 0] - pos[b, 0]
             dy = pos[a, 1] - pos[b, 1]
             shortest = min(shortest, math.sqrt(dx * dx + dy * dy))

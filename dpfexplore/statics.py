@@ -67,8 +67,8 @@ class SolverOptions:
     xtol : float, mm
         ... or when the full Newton step is below this. The last Newton step is then taken,
         so in the quadratic regime the result is far closer to the minimum than either
-        tolerance; stiffness and smallest eigenvalue come from the Hessian one step earlier
-        (a point at most ~1e-7 mm away: relative difference below 1e-5).
+        tolerance. Stiffness and smallest eigenvalue come from the Hessian at the returned
+        shape.
     max_iter : int
         Hessian evaluations per attempt before giving up (``NOT_CONVERGED``).
     max_step : float, mm

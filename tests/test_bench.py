@@ -35,6 +35,7 @@ def test_bench_statics_record(capsys, tmp_path, monkeypatch):
     assert record["n_units"] == 2 and len(record["by_n_units"]) == 2
     for key in (
         "ours_us_per_design",
+        "ours_batch_mean_us_per_design",
         "scipy_us_per_design",
         "speedup_vs_scipy",
         "designs_per_s_all_cores",

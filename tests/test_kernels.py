@@ -17,6 +17,7 @@ from dpfexplore._kernels.lattice import (
     lattice_gradient,
     lattice_hessian,
 )
+from dpfexplore._kernels.linalg import cholesky, cholesky_solve, profile_end, profile_start
 from dpfexplore._kernels.states import geometric_guess
 from dpfexplore.bench.numpy_model import NumpyLattice
 from dpfexplore.design import Design
@@ -219,3 +220,35 @@ def test_energy_and_stiffness_scale_with_E_and_shapes_do_not():
     p3 = lattice_params(base.replace(E=30.0))
     assert energy(x, p3) == pytest.approx(3 * energy(x, p1), rel=1e-13)
     np.testing.assert_allclose(hessian(x, p3), 3 * hessian(x, p1), rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("n_units", [1, 2, 3, 5, 12])
+def test_hessian_lies_in_the_cholesky_profile_and_the_factor_solves_like_lapack(n_units):
+    """The profile Cholesky reads only ``profile_start(i)..i`` of row ``i``: the lattice Hessian
+    must vanish left of it (at a random, far-from-rest shape), and the factor must solve as
+    LAPACK does, including the entries it never writes (``low`` starts as NaN here)."""
+    rng = np.random.default_rng(n_units)
+    design = Design(H=list(rng.uniform(3.0, 5.0, n_units)), U_L=7.0, U_sep=2.0, t=0.8, t_lim=1.5)
+    p = lattice_params(design)
+    x = np.empty(4 * n_units - 2)
+    geometric_guess(p.unit_params, p.h, 2**n_units - 1, 1.0, x)
+    x += rng.normal(0.0, 0.3, x.size)
+    h = hessian(x, p)
+    n = x.size
+    start = np.array([profile_start(i) for i in range(n)])
+    cols = np.arange(n)
+    outside = cols[None, :] < start[:, None]
+    assert np.all(h[outside] == 0.0) and np.all(h.T[outside] == 0.0)
+    # the profile is tight: the first entry of every row past post 2 is a real coupling
+    assert all(h[i, start[i]] != 0.0 for i in range(6, n))
+    assert all(profile_end(j, n) == max(i for i in range(n) if start[i] <= j) for j in range(n))
+    spd = h + (abs(np.linalg.eigvalsh(h)[0]) + 1.0) * np.eye(n)  # same profile, made definite
+    low = np.full((n, n), np.nan)
+    assert cholesky(spd, 0.0, low, n)
+    b = rng.normal(size=n)
+    out = np.empty(n)
+    cholesky_solve(low, b, out, n)
+    expected = np.linalg.solve(spd, b)
+    assert np.abs(out - expected).max() <= 1e-10 * np.abs(expected).max()
+    # an indefinite matrix is reported, not factored
+    assert not cholesky(spd, -2.0 * np.linalg.eigvalsh(spd)[-1], low, n)

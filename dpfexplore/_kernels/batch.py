@@ -154,4 +154,26 @@ def solve_rows(
         )
 
 
-__all__ = ["N_OUT", "solve_rows"]
+@kernel
+def solve_repeatedly(
+    unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig,
+    repeats,
+):
+    """Solve one design-state ``repeats`` times (for timing single designs); returns the status.
+
+    Workspace and outputs are allocated once, as in :func:`solve_rows`, so the time per repeat
+    is the solver's own.
+    """
+    ws = workspace()
+    x = np.empty(n_free(MAX_UNITS))
+    out = np.empty(N_OUT)
+    status = 0
+    for _ in range(repeats):
+        status, _, _ = solve_state(
+            unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness,
+            want_min_eig, x, out, ws,
+        )
+    return status
+
+
+__all__ = ["N_OUT", "solve_repeatedly", "solve_rows"]

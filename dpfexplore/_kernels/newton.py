@@ -1,6 +1,6 @@
 """Globalised Newton minimisation of the lattice energy.
 
-Each iteration factors the analytic Hessian (banded Cholesky). Where it is positive definite the
+Each iteration factors the analytic Hessian (profile Cholesky). Where it is positive definite the
 Newton step is taken; where it is not (the guess sits on a dome's unstable branch), the first few
 steps use the Hessian shifted by a multiple of the identity until it factors (Nocedal & Wright,
 Algorithm 3.3; cheap), and later ones an eigenvalue-modified Hessian (:func:`_modified_step`),
@@ -75,7 +75,7 @@ def workspace():
 def _shifted_step(hess, neg_grad, max_step, low, step, n):
     """Step on ``H + τI`` with the smallest ``τ`` of a ladder that makes it positive definite.
 
-    Cheap (a few banded Cholesky factorisations), and fine when the negative curvature is
+    Cheap (a few profile Cholesky factorisations), and fine when the negative curvature is
     mild, as it is for the first steps from a geometric guess. Returns False if no shift
     worked (non-finite Hessian).
     """
@@ -184,9 +184,6 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
         ``OK``, ``NOT_CONVERGED``, ``NONFINITE``, ``DEGENERATE_GEOMETRY`` (two connected nodes
         coincide, so the energy has no direction there) or ``UNSTABLE`` (stationary, not a
         minimum).
-        On ``OK`` the workspace's Hessian and its Cholesky factor are those of the point one
-        converged Newton step before the returned ``x``, so callers can reuse them (stiffness,
-        smallest eigenvalue) without reassembling.
     n_iter : int
         Hessian evaluations used.
 
@@ -218,9 +215,9 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             cholesky_solve(low, grad, step, n)
             if gnorm <= gtol or max_abs(step, n) <= xtol:
                 # Converged: take the Newton step already computed. In the quadratic regime
-                # the stepped point is far closer to the minimum than either tolerance; the
-                # Hessian and factor left in the workspace are those of the point one (tiny)
-                # step before, which moves stiffness and smallest eigenvalue by O(step/length).
+                # the stepped point is far closer to the minimum than either tolerance. (The
+                # workspace's Hessian is that of the point before the step: callers that need
+                # curvature at the returned x assemble it there.)
                 for i in range(n):
                     x[i] += step[i]
                 return st.OK, n_eval

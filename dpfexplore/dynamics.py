@@ -521,6 +521,25 @@ def reset_times_batch(
         return release_reset_times_batch(batch, profile, t_end=t_end, atol=atol)
     if info.integrator < 0:
         raise ValueError(f"method = {method!r}: not available for batches; use a Numba method")
+
+    def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
+        reset_times_kernel(
+            unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL, kdyn.ETA_ISO,
+            info.model == "overdamped", info.integrator, ctrl, t_end, codes,
+            out["final_state"], out["reset_time"], out["snap_through"], out["snap_back"],
+            out["unit_class"],
+        )  # fmt: skip
+
+    return _run_reset_batch(batch, profile, info, atol, max_steps, launch)
+
+
+def _run_reset_batch(batch, profile, info, atol, max_steps, launch) -> dict[str, NDArray]:
+    """Pack ``batch``, run ``launch`` (a batch reset-time kernel) on it, return its columns.
+
+    ``launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out)`` fills the
+    columns of :func:`empty_reset_columns` in ``out`` and a status code per valid row in
+    ``codes``; invalid designs keep their design status.
+    """
     out = empty_reset_columns(batch)
     status = out["status"]
     n = len(batch)
@@ -534,12 +553,7 @@ def reset_times_batch(
     codes = np.zeros(n, dtype=np.int64)
     previous = numba.set_parallel_chunksize(1)
     try:
-        reset_times_kernel(
-            unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL, kdyn.ETA_ISO,
-            info.model == "overdamped", info.integrator, ctrl, t_end, codes,
-            out["final_state"], out["reset_time"], out["snap_through"], out["snap_back"],
-            out["unit_class"],
-        )  # fmt: skip
+        launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out)
     finally:
         numba.set_parallel_chunksize(previous)
     status[valid] = codes[valid].astype(np.int8)

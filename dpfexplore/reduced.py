@@ -28,15 +28,11 @@ Why not one coordinate per metastable unit
 
 from __future__ import annotations
 
-import numba
-import numpy as np
 from numpy.typing import NDArray
 
-from . import status as st
 from ._kernels import dynamics as kdyn
 from ._kernels.reduced import release_batch
 from .design import Design, DesignBatch
-from .lattice import pack_batch
 
 __all__ = ["release_reset_times", "release_reset_times_batch"]
 
@@ -57,30 +53,17 @@ def release_reset_times_batch(batch: DesignBatch, profile, *, t_end: float,
     Same contract as :func:`dpfexplore.dynamics.reset_times_batch`; the snap-through times
     come from the loose loading phase (~1e-3 s).
     """
-    from .dynamics import METHODS, _check_horizon, _controls, empty_reset_columns
+    from .dynamics import METHODS, _check_horizon, _run_reset_batch
 
     _single_pulse(profile)
     t_end = _check_horizon(t_end, profile)
-    out = empty_reset_columns(batch)
-    status = out["status"]
-    n = len(batch)
-    if n == 0:
-        return out
-    unit_params, h, n_units = pack_batch(batch)
-    valid = status == st.OK
-    knot_t, knot_p = profile.knots()
-    ctrl = _controls(METHODS["release"], t_release=profile.t_release, atol=atol, rtol=None,
-                     h_max=None, max_steps=None, stop_when_reset=True)  # fmt: skip
-    codes = np.zeros(n, dtype=np.int64)
-    previous = numba.set_parallel_chunksize(1)
-    try:
+
+    def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
         release_batch(unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL,
                       kdyn.ETA_ISO, ctrl, t_end, codes, out["final_state"], out["reset_time"],
                       out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
-    finally:
-        numba.set_parallel_chunksize(previous)
-    status[valid] = codes[valid].astype(np.int8)
-    return out
+
+    return _run_reset_batch(batch, profile, METHODS["release"], atol, None, launch)
 
 
 def release_reset_times(design: Design, profile, *, t_end: float,

@@ -87,8 +87,7 @@ def test_every_reference_state_is_found_and_the_rest_collapse(design_id, params)
             assert r.min_eig == pytest.approx(ref["min_eig"], rel=1e-4)  # CSV keeps 6 digits
             gmax, eig = independent_check(design, r.x)
             assert gmax < 1e-8 and eig == pytest.approx(r.min_eig, rel=EIG_REL)
-            if design.n_units > 1:
-                assert r.stiffness == pytest.approx(dense_tip_stiffness(design, r.x), rel=EIG_REL)
+            assert r.stiffness == pytest.approx(dense_tip_stiffness(design, r.x), rel=EIG_REL)
         else:
             assert r.status == Status.COLLAPSED and r.found in minima
             np.testing.assert_allclose(r.tip, minima[r.found]["tip"], atol=1e-8)

@@ -203,17 +203,15 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
             return st.OK, best_found, total_iter
     best = x[:n].copy()
     best_is_release = False
-    held_at_minima = np.empty_like(unit_params)
-    held_past_barrier = np.empty_like(unit_params)
-    _steering_params(unit_params, requested, True, held_at_minima)
-    _steering_params(unit_params, requested, False, held_past_barrier)
+    held = np.empty_like(unit_params)
     for attempt in range(1, len(ATTEMPT_GUESS)):
         hold = ATTEMPT_HOLD[attempt]
         geometric_guess(unit_params, h, requested, ATTEMPT_GUESS[attempt], x)
         if hold != HOLD_NONE:
+            _steering_params(unit_params, requested, hold == HOLD_AT_MINIMA, held)
             status, it = minimize(
                 x,
-                held_at_minima if hold == HOLD_AT_MINIMA else held_past_barrier,
+                held,
                 h,
                 gtol * STEERING_TOL_FACTOR,
                 xtol * STEERING_TOL_FACTOR,

@@ -17,7 +17,13 @@ from dpfexplore._kernels.lattice import (
     lattice_gradient,
     lattice_hessian,
 )
-from dpfexplore._kernels.linalg import cholesky, cholesky_solve, profile_end, profile_start
+from dpfexplore._kernels.linalg import (
+    block_size,
+    block_start,
+    cholesky,
+    cholesky_solve,
+    n_blocks,
+)
 from dpfexplore._kernels.states import geometric_guess
 from dpfexplore.bench.numpy_model import NumpyLattice
 from dpfexplore.design import Design
@@ -223,10 +229,10 @@ def test_energy_and_stiffness_scale_with_E_and_shapes_do_not():
 
 
 @pytest.mark.parametrize("n_units", [1, 2, 3, 5, 12])
-def test_hessian_lies_in_the_cholesky_profile_and_the_factor_solves_like_lapack(n_units):
-    """The profile Cholesky reads only ``profile_start(i)..i`` of row ``i``: the lattice Hessian
-    must vanish left of it (at a random, far-from-rest shape), and the factor must solve as
-    LAPACK does, including the entries it never writes (``low`` starts as NaN here)."""
+def test_hessian_is_block_tridiagonal_and_the_factor_solves_like_lapack(n_units):
+    """The block Cholesky reads only the diagonal and sub-diagonal post blocks: the lattice
+    Hessian must vanish outside them (at a random, far-from-rest shape), and the factor must
+    solve as LAPACK does, including the entries it never writes (``low`` starts as NaN here)."""
     rng = np.random.default_rng(n_units)
     design = Design(H=list(rng.uniform(3.0, 5.0, n_units)), U_L=7.0, U_sep=2.0, t=0.8, t_lim=1.5)
     p = lattice_params(design)
@@ -235,20 +241,26 @@ def test_hessian_lies_in_the_cholesky_profile_and_the_factor_solves_like_lapack(
     x += rng.normal(0.0, 0.3, x.size)
     h = hessian(x, p)
     n = x.size
-    start = np.array([profile_start(i) for i in range(n)])
-    cols = np.arange(n)
-    outside = cols[None, :] < start[:, None]
-    assert np.all(h[outside] == 0.0) and np.all(h.T[outside] == 0.0)
-    # the profile is tight: the first entry of every row past post 2 is a real coupling
-    assert all(h[i, start[i]] != 0.0 for i in range(6, n))
-    assert all(profile_end(j, n) == max(i for i in range(n) if start[i] <= j) for j in range(n))
-    spd = h + (abs(np.linalg.eigvalsh(h)[0]) + 1.0) * np.eye(n)  # same profile, made definite
+    assert n_blocks(n) == n_units
+    assert sum(block_size(b) for b in range(n_units)) == n
+    block = np.concatenate([np.full(block_size(b), b) for b in range(n_units)])
+    assert all(block_start(b) == np.flatnonzero(block == b)[0] for b in range(n_units))
+    outside = np.abs(block[:, None] - block[None, :]) > 1
+    assert np.all(h[outside] == 0.0)
+    # the pattern is tight: every pair of adjacent blocks is coupled
+    assert all(np.any(h[np.ix_(block == b + 1, block == b)] != 0.0) for b in range(n_units - 1))
+    spd = h + (abs(np.linalg.eigvalsh(h)[0]) + 1.0) * np.eye(n)  # same pattern, made definite
     low = np.full((n, n), np.nan)
     assert cholesky(spd, 0.0, low, n)
     b = rng.normal(size=n)
     out = np.empty(n)
     cholesky_solve(low, b, out, n)
     expected = np.linalg.solve(spd, b)
+    assert np.abs(out - expected).max() <= 1e-10 * np.abs(expected).max()
+    # a shift is applied as a multiple of the identity
+    assert cholesky(spd, 3.0, low, n)
+    cholesky_solve(low, b, out, n)
+    expected = np.linalg.solve(spd + 3.0 * np.eye(n), b)
     assert np.abs(out - expected).max() <= 1e-10 * np.abs(expected).max()
     # an indefinite matrix is reported, not factored
     assert not cholesky(spd, -2.0 * np.linalg.eigvalsh(spd)[-1], low, n)

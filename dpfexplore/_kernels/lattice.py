@@ -45,6 +45,9 @@ from .layout import (
 ENERGY = 0
 GRADIENT = 1
 HESSIAN = 2
+#: The Hessian with every spring's own curvature made non-negative (see :func:`assemble`): a
+#: positive semi-definite model of the energy for steps where the true Hessian is indefinite.
+HESSIAN_CONVEX = 3
 
 #: Indices into the ``split`` array filled by :func:`assemble`.
 SPLIT_LINEAR = 0  # posts and limiting layer
@@ -177,6 +180,9 @@ def _scatter_pair(a, b, ex, ey, ell, f1, f2, mode, grad, hess):
     if mode < HESSIAN:
         return
     q = f1 / ell
+    if mode == HESSIAN_CONVEX:  # the spring's curvatures along and across e, made non-negative
+        f2 = abs(f2)
+        q = abs(q)
     kxx = f2 * ex * ex + q * (1.0 - ex * ex)
     kxy = (f2 - q) * ex * ey
     kyy = f2 * ey * ey + q * (1.0 - ey * ey)
@@ -228,6 +234,8 @@ def _torsion(pos, a, c, b, kt, mode, grad, hess):
     # Blocks of ∇²δ: aa = -Ha, ac = Ha, cc = Hb - Ha, cb = -Hb, bb = Hb, ab = 0.
     # Each Hφ is symmetric with H11 = -H00, so two numbers describe it.
     k = kt
+    if mode == HESSIAN_CONVEX:  # Gauss-Newton: keep k ∇δ ∇δᵀ, drop the indefinite k δ ∇²δ
+        s = 0.0
     _pair_block(hess, fa, k, g0x, g0y, s, -ha00, -ha01)
     _pair_block(hess, fc, k, g1x, g1y, s, hb00 - ha00, hb01 - ha01)
     _pair_block(hess, fb, k, g2x, g2y, s, hb00, hb01)
@@ -275,9 +283,14 @@ def assemble(x, unit_params, h, pos, grad, hess, mode, split):
     grad : ndarray of shape (4N - 2,)
         Filled when ``mode >= GRADIENT``.
     hess : ndarray of shape (4N - 2, 4N - 2)
-        Filled when ``mode == HESSIAN``.
+        Filled when ``mode >= HESSIAN``.
     mode : int
-        ``ENERGY``, ``GRADIENT`` or ``HESSIAN``.
+        ``ENERGY``, ``GRADIENT``, ``HESSIAN`` or ``HESSIAN_CONVEX``. The last assembles, in
+        place of the Hessian, the sum of every spring's Hessian made positive semi-definite:
+        a two-node spring's curvatures along and across its axis (``f''`` and ``f'/ℓ``) by
+        their absolute values (a dome on its unstable branch, a compressed spring), a torsional
+        spring's by its Gauss-Newton part ``k_t ∇δ ∇δᵀ`` (projected Newton on element
+        Hessians, as in quasi-static finite elements).
     split : ndarray of shape (N_SPLIT,)
         Energy by spring type (linear, dome, torsion, penalty), always filled.
 

@@ -4,24 +4,30 @@ State numbering: an inversion vector ``s`` (unit 1 first) is the integer with un
 significant bit (``11110`` is 30; the implementation's 1-based state number is that plus one).
 
 The search (:func:`find_state`) must find a requested state whenever a minimum with that
-inversion vector exists (MODEL.md §6). It tries, in order, until the minimum it reaches has the
+inversion vector exists (MODEL.md §6). It starts every attempt from the geometric guess with the
+statics extension factor ``c = 1.0`` and tries, in order, until the minimum it reaches has the
 requested inversion vector:
 
-1. Newton from the geometric guess with the statics extension factor ``c = 1.0``;
-2. *constrained pre-relaxation*: the same guess relaxed with a penalty that holds every dome at
-   its isolated-dome minimum on the requested side (inverted: ``u >= u_second_min``; not
-   inverted: ``u <= 0``), then released. The lattice pushes each dome away from its own minima,
-   which moves its effective barrier; if the requested minimum exists, a dome held at its own
-   minimum is past that barrier and the release rolls into the requested minimum. If the state
-   does not exist, the release shows where the finger goes when let go: that is the state it
-   reports as "collapses to";
-3. the same hold from the guess with ``c = 1.2`` (the implementation's dynamics factor).
+1. plain Newton from the guess;
+2. *constrained pre-relaxation at the isolated minima*: the guess relaxed with a penalty that
+   holds every dome at its isolated-dome minimum on the requested side (inverted:
+   ``u >= u_second_min``; not inverted: ``u <= 0``), then released. The lattice pushes each dome
+   away from its own minima, which moves its effective barrier; a dome held at its own minimum
+   is past that barrier and the release rolls into the requested minimum. If the state does not
+   exist, the release shows where the finger goes when let go: that is the state it reports as
+   "collapses to";
+3. the same with every dome held only ``PENALTY_MARGIN`` (a quarter of its reach) past its
+   isolated barrier. Holding a non-inverted dome flat (``u <= 0``) against inverted neighbours
+   that stretch it stores energy that can carry it over its barrier on release; this gentler
+   hold finds those mixed states (e.g. ``110`` of a 3-unit finger that attempts 1-2 take to
+   ``111``).
 
-Only when every attempt ends elsewhere is the state reported as ``COLLAPSED``. Holding the domes
-only just past the isolated barrier (``u_inv ± 0.05``, still available as the gentler hold), as
-an earlier version did, missed 3 % of the existing all-inverted states of the paper's design
-space; holding them at their minima finds them, and twelve-start checks of the states reported
-as collapsing find none that exists (``tests/test_statics.py``).
+Only when every attempt ends elsewhere is the state reported as ``COLLAPSED``. Checked on the
+paper's design space (every state of 2-6 unit fingers, ``tests/test_statics.py`` and 35 further
+starts per collapsed state: seven guesses ``c = 0.5..2`` times five holds): no state reported
+as collapsing was found by any other start. The earlier search (hold at minima from ``c = 1.0``
+and ``c = 1.2``, eigenvalue-modified Newton steps) missed 0.1-4 % of the existing states of
+mixed inversion vectors; it found every all-inverted one.
 """
 
 from __future__ import annotations
@@ -53,18 +59,17 @@ from .linalg import (
 )
 from .newton import minimize
 
+#: Extension factor ``c`` of every attempt's geometric guess (the statics value of MODEL.md §6).
+GUESS_EXTENSION = 1.0
 HOLD_NONE = 0
 HOLD_AT_MINIMA = 1
 HOLD_PAST_BARRIER = 2
-#: The search's attempts in order: extension factor of the geometric guess (statics value 1.0,
-#: the implementation's dynamics value 1.2) and how the domes are held before the release.
-#: On the paper's design space (9000 designs, all-inverted state) the held attempt found every
-#: state that plain Newton missed, and further attempts (the gentler hold, the c = 1.2 guess,
-#: plain or held) found none that it had not; the third attempt is cheap insurance.
-ATTEMPT_GUESS = (1.0, 1.0, 1.2)
-ATTEMPT_HOLD = (HOLD_NONE, HOLD_AT_MINIMA, HOLD_AT_MINIMA)
-#: Distance (in units of ``d``) from the inversion threshold the penalty holds each dome at.
-PENALTY_MARGIN = 0.05
+#: How each attempt of the search holds the domes before the release (module docstring).
+ATTEMPT_HOLD = (HOLD_NONE, HOLD_AT_MINIMA, HOLD_PAST_BARRIER)
+#: Distance (in units of ``d``) past the isolated barrier of the ``HOLD_PAST_BARRIER`` hold. On
+#: the paper's design space 0.1-0.25 found every mixed state the hold at minima misses, 0.4
+#: found 70 % of them, 0.05 misses all-inverted states the hold at minima finds.
+PENALTY_MARGIN = 0.25
 #: Penalty stiffness relative to the dome's ``k_b``.
 PENALTY_FACTOR = 100.0
 #: Tolerance factor for the steering (penalised) solve: it only needs the right basin.
@@ -100,21 +105,27 @@ def geometric_guess(unit_params, h, state, c, x):
     """Fill ``x`` with the paper's geometric guess for ``state`` (MODEL.md §6).
 
     Each inverted unit's dome segment is lengthened by ``c·d`` by turning the following post
-    (and everything beyond it) by ``atan(c·d/h)`` about the unit's limiting-layer node; the
-    limiting layer keeps its length.
+    (and everything beyond it) by ``θ = atan(c·d/h)`` about the unit's limiting-layer node; the
+    limiting layer keeps its length. The heading is carried as its cosine and sine, turned by
+    ``(cos θ, sin θ) = (h, c·d)/√(h² + c²d²)``: no trigonometric calls.
     """
     n_units = unit_params.shape[0]
-    phi = 0.0
+    cos_phi = 1.0
+    sin_phi = 0.0
     lx = 0.0
     ly = h
     for k in range(1, n_units + 1):
-        row = unit_params[k - 1]
-        lx += row[COL_P] * math.cos(phi)
-        ly += row[COL_P] * math.sin(phi)
+        p = unit_params[k - 1, COL_P]
+        lx += p * cos_phi
+        ly += p * sin_phi
         if state & unit_bit(k, n_units):
-            phi += math.atan(c * row[COL_D] / h)
-        dx = lx + h * math.sin(phi)
-        dy = ly - h * math.cos(phi)
+            lift = c * unit_params[k - 1, COL_D]
+            inv_r = 1.0 / math.sqrt(h * h + lift * lift)
+            cos_t = h * inv_r
+            sin_t = lift * inv_r
+            cos_phi, sin_phi = cos_phi * cos_t - sin_phi * sin_t, sin_phi * cos_t + cos_phi * sin_t
+        dx = lx + h * sin_phi
+        dy = ly - h * cos_phi
         fd = free_node(2 * k)
         x[2 * fd] = dx
         x[2 * fd + 1] = dy
@@ -137,16 +148,15 @@ def inversion_state(x, unit_params, h, pos, u):
 
 
 @kernel
-def _steering_params(unit_params, state, at_minima, steer):
+def _steering_params(unit_params, state, hold, steer):
     """Copy of ``unit_params`` with penalties holding every dome on its side for ``state``.
 
-    ``at_minima`` holds each dome at its isolated-dome minimum (inverted: ``u >= u_held``, the
-    second minimum; not inverted: ``u <= 0``). The lattice pushes a dome away from its isolated
-    minima and so moves its effective barrier; a dome held there is past that barrier whenever
-    the requested minimum exists, so the release finds it. Otherwise each dome is held just past
-    the isolated barrier (``u_inv ± PENALTY_MARGIN``), the gentler hold.
+    ``hold`` is ``HOLD_AT_MINIMA`` (inverted: ``u >= u_held``, the second minimum; not
+    inverted: ``u <= 0``) or ``HOLD_PAST_BARRIER`` (``u_inv ± PENALTY_MARGIN``); see the
+    module docstring.
     """
     n_units = unit_params.shape[0]
+    at_minima = hold == HOLD_AT_MINIMA
     for k in range(n_units):
         for j in range(unit_params.shape[1]):
             steer[k, j] = unit_params[k, j]
@@ -193,7 +203,7 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
     pos = ws[0]
     u = ws[5]  # the line-search scratch is free between solves; N <= its length
     # Attempt 1 needs no steering table: most states are found here, without allocating.
-    geometric_guess(unit_params, h, requested, ATTEMPT_GUESS[0], x)
+    geometric_guess(unit_params, h, requested, GUESS_EXTENSION, x)
     status, total_iter = minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws)
     best_found = -1
     last_status = status
@@ -204,11 +214,11 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
     best = x[:n].copy()
     best_is_release = False
     held = np.empty_like(unit_params)
-    for attempt in range(1, len(ATTEMPT_GUESS)):
+    for attempt in range(1, len(ATTEMPT_HOLD)):
         hold = ATTEMPT_HOLD[attempt]
-        geometric_guess(unit_params, h, requested, ATTEMPT_GUESS[attempt], x)
+        geometric_guess(unit_params, h, requested, GUESS_EXTENSION, x)
         if hold != HOLD_NONE:
-            _steering_params(unit_params, requested, hold == HOLD_AT_MINIMA, held)
+            _steering_params(unit_params, requested, hold, held)
             status, it = minimize(
                 x,
                 held,
@@ -239,11 +249,6 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
         x[:n] = best
         return st.COLLAPSED, best_found, total_iter
     return last_status, -1, total_iter
-
-
-@kernel
-def _wrap(angle):
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 @kernel
@@ -278,15 +283,18 @@ def state_outputs(x, unit_params, h, want_stiffness, want_min_eig, out, ws):
     tip = 2 * n_units + 1
     out[OUT_TIP_X] = pos[tip, 0]
     out[OUT_TIP_Y] = pos[tip, 1]
+    # Bend: the signed turn from each layer segment to the next, summed (the first segment,
+    # between clamped nodes, lies along +x), so the heading unwraps past ±π.
     bend = 0.0
     length = 0.0
-    previous = 0.0
+    px = 1.0
+    py = 0.0
     for k in range(1, n_units + 1):
         dx = pos[2 * k + 1, 0] - pos[2 * k - 1, 0]
         dy = pos[2 * k + 1, 1] - pos[2 * k - 1, 1]
-        heading = math.atan2(dy, dx)
-        bend += _wrap(heading - previous)
-        previous = heading
+        bend += math.atan2(px * dy - py * dx, px * dx + py * dy)
+        px = dx
+        py = dy
         length += math.sqrt(dx * dx + dy * dy)
     out[OUT_BEND] = bend
     out[OUT_CURVATURE] = bend / length

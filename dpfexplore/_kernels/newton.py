@@ -2,17 +2,20 @@
 
 Each iteration factors the analytic Hessian (block Cholesky). Where it is positive definite the
 Newton step is taken. Where it is not (the guess puts a dome on its unstable branch, a spring is
-compressed), the step is taken on the *convexified* Hessian instead: the sum of every spring's
+compressed), the first such step is taken on the Hessian shifted by a multiple of the identity
+until it factors (Nocedal & Wright, Algorithm 3.3): a short, cheap step that keeps a geometric
+guess in its own basin. Later ones use the *convexified* Hessian: the sum of every spring's
 Hessian made positive semi-definite (:data:`.lattice.HESSIAN_CONVEX`: absolute curvatures of the
 two-node springs, Gauss-Newton torsion), the projected Newton method of quasi-static finite
 elements. It costs one more assembly and a factorisation, keeps every mode on its own scale (a
-single shift ``H + τI`` large enough to cover the most negative eigenvalue shrinks the step along
-the softest bending mode by ``λ_soft/τ``, often 1e-3, and Newton then crawls), and needs no
+shift large enough to cover the most negative eigenvalue shrinks the step along the softest
+bending mode by ``λ_soft/τ``, often 1e-3, and Newton then crawls), and needs no
 eigen-decomposition (LAPACK's ``eigh`` costs 33 µs at N = 5, against 1.3 µs for an assembly and
-factorisation). Steps are capped in length so that steps from a guess do not jump across basins;
-a backtracking Armijo line search on the energy guarantees decrease. At a stationary point that
-is not a minimum (a saddle reached by symmetry), the solver leaves along the eigenvector of the
-most negative curvature.
+a factorisation; the eigenvalue-modified steps this replaced made collapsing states 2-3x dearer).
+Steps where the Hessian is indefinite are capped in length so that steps from a guess do not
+jump across basins; a backtracking Armijo line search on the energy guarantees decrease. At a
+stationary point that is not a minimum (a saddle reached by symmetry), the solver leaves along
+the eigenvector of the most negative curvature.
 
 Convergence: the Hessian is positive definite and either the largest gradient component is below
 ``gtol`` (N) or the full Newton step is below ``xtol`` (mm); that last Newton step is then taken.
@@ -39,6 +42,11 @@ ARMIJO = 1e-4
 MAX_BACKTRACKS = 40
 #: Energy changes this many ulps of the energy are round-off, not increase.
 ROUNDOFF_ULPS = 16.0
+#: Indefinite iterations that step on the Hessian shifted by a multiple of the identity before
+#: the convexified Hessian takes over, and the first shift of that ladder (relative to the largest
+#: diagonal entry). A short first step from a geometric guess keeps it in the guess's basin.
+SHIFTED_STEPS = 1
+FIRST_SHIFT = 1e-3
 #: Springs shorter than this fraction of the segment height make the geometry degenerate.
 DEGENERATE_LENGTH = 1e-9
 
@@ -75,19 +83,20 @@ def workspace():
 
 
 @kernel
-def _convex_step(hess, neg_grad, max_step, low, step, n):
-    """Newton step on the convexified Hessian ``hess`` (positive semi-definite), capped.
+def _shifted_step(hess, neg_grad, first_shift, max_step, low, step, n):
+    """Newton step on ``hess + τI``, capped at ``max_step``.
 
-    A tiny shift, raised tenfold until the factorisation succeeds, covers the semi-definite
-    case. Returns False if nothing factors (non-finite Hessian).
+    ``τ`` climbs a ladder from ``first_shift`` (relative to the largest diagonal entry; 0 tries
+    ``hess`` itself first) until the factorisation succeeds. Returns False if nothing factors
+    (non-finite Hessian).
     """
     scale = 0.0
     for i in range(n):
         scale = max(scale, abs(hess[i, i]))
     if not (scale > 0.0 and math.isfinite(scale)):
         return False
-    tau = 0.0
-    for _ in range(20):
+    tau = first_shift * scale
+    for _ in range(60):
         if cholesky(hess, tau, low, n):
             cholesky_solve(low, neg_grad, step, n)
             snorm = max_abs(step, n)
@@ -95,7 +104,7 @@ def _convex_step(hess, neg_grad, max_step, low, step, n):
                 for i in range(n):
                     step[i] *= max_step / snorm
             return True
-        tau = 1e-12 * scale if tau == 0.0 else 10.0 * tau
+        tau = 1e-12 * scale if tau == 0.0 else 4.0 * tau
     return False
 
 
@@ -162,6 +171,7 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
     n = n_free(unit_params.shape[0])
     e = assemble(x, unit_params, h, pos, grad, hess, HESSIAN, split)
     n_eval = 1
+    n_indefinite = 0
     # A start with (nearly) coincident connected nodes has no spring direction there; Newton
     # would crawl for its whole budget at forces of ~1e14 N/mm stiffness. Say so at once.
     if shortest_spring(pos, unit_params.shape[0]) <= DEGENERATE_LENGTH * h:
@@ -192,11 +202,16 @@ def minimize(x, unit_params, h, gtol, xtol, max_iter, max_step, ws):
             for i in range(n):
                 slope -= grad[i] * step[i]
         elif gnorm > gtol:
-            # Indefinite: step on the convexified Hessian (``trial`` takes the gradient, which
-            # ``grad`` already holds negated).
-            assemble(x, unit_params, h, pos, trial, hess, HESSIAN_CONVEX, split)
-            n_eval += 1
-            if not _convex_step(hess, grad, max_step, low, step, n):
+            n_indefinite += 1
+            if n_indefinite <= SHIFTED_STEPS:
+                shift = FIRST_SHIFT
+            else:
+                # the convexified Hessian (``trial`` takes the gradient, which ``grad`` already
+                # holds negated)
+                assemble(x, unit_params, h, pos, trial, hess, HESSIAN_CONVEX, split)
+                n_eval += 1
+                shift = 0.0
+            if not _shifted_step(hess, grad, shift, max_step, low, step, n):
                 return st.NONFINITE, n_eval
             for i in range(n):
                 slope -= grad[i] * step[i]

@@ -150,7 +150,10 @@ def _backward_block(low, out, r0, m, q0, qm):
 
 @kernel(inline="always")
 def cholesky_solve(low, b, out, n):
-    """Solve ``L Lᵀ out = b`` given the block factor ``low`` from :func:`cholesky`."""
+    """Solve ``L Lᵀ out = b`` given the block factor ``low`` from :func:`cholesky`.
+
+    ``b`` is read only to copy it into ``out``, so both may be the same array (in place).
+    """
     nb = n_blocks(n)
     for i in range(n):
         out[i] = b[i]

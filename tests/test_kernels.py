@@ -12,6 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as hs
 
 from dpfexplore._kernels.lattice import (
+    HESSIAN_CONVEX,
+    assemble,
     lattice_energy,
     lattice_energy_split,
     lattice_gradient,
@@ -264,3 +266,46 @@ def test_hessian_is_block_tridiagonal_and_the_factor_solves_like_lapack(n_units)
     assert np.abs(out - expected).max() <= 1e-10 * np.abs(expected).max()
     # an indefinite matrix is reported, not factored
     assert not cholesky(spd, -2.0 * np.linalg.eigvalsh(spd)[-1], low, n)
+
+
+def convexified_hessian(x, p):
+    g = np.empty_like(x)
+    hm = np.empty((x.size, x.size))
+    split = np.empty(4)
+    pos = np.empty((x.size // 2 + 3, 2))
+    assemble(x, p.unit_params, p.h, pos, g, hm, HESSIAN_CONVEX, split)
+    return g, hm
+
+
+@settings(max_examples=25, deadline=None)
+@given(n_units=hs.integers(1, 8), seed=hs.integers(0, 2**32 - 1))
+def test_convexified_hessian_is_positive_semidefinite_with_the_true_gradient(n_units, seed):
+    """The Newton model where the Hessian is indefinite: every spring's Hessian made positive
+    semi-definite, so the sum is too, at shapes far from rest (compressed springs, domes on
+    their unstable branch); the gradient is the true one."""
+    rng = np.random.default_rng(seed)
+    design = Design(H=list(rng.uniform(3, 5, n_units)), U_L=float(rng.uniform(5.5, 10)),
+                    U_sep=float(rng.uniform(1, 5)), t=float(rng.uniform(0.5, 1.0)),
+                    t_lim=float(rng.uniform(1, 2)))  # fmt: skip
+    p = lattice_params(design)
+    x = perturbed_guess(design, int(rng.integers(2**n_units)), rng, scale=0.5)
+    g, hc = convexified_hessian(x, p)
+    np.testing.assert_array_equal(g, gradient(x, p))
+    np.testing.assert_array_equal(hc, hc.T)
+    w = np.linalg.eigvalsh(hc)
+    assert w[0] >= -1e-12 * w[-1]
+    # where the true Hessian is indefinite, the convexified one differs from it
+    if np.linalg.eigvalsh(hessian(x, p))[0] < 0:
+        assert np.abs(hc - hessian(x, p)).max() > 0
+
+
+def test_convexified_hessian_equals_the_hessian_where_every_spring_is_convex():
+    """At the stress-free flat finger every spring sits at its rest length (no geometric
+    stiffness) with positive curvature, and every torsion at its rest angle: nothing to
+    convexify."""
+    design = Design(H=[3.8, 4.2, 4.5], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.2)
+    p = lattice_params(design)
+    x = np.empty(10)
+    geometric_guess(p.unit_params, p.h, 0, 1.0, x)
+    _, hc = convexified_hessian(x, p)
+    np.testing.assert_allclose(hc, hessian(x, p), rtol=0, atol=1e-12 * np.abs(hc).max())

@@ -234,6 +234,19 @@ def dome_force(x_bar: ArrayLike, k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike)
     return np.asarray(k_b, float) * x_bar * (1.0 + (1.0 - np.asarray(alpha)) * (2 * u * u - 3 * u))
 
 
+def dome_extrema(alpha: ArrayLike) -> tuple[NDArray, NDArray]:
+    """Barrier and inverted minimum of isolated domes, ``u = (3 ∓ √((1-9α)/(1-α)))/4``.
+
+    NaN where the dome is not bistable (``α >= 1/9``). The part of :func:`analyse_domes` the
+    kernels need, without the energies and forces.
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disc = (1.0 - 9.0 * alpha) / (1.0 - alpha)
+        root = np.sqrt(np.where(alpha < ALPHA_BISTABLE, disc, np.nan))
+    return (3.0 - root) / 4.0, (3.0 + root) / 4.0
+
+
 def analyse_domes(k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> DomeAnalysis:
     """Regime, barrier, second minimum and peak force of isolated domes (vectorised).
 
@@ -245,12 +258,9 @@ def analyse_domes(k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> DomeAnalysi
     """
     k_b, alpha, d = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (k_b, alpha, d)))
     one_minus = 1.0 - alpha
+    bistable = alpha < ALPHA_BISTABLE
+    u_barrier, u_second = dome_extrema(alpha)
     with np.errstate(invalid="ignore", divide="ignore"):
-        disc = (1.0 - 9.0 * alpha) / one_minus
-        bistable = alpha < ALPHA_BISTABLE
-        root = np.sqrt(np.where(bistable, disc, np.nan))
-        u_barrier = (3.0 - root) / 4.0
-        u_second = (3.0 + root) / 4.0
         # f''(u) = k_b (1 + 6 (1-α)(u² - u)) vanishes at u = (1 ∓ √(1 - 2/(3(1-α))))/2.
         has_peak = alpha < ALPHA_GHOST
         peak_u = (1.0 - np.sqrt(np.where(has_peak, 1.0 - 2.0 / (3.0 * one_minus), np.nan))) / 2.0

@@ -28,6 +28,7 @@ from .constants import (
     DomeAnalysis,
     analyse_domes,
     dome_alpha,
+    dome_extrema,
     dome_radius,
     dome_reach,
     dome_stiffness,
@@ -90,8 +91,12 @@ class SpringConstants:
     domes: DomeAnalysis
 
 
-def _unit_constants(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch) -> dict:
-    """Closed forms of MODEL.md §3, broadcasting (per-unit arrays against shared scalars)."""
+def _unit_constants(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, *, domes: bool = True) -> dict:
+    """Closed forms of MODEL.md §3, broadcasting (per-unit arrays against shared scalars).
+
+    ``domes=False`` skips the isolated-dome analysis (energies, forces, regime names), which
+    the kernel tables do not need and which takes half the time of a batch.
+    """
     R = dome_radius(H, r_b)
     k_b = dome_stiffness(E, H, t, R)
     alpha = dome_alpha(H, t, R)
@@ -108,7 +113,7 @@ def _unit_constants(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch) -> dict:
         "k_t": torsion_stiffness(E, t_lim, nu, r_b, U_sep, t, t_ch),
         "p": U_L + t_ch + U_sep,
         "h": segment_height(r_b, t_lim, t),
-        "domes": analyse_domes(k_b, alpha, d),
+        "domes": analyse_domes(k_b, alpha, d) if domes else None,
     }
 
 
@@ -161,20 +166,29 @@ class LatticeParams:
         return LatticeParams(table, self.h)
 
 
-def _fill_table(table: NDArray, c: dict) -> None:
-    table[..., lay.COL_P] = c["p"]
-    table[..., lay.COL_KB] = c["k_b"]
-    table[..., lay.COL_ALPHA] = c["alpha"]
-    table[..., lay.COL_D] = c["d"]
-    table[..., lay.COL_KLIM] = c["k_lim"]
-    table[..., lay.COL_KPOST] = c["k_post"]
-    table[..., lay.COL_KT] = c["k_t"]
-    table[..., lay.COL_U_LO] = -np.inf
-    table[..., lay.COL_U_HI] = np.inf
-    table[..., lay.COL_PEN] = 0.0
-    table[..., lay.COL_U_INV] = c["domes"].u_inversion
-    table[..., lay.COL_U_HELD] = np.where(np.isnan(c["domes"].u_second_min), 1.0,
-                                          c["domes"].u_second_min)
+def _kernel_table(c: dict, active: NDArray) -> NDArray:
+    """The per-unit kernel table (columns of :mod:`dpfexplore._kernels.layout`).
+
+    Built in one stack of the columns; NaN where not ``active``.
+    """
+    u_barrier, u_second = dome_extrema(c["alpha"])
+    columns = {
+        lay.COL_P: c["p"],
+        lay.COL_KB: c["k_b"],
+        lay.COL_ALPHA: c["alpha"],
+        lay.COL_D: c["d"],
+        lay.COL_KLIM: c["k_lim"],
+        lay.COL_KPOST: c["k_post"],
+        lay.COL_KT: c["k_t"],
+        lay.COL_U_LO: -np.inf,
+        lay.COL_U_HI: np.inf,
+        lay.COL_PEN: 0.0,
+        lay.COL_U_INV: np.where(np.isnan(u_barrier), 0.75, u_barrier),
+        lay.COL_U_HELD: np.where(np.isnan(u_second), 1.0, u_second),
+    }
+    shape = active.shape
+    table = np.stack([np.broadcast_to(columns[j], shape) for j in range(lay.N_COLS)], axis=-1)
+    return np.where(active[..., None], table, np.nan)
 
 
 def lattice_params(design: Design) -> LatticeParams:
@@ -183,11 +197,11 @@ def lattice_params(design: Design) -> LatticeParams:
     return LatticeParams(table[0, : design.n_units].copy(), float(h[0]))
 
 
-def batch_constants(batch: DesignBatch) -> dict:
+def batch_constants(batch: DesignBatch, *, domes: bool = True) -> dict:
     """The constants of :class:`SpringConstants` for a whole batch, as ``(n, MAX_UNITS)`` arrays.
 
     Padding and invalid designs give NaN or meaningless entries: check
-    :meth:`DesignBatch.status` before using a row.
+    :meth:`DesignBatch.status` before using a row. ``domes=False`` leaves ``"domes"`` None.
     """
     with np.errstate(all="ignore"):
         return _unit_constants(
@@ -195,6 +209,7 @@ def batch_constants(batch: DesignBatch) -> dict:
             batch.U_L,
             batch.U_sep,
             *(getattr(batch, name)[:, None] for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")),
+            domes=domes,
         )
 
 
@@ -210,10 +225,8 @@ def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:
     n_units : ndarray of int64, shape (n,)
     """
     active = np.arange(lay.MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, lay.MAX_UNITS)[:, None]
-    c = batch_constants(batch)
-    table = np.empty((len(batch), lay.MAX_UNITS, lay.N_COLS))
-    _fill_table(table, c)
-    table[~active] = np.nan
+    c = batch_constants(batch, domes=False)
+    table = _kernel_table(c, active)
     return table, np.ascontiguousarray(c["h"][:, 0]), batch.n_units.copy()
 
 

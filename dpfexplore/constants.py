@@ -234,6 +234,16 @@ def dome_force(x_bar: ArrayLike, k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike)
     return np.asarray(k_b, float) * x_bar * (1.0 + (1.0 - np.asarray(alpha)) * (2 * u * u - 3 * u))
 
 
+#: Inversion threshold ``u`` of a dome without a barrier (MODEL.md §6).
+U_INVERSION_WITHOUT_BARRIER = 0.75
+
+
+def inversion_threshold(u_barrier: ArrayLike) -> NDArray:
+    """Extension past which a unit counts as inverted: its barrier, or 3/4 without one."""
+    u_barrier = np.asarray(u_barrier, dtype=float)
+    return np.where(np.isnan(u_barrier), U_INVERSION_WITHOUT_BARRIER, u_barrier)
+
+
 def dome_extrema(alpha: ArrayLike) -> tuple[NDArray, NDArray]:
     """Barrier and inverted minimum of isolated domes, ``u = (3 ∓ √((1-9α)/(1-α)))/4``.
 
@@ -269,7 +279,7 @@ def analyse_domes(k_b: ArrayLike, alpha: ArrayLike, d: ArrayLike) -> DomeAnalysi
         regime=regime,
         u_barrier=u_barrier,
         u_second_min=u_second,
-        u_inversion=np.where(bistable, u_barrier, 0.75),
+        u_inversion=inversion_threshold(u_barrier),
         barrier_energy=dome_energy(u_barrier * d, k_b, alpha, d),
         second_min_energy=dome_energy(u_second * d, k_b, alpha, d),
         peak_force=dome_force(peak_u * d, k_b, alpha, d),

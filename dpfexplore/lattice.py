@@ -32,6 +32,7 @@ from .constants import (
     dome_radius,
     dome_reach,
     dome_stiffness,
+    inversion_threshold,
     limiting_layer_stiffness,
     torsion_stiffness,
 )
@@ -183,7 +184,7 @@ def _kernel_table(c: dict, active: NDArray) -> NDArray:
         lay.COL_U_LO: -np.inf,
         lay.COL_U_HI: np.inf,
         lay.COL_PEN: 0.0,
-        lay.COL_U_INV: np.where(np.isnan(u_barrier), 0.75, u_barrier),
+        lay.COL_U_INV: inversion_threshold(u_barrier),
         lay.COL_U_HELD: np.where(np.isnan(u_second), 1.0, u_second),
     }
     shape = active.shape

@@ -125,7 +125,7 @@ def reset_times_kernel(
         if not valid[i]:
             continue
         nu = n_units[i]
-        params = np.ascontiguousarray(unit_params[i, :nu])  # C layout: see batch._solve_rows
+        params = unit_params[i, :nu]
         nf = n_free(nu)
         y = np.empty(2 * nf)
         rest_state(params, h[i], y)

@@ -191,7 +191,7 @@ def release_batch(
         if not valid[i]:
             continue
         nu = n_units[i]
-        params = np.ascontiguousarray(unit_params[i, :nu])  # C layout: see batch._solve_rows
+        params = unit_params[i, :nu]
         y = np.empty(2 * n_free(nu))
         rec = np.empty((nu, N_REC))
         stats = np.zeros(N_STATS, dtype=np.int64)

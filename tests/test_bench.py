@@ -43,6 +43,8 @@ def test_bench_statics_record(capsys, tmp_path, monkeypatch):
         assert record[key] > 0
     # ours is converged far below the SciPy baseline's error, against the tight reference
     assert record["ours_tip_err_mm"] < 1e-9
+    assert record["ours_at_least_as_accurate"] is True
+    assert record["ours_us_per_design"] <= record["ours_us_per_design_p90"]
     assert np.isfinite(record["scipy_tip_err_all_mm"])
     saved = json.loads((tmp_path / "results" / "reports" / "bench-statics.json").read_text())
     assert saved["by_n_units"][1]["n_units"] == 3

@@ -4,9 +4,10 @@ For each finger size the benchmark samples designs in the paper's box (Table var
 domes are all bistable and whose all-inverted state exists, and times
 
 * ours on one core: the median over designs of the time one design takes (state search,
-  Newton, stiffness; each design solved 20 times in a row by the kernel, the median of five
-  such blocks), and the mean of a whole :func:`dpfexplore.statics.solve_batch` call with Numba
-  limited to one thread, also with the smallest eigenvalue;
+  Newton, stiffness; each design solved 20 times in a row by the kernel, its median over five
+  passes through all designs), and the mean of a whole
+  :func:`dpfexplore.statics.solve_batch` call with Numba limited to one thread, also with the
+  smallest eigenvalue;
 * ours on all cores: the same batch call with every thread (designs/s);
 * the baseline: ``scipy.optimize.minimize(method="BFGS")`` with the analytic gradient of a
   vectorised NumPy energy (:mod:`.numpy_model`), from the same geometric guess, to the same
@@ -156,13 +157,14 @@ def _compile_seconds() -> dict[str, float]:
     return {"compile_s": cold_s, "cache_load_s": warm_s, "import_s": import_s}
 
 
-def _per_design_times(batch, n_units: int, blocks: int = 5, repeats: int = 20) -> np.ndarray:
-    """Time (µs) each design takes, solved ``repeats`` times in a row, median of ``blocks``.
+def _per_design_times(batch, n_units: int, passes: int = 5, repeats: int = 20) -> np.ndarray:
+    """Time (µs) each design takes, solved ``repeats`` times in a row, median over ``passes``.
 
     The batch figure is a mean, which the few designs whose state search needs its held
     attempts pull up; the speed goal (<= 15 µs per design-state) is stated for the median over
-    designs of these times. Each design's time is the median of several blocks, so that a
-    burst of load from another tenant of the shared machine inflates one block, not the figure.
+    designs of these times. Each pass times every design once, and each design's time is its
+    median over the passes, so that a burst of load from another tenant of the shared machine
+    (which can last the half second one pass takes) inflates one pass, not the figure.
     """
     from .._kernels.batch import solve_repeatedly
     from ..lattice import lattice_params
@@ -170,17 +172,16 @@ def _per_design_times(batch, n_units: int, blocks: int = 5, repeats: int = 20) -
 
     controls = DEFAULT_OPTIONS.kernel_args()
     state = 2**n_units - 1
-    times = np.empty(len(batch))
-    for i in range(len(batch)):
-        params = lattice_params(batch.design(i))
-        solve_repeatedly(params.unit_params, params.h, state, *controls, True, False, 1)
-        samples = []
-        for _ in range(blocks):
+    params = [lattice_params(batch.design(i)) for i in range(len(batch))]
+    for p in params:
+        solve_repeatedly(p.unit_params, p.h, state, *controls, True, False, 1)
+    samples = np.empty((passes, len(params)))
+    for k in range(passes):
+        for i, p in enumerate(params):
             start = time.perf_counter()
-            solve_repeatedly(params.unit_params, params.h, state, *controls, True, False, repeats)
-            samples.append((time.perf_counter() - start) / repeats)
-        times[i] = np.median(samples) * 1e6
-    return times
+            solve_repeatedly(p.unit_params, p.h, state, *controls, True, False, repeats)
+            samples[k, i] = (time.perf_counter() - start) / repeats
+    return np.median(samples, axis=0) * 1e6
 
 
 def _max_or_nan(values: np.ndarray) -> float:

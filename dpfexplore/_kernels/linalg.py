@@ -109,7 +109,7 @@ def cholesky(a, shift, low, n):
     if not _factor_diagonal_block(a, low, shift, 2, 4, 0, 2):
         return False
     for b in range(2, nb):
-        r0 = 4 * b - 2
+        r0 = block_start(b)
         _factor_coupling_block(a, low, r0 - 4, 4)
         if not _factor_diagonal_block(a, low, shift, r0, 4, r0 - 4, 4):
             return False
@@ -163,13 +163,13 @@ def cholesky_solve(low, b, out, n):
         return
     _forward_block(low, out, 0, 2, 2, 4)
     for blk in range(1, nb - 1):
-        r0 = 4 * blk - 2
+        r0 = block_start(blk)
         _forward_block(low, out, r0, 4, r0 + 4, 4)
-    last = 4 * nb - 6
+    last = block_start(nb - 1)
     _forward_block(low, out, last, 4, 0, 0)
     _backward_block(low, out, last, 4, 0, 0)
     for blk in range(nb - 2, 0, -1):
-        r0 = 4 * blk - 2
+        r0 = block_start(blk)
         _backward_block(low, out, r0, 4, r0 + 4, 4)
     _backward_block(low, out, 0, 2, 2, 4)
 

@@ -10,6 +10,7 @@ from hypothesis import strategies as hs
 
 from dpfexplore._kernels import dynamics as kd
 from dpfexplore._kernels.dense_lu import LATTICE_HALF_BANDWIDTH, lu_factor, lu_solve
+from dpfexplore._kernels.linalg import band_matvec_add
 from dpfexplore._kernels.dynamics_batch import rest_state
 from dpfexplore._kernels.integrators_explicit import DP_A, DP_B, DP_C, DP_E
 from dpfexplore._kernels.integrators_rosenbrock import (
@@ -204,7 +205,7 @@ def _banded(rng, n, band):
 @settings(max_examples=40, deadline=None)
 @given(n=hs.integers(1, 46), band=hs.integers(0, 10), seed=hs.integers(0, 2**31))
 def test_banded_lu_solves_like_numpy(n, band, seed):
-    """Partial pivoting inside the band (pivots swap rows; ``U`` grows to twice the band)."""
+    """Threshold pivoting inside the band: random matrices swap rows, ``U`` grows to 2x band."""
     rng = np.random.default_rng(seed)
     band = min(band, n - 1)
     a = _banded(rng, n, band) + 1e-3 * np.eye(n)
@@ -218,6 +219,45 @@ def test_banded_lu_solves_like_numpy(n, band, seed):
     expected = np.linalg.solve(a, b)
     cond = np.linalg.cond(a)
     assert np.abs(z - expected).max() <= 1e-12 * cond * max(1.0, np.abs(expected).max())
+
+
+def test_lu_keeps_the_diagonal_pivot_unless_it_is_below_the_threshold():
+    """A diagonal pivot at least 0.1 of its column's largest entry stays; a smaller one swaps."""
+    rng = np.random.default_rng(7)
+    n, band = 22, LATTICE_HALF_BANDWIDTH
+    a = _banded(rng, n, band) + 20.0 * np.eye(n)
+    a[9, 8] = 60.0  # larger than the diagonal, which still passes the threshold
+    b = rng.normal(size=n)
+    for small_at in (None, 5):
+        m = a.copy()
+        if small_at is not None:  # a zero diagonal entry with a large one below it
+            m[small_at, small_at] = 0.0
+            m[small_at + 1, small_at] = 10.0
+        factors = m.copy()
+        piv = np.empty(n, dtype=np.int64)
+        assert lu_factor(factors, n, piv, band) == 0
+        swapped = np.flatnonzero(piv != np.arange(n))
+        if small_at is None:
+            assert swapped.size == 0
+        else:
+            assert small_at in swapped
+        z = b.copy()
+        lu_solve(factors, n, piv, z, band)
+        expected = np.linalg.solve(m, b)
+        assert np.abs(z - expected).max() <= 1e-13 * np.linalg.cond(m) * np.abs(expected).max()
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=hs.integers(1, 46), band=hs.integers(0, 10), seed=hs.integers(0, 2**31))
+def test_band_product_adds_the_matrix_vector_product(n, band, seed):
+    rng = np.random.default_rng(seed)
+    band = min(band, n - 1)
+    a = _banded(rng, n, band)
+    x = rng.normal(size=n)
+    out = rng.normal(size=n)
+    expected = out + a @ x
+    band_matvec_add(a, x, n, band, out)
+    np.testing.assert_allclose(out, expected, rtol=1e-13, atol=1e-13 * np.abs(a).sum(axis=1).max())
 
 
 def test_lu_reports_singular_matrix():

@@ -255,18 +255,15 @@ def add_damping_position_jacobian(pos, vel, unit_params, h, eta, jac):
             _add_block(jac, fb, fa, -m00, -m01, -m01, -m11)
 
 
-@kernel
-def force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
-    """Fill ``out`` with ``R = F_ext - ∇E - F_damp - η_iso v`` (N), so that ``M a = R``.
+@kernel(inline="always")
+def _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
+    """``out = R`` given ``∇E`` in ``work`` and the node positions in ``pos``.
 
-    ``phys`` is ``(η, η_iso, node mass)``; ``pos``, ``vel`` (shape ``(2N + 2, 2)``) and
-    ``work`` (shape ``(4N - 2,)``) are scratch; ``pos`` holds the node positions on return.
-    Returns the pressure (MPa) at ``t``.
+    ``work`` is used as scratch afterwards; ``vel`` receives the node velocities. Returns the
+    pressure (MPa) at ``t``.
     """
     n_units = unit_params.shape[0]
     nf = n_free(n_units)
-    split = np.empty(N_SPLIT)
-    assemble(x, unit_params, h, pos, work, np.empty((0, 0)), GRADIENT, split)
     node_velocities(v, n_units, vel)
     eta_iso = phys[PHYS_ETA_ISO]
     for i in range(nf):
@@ -278,6 +275,20 @@ def force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work
     for i in range(nf):
         out[i] -= work[i]
     return pressure
+
+
+@kernel
+def force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
+    """Fill ``out`` with ``R = F_ext - ∇E - F_damp - η_iso v`` (N), so that ``M a = R``.
+
+    ``phys`` is ``(η, η_iso, node mass)``; ``pos``, ``vel`` (shape ``(2N + 2, 2)``) and
+    ``work`` (shape ``(4N - 2,)``) are scratch; ``pos`` holds the node positions on return.
+    Returns the pressure (MPa) at ``t``.
+    """
+    split = np.empty(N_SPLIT)
+    assemble(x, unit_params, h, pos, work, np.empty((0, 0)), GRADIENT, split)
+    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
+                                   out)  # fmt: skip
 
 
 @kernel
@@ -315,6 +326,19 @@ def extension_margins(x, unit_params, h, pos, out):
         out[k] -= unit_params[k, COL_U_INV]
 
 
+@kernel(inline="always")
+def _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, out):
+    """``out``: from the Hessian to ``∂R/∂x = P_J - H - D`` (positions in ``pos``)."""
+    n_units = unit_params.shape[0]
+    nf = n_free(n_units)
+    node_velocities(v, n_units, vel)
+    add_damping_position_jacobian(pos, vel, unit_params, h, phys[PHYS_ETA], out)
+    for i in range(nf):
+        for j in range(nf):
+            out[i, j] = -out[i, j]
+    add_pressure_jacobian(n_units, pressure_at(t, knot_t, knot_p), out)
+
+
 @kernel
 def stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
     """Fill ``out`` with ``∂R/∂x = P_J - H - D`` (N/mm) at ``(x, v, t)``.
@@ -322,16 +346,24 @@ def stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, 
     ``H`` is the analytic Hessian, ``D = ∂F_damp/∂x`` at the velocities ``v`` and ``P_J`` the
     pressure-follower Jacobian. Scratch as for :func:`force_residual`.
     """
-    n_units = unit_params.shape[0]
-    nf = n_free(n_units)
     split = np.empty(N_SPLIT)
     assemble(x, unit_params, h, pos, work, out, HESSIAN, split)
-    node_velocities(v, n_units, vel)
-    add_damping_position_jacobian(pos, vel, unit_params, h, phys[PHYS_ETA], out)
-    for i in range(nf):
-        for j in range(nf):
-            out[i, j] = -out[i, j]
-    add_pressure_jacobian(n_units, pressure_at(t, knot_t, knot_p), out)
+    _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, out)
+
+
+@kernel
+def residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
+                          res, jac):  # fmt: skip
+    """:func:`force_residual` into ``res`` and :func:`stiffness_jacobian` into ``jac`` at once.
+
+    The Hessian assembly computes the gradient on the way, so the residual at the same point
+    costs only its damping and pressure terms: a Rosenbrock step needs both at its start.
+    """
+    split = np.empty(N_SPLIT)
+    assemble(x, unit_params, h, pos, work, jac, HESSIAN, split)
+    _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, jac)
+    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
+                                   res)  # fmt: skip
 
 
 @kernel

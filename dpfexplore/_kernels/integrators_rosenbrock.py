@@ -49,7 +49,7 @@ from .dynamics import (
     damping_matrix,
     force_residual,
     pressure_at,
-    stiffness_jacobian,
+    residual_and_jacobian,
 )
 from .events import (
     CTRL_ATOL,
@@ -74,7 +74,7 @@ from .events import (
     record_initial_samples,
 )
 from .layout import n_free, n_nodes
-from .linalg import cholesky, cholesky_solve
+from .linalg import band_matvec_add, cholesky, cholesky_solve
 
 # Rodas4 in the transformed form of Hairer & Wanner's RODAS code:
 #   (M/(hγ) - J) K_i = f(t + α_i h, y + Σ_j A_ij K_j) + M Σ_j C_ij K_j / h + γ_i h ∂f/∂t,
@@ -201,6 +201,8 @@ def rodas4(
     work = np.empty(n)
     grad = np.empty(n)  # stage residuals
     smat = np.empty((n, n))
+    jac = np.empty((n, n))  # ∂R/∂x at the step start
+    res0 = np.empty(n)  # R at the step start: the first stage's right-hand side
     low = np.empty((n, n))
     cmat = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
@@ -232,6 +234,7 @@ def rodas4(
         step = 1e-6
     step = min(step, h_max)
     last_rejected = False
+    fresh = False  # jac, cmat and res0 belong to the current (t, x, v)
     h_acc = 0.0  # last accepted step and its error, for the predictive controller
     err_acc = 1.0
     while t < t_end:
@@ -248,15 +251,28 @@ def rodas4(
         if step < h_min:
             return st.NOT_CONVERGED
 
-        # Jacobian at (t, x, v): S = m/(hγ)² + C/(hγ) + H + D - P_J.
-        stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, smat)
-        damping_matrix(pos, unit_params, h, eta, eta_iso, work, cmat)
+        # Jacobian at (t, x, v): S = m/(hγ)² + C/(hγ) + H + D - P_J. A rejected step retries
+        # from the same point, so only the step size changes.
+        if not fresh:
+            residual_and_jacobian(
+                x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0, jac
+            )
+            damping_matrix(pos, unit_params, h, eta, eta_iso, work, cmat)
+            stats[STAT_RHS] += 1
+            # ∂R/∂t: the pressure load at unit pressure times dP/dt on this profile segment
+            # (steps never cross a knot, so a retry with a shorter step stays on it).
+            slope = pressure_slope(t + 0.5 * step, knot_t, knot_p)
+            for i in range(n):
+                ft[i] = 0.0
+            if slope != 0.0:
+                add_pressure_forces(pos, n_units, slope, ft)
+            fresh = True
         hg = step * RODAS4_GAMMA
         inv_hg = 1.0 / hg
         diag_m = mass * inv_hg * inv_hg
         for i in range(n):
             for j in range(n):
-                smat[i, j] = cmat[i, j] * inv_hg - smat[i, j]
+                smat[i, j] = cmat[i, j] * inv_hg - jac[i, j]
             smat[i, i] += diag_m
         stats[STAT_FACTOR] += 1
         # Without pressure at t the matrix is symmetric (P_J is the only non-symmetric part),
@@ -265,43 +281,47 @@ def rodas4(
         symmetric = pressure_at(t, knot_t, knot_p) == 0.0
         use_cholesky = symmetric and cholesky(smat, 0.0, low, n)
         ok = use_cholesky or lu_factor(smat, n, piv, BAND) == 0
-        # ∂R/∂t: the pressure load at unit pressure times dP/dt on this profile segment.
-        slope = pressure_slope(t + 0.5 * step, knot_t, knot_p)
-        for i in range(n):
-            ft[i] = 0.0
-        if slope != 0.0:
-            add_pressure_forces(pos, n_units, slope, ft)
 
         if ok:
+            inv_step = 1.0 / step
             for s in range(N_STAGES):
+                # stage point y + Σ A_sj K_j and Σ C_sj K_j / h, one earlier stage at a time
                 for i in range(n):
-                    ax_ = x[i]
-                    av_ = v[i]
-                    cx = 0.0
-                    cv = 0.0
-                    for j in range(s):
-                        ax_ += RODAS4_A[s, j] * kx[j, i]
-                        av_ += RODAS4_A[s, j] * kv[j, i]
-                        cx += RODAS4_C[s, j] * kx[j, i]
-                        cv += RODAS4_C[s, j] * kv[j, i]
-                    yx[i] = ax_
-                    yv[i] = av_
-                    rx[i] = av_ + cx / step
-                    rv[i] = mass * cv / step
-                t_stage = t + RODAS4_ALPHA[s] * step
-                force_residual(
-                    yx, yv, t_stage, unit_params, h, knot_t, knot_p, phys, pos, vel, work, grad
-                )
-                stats[STAT_RHS] += 1
+                    yx[i] = x[i]
+                    yv[i] = v[i]
+                    rx[i] = 0.0
+                    rv[i] = 0.0
+                for j in range(s):
+                    a_sj = RODAS4_A[s, j]
+                    c_sj = RODAS4_C[s, j] * inv_step
+                    kx_j = kx[j]
+                    kv_j = kv[j]
+                    for i in range(n):
+                        yx[i] += a_sj * kx_j[i]
+                        yv[i] += a_sj * kv_j[i]
+                        rx[i] += c_sj * kx_j[i]
+                        rv[i] += c_sj * kv_j[i]
+                for i in range(n):
+                    rx[i] += yv[i]
+                    rv[i] *= mass
+                if s == 0:  # the step start itself (α_1 = 0)
+                    for i in range(n):
+                        grad[i] = res0[i]
+                else:
+                    t_stage = t + RODAS4_ALPHA[s] * step
+                    force_residual(
+                        yx, yv, t_stage, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
+                        grad,
+                    )  # fmt: skip
+                    stats[STAT_RHS] += 1
                 gam_h = RODAS4_GAMMA_SUM[s] * step
                 for i in range(n):
                     rv[i] += grad[i] + gam_h * ft[i]
                 # right-hand side r_v + (m/(hγ) + C) r_x, then k_v = k_x/(hγ) - r_x
+                kx_s = kx[s]
                 for i in range(n):
-                    acc = rv[i] + mass * inv_hg * rx[i]
-                    for j in range(max(0, i - BAND), min(n, i + BAND + 1)):
-                        acc += cmat[i, j] * rx[j]
-                    kx[s, i] = acc
+                    kx_s[i] = rv[i] + mass * inv_hg * rx[i]
+                band_matvec_add(cmat, rx, n, BAND, kx_s)
                 if use_cholesky:
                     cholesky_solve(low, kx[s], kx[s], n)
                 else:
@@ -336,6 +356,7 @@ def rodas4(
             for i in range(n):
                 x[i] = x_new[i]
                 v[i] = v_new[i]
+            fresh = False
             stats[STAT_STEPS] += 1
             fac = _SAFETY * err ** -0.25 if err > 0.0 else _FAC_MAX
             fac = min(_FAC_MAX, max(_FAC_MIN, fac))

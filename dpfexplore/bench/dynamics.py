@@ -3,8 +3,9 @@
 Two cases: the paper's pick-and-place finger (0.7 MPa, τ = 0, 1, 5, 5.1 s, 15 s horizon) and
 random metastable designs (2-6 units, the paper's box with one or two low domes; kept when the
 reference run has at least one unit that resets). For every integrator, tolerance and reduced
-model it times :func:`dpfexplore.dynamics.reset_times_batch` on one core (median over repeats,
-per design) and measures the reset times' largest relative error against the reference, the
+model it times :func:`dpfexplore.dynamics.reset_times_batch` on one core (per design: the
+median over three rounds through all rows of the median of five calls; the SciPy baseline on
+the pick-and-place finger: the median of three runs) and measures the reset times' largest relative error against the reference, the
 number of units whose class (resets / never resets) differs, and the final states that differ.
 
 References: SciPy ``solve_ivp(method="Radau")`` at rtol 1e-7, atol 1e-10 for the
@@ -49,6 +50,10 @@ LADDER = (
 #: compare at matched error.
 RADAU_ROWS = (("scipy-radau", 1e-4, 1e-9), ("scipy-radau-loose", 1e-3, 1e-6))
 PULSE = (0.7, (0.0, 1.0, 5.0, 5.1))
+#: Rounds through all ladder rows when timing them (see :func:`_case`).
+TIMING_ROUNDS = 3
+#: Runs of the SciPy baseline on the pick-and-place finger (the median is the baseline).
+RADAU_RUNS_PICKPLACE = 3
 #: Evaluation cap of the SciPy runs (its Radau can stall; such a run counts as failed).
 MAX_NFEV = 300_000
 T_END = 15.0
@@ -150,23 +155,24 @@ def _errors(out, ref) -> dict:
     }
 
 
-def _time_method(batch, profile, method, atol, *, repeats) -> tuple[float, dict]:
-    """Median seconds per design on one core, and the outputs."""
-    import numba
-
+def _outputs(batch, profile, method, atol) -> dict:
     from ..dynamics import reset_times_batch
+
+    return reset_times_batch(batch, profile, t_end=T_END, method=method, atol=atol)
+
+
+def _time_method(batch, profile, method, atol, *, repeats) -> float:
+    """Median seconds per design on one core over ``repeats`` calls."""
+    import numba
 
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
-        out = reset_times_batch(batch, profile, t_end=T_END, method=method, atol=atol)
-        seconds = median_time(
-            lambda: reset_times_batch(batch, profile, t_end=T_END, method=method, atol=atol),
-            repeats=repeats, min_time=0.0,
-        )  # fmt: skip
+        seconds = median_time(lambda: _outputs(batch, profile, method, atol), repeats=repeats,
+                              min_time=0.0)  # fmt: skip
     finally:
         numba.set_num_threads(threads)
-    return seconds / len(batch), out
+    return seconds / len(batch)
 
 
 def _radau(designs, profile, *, rtol, atol) -> tuple[list[float], list]:
@@ -217,36 +223,50 @@ def _compile_seconds() -> dict[str, float]:
 
 
 def _case(name, batch, ref, profile, radau, *, explicit_rows) -> list[dict]:
-    """Every ladder row on one set of designs; ``radau`` maps labels to (rtol, atol, s, errors)."""
+    """Every ladder row on one set of designs; ``radau`` maps labels to (rtol, atol, s, errors).
+
+    Each row's time is the median over :data:`TIMING_ROUNDS` rounds through all rows (the slow
+    explicit rows: one round), so that a burst of load from other tenants of a shared machine
+    moves a sample of every row instead of all the samples of one.
+    """
+    from ..dynamics import METHODS
+
     radau_seconds = radau["scipy-radau"][2]
-    records = []
+    rows = []
     for method, atol in LADDER:
-        rows = batch
+        designs = batch
         sub_ref = ref
         # the explicit pair costs ~1e5x more on the full model, ~100x on the overdamped one
         limit = {"dopri5": explicit_rows, "dopri5-overdamped": 10 * explicit_rows}.get(method)
         if limit is not None and limit < len(batch):
             if limit == 0:
                 continue
-            rows = batch.take(np.arange(limit))
+            designs = batch.take(np.arange(limit))
             sub_ref = {k: v[:limit] for k, v in ref.items()}
-        repeats = 1 if method.startswith("dopri5") else 5
         start = time.perf_counter()
-        seconds, out = _time_method(rows, profile, method, atol, repeats=repeats)
-        logger.info("%s %s atol=%s: %d designs, %.1f s", name, method, atol, len(rows),
+        out = _outputs(designs, profile, method, atol)
+        logger.info("%s %s atol=%s: %d designs, %.1f s", name, method, atol, len(designs),
                     time.perf_counter() - start)  # fmt: skip
-        from ..dynamics import METHODS
-
-        record = {
+        rows.append((method, atol, designs, {
             "case": name,
             "method": method,
             "atol_mm": atol if atol is not None else METHODS[method].atol,
-            "designs": len(rows),
-            "us_per_design": seconds * 1e6,
+            "designs": len(designs),
             **_errors(out, sub_ref),
-        }
-        record["speedup_vs_radau"] = radau_seconds / seconds
-        records.append(record)
+        }))  # fmt: skip
+    samples = [[] for _ in rows]
+    for round_ in range(TIMING_ROUNDS):
+        for i, (method, atol, designs, _) in enumerate(rows):
+            explicit = method.startswith("dopri5")
+            if explicit and round_ > 0:
+                continue
+            samples[i].append(_time_method(designs, profile, method, atol,
+                                           repeats=1 if explicit else 5))  # fmt: skip
+    records = []
+    for (_, _, _, record), row_samples in zip(rows, samples):
+        seconds = float(np.median(row_samples))
+        records.append({**record, "us_per_design": seconds * 1e6,
+                        "speedup_vs_radau": radau_seconds / seconds})  # fmt: skip
     for label, (rtol, atol, seconds, err) in radau.items():
         records.append({
             "case": name, "method": label, "atol_mm": atol, "rtol": rtol,
@@ -278,9 +298,9 @@ def run(args: argparse.Namespace) -> int:
     pick_ref = _as_batch_output(tight)
     radau = {}
     for label, rtol, atol in RADAU_ROWS:
-        seconds, runs = _radau([pick], profile, rtol=rtol, atol=atol)
-        radau[label] = (rtol, atol, seconds[0],
-                        {**_errors(_as_batch_output(runs), pick_ref), "designs": 1})
+        seconds, runs = _radau([pick] * RADAU_RUNS_PICKPLACE, profile, rtol=rtol, atol=atol)
+        radau[label] = (rtol, atol, float(np.median(seconds)),
+                        {**_errors(_as_batch_output(runs[:1]), pick_ref), "designs": 1})
     records = _case("pickplace", pick_batch, pick_ref, profile, radau,
                     explicit_rows=min(1, args.explicit_designs))  # fmt: skip
 

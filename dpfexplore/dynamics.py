@@ -122,8 +122,8 @@ class MethodInfo:
 
 #: Available methods. Rodas4's default position tolerance, 1e-4 mm, keeps reset times within
 #: 0.14 % of a tight reference (max over the metastable units of 100 random designs; 0.013 %
-#: median) at 2-3 ms per design on one core of a shared 2-core machine; ``dpfexplore bench
-#: dynamics`` gives the whole time-error curve (3e-4 mm: 0.6 % max, 1e-5 mm: 0.011 % max).
+#: median) at 1.6-1.9 ms per design on one core of a shared 2-core machine; ``dpfexplore
+#: bench dynamics`` gives the whole time-error curve (3e-4 mm: 0.6 % max, 1e-5 mm: 0.011 % max).
 METHODS: dict[str, MethodInfo] = {
     "rodas4": MethodInfo("rodas4", "full", INTEGRATOR_RODAS4, 1e-4, 200_000, 0.5),
     "rodas4-overdamped": MethodInfo(

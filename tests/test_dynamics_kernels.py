@@ -10,7 +10,6 @@ from hypothesis import strategies as hs
 
 from dpfexplore._kernels import dynamics as kd
 from dpfexplore._kernels.dense_lu import LATTICE_HALF_BANDWIDTH, lu_factor, lu_solve
-from dpfexplore._kernels.linalg import band_matvec_add
 from dpfexplore._kernels.dynamics_batch import rest_state
 from dpfexplore._kernels.integrators_explicit import DP_A, DP_B, DP_C, DP_E
 from dpfexplore._kernels.integrators_rosenbrock import (
@@ -21,6 +20,7 @@ from dpfexplore._kernels.integrators_rosenbrock import (
     RODAS4_GAMMA,
     RODAS4_GAMMA_SUM,
 )
+from dpfexplore._kernels.linalg import band_matvec_add
 from dpfexplore.design import Design
 from dpfexplore.dynamics import PressureProfile
 from dpfexplore.lattice import lattice_params
@@ -101,6 +101,26 @@ def test_full_jacobian_against_central_differences(t):
         e[j] = step
         fd[:, j] = (f(y + e) - f(y - e)) / (2 * step)
     assert np.abs(jac - fd).max() <= 1e-7 * np.abs(jac).max()
+
+
+@pytest.mark.parametrize("t", [0.5, 3.0, 8.0])
+def test_fused_residual_and_jacobian_equal_the_separate_kernels(t):
+    """Rodas4's first stage and its Jacobian come from one pass; they must be the same numbers."""
+    design = DESIGNS[1]
+    params, x, v = _random_state(design, seed=int(10 * t))
+    n = x.size
+    knot_t = np.array([0.0, 1.0, 5.0, 5.1])
+    knot_p = np.array([0.0, 0.7, 0.7, 0.0])
+    phys = _phys(design.n_units)
+    args = (params.unit_params, params.h, knot_t, knot_p, phys)
+    res, jac = np.empty(n), np.empty((n, n))
+    p_fused = kd.residual_and_jacobian(x, v, t, *args, *_scratch(design.n_units), res, jac)
+    res_alone, jac_alone = np.empty(n), np.empty((n, n))
+    p_alone = kd.force_residual(x, v, t, *args, *_scratch(design.n_units), res_alone)
+    kd.stiffness_jacobian(x, v, t, *args, *_scratch(design.n_units), jac_alone)
+    assert p_fused == p_alone == kd.pressure_at(t, knot_t, knot_p)
+    np.testing.assert_array_equal(res, res_alone)
+    np.testing.assert_array_equal(jac, jac_alone)
 
 
 def test_damping_is_linear_in_velocity_with_symmetric_matrix():

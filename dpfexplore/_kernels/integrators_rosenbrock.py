@@ -21,7 +21,14 @@ Linear algebra
     ``(diag(I, mI)/(hγ) - J) k = r`` reduces, eliminating ``k_v = k_x/(hγ) - r_x``, to
     ``S k_x = r_v + (m/(hγ) + C) r_x`` with ``S = m/(hγ)² + C/(hγ) + H + D - P_J``:
     ``H`` the Hessian, ``C`` the damping matrix, ``D = ∂F_damp/∂x`` at the step's velocities,
-    ``P_J = ∂F_ext/∂x``. ``S`` is not symmetric (``P_J``), hence an LU factorisation.
+    ``P_J = ∂F_ext/∂x``. ``S`` is not symmetric under pressure (``P_J``): the banded LU of
+    :mod:`.dense_lu` then, the block Cholesky of :mod:`.linalg` when there is no pressure.
+
+Cost per step
+    One pass assembles the Hessian and, on the way, the gradient, so the first stage's
+    right-hand side (at the step start) comes with the Jacobian; five more right-hand sides,
+    one factorisation and six solves follow. A rejected step retries from the same point with
+    the same Jacobian.
 
 Error control
     On the positions only (mixed ``atol`` mm / ``rtol``): events and outputs depend only on

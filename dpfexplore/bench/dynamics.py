@@ -5,8 +5,9 @@ random metastable designs (2-6 units, the paper's box with one or two low domes;
 reference run has at least one unit that resets). For every integrator, tolerance and reduced
 model it times :func:`dpfexplore.dynamics.reset_times_batch` on one core (per design: the
 median over three rounds through all rows of the median of five calls; the SciPy baseline on
-the pick-and-place finger: the median of three runs) and measures the reset times' largest relative error against the reference, the
-number of units whose class (resets / never resets) differs, and the final states that differ.
+the pick-and-place finger: the median of three runs) and measures the reset times' largest
+relative error against the reference, the number of units whose class (resets / never
+resets) differs, and the final states that differ.
 
 References: SciPy ``solve_ivp(method="Radau")`` at rtol 1e-7, atol 1e-10 for the
 pick-and-place finger; for the random designs our Rodas4 at atol 1e-8 mm, itself checked
@@ -263,7 +264,7 @@ def _case(name, batch, ref, profile, radau, *, explicit_rows) -> list[dict]:
             samples[i].append(_time_method(designs, profile, method, atol,
                                            repeats=1 if explicit else 5))  # fmt: skip
     records = []
-    for (_, _, _, record), row_samples in zip(rows, samples):
+    for (_, _, _, record), row_samples in zip(rows, samples, strict=True):
         seconds = float(np.median(row_samples))
         records.append({**record, "us_per_design": seconds * 1e6,
                         "speedup_vs_radau": radau_seconds / seconds})  # fmt: skip

@@ -65,6 +65,14 @@ def test_rhs_matches_seed_implementation():
     assert checked == {0.5, 1.0, 0.0}  # ramp, hold, release ramp (0.5) and released
 
 
+def _pulse_case(design, t):
+    """A random state of ``design`` at time ``t`` (s) of the paper's pulse (0.7 MPa at τ = 0, 1,
+    5, 5.1 s): lattice parameters, positions, velocities, knot times, pressures and ``phys``."""
+    params, x, v = _random_state(design, seed=int(10 * t))
+    knot_t, knot_p = np.array([0.0, 1.0, 5.0, 5.1]), np.array([0.0, 0.7, 0.7, 0.0])
+    return params, x, v, knot_t, knot_p, _phys(design.n_units)
+
+
 def _random_state(design, seed, spread=0.4, speed=30.0):
     params = lattice_params(design)
     n = 4 * design.n_units - 2
@@ -77,11 +85,8 @@ def _random_state(design, seed, spread=0.4, speed=30.0):
 @pytest.mark.parametrize("t", [0.5, 2.0, 5.05, 8.0])
 def test_full_jacobian_against_central_differences(t):
     design = DESIGNS[2]
-    params, x, v = _random_state(design, seed=int(10 * t))
+    params, x, v, knot_t, knot_p, phys = _pulse_case(design, t)
     n = x.size
-    knot_t = np.array([0.0, 1.0, 5.0, 5.1])
-    knot_p = np.array([0.0, 0.7, 0.7, 0.0])
-    phys = _phys(design.n_units)
     pos, vel, work = _scratch(design.n_units)
     jac = np.empty((2 * n, 2 * n))
     kd.full_jacobian(x, v, t, params.unit_params, params.h, knot_t, knot_p, phys, pos, vel, work,
@@ -107,11 +112,8 @@ def test_full_jacobian_against_central_differences(t):
 def test_fused_residual_and_jacobian_equal_the_separate_kernels(t):
     """Rodas4's first stage and its Jacobian come from one pass; they must be the same numbers."""
     design = DESIGNS[1]
-    params, x, v = _random_state(design, seed=int(10 * t))
+    params, x, v, knot_t, knot_p, phys = _pulse_case(design, t)
     n = x.size
-    knot_t = np.array([0.0, 1.0, 5.0, 5.1])
-    knot_p = np.array([0.0, 0.7, 0.7, 0.0])
-    phys = _phys(design.n_units)
     args = (params.unit_params, params.h, knot_t, knot_p, phys)
     res, jac = np.empty(n), np.empty((n, n))
     p_fused = kd.residual_and_jacobian(x, v, t, *args, *_scratch(design.n_units), res, jac)

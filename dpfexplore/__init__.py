@@ -1,26 +1,22 @@
 """dpfexplore: a Numba-accelerated design-space explorer for multistable Dome Phalanx Fingers.
 
 The model is the spring lattice of Osorio et al., "Embodying Control in Soft Multistable Grippers
-from Morphofunctional Co-design", as specified in MODEL.md. The package reads like its pipeline:
+from Morphofunctional Co-design", as specified in MODEL.md. The package reads like its pipeline,
+each stage importing only the ones before it:
 
-design
-    :class:`Design`, :class:`DesignBatch`, materials, TOML loading; all input validation.
-constants
-    Closed-form spring constants and isolated-dome analysis (MODEL.md §3-§4).
-lattice
-    From designs to kernel arrays; :func:`spring_constants`.
+model
+    Designs and their validation, closed-form spring constants, pressure profiles, status codes.
 _kernels
     Numba only: energy/gradient/Hessian, Newton, state search, batch entry points, dynamics.
-statics
-    :func:`find_state`, :func:`enumerate_states`, :func:`solve_batch` (MODEL.md §6-§7).
-follower, scenes
-    Follower-force stiffness (validation path); gripper apertures.
-dynamics
-    Pressure pulses, integrators, snap and reset times (MODEL.md §8).
-space, sampling, sweep, store, engines
+solvers
+    :func:`find_state`, :func:`solve_batch`, :func:`simulate`, :func:`reset_times_batch`: the
+    Python API over the kernels (MODEL.md §6-§8).
+sweep
     Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines.
 plotting
     ``plot_*(..., ax=None) -> Axes``.
+inverse
+    Lookup, surrogates, scenes and the optimiser (inverse design).
 cli, bench
     The ``dpfexplore`` command and its benchmarks.
 
@@ -32,11 +28,11 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _distribution_version
 
-from .design import MATERIALS, Design, DesignBatch, Material, load_design
-from .dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
-from .lattice import spring_constants
-from .space import load_job
-from .statics import (
+from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
+from .model.status import Status
+from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
+from .solvers.lattice import spring_constants
+from .solvers.statics import (
     SolverOptions,
     StateResult,
     enumerate_states,
@@ -44,9 +40,9 @@ from .statics import (
     sequential_states,
     solve_batch,
 )
-from .status import Status
-from .store import read_results
-from .sweep import run_sweep
+from .sweep.driver import run_sweep
+from .sweep.space import load_job
+from .sweep.store import read_results
 
 try:
     __version__ = _distribution_version("dpfexplore")

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dpfexplore.design import Design
+from dpfexplore.model.design import Design
 
 REFERENCE = Path(__file__).parent / "data" / "reference"
 

@@ -1,8 +1,8 @@
 """Helpers of the sweep tests: small job specs and an evaluator that does not need the solver.
 
 :class:`UnitConstantsEvaluator` is a real (cheap) evaluation: one row per unit of each design
-with the unit's spring constants from :func:`dpfexplore.lattice.pack_batch` - a variable number
-of rows per design, like the solver's design-state rows, and one row with its status for an
+with the unit's spring constants from :func:`dpfexplore.solvers.lattice.pack_batch` - a variable
+number of rows per design, like the solver's design-state rows, and one row with its status for an
 invalid design. Tests of the store and the engines use it so that they exercise the machinery
 rather than the solver.
 """
@@ -17,11 +17,11 @@ import cloudpickle
 import numpy as np
 import pyarrow as pa
 
-from dpfexplore import status as st
 from dpfexplore._kernels import layout as lay
-from dpfexplore.lattice import pack_batch
-from dpfexplore.space import parse_job
-from dpfexplore.store import STATUS_TYPE, column
+from dpfexplore.model import status as st
+from dpfexplore.solvers.lattice import pack_batch
+from dpfexplore.sweep.space import parse_job
+from dpfexplore.sweep.store import STATUS_TYPE, column
 
 # Dask workers cannot import this module from the tests directory; ship it by value.
 cloudpickle.register_pickle_by_value(sys.modules[__name__])

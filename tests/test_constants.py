@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from dpfexplore.constants import (
+from dpfexplore.model.constants import (
     ALPHA_BISTABLE,
     NO_CONTACT_REACH,
     analyse_domes,
@@ -17,8 +17,8 @@ from dpfexplore.constants import (
     dome_reach,
     dome_stiffness,
 )
-from dpfexplore.design import Design
-from dpfexplore.lattice import spring_constants
+from dpfexplore.model.design import Design
+from dpfexplore.solvers.lattice import spring_constants
 
 
 def height_for_alpha(target: float, t: float = 0.83, r_b: float = 5.0) -> float:

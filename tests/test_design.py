@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dpfexplore import status as st
-from dpfexplore.design import MAX_UNITS, Design, DesignBatch, load_design
 from dpfexplore.examples import example_path
+from dpfexplore.model import status as st
+from dpfexplore.model.design import MAX_UNITS, Design, DesignBatch, load_design
 
 GOOD = dict(H=[4.0, 4.5, 5.0], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)
 

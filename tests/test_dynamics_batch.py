@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from conftest import GRIPPER, PICKPLACE
 
-from dpfexplore import status as st
-from dpfexplore.design import MAX_UNITS, Design, DesignBatch
-from dpfexplore.dynamics import PressureProfile, reset_times_batch, simulate
-from dpfexplore.reduced import release_reset_times
+from dpfexplore.model import status as st
+from dpfexplore.model.design import MAX_UNITS, Design, DesignBatch
+from dpfexplore.solvers.dynamics import PressureProfile, reset_times_batch, simulate
+from dpfexplore.solvers.reduced import release_reset_times
 
 PULSE = PressureProfile.pulse(0.7, (0.0, 1.0, 5.0, 5.1))
 SMALL = Design(H=[4.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0)
@@ -102,7 +102,7 @@ def test_overdamped_batch_agrees_with_full(batch_run):
 def test_release_model_error_within_its_claim():
     """Loose loading + Newton to the end of the hold + release: within 0.2 % of the full model.
 
-    The claim (module docstring of :mod:`dpfexplore.reduced`) rests on long holds; these
+    The claim (module docstring of :mod:`dpfexplore.solvers.reduced`) rests on long holds; these
     designs hold 4 s against relaxation rates of 1.2 /s and faster. The all-low finger is the
     hard case: its units reset in a cascade and one is pushed back through by its neighbours.
     """

@@ -21,9 +21,9 @@ from dpfexplore._kernels.integrators_rosenbrock import (
     RODAS4_GAMMA_SUM,
 )
 from dpfexplore._kernels.linalg import band_matvec_add
-from dpfexplore.design import Design
-from dpfexplore.dynamics import PressureProfile
-from dpfexplore.lattice import lattice_params
+from dpfexplore.model.design import Design
+from dpfexplore.solvers.dynamics import PressureProfile
+from dpfexplore.solvers.lattice import lattice_params
 
 DESIGNS = {1: Design(**PICKPLACE), 2: Design(**GRIPPER)}
 

@@ -9,16 +9,16 @@ import pytest
 from conftest import PICKPLACE, read_reference
 from scipy.optimize import brentq, curve_fit
 
-from dpfexplore import status as st
 from dpfexplore._kernels.dynamics import ETA_INTERNAL, ETA_ISO, node_mass
 from dpfexplore._kernels.dynamics_batch import rest_state
 from dpfexplore._kernels.lattice import lattice_energy, unpack_nodes
 from dpfexplore._kernels.layout import COL_KT
-from dpfexplore.constants import ALPHA_BISTABLE, dome_alpha, dome_radius
-from dpfexplore.design import Design
-from dpfexplore.dynamics import PressureProfile, simulate
-from dpfexplore.dynamics_scipy import simulate_scipy
-from dpfexplore.lattice import lattice_params, spring_constants
+from dpfexplore.model import status as st
+from dpfexplore.model.constants import ALPHA_BISTABLE, dome_alpha, dome_radius
+from dpfexplore.model.design import Design
+from dpfexplore.solvers.dynamics import PressureProfile, simulate
+from dpfexplore.solvers.dynamics_scipy import simulate_scipy
+from dpfexplore.solvers.lattice import lattice_params, spring_constants
 
 PULSE = PressureProfile.pulse(0.7, (0.0, 1.0, 5.0, 5.1))
 SHORT_PULSE = PressureProfile.pulse(0.7, (0.0, 0.1, 0.3, 0.35))
@@ -94,7 +94,7 @@ def test_other_methods_agree_with_rodas4(method):
 
 
 def test_static_equilibrium_is_a_fixed_point():
-    from dpfexplore.statics import find_state
+    from dpfexplore.solvers.statics import find_state
 
     design = Design(**PICKPLACE)
     state = find_state(design, "111100")
@@ -110,7 +110,7 @@ def test_static_equilibrium_is_a_fixed_point():
 
 def test_pulse_ends_in_the_state_the_static_solver_predicts(pickplace_run):
     """Ten seconds after the release the finger sits on the static minimum of its final state."""
-    from dpfexplore.statics import find_state
+    from dpfexplore.solvers.statics import find_state
 
     design = Design(**PICKPLACE)
     state = find_state(design, pickplace_run.final_state)
@@ -131,7 +131,7 @@ def test_slowest_relaxation_of_the_pick_and_place_finger():
 
     from dpfexplore._kernels.dynamics import damping_matrix
     from dpfexplore._kernels.lattice import lattice_hessian
-    from dpfexplore.statics import find_state
+    from dpfexplore.solvers.statics import find_state
 
     design = Design(**PICKPLACE)
     state = find_state(design, "111100")

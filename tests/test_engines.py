@@ -14,9 +14,9 @@ import pytest
 from distributed import Client, LocalCluster
 from sweep_helpers import CrashingEvaluator, UnitConstantsEvaluator, make_job
 
-from dpfexplore import store
-from dpfexplore.engines import DaskEngine, LocalEngine, make_engine
-from dpfexplore.sweep import run_sweep
+from dpfexplore.sweep import store
+from dpfexplore.sweep.driver import run_sweep
+from dpfexplore.sweep.engines import DaskEngine, LocalEngine, make_engine
 
 # A sequential-states job; its N = 6 chunks of 300 designs take about 0.2 s on one core, long
 # enough to kill a worker in the middle of one.

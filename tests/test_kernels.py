@@ -28,8 +28,8 @@ from dpfexplore._kernels.linalg import (
 )
 from dpfexplore._kernels.states import geometric_guess
 from dpfexplore.bench.numpy_model import NumpyLattice
-from dpfexplore.design import Design
-from dpfexplore.lattice import lattice_params
+from dpfexplore.model.design import Design
+from dpfexplore.solvers.lattice import lattice_params
 
 REFERENCE = read_reference("energy_gradient.csv")
 SAMPLES = sorted(REFERENCE.groupby(["design", "sample"]).groups)

@@ -10,8 +10,8 @@ from scipy import stats
 from scipy.stats import qmc
 from sweep_helpers import make_job
 
-from dpfexplore import sampling
-from dpfexplore.sampling import (
+from dpfexplore.sweep import sampling
+from dpfexplore.sweep.sampling import (
     order_heights,
     plan_dimensions,
     sample_designs,

@@ -24,11 +24,11 @@ from dpfexplore._kernels.states import (
     solve_state,
 )
 from dpfexplore.bench.numpy_model import NumpyLattice
-from dpfexplore.constants import ALPHA_BISTABLE
-from dpfexplore.follower import follower_force_stiffness
-from dpfexplore.lattice import lattice_params, spring_constants
-from dpfexplore.scenes import PAPER_GRIPPER_BASE, gripper_aperture
-from dpfexplore.statics import SolverOptions, parse_state, sequential_states, state_string
+from dpfexplore.model.constants import ALPHA_BISTABLE
+from dpfexplore.model.gripper import PAPER_GRIPPER_BASE, gripper_aperture
+from dpfexplore.solvers.follower import follower_force_stiffness
+from dpfexplore.solvers.lattice import lattice_params, spring_constants
+from dpfexplore.solvers.statics import SolverOptions, parse_state, sequential_states, state_string
 
 STATES = read_reference("gripper_states.csv")
 #: Our smallest eigenvalue and stiffness (inverse iteration and block Cholesky at the returned

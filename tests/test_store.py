@@ -11,10 +11,10 @@ import pyarrow.parquet as pq
 import pytest
 from sweep_helpers import UnitConstantsEvaluator, make_job
 
-from dpfexplore import store
-from dpfexplore.store import ChunkRecord, Manifest
-from dpfexplore.sweep import ChunkTask, dataset_schema, evaluate_chunk
-from dpfexplore.version import MODEL_VERSION
+from dpfexplore.model.version import MODEL_VERSION
+from dpfexplore.sweep import store
+from dpfexplore.sweep.chunks import ChunkTask, dataset_schema, evaluate_chunk
+from dpfexplore.sweep.store import ChunkRecord, Manifest
 
 
 @pytest.fixture

@@ -7,13 +7,16 @@ import pandas as pd
 import pytest
 from sweep_helpers import UnitConstantsEvaluator, make_job
 
-from dpfexplore import status as st
-from dpfexplore import store, sweep
-from dpfexplore.design import DesignBatch
-from dpfexplore.sampling import sample_designs
-from dpfexplore.statics import solve_batch
-from dpfexplore.store import StoreError
-from dpfexplore.sweep import check_output, default_chunk_size, plan_chunks, run_sweep
+from dpfexplore.model import status as st
+from dpfexplore.model.design import DesignBatch
+from dpfexplore.solvers.statics import solve_batch
+from dpfexplore.sweep import chunks, store
+from dpfexplore.sweep import driver as sweep
+from dpfexplore.sweep.chunks import default_chunk_size, plan_chunks
+from dpfexplore.sweep.driver import check_output, run_sweep
+from dpfexplore.sweep.evaluation import StaticsEvaluator
+from dpfexplore.sweep.sampling import sample_designs
+from dpfexplore.sweep.store import StoreError
 
 SORT = ["design_id", "unit"]
 
@@ -38,8 +41,8 @@ def test_plan_chunks_cover_every_design_once():
 
 def test_default_chunk_size_bounds_rows():
     spec = make_job(**{"compute.states": "all"})
-    assert default_chunk_size(spec.compute, 8) * 2**8 <= sweep.TARGET_CHUNK_ROWS
-    assert default_chunk_size(make_job().compute, 2) == sweep.MAX_CHUNK_DESIGNS
+    assert default_chunk_size(spec.compute, 8) * 2**8 <= chunks.TARGET_CHUNK_ROWS
+    assert default_chunk_size(make_job().compute, 2) == chunks.MAX_CHUNK_DESIGNS
 
 
 def test_sweep_writes_every_design(tmp_path):
@@ -209,13 +212,13 @@ def test_invalid_input_rows_through_the_evaluator():
     H = batch.H.copy()
     H[1, 0] = np.nan
     bad = DesignBatch(**{**{n: getattr(batch, n) for n in batch.__dataclass_fields__}, "H": H})
-    rows = sweep.StaticsEvaluator(spec.compute)(bad)
+    rows = StaticsEvaluator(spec.compute)(bad)
     np.testing.assert_array_equal(rows["design_index"], [0, 1, 2])
     assert rows["status"][1] == st.INVALID_INPUT and rows["requested"][1] == -1
 
 
 def test_reset_times_for_every_valid_design(tmp_path):
-    from dpfexplore.dynamics import PressureProfile, reset_times_batch
+    from dpfexplore.solvers.dynamics import PressureProfile, reset_times_batch
 
     load = {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0}
     spec = make_job(**{"job.samples_per_n": 40, "space.n_units": [3],

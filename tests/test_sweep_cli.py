@@ -14,8 +14,8 @@ import pandas as pd
 import pytest
 from sweep_helpers import job_dict, toml_text
 
-from dpfexplore import store
 from dpfexplore.cli import main
+from dpfexplore.sweep import store
 
 matplotlib.use("Agg")
 

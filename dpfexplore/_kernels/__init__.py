@@ -2,6 +2,8 @@
 
 Modules
 -------
+_jit
+    The project's one JIT policy (``cache=True``, ``nogil``, ``parallel`` only on batch kernels).
 layout
     Column indices of the per-unit parameter table and the node numbering shared by all kernels.
 lattice

@@ -13,9 +13,10 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .. import status as st
-from .._jit import batch_kernel, kernel
-from .layout import MAX_UNITS, n_free
+from ..model import status as st
+from ..model.domain import MAX_UNITS
+from ._jit import batch_kernel, kernel
+from .layout import n_free
 from .newton import workspace
 from .states import N_OUT, solve_state
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import kernel
+from ._jit import kernel
 
 #: Half-bandwidth of every matrix the lattice assembles, in free coordinates.
 LATTICE_HALF_BANDWIDTH = 7

@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from ._jit import kernel
 from .lattice import (
     GRADIENT,
     HESSIAN,

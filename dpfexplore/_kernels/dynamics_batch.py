@@ -1,8 +1,8 @@
 """One simulation from rest, its per-unit summary, and the ``prange`` batch over designs.
 
 The per-unit summary (reset time, class, final state) is defined once here and used by both
-:func:`dpfexplore.dynamics.simulate` and the batch, so a single design and a sweep row cannot
-disagree.
+:func:`dpfexplore.solvers.dynamics.simulate` and the batch, so a single design and a sweep row
+cannot disagree.
 
 Reset time (MODEL.md §8)
     Time of the unit's last downward crossing of its threshold minus ``τ_end`` (the last knot
@@ -22,8 +22,8 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .. import status as st
-from .._jit import batch_kernel, kernel
+from ..model import status as st
+from ._jit import batch_kernel, kernel
 from .dynamics import MASS_PER_UNIT, N_PHYS, PHYS_MASS
 from .events import (
     N_REC,

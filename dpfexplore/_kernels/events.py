@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from ._jit import kernel
 from .layout import COL_D, COL_P, COL_U_INV, free_node
 
 # Solver controls.

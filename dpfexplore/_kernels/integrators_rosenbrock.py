@@ -44,8 +44,8 @@ import math
 
 import numpy as np
 
-from .. import status as st
-from .._jit import kernel
+from ..model import status as st
+from ._jit import kernel
 from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
 from .dense_lu import lu_factor, lu_solve
 from .dynamics import (

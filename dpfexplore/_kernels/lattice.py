@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from ._jit import kernel
 from .layout import (
     COL_ALPHA,
     COL_D,

@@ -14,7 +14,7 @@ Node numbering
 
 from __future__ import annotations
 
-from .._jit import kernel
+from ._jit import kernel
 
 #: Segment length ``p = U_L + t_ch + U_sep`` (mm): rest length of the unit's dome and layer.
 COL_P = 0
@@ -43,9 +43,6 @@ COL_U_INV = 10
 #: the state search holds an inverted dome before releasing it.
 COL_U_HELD = 11
 N_COLS = 12
-
-#: Largest number of units a design may have.
-MAX_UNITS = 12
 
 NODE_D0 = 0
 NODE_L0 = 1

@@ -30,10 +30,11 @@ import math
 
 import numpy as np
 
-from .. import status as st
-from .._jit import kernel
+from ..model import status as st
+from ..model.domain import MAX_UNITS
+from ._jit import kernel
 from .lattice import ENERGY, HESSIAN, HESSIAN_CONVEX, N_SPLIT, assemble, spring_nodes
-from .layout import MAX_UNITS, n_free, n_nodes
+from .layout import n_free, n_nodes
 from .linalg import cholesky, cholesky_solve, max_abs
 
 #: Armijo sufficient-decrease constant.

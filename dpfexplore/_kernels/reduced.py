@@ -29,8 +29,8 @@ import math
 import numpy as np
 from numba import prange
 
-from .. import status as st
-from .._jit import batch_kernel, kernel
+from ..model import status as st
+from ._jit import batch_kernel, kernel
 from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
 from .dense_lu import lu_factor, lu_solve
 from .dynamics import N_PHYS, force_residual, stiffness_jacobian

@@ -36,8 +36,8 @@ import math
 
 import numpy as np
 
-from .. import status as st
-from .._jit import kernel
+from ..model import status as st
+from ._jit import kernel
 from .lattice import GRADIENT, HESSIAN, assemble, dome_extensions, unpack_nodes
 from .layout import (
     COL_D,

@@ -6,8 +6,8 @@ domes are all bistable and whose all-inverted state exists, and times
 * ours on one core: the median over designs of the time one design takes (state search,
   Newton, stiffness; each design solved 20 times in a row by the kernel, its median over five
   passes through all designs), and the mean of a whole
-  :func:`dpfexplore.statics.solve_batch` call with Numba limited to one thread, also with the
-  smallest eigenvalue;
+  :func:`dpfexplore.solvers.statics.solve_batch` call with Numba limited to one thread, also
+  with the smallest eigenvalue;
 * ours on all cores: the same batch call with every thread (designs/s);
 * the baseline: ``scipy.optimize.minimize(method="BFGS")`` with the analytic gradient of a
   vectorised NumPy energy (:mod:`.numpy_model`), from the same geometric guess, to the same
@@ -60,9 +60,9 @@ def register(subparsers) -> None:
 
 def sample_bistable_batch(n_units: int, n_designs: int, seed: int):
     """Designs from the paper's box whose domes are all bistable (rejection sampling)."""
-    from ..constants import ALPHA_BISTABLE
-    from ..design import MAX_UNITS, DesignBatch
-    from ..lattice import batch_constants
+    from ..model.constants import ALPHA_BISTABLE
+    from ..model.design import MAX_UNITS, DesignBatch
+    from ..solvers.lattice import batch_constants
 
     rng = np.random.default_rng(seed)
     rows: list[DesignBatch] = []
@@ -167,8 +167,8 @@ def _per_design_times(batch, n_units: int, passes: int = 5, repeats: int = 20) -
     (which can last the half second one pass takes) inflates one pass, not the figure.
     """
     from .._kernels.batch import solve_repeatedly
-    from ..lattice import lattice_params
-    from ..statics import DEFAULT_OPTIONS
+    from ..solvers.lattice import lattice_params
+    from ..solvers.statics import DEFAULT_OPTIONS
 
     controls = DEFAULT_OPTIONS.kernel_args()
     state = 2**n_units - 1
@@ -196,8 +196,8 @@ def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int, rounds: in
     """One finger size: timings, errors and ratios."""
     import numba
 
-    from ..lattice import lattice_params
-    from ..statics import SolverOptions, solve_batch
+    from ..solvers.lattice import lattice_params
+    from ..solvers.statics import SolverOptions, solve_batch
     from .numpy_model import NumpyLattice
 
     TIGHT = SolverOptions(gtol=1e-14, xtol=1e-13)

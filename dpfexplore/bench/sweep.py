@@ -2,7 +2,7 @@
 
 What it runs, all with the shipped job files (``jobs/``):
 
-* compile: :func:`dpfexplore.warmup.compile_kernels` in a fresh process with an empty Numba
+* compile: :func:`dpfexplore.sweep.warmup.compile_kernels` in a fresh process with an empty Numba
   cache (cold) and again with the cache filled (load), apart from every run time below;
 * the paper's design-space job (9000 designs) end to end on the local engine, Parquet included
   (median of ``--repeats`` runs into fresh directories); the goal is <= 2 s on 2 cores. Baselines:
@@ -118,7 +118,7 @@ def _compile_seconds() -> dict[str, float]:
     """Cold compile and warm cache-load times of every sweep kernel, each in a new process."""
     (cold,), (warm,) = fresh_process_timings(
         """
-        from dpfexplore.warmup import compile_kernels
+        from dpfexplore.sweep.warmup import compile_kernels
         print(compile_kernels())
         """
     )
@@ -126,7 +126,7 @@ def _compile_seconds() -> dict[str, float]:
 
 
 def _run_job(spec, out: Path, engine) -> tuple[object, float]:
-    from ..sweep import run_sweep
+    from ..sweep.driver import run_sweep
 
     with PeakRSS() as rss:
         summary = run_sweep(spec, out, engine=engine)
@@ -148,9 +148,9 @@ def _max_difference(a, b) -> float:
 
 
 def _paper_job(args, tmp: Path) -> dict:
-    from ..engines import LocalEngine
-    from ..space import load_job
-    from ..store import read_results
+    from ..sweep.engines import LocalEngine
+    from ..sweep.space import load_job
+    from ..sweep.store import read_results
 
     spec = load_job(args.jobs_dir / "paper-design-space.toml")
     walls, chunk_phase, rss = [], [], []
@@ -182,8 +182,8 @@ def _one_at_a_time(spec, frame, designs_per_n: int) -> dict:
     """Baseline: the job's first designs of each N solved one per solver call."""
     import pandas as pd
 
-    from ..sampling import sample_designs
-    from ..statics import solve_batch
+    from ..solvers.statics import solve_batch
+    from ..sweep.sampling import sample_designs
 
     rows, elapsed, count = [], 0.0, 0
     for n in spec.space.n_units:
@@ -210,8 +210,8 @@ def _one_at_a_time(spec, frame, designs_per_n: int) -> dict:
 
 
 def _dask_job(args, spec, frame, tmp: Path) -> dict:
-    from ..engines import DaskEngine
-    from ..store import read_results
+    from ..sweep.engines import DaskEngine
+    from ..sweep.store import read_results
 
     engine = DaskEngine(n_workers=args.workers)
     summary, peak = _run_job(spec, tmp / "dask", engine)
@@ -236,8 +236,8 @@ def _dask_job(args, spec, frame, tmp: Path) -> dict:
 
 
 def _overnight(args, tmp: Path) -> dict:
-    from ..engines import LocalEngine
-    from ..space import load_job
+    from ..sweep.engines import LocalEngine
+    from ..sweep.space import load_job
 
     full = load_job(args.jobs_dir / "overnight.toml")
     spec = dataclasses.replace(full, samples_per_n=args.overnight_designs, chunk_size=None)
@@ -309,7 +309,7 @@ def run(args: argparse.Namespace) -> int:
         if args.no_compile
         else _compile_seconds()
     )
-    from ..warmup import compile_kernels
+    from ..sweep.warmup import compile_kernels
 
     compile_kernels()  # this process: load the cache so no run below includes compilation
     with tempfile.TemporaryDirectory() as directory:

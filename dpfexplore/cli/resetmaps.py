@@ -10,7 +10,7 @@ from . import EXIT_FAILURE, EXIT_OK, UsageError
 
 def register(subparsers) -> None:
     """Add the ``reset-maps`` subcommand."""
-    from ..dynamics import DEFAULT_METHOD, METHODS
+    from ..solvers.dynamics import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "reset-maps",
@@ -36,7 +36,7 @@ def run(args) -> int:
     """Run the command; returns the exit code."""
     import numpy as np
 
-    from ..resetmaps import ResetMapSpec, reset_time_maps, write_reset_maps
+    from ..solvers.resetmaps import ResetMapSpec, reset_time_maps
 
     if not 1 <= args.units <= 12:
         raise UsageError(f"--units {args.units}: must be between 1 and 12")
@@ -65,3 +65,20 @@ def run(args) -> int:
     for path in paths:
         print(f"  {path}")
     return EXIT_OK if failed == 0 else EXIT_FAILURE
+
+
+def write_reset_maps(maps, directory: str | Path) -> list[Path]:
+    """Write each map as ``reset_map_<name>.parquet`` and all three as ``reset_maps.png``."""
+    from ..plotting.dynamics import plot_reset_maps
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, frame in maps.items():
+        path = directory / f"reset_map_{name}.parquet"
+        frame.to_parquet(path, index=False)
+        paths.append(path)
+    png = directory / "reset_maps.png"
+    plot_reset_maps(maps).savefig(png, dpi=120)
+    paths.append(png)
+    return paths

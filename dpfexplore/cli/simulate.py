@@ -10,7 +10,7 @@ from . import EXIT_FAILURE, EXIT_OK, UsageError
 
 def register(subparsers) -> None:
     """Add the ``simulate`` subcommand."""
-    from ..dynamics import DEFAULT_METHOD, METHODS
+    from ..solvers.dynamics import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "simulate",
@@ -42,8 +42,8 @@ def register(subparsers) -> None:
 
 
 def _design(text: str):
-    from ..design import load_design
     from ..examples import NAMES, example_path
+    from ..model.design import load_design
 
     path = Path(text)
     if not path.exists() and text in NAMES:
@@ -54,7 +54,7 @@ def _design(text: str):
 
 
 def _profile(args):
-    from ..dynamics import PressureProfile
+    from ..solvers.dynamics import PressureProfile
 
     if args.profile:
         return PressureProfile.parse(args.profile)
@@ -69,8 +69,8 @@ def _profile(args):
 
 def run(args) -> int:
     """Run the command; returns the exit code."""
-    from ..dynamics import simulate
-    from ..status import Status
+    from ..model.status import Status
+    from ..solvers.dynamics import simulate
 
     try:
         design = _design(args.design)

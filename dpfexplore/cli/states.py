@@ -49,10 +49,10 @@ def _number(value: float):
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore states``."""
-    from ..design import load_design
-    from ..lattice import spring_constants
-    from ..scenes import gripper_aperture
-    from ..statics import enumerate_states
+    from ..model.design import load_design
+    from ..model.gripper import gripper_aperture
+    from ..solvers.lattice import spring_constants
+    from ..solvers.statics import enumerate_states
 
     try:
         design = load_design(args.design)

@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..sweep import LogProgress
+from ..sweep.driver import LogProgress
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 
 
@@ -111,10 +111,10 @@ class _LineProgress(LogProgress):
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..engines import make_engine
-    from ..space import JobSpecError, load_job
-    from ..store import StoreError
-    from ..sweep import run_sweep
+    from ..sweep.driver import run_sweep
+    from ..sweep.engines import make_engine
+    from ..sweep.space import JobSpecError, load_job
+    from ..sweep.store import StoreError
 
     try:
         spec = load_job(args.job)
@@ -156,7 +156,7 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _query(args: argparse.Namespace) -> int:
-    from ..store import StoreError, read_results
+    from ..sweep.store import StoreError, read_results
 
     columns = None
     if args.columns:
@@ -193,7 +193,7 @@ def _plot_space(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from ..plotting.space import SPACE_COLUMNS, plot_design_space
-    from ..store import StoreError, read_results, read_schema
+    from ..sweep.store import StoreError, read_results, read_schema
 
     try:
         names = read_schema(args.dir).names

@@ -14,6 +14,7 @@ import numpy as np
 __all__ = [
     "plot_extensions",
     "plot_reset_map",
+    "plot_reset_maps",
     "plot_simulation",
     "plot_time_vs_error",
     "plot_tip_and_pressure",
@@ -48,7 +49,7 @@ def plot_tip_and_pressure(result, ax=None):
 
 def plot_extensions(result, ax=None):
     """Each dome's extension ``u = x̄/d`` against time, thresholds dashed, snaps marked."""
-    from ..lattice import spring_constants
+    from ..solvers.lattice import spring_constants
 
     ax = _axes(ax)
     thresholds = spring_constants(result.design).domes.u_inversion
@@ -120,3 +121,39 @@ def plot_time_vs_error(records: Sequence[dict], ax=None, *, case: str | None = N
     if case:
         ax.set_title(case)
     return ax
+
+
+def plot_reset_maps(maps, fig=None):
+    """The three maps of :func:`dpfexplore.solvers.resetmaps.reset_time_maps` side by side.
+
+    ``maps`` holds the ``"H"``, ``"t"`` and ``"hold"`` frames. Draws on ``fig`` (a new
+    :class:`matplotlib.figure.Figure` by default) and returns it.
+    """
+    from matplotlib.figure import Figure
+
+    if fig is None:
+        fig = Figure(figsize=(13, 4), layout="constrained")
+    axes = fig.subplots(1, 3)
+    labels = {"H": "dome height H (mm)", "t": "dome thickness t (mm)", "hold": "hold time (s)"}
+    for ax, name in zip(axes, ("H", "t", "hold"), strict=True):
+        frame = maps[name]
+        if name == "hold":
+            if frame["n_units"].iloc[0] > 1:
+                # one curve per height: the last of the finger's units to reset
+                finite = frame[np.isfinite(frame["reset_time"])]
+                frame = finite.groupby(["H", "value"], as_index=False)["reset_time"].max()
+                frame["n_units"] = maps[name]["n_units"].iloc[0]
+                frame["t"] = maps[name]["t"].iloc[0]
+                frame["horizon"] = maps[name]["horizon"].iloc[0]
+            plot_reset_map(frame, "value", hue="H", ax=ax, xlabel=labels[name])
+            ax.set_xscale("log")
+            if frame["n_units"].iloc[0] > 1:
+                ax.set_ylabel("last unit's reset time after release (s)")
+        else:
+            hue = "unit" if frame["n_units"].iloc[0] > 1 else None
+            plot_reset_map(frame, "value", hue=hue, ax=ax, xlabel=labels[name])
+        fixed = {"H": f"t = {frame['t'].iloc[0]:g} mm", "t": f"H = {frame['H'].iloc[0]:g} mm",
+                 "hold": f"t = {frame['t'].iloc[0]:g} mm"}[name]  # fmt: skip
+        horizon = frame["horizon"].iloc[0]
+        ax.set_title(f"{fixed}, N = {frame['n_units'].iloc[0]} (open: > {horizon:g} s)")
+    return fig

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.axes import Axes
 
-from ..statics import StateResult
+from ..solvers.statics import StateResult
 
 __all__ = ["plot_finger", "plot_states"]
 

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import status as st
-from ._kernels.layout import MAX_UNITS
 from .constants import constants_are_valid, dome_alpha, dome_radius, dome_stiffness
+from .domain import MAX_UNITS
 
 __all__ = [
     "MATERIALS",

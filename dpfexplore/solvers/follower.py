@@ -6,7 +6,7 @@ quasi-static rate, recording force against tip displacement and fitting a line. 
 every point of that record is an equilibrium, so here the ramp is a sequence of equilibria
 ``∇E(x) = F n(x)`` solved with SciPy's MINPACK ``hybrj``, a solver independent of our Newton
 kernel. For small ramps the slope tends to the Hessian stiffness ``1/(nᵀ H⁻¹ n)`` reported by
-:func:`dpfexplore.statics.find_state`; the difference shows both the follower term and the
+:func:`dpfexplore.solvers.statics.find_state`; the difference shows both the follower term and the
 nonlinearity over the ramp.
 """
 
@@ -18,12 +18,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import root
 
-from ._kernels.lattice import lattice_hessian
-from ._kernels.layout import free_node, n_free
-from .design import Design
+from .._kernels.lattice import lattice_hessian
+from .._kernels.layout import free_node, n_free
+from ..model.design import Design
+from ..model.status import Status
 from .lattice import lattice_params
 from .statics import SolverOptions, find_state
-from .status import Status
 
 __all__ = ["FollowerRamp", "follower_force_stiffness"]
 

@@ -30,9 +30,10 @@ from __future__ import annotations
 
 from numpy.typing import NDArray
 
-from ._kernels import dynamics as kdyn
-from ._kernels.reduced import release_batch
-from .design import Design, DesignBatch
+from .._kernels import dynamics as kdyn
+from .._kernels.reduced import release_batch
+from ..model.design import Design, DesignBatch
+from .dynamics_common import METHODS, check_horizon, run_reset_batch
 
 __all__ = ["release_reset_times", "release_reset_times_batch"]
 
@@ -50,20 +51,18 @@ def release_reset_times_batch(batch: DesignBatch, profile, *, t_end: float,
                               atol: float | None = None) -> dict[str, NDArray]:  # fmt: skip
     """Reset times of the release model for a batch.
 
-    Same contract as :func:`dpfexplore.dynamics.reset_times_batch`; the snap-through times
+    Same contract as :func:`dpfexplore.solvers.dynamics.reset_times_batch`; the snap-through times
     come from the loose loading phase (~1e-3 s).
     """
-    from .dynamics import METHODS, _check_horizon, _run_reset_batch
-
     _single_pulse(profile)
-    t_end = _check_horizon(t_end, profile)
+    t_end = check_horizon(t_end, profile)
 
     def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
         release_batch(unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL,
                       kdyn.ETA_ISO, ctrl, t_end, codes, out["final_state"], out["reset_time"],
                       out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
 
-    return _run_reset_batch(batch, profile, METHODS["release"], atol, None, launch)
+    return run_reset_batch(batch, profile, METHODS["release"], atol, None, launch)
 
 
 def release_reset_times(design: Design, profile, *, t_end: float,

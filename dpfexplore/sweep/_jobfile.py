@@ -2,7 +2,7 @@
 
 Each failure is a :class:`JobSpecError` whose one-line message starts with the dotted key.
 
-Kept apart from :mod:`dpfexplore.space`, which holds what a job *is*; these only say what a
+Kept apart from :mod:`dpfexplore.sweep.space`, which holds what a job *is*; these only say what a
 well-formed value looks like.
 """
 

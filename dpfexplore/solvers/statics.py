@@ -33,13 +33,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from . import status as st
-from ._kernels import states as kstates
-from ._kernels.batch import solve_rows
-from ._kernels.layout import MAX_UNITS, n_free, n_nodes
-from .design import Design, DesignBatch
+from .._kernels import states as kstates
+from .._kernels.batch import solve_rows
+from .._kernels.layout import n_free, n_nodes
+from ..model import status as st
+from ..model.design import Design, DesignBatch
+from ..model.domain import MAX_UNITS
+from ..model.status import Status
 from .lattice import batch_constants, lattice_params, pack_batch
-from .status import Status
 
 __all__ = [
     "SolverOptions",

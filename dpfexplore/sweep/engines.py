@@ -2,17 +2,18 @@
 
 :class:`LocalEngine` runs them here, :class:`DaskEngine` on Dask distributed workers.
 
-An engine takes the sweep's :class:`~dpfexplore.sweep.SweepContext` and the chunks still to do,
-runs :func:`~dpfexplore.sweep.run_chunk` on each, and yields a
-:class:`~dpfexplore.store.ChunkRecord` per finished chunk (in completion order) or a
-:class:`~dpfexplore.sweep.ChunkFailure` for a chunk that failed every attempt. The driver
-(:func:`~dpfexplore.sweep.run_sweep`) commits what it receives; engines never touch the manifest.
+An engine takes the sweep's :class:`~dpfexplore.sweep.chunks.SweepContext` and the chunks still
+to do, runs :func:`~dpfexplore.sweep.chunks.run_chunk` on each, and yields a
+:class:`~dpfexplore.sweep.store.ChunkRecord` per finished chunk (in completion order) or a
+:class:`~dpfexplore.sweep.chunks.ChunkFailure` for a chunk that failed every attempt. The driver
+(:func:`~dpfexplore.sweep.driver.run_sweep`) commits what it receives; engines never touch the
+manifest.
 
 Threads, processes and the Numba cache
     The batch kernels parallelise over designs with ``prange``. Entering them from several
     threads of one process at once aborts under Numba's ``workqueue`` layer and oversubscribes
     the cores under any layer, so the project runs one kernel call per process at a time
-    (:data:`dpfexplore.sweep._PROCESS_LOCK` enforces it even in a multi-threaded Dask worker)
+    (:data:`dpfexplore.sweep.chunks._PROCESS_LOCK` enforces it even in a multi-threaded Dask worker)
     and parallelises across processes:
 
     * :class:`LocalEngine`: chunks one after another in this process, each on all cores.
@@ -22,7 +23,7 @@ Threads, processes and the Numba cache
       that workers x threads never exceeds the cores.
 
     Kernels are compiled in the parent before any worker starts
-    (:func:`dpfexplore.warmup.compile_kernels`); the workers of a LocalCluster inherit
+    (:func:`dpfexplore.sweep.warmup.compile_kernels`); the workers of a LocalCluster inherit
     ``NUMBA_CACHE_DIR`` and load the cached machine code (reading only). Workers of an existing
     cluster (``--scheduler``) may run on machines whose cache is cold; they warm up one at a
     time, so no two processes ever write the cache at once.
@@ -32,7 +33,7 @@ Faults
     the scheduler reschedules the chunk on another worker (Dask's ``allowed-failures``), and the
     engine resubmits a chunk that still fails, up to ``max_attempts`` in all; a chunk that
     fails them all (one that crashes every process it runs in) is reported as a
-    :class:`~dpfexplore.sweep.ChunkFailure` and the others go on. The chunk's file name is
+    :class:`~dpfexplore.sweep.chunks.ChunkFailure` and the others go on. The chunk's file name is
     deterministic, so a repeated chunk overwrites, never duplicates. Repeated worker deaths can
     leave a LocalCluster without workers (its nannies give up); the engine then scales it back
     up, and if no worker at all is seen for ``no_workers_timeout`` seconds it reports the
@@ -52,8 +53,7 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from typing import Any
 
-from .store import ChunkRecord
-from .sweep import (
+from .chunks import (
     _PROCESS_LOCK,
     ChunkFailure,
     ChunkTask,
@@ -62,6 +62,7 @@ from .sweep import (
     run_chunk,
     write_chunk_file,
 )
+from .store import ChunkRecord
 
 __all__ = ["DaskEngine", "Engine", "LocalEngine", "make_engine"]
 

@@ -15,8 +15,8 @@ pick-and-place finger's (``U_L = 6``, ``U_sep = 1``, ``t_lim = 1``, ``E = 26``) 
 is ``P0 = 0.7 MPa`` ramped over 1 s, held ``hold`` s, released over 0.1 s; the horizon is
 ``t_after`` s after the release (an ``inf`` reset time means "longer than that").
 
-Each map is one :func:`dpfexplore.dynamics.reset_times_batch` call (hold-time map: one per hold
-time), so the rows run in parallel.
+Each map is one :func:`dpfexplore.solvers.dynamics.reset_times_batch` call (hold-time map: one per
+hold time), so the rows run in parallel.
 """
 
 from __future__ import annotations
@@ -24,16 +24,15 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from . import status as st
-from .design import Design, DesignBatch
+from ..model import status as st
+from ..model.design import Design, DesignBatch
 from .dynamics import CLASS_NAMES, DEFAULT_METHOD, PressureProfile, reset_times_batch
 
-__all__ = ["ResetMapSpec", "reset_time_maps", "write_reset_maps"]
+__all__ = ["ResetMapSpec", "reset_time_maps"]
 
 logger = logging.getLogger(__name__)
 
@@ -61,7 +60,7 @@ class ResetMapSpec:
     U_L, U_sep, t_lim, E : float
         The other design parameters.
     method : str
-        Integrator of :func:`dpfexplore.dynamics.reset_times_batch`.
+        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch`.
     """
 
     n_units: int = 1
@@ -151,46 +150,3 @@ def reset_time_maps(spec: ResetMapSpec | None = None, **changes) -> dict[str, pd
     for name, frame in maps.items():
         logger.info("reset map %s: %d rows", name, len(frame))
     return maps
-
-
-def write_reset_maps(maps: dict[str, pd.DataFrame], directory: str | Path) -> list[Path]:
-    """Write each map as ``reset_map_<name>.parquet`` and all three as ``reset_maps.png``."""
-    from matplotlib.figure import Figure
-
-    from .plotting.dynamics import plot_reset_map
-
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, frame in maps.items():
-        path = directory / f"reset_map_{name}.parquet"
-        frame.to_parquet(path, index=False)
-        paths.append(path)
-    fig = Figure(figsize=(13, 4), layout="constrained")
-    axes = fig.subplots(1, 3)
-    labels = {"H": "dome height H (mm)", "t": "dome thickness t (mm)", "hold": "hold time (s)"}
-    for ax, name in zip(axes, MAPS, strict=True):
-        frame = maps[name]
-        if name == "hold":
-            if frame["n_units"].iloc[0] > 1:
-                # one curve per height: the last of the finger's units to reset
-                finite = frame[np.isfinite(frame["reset_time"])]
-                frame = finite.groupby(["H", "value"], as_index=False)["reset_time"].max()
-                frame["n_units"] = maps[name]["n_units"].iloc[0]
-                frame["t"] = maps[name]["t"].iloc[0]
-                frame["horizon"] = maps[name]["horizon"].iloc[0]
-            plot_reset_map(frame, "value", hue="H", ax=ax, xlabel=labels[name])
-            ax.set_xscale("log")
-            if frame["n_units"].iloc[0] > 1:
-                ax.set_ylabel("last unit's reset time after release (s)")
-        else:
-            hue = "unit" if frame["n_units"].iloc[0] > 1 else None
-            plot_reset_map(frame, "value", hue=hue, ax=ax, xlabel=labels[name])
-        fixed = {"H": f"t = {frame['t'].iloc[0]:g} mm", "t": f"H = {frame['H'].iloc[0]:g} mm",
-                 "hold": f"t = {frame['t'].iloc[0]:g} mm"}[name]  # fmt: skip
-        horizon = frame["horizon"].iloc[0]
-        ax.set_title(f"{fixed}, N = {frame['n_units'].iloc[0]} (open: > {horizon:g} s)")
-    png = directory / "reset_maps.png"
-    fig.savefig(png, dpi=120)
-    paths.append(png)
-    return paths

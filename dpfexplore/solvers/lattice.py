@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._kernels import layout as lay
-from .constants import (
+from .._kernels import layout as lay
+from ..model.constants import (
     POST_STIFFNESS_FACTOR,
     UNIT_CELL_PER_BASE_RADIUS,
     DomeAnalysis,
@@ -36,7 +36,8 @@ from .constants import (
     limiting_layer_stiffness,
     torsion_stiffness,
 )
-from .design import Design, DesignBatch
+from ..model.design import Design, DesignBatch
+from ..model.domain import MAX_UNITS
 
 __all__ = [
     "LatticeParams",
@@ -225,7 +226,7 @@ def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:
     h : ndarray of shape (n,), mm
     n_units : ndarray of int64, shape (n,)
     """
-    active = np.arange(lay.MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, lay.MAX_UNITS)[:, None]
+    active = np.arange(MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
     c = batch_constants(batch, domes=False)
     table = _kernel_table(c, active)
     return table, np.ascontiguousarray(c["h"][:, 0]), batch.n_units.copy()

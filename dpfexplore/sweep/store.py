@@ -50,9 +50,9 @@ import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 from numpy.typing import NDArray
 
-from . import status as st
+from ..model import status as st
+from ..model.version import MODEL_VERSION, package_versions
 from .space import JobSpec
-from .version import MODEL_VERSION, package_versions
 
 __all__ = [
     "FORMAT",
@@ -204,7 +204,7 @@ def table_from_columns(
         One entry per field, all of the same length: a NumPy array, or a ready Arrow array of
         the field's type. A per-unit field ``name_k`` may come as one array ``name`` of shape
         ``(n_rows, MAX_UNITS)``. Status-label fields (``dictionary<int8, string>``) take the
-        integer codes of :mod:`dpfexplore.status`; string fields take sequences of str/None.
+        integer codes of :mod:`dpfexplore.model.status`; string fields take sequences of str/None.
     n_units : ndarray of int, shape (n_rows,)
         Units of each row's design: per-unit columns are null past it.
 

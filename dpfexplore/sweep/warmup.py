@@ -1,9 +1,9 @@
 """Compile the batch kernels before any worker starts.
 
 Numba compiles on first call and writes machine code to its cache (``cache=True``, see
-:mod:`dpfexplore._jit`). Several processes compiling the same kernel at once write the same cache
-files concurrently, a known source of crashes and corrupt caches; so the sweep engines call
-:func:`compile_kernels` in the parent process first, and worker processes then only *load* the
+:mod:`dpfexplore._kernels._jit`). Several processes compiling the same kernel at once write the
+same cache files concurrently, a known source of crashes and corrupt caches; so the sweep engines
+call :func:`compile_kernels` in the parent process first, and worker processes then only *load* the
 cached code. The seconds it takes are reported apart from run time (a cold cache costs tens of
 seconds, a warm one well under one).
 """
@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from .design import Design, DesignBatch
+from ..model.design import Design, DesignBatch
 from .space import ComputeSpec
 
 __all__ = ["compile_kernels", "tiny_batch"]
@@ -45,14 +45,14 @@ def compile_kernels(compute: ComputeSpec | None = None) -> float:
     float
         Wall time in seconds (compilation or cache loading).
     """
-    from .statics import solve_batch
+    from ..solvers.statics import solve_batch
 
     start = time.perf_counter()
     batch = tiny_batch()
     # One call covers every state selection and flag: they are runtime arguments of one kernel.
     solve_batch(batch, "all_inverted", stiffness=True, min_eig=True)
     if compute is None or compute.reset_times is not None:
-        from .dynamics import PressureProfile, reset_times_batch
+        from ..solvers.dynamics import PressureProfile, reset_times_batch
 
         profile = PressureProfile(P0=0.7, tau=(0.0, 0.01, 0.02, 0.03))
         reset_times_batch(batch.take(np.array([1])), profile, t_end=0.04)

@@ -20,11 +20,12 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import lu_factor, lu_solve
 
-from . import status as st
-from ._kernels import dynamics as kdyn
-from ._kernels import events as kev
-from ._kernels.dynamics_batch import rest_state
-from .design import Design
+from .._kernels import dynamics as kdyn
+from .._kernels import events as kev
+from .._kernels.dynamics_batch import rest_state
+from ..model import status as st
+from ..model.design import Design
+from .dynamics_common import build_result
 from .lattice import lattice_params
 
 __all__ = ["simulate_scipy"]
@@ -118,12 +119,12 @@ def simulate_scipy(
     overdamped: bool = False,
     max_nfev: int = 2_000_000,
 ):
-    """Simulate with ``solve_ivp``; returns a :class:`dpfexplore.dynamics.SimulationResult`.
+    """Simulate with ``solve_ivp``; returns a :class:`~.dynamics_common.SimulationResult`.
 
     Parameters
     ----------
     design, profile, t_end, n_samples
-        As for :func:`dpfexplore.dynamics.simulate`.
+        As for :func:`dpfexplore.solvers.dynamics.simulate`.
     rtol, atol : float, optional
         SciPy tolerances on every component (defaults 1e-4 and 1e-9, the settings of
         ``reference/pickplace_dynamics.csv``).
@@ -136,8 +137,6 @@ def simulate_scipy(
         SciPy has no step cap of its own, and its Radau can stall: on some designs at
         rtol 1e-7, atol 1e-10 its steps collapse to ~1e-12 s near the end of the run.
     """
-    from .dynamics import _result
-
     rtol = 1e-4 if rtol is None else float(rtol)
     atol = 1e-9 if atol is None else float(atol)
     knot_t, knot_p = profile.knots()
@@ -199,5 +198,5 @@ def simulate_scipy(
     log_arr = np.array(log, dtype=float).reshape(-1, 3)
     final_x = y[:n].copy()
     final_v = y[n:].copy() if not overdamped else model.rhs(t_end, y)
-    return _result(design, profile, f"scipy-{method.lower()}", st.Status(code), model.params,
+    return build_result(design, profile, f"scipy-{method.lower()}", st.Status(code), model.params,
                    t_out, x_out, rec, log_arr, stats, final_x, final_v, t_end)  # fmt: skip

@@ -6,7 +6,7 @@ Every Numba function in :mod:`dpfexplore._kernels` is decorated through :func:`k
 * ``cache=True`` everywhere: compiled machine code is written next to the sources and reused by
   later processes (sweep workers load it instead of compiling). Several processes writing the
   cache at once is a known source of crashes, so engines compile in the parent first
-  (:func:`dpfexplore.warmup.compile_kernels`).
+  (:func:`dpfexplore.sweep.warmup.compile_kernels`).
 * ``nogil=True`` on per-design kernels, so threads (and prange bodies) can call them
   concurrently; they touch only their own arguments.
 * ``parallel=True`` only on batch kernels, which ``prange`` over designs.
@@ -25,13 +25,15 @@ import numba
 
 logger = logging.getLogger(__name__)
 
-_KERNELS_DIR = Path(__file__).parent / "_kernels"
+_KERNELS_DIR = Path(__file__).parent
 _MARKER = "dpfexplore-sources.sha256"
 
 
 def _kernel_sources_digest() -> str:
-    digest = hashlib.sha256(Path(__file__).read_bytes())
-    for path in sorted(_KERNELS_DIR.glob("*.py")):
+    digest = hashlib.sha256()
+    # The kernels also read the status codes and the domain limits as compile-time constants.
+    model = _KERNELS_DIR.parent / "model"
+    for path in [*sorted(_KERNELS_DIR.glob("*.py")), model / "status.py", model / "domain.py"]:
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()

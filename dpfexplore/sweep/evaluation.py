@@ -1,16 +1,17 @@
 """What a sweep computes for a chunk of designs, and the dataset columns it fills.
 
-An *evaluator* turns a :class:`~dpfexplore.design.DesignBatch` into row-aligned column arrays:
+An *evaluator* turns a :class:`~dpfexplore.model.design.DesignBatch` into row-aligned column arrays:
 one row per design-state, with ``design_index`` pointing into the batch. It declares its columns
 up front (:meth:`StaticsEvaluator.fields`), which fixes the dataset schema before anything is
 evaluated. Evaluators are plain picklable objects so that Dask workers can run them.
 
 :class:`StaticsEvaluator` is the evaluator of every job: it calls
-:func:`dpfexplore.statics.solve_batch` for the states the job asks for and, when the job asks
-for reset times, :func:`dpfexplore.dynamics.reset_times_batch` for every valid design. A static
-screen would be cheaper but is not safe: a dome that is bistable in isolation (``alpha < 1/9``,
-MODEL.md §4) can reset inside its finger, whose bending stiffness adds to its restoring force
-(a 5-unit finger of H = 3.0 mm domes at t = 0.83 mm, alpha = 0.104, resets after 3.3 s).
+:func:`dpfexplore.solvers.statics.solve_batch` for the states the job asks for and, when the job
+asks for reset times, :func:`dpfexplore.solvers.dynamics.reset_times_batch` for every valid
+design. A static screen would be cheaper but is not safe: a dome that is bistable in isolation
+(``alpha < 1/9``, MODEL.md §4) can reset inside its finger, whose bending stiffness adds to its
+restoring force (a 5-unit finger of H = 3.0 mm domes at t = 0.83 mm, alpha = 0.104, resets
+after 3.3 s).
 Nothing the job does not ask for is computed: ``stiffness`` and ``min_eig`` are passed through to
 the solver, and their columns exist only when asked for.
 """
@@ -23,7 +24,7 @@ import numpy as np
 import pyarrow as pa
 from numpy.typing import NDArray
 
-from .design import DesignBatch
+from ..model.design import DesignBatch
 from .space import ComputeSpec, PressureLoad
 from .store import STATUS_TYPE, column
 
@@ -78,7 +79,7 @@ class StaticsEvaluator:
         return f"StaticsEvaluator({self.compute!r})"
 
     def warm_up(self) -> float:
-        """Compile the kernels this job calls (:func:`dpfexplore.warmup.compile_kernels`)."""
+        """Compile the kernels this job calls (:func:`dpfexplore.sweep.warmup.compile_kernels`)."""
         from .warmup import compile_kernels
 
         return compile_kernels(self.compute)
@@ -94,7 +95,8 @@ class StaticsEvaluator:
             column("found", pa.int64(), "1",
                    "state the solver settled in (differs from requested when collapsed; -1: none)"),
             column("found_bits", STATE_BITS_TYPE, "1", "found state as a bit string, unit 1 first"),
-            column("status", pa.int8(), "1", "outcome code of the row (dpfexplore.status.Status)"),
+            column("status", pa.int8(), "1",
+                   "outcome code of the row (dpfexplore.model.status.Status)"),
             column("status_label", STATUS_TYPE, "1",
                    "outcome: ok, invalid_input, invalid_constants, not_converged, collapsed "
                    "(requested state does not exist; outputs describe the found state), "
@@ -127,7 +129,7 @@ class StaticsEvaluator:
 
     def __call__(self, batch: DesignBatch) -> dict[str, NDArray]:
         """Solve the requested states (and reset times) of a batch of designs of one ``N``."""
-        from .statics import solve_batch
+        from ..solvers.statics import solve_batch
 
         compute = self.compute
         rows = solve_batch(
@@ -183,9 +185,9 @@ def reset_times(batch: DesignBatch, load: PressureLoad) -> dict[str, NDArray]:
     """Per-design dynamics columns; every valid design is simulated (see the module docstring).
 
     Invalid designs keep their input status as ``dyn_status`` and empty outputs, as
-    :func:`dpfexplore.dynamics.reset_times_batch` returns them.
+    :func:`dpfexplore.solvers.dynamics.reset_times_batch` returns them.
     """
-    from .dynamics import PressureProfile, reset_times_batch
+    from ..solvers.dynamics import PressureProfile, reset_times_batch
 
     profile = PressureProfile(P0=load.P0, tau=load.tau)
     kwargs = {"t_end": load.t_end}

@@ -68,8 +68,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import qmc
 
-from ._kernels.layout import MAX_UNITS
-from .design import DesignBatch
+from ..model.design import DesignBatch
+from ..model.domain import MAX_UNITS
 from .space import PER_UNIT_VARIABLES, SHARED_VARIABLES, DesignSpace, JobSpec
 
 __all__ = [

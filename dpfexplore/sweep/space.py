@@ -58,10 +58,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..model.design import DEFAULTS, MATERIALS
+from ..model.domain import MAX_UNITS
 from . import _jobfile as _v
 from ._jobfile import JobSpecError
-from ._kernels.layout import MAX_UNITS
-from .design import DEFAULTS, MATERIALS
 
 __all__ = [
     "PER_UNIT_VARIABLES",
@@ -88,7 +88,8 @@ VARIABLE_UNITS = {
     "H": "mm", "U_L": "mm", "U_sep": "mm", "t": "mm", "t_lim": "mm",
     "E": "MPa", "nu": "1", "r_b": "mm", "t_ch": "mm",
 }
-#: Values of ``compute.states`` (the state selections of :func:`dpfexplore.statics.solve_batch`).
+#: Values of ``compute.states`` (the state selections of
+#: :func:`dpfexplore.solvers.statics.solve_batch`).
 STATE_SELECTIONS = ("all_inverted", "sequential", "all")
 HEIGHT_ORDERS = ("free", "ascending", "descending")
 SAMPLERS = ("lhs", "sobol")
@@ -182,7 +183,7 @@ class PressureLoad:
         Simulation horizon (absolute time, > ``tau4``); a unit that has not reset by then gets
         a reset time of ``inf``.
     method : str or None
-        Integrator of :func:`dpfexplore.dynamics.reset_times_batch` (None: its default).
+        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch` (None: its default).
     """
 
     P0: float
@@ -234,7 +235,7 @@ class JobSpec:
     sampler : {"lhs", "sobol"}
     chunk_size : int or None
         Designs per chunk file (None: chosen from the states requested, see
-        :func:`dpfexplore.sweep.default_chunk_size`).
+        :func:`dpfexplore.sweep.chunks.default_chunk_size`).
     description : str
     """
 
@@ -557,7 +558,7 @@ def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
         raise JobSpecError(f"{key}.t_end = {t_end!r}: must be after tau4 = {tau[3]!r} s")
     method = _v.string(table, key, "method") if "method" in table else None
     if method is not None:
-        from .dynamics import METHODS
+        from ..solvers.dynamics import METHODS
 
         batch_methods = [
             name for name, info in METHODS.items()

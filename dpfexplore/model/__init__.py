@@ -1,0 +1,20 @@
+"""The model: what a finger is, before anything is solved (MODEL.md §2-§4, §7-§8 inputs).
+
+Modules
+-------
+design
+    :class:`~.design.Design`, :class:`~.design.DesignBatch`, materials, TOML; all input
+    validation.
+domain
+    Limits of the design domain shared with the kernels (``MAX_UNITS``).
+constants
+    Closed-form spring constants and isolated-dome analysis (MODEL.md §3-§4).
+pressure
+    Piecewise-linear pressure profiles (MODEL.md §8).
+gripper
+    The gripper transform and aperture of a finger shape (MODEL.md §7).
+status
+    Status codes shared by kernels, API and stored datasets.
+version
+    Model version and library versions recorded with every stored result.
+"""

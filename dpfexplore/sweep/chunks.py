@@ -1,0 +1,205 @@
+"""One chunk of a sweep: the plan of chunks, and what a worker does with one.
+
+A chunk is ``[start, stop)`` of the sample plan of one number of units ``N``
+(:class:`ChunkTask`). :func:`run_chunk` samples its designs, evaluates them through the batch
+kernels and writes one Parquet file, returning its :class:`~dpfexplore.sweep.store.ChunkRecord`;
+it never touches the manifest. The engines (:mod:`dpfexplore.sweep.engines`) run it here or on
+Dask workers, and the driver (:mod:`dpfexplore.sweep.driver`) commits what they return.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pyarrow as pa
+
+from ..model.design import DesignBatch
+from . import store
+from .evaluation import Evaluator
+from .sampling import sample_designs
+from .space import PER_UNIT_VARIABLES, SHARED_VARIABLES, ComputeSpec, JobSpec
+from .store import ChunkRecord
+
+__all__ = [
+    "ChunkFailure",
+    "ChunkTask",
+    "SweepContext",
+    "compute_chunk",
+    "dataset_schema",
+    "default_chunk_size",
+    "evaluate_chunk",
+    "plan_chunks",
+    "rows_per_design",
+    "run_chunk",
+    "write_chunk_file",
+]
+
+#: Target design-state rows per chunk when the job does not set ``chunk_size``: about 10-20 MB
+#: of rows in memory, a few seconds of work on two cores.
+TARGET_CHUNK_ROWS = 1 << 15
+#: Bounds of the default chunk size, in designs.
+MIN_CHUNK_DESIGNS, MAX_CHUNK_DESIGNS = 16, 4096
+
+
+def rows_per_design(states: str, n_units: int) -> int:
+    """Design-state rows of one valid design: 1, ``N + 1`` or ``2^N``."""
+    return {"all_inverted": 1, "sequential": n_units + 1, "all": 2**n_units}[states]
+
+
+def default_chunk_size(compute: ComputeSpec, n_units: int) -> int:
+    """Designs per chunk for ``n_units`` when the job does not say.
+
+    About :data:`TARGET_CHUNK_ROWS` rows, clipped to [:data:`MIN_CHUNK_DESIGNS`,
+    :data:`MAX_CHUNK_DESIGNS`] designs.
+    """
+    per = rows_per_design(compute.states, n_units)
+    return int(np.clip(TARGET_CHUNK_ROWS // per, MIN_CHUNK_DESIGNS, MAX_CHUNK_DESIGNS))
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """Designs ``[start, stop)`` of the plan for ``n_units`` units, chunk number ``index``."""
+
+    n_units: int
+    index: int
+    start: int
+    stop: int
+
+    @property
+    def path(self) -> str:
+        """Relative path of the chunk's file."""
+        return store.chunk_path(self.n_units, self.index)
+
+    @property
+    def n_designs(self) -> int:
+        """Designs in the chunk."""
+        return self.stop - self.start
+
+
+@dataclass(frozen=True)
+class ChunkFailure:
+    """A chunk an engine could not complete (after its retries); the sweep goes on without it."""
+
+    task: ChunkTask
+    error: str
+
+
+def plan_chunks(spec: JobSpec, chunk_sizes: Mapping[int, int]) -> list[ChunkTask]:
+    """Every chunk of the job, in (N, start) order."""
+    tasks = []
+    for n_units in spec.space.n_units:
+        size = chunk_sizes[n_units]
+        for index, start in enumerate(range(0, spec.samples_per_n, size)):
+            tasks.append(ChunkTask(n_units, index, start, min(start + size, spec.samples_per_n)))
+    return tasks
+
+
+def dataset_schema(spec: JobSpec, evaluator: Evaluator) -> pa.Schema:
+    """The dataset's schema: design columns, the evaluator's columns, the dataset metadata."""
+    fields = [*store.design_fields(spec.max_units), *evaluator.fields(spec.max_units)]
+    return store.with_dataset_metadata(pa.schema(fields), store.dataset_metadata(spec))
+
+
+@dataclass(frozen=True)
+class SweepContext:
+    """Everything a worker needs to evaluate and write a chunk (picklable).
+
+    Attributes
+    ----------
+    spec : JobSpec
+    evaluator : Evaluator
+    schema : pyarrow.Schema
+        The dataset schema (:func:`dataset_schema`).
+    root : str
+        Sweep directory (on a filesystem the workers share with the driver).
+    """
+
+    spec: JobSpec
+    evaluator: Evaluator
+    schema: pa.Schema
+    root: str
+
+
+def _design_columns(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
+    n_units_list = spec.space.n_units
+    offset = n_units_list.index(task.n_units) * spec.samples_per_n
+    sample = np.arange(task.start, task.stop, dtype=np.int64)
+    columns: dict[str, object] = {
+        "design_id": offset + sample,
+        "n_units": batch.n_units.astype(np.int8),
+        "sample": sample,
+    }
+    for name in PER_UNIT_VARIABLES:
+        columns[name] = getattr(batch, name)
+    for name in SHARED_VARIABLES:
+        columns[name] = getattr(batch, name)
+    columns["problem"] = batch.problems()[1]
+    return columns
+
+
+def evaluate_chunk(
+    spec: JobSpec, evaluator: Evaluator, schema: pa.Schema, task: ChunkTask
+) -> pa.Table:
+    """Sample, evaluate and tabulate one chunk (no file I/O)."""
+    batch = sample_designs(spec, task.n_units, task.start, task.stop)
+    rows = dict(evaluator(batch))
+    index = np.asarray(rows.pop("design_index"), dtype=np.int64)
+    missing = np.setdiff1d(np.arange(len(batch)), index)
+    if missing.size:  # the contract: every design keeps a row
+        raise RuntimeError(f"evaluator returned no row for designs {missing[:5].tolist()} ...")
+    columns: dict[str, object] = {}
+    for name, values in _design_columns(spec, batch, task).items():
+        if isinstance(values, list):
+            columns[name] = [values[i] for i in index]
+        else:
+            columns[name] = np.asarray(values)[index]
+    columns.update(rows)
+    return store.table_from_columns(schema, columns, n_units=batch.n_units[index])
+
+
+# Batch kernels must not run from two threads of one process at once (Numba's workqueue layer
+# aborts, and any layer would oversubscribe the cores); a Dask worker with several threads runs
+# its chunks one after another through this lock.
+_PROCESS_LOCK = threading.Lock()
+
+
+def compute_chunk(
+    context: SweepContext, task: ChunkTask, numba_threads: int | None = None
+) -> pa.Table:
+    """Evaluate one chunk into its table, holding the process's kernel lock.
+
+    Parameters
+    ----------
+    context : SweepContext
+    task : ChunkTask
+    numba_threads : int, optional
+        Threads for the batch kernels in this call (``numba.set_num_threads``, which is per
+        calling thread); None leaves Numba's setting alone.
+    """
+    with _PROCESS_LOCK:
+        if numba_threads is not None:
+            import numba
+
+            numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
+        return evaluate_chunk(context.spec, context.evaluator, context.schema, task)
+
+
+def write_chunk_file(context: SweepContext, task: ChunkTask, table: pa.Table) -> ChunkRecord:
+    """Write a computed chunk atomically; its record carries the row count per status."""
+    record = store.write_chunk(context.root, task.n_units, task.index, task.start, task.stop, table)
+    if "status_label" in table.column_names:
+        counts = table.column("status_label").combine_chunks().dictionary_decode().value_counts()
+        statuses = {str(entry["values"]): int(entry["counts"]) for entry in counts.to_pylist()}
+        record = dataclasses.replace(record, statuses=dict(sorted(statuses.items())))
+    return record
+
+
+def run_chunk(
+    context: SweepContext, task: ChunkTask, numba_threads: int | None = None
+) -> ChunkRecord:
+    """Evaluate one chunk and write its file (not the manifest): what a worker does."""
+    return write_chunk_file(context, task, compute_chunk(context, task, numba_threads))

@@ -43,7 +43,7 @@ def plot_tip_paths(results: Any, axes: Sequence[Any] | None = None,
     for ax, (a, b) in zip(axes, PROJECTIONS, strict=True):
         for i, (result, label) in enumerate(zip(results, labels, strict=True)):
             path = result.tip_path
-            text = label if result.fitted_range else f"{label} (outside fitted range)"
+            text = label if result.fitted_range else f"{label} (outside fitted H/t/E)"
             ax.plot(path[:, a], path[:, b], color=f"C{i % 10}", label=text)
             ax.plot(path[-1:, a], path[-1:, b], marker="s", color=f"C{i % 10}",
                     linestyle="none")  # fmt: skip
@@ -53,5 +53,5 @@ def plot_tip_paths(results: Any, axes: Sequence[Any] | None = None,
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(True, alpha=0.3)
         ax.set_title(f"{_AXIS[a]}-{_AXIS[b]} projection (square: end)")
-    axes[0].legend(fontsize="small")
+    axes[0].legend(fontsize="x-small")
     return axes

@@ -347,8 +347,14 @@ class LegResult:
 
     @property
     def extent(self) -> NDArray[np.float64]:
-        """Range of the tip path along x, y and z (max - min), ``(3,)``, mm."""
-        return np.ptp(self.tip, axis=0)
+        """Range of the tip path along x, y and z (max - min), ``(3,)``, mm.
+
+        NaN samples (past the stop of a section that failed) are left out.
+        """
+        finite = self.tip[np.all(np.isfinite(self.tip), axis=1)]
+        if finite.shape[0] == 0:
+            return np.full(3, np.nan)
+        return np.ptp(finite, axis=0)
 
     @property
     def stride(self) -> float:
@@ -368,13 +374,18 @@ class LegResult:
         return st.Status.OK
 
     def to_dict(self, *, digits: int = 6) -> dict[str, Any]:
-        """JSON-ready summary: ``tip_path`` rows ``[t, x, y, z]``, sections, ``fitted_range``."""
-        rows = np.column_stack([self.t, self.tip_path])
+        """JSON-ready summary: ``tip_path``, sections, ``fitted_range``, extent and stride.
+
+        ``tip_path`` rows are ``[t, x, y, z]`` (s, mm relative to the start; None past the stop
+        of a section that failed).
+        """
+        rows = [[None if not np.isfinite(v) else v for v in row]
+                for row in np.round(np.column_stack([self.t, self.tip_path]), digits).tolist()]
         return {
             "leg": self.leg.name,
             "composition": self.leg.composition,
             "status": self.status.label,
-            "tip_path": np.round(rows, digits).tolist(),
+            "tip_path": rows,
             "tip_start": np.round(self.tip[0], digits).tolist(),
             "extent": np.round(self.extent, digits).tolist(),
             "stride": round(self.stride, digits),

@@ -8,8 +8,8 @@ own dome thickness t here (each is its own finger). Three maps over (H, t):
 * purple zone (section 1: two units of height H) under phase 1: each unit's class and reset
   time, and its inversion pressure (slow ramps, :mod:`dpfexplore.solvers.ramp`); and, since
   equal heights cannot keep both units inverted long, the two heights apart at a few t;
-* action section (section 3: the action unit H then three units of 4.5 mm) under phase 2, at the
-  walking pressure and at a raised one: the action unit's class and reset time, its inversion
+* action section (section 3: the action unit H then three units of 4.5 mm) under phase 2 at the
+  walking pressure: the action unit's class and reset time, its inversion
   pressure and that of the 4.5 mm units once it has inverted; per t, the heights whose reset
   exceeds a gait cycle (bisection to the bistable edge);
 * then legs built from what the maps allow, simulated with ``simulate_leg``, their stride
@@ -44,7 +44,6 @@ from dpfexplore.solvers.ramp import inversion_pressures
 OUT = Path("results") / "reports"
 NAME = "walker-leg-map"
 P_WALK = 0.4
-P_RAISE = 0.5
 PHASE1 = (0.0, 0.1, 1.1, 1.2)
 PHASE2 = (1.1, 1.2, 2.2, 2.3)
 LIFT = PHASE2[2] - PHASE1[3]  # s after phase 1 ends: phase 2's release starts

@@ -60,6 +60,9 @@ KINDS = ("knn", "gbt", "mlp", "gp")
 CLASSIFIER_KINDS = ("gbt", "mlp")
 #: Relative slack of the training-range check (rounding of values read back from files).
 RANGE_SLACK = 1e-9
+#: Rows a Gaussian process is fitted on by default (its fit costs O(rows^3) time and its
+#: hyperparameter gradient O(rows^2 * features) memory).
+GP_MAX_TRAIN = 800
 
 ArrayLike2D = NDArray | Sequence[Sequence[float]]
 
@@ -120,7 +123,7 @@ def _make_estimator(kind: str, task: str, params: Mapping[str, Any], seed: int, 
     if kind == "gbt":
         from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
 
-        defaults = {"max_iter": 1000, "learning_rate": 0.1, "max_leaf_nodes": 31,
+        defaults = {"max_iter": 500, "learning_rate": 0.1, "max_leaf_nodes": 31,
                     "early_stopping": False, "random_state": seed}
         if task == "classify":
             return HistGradientBoostingClassifier(**{**defaults, **params})
@@ -130,7 +133,7 @@ def _make_estimator(kind: str, task: str, params: Mapping[str, Any], seed: int, 
     if kind == "mlp":
         from sklearn.neural_network import MLPClassifier, MLPRegressor
 
-        defaults = {"hidden_layer_sizes": (128, 128), "batch_size": 256, "max_iter": 400,
+        defaults = {"hidden_layer_sizes": (128, 128), "batch_size": 256, "max_iter": 300,
                     "learning_rate_init": 2e-3, "tol": 1e-6, "n_iter_no_change": 20,
                     "random_state": seed}
         cls = MLPClassifier if task == "classify" else MLPRegressor
@@ -264,7 +267,8 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
     params : dict, optional
         Keyword arguments passed to the scikit-learn estimator, over this module's defaults.
     max_train : int, optional
-        Fit each model on at most this many rows (a random subsample); default: 1500 for
+        Fit each model on at most this many rows (a random subsample); default:
+        :data:`GP_MAX_TRAIN` for
         ``gp``, all rows otherwise.
     random_state : int
         Seed of the subsample and of the estimators.
@@ -320,7 +324,7 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
             self.y_scale_[n] = np.where(yn.std(axis=0) > 0, yn.std(axis=0), 1.0)
             targets[n] = (yn - self.y_mean_[n]) / self.y_scale_[n]
         rng = np.random.default_rng(self.random_state)
-        limit = self.max_train or (1500 if self.kind == "gp" else None)
+        limit = self.max_train or (GP_MAX_TRAIN if self.kind == "gp" else None)
         self.models_ = {}
         self.fit_notes_: list[str] = []
         if self.per_n:

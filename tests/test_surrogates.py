@@ -138,7 +138,10 @@ def test_n_as_feature_fits_one_shared_model(data):
 
 
 def test_classifier_probabilities_and_validation(data):
-    clf = StatusClassifier(kind="gbt", params={"max_iter": 20}).fit(data.frame, data.ok)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):  # OpenMP threads crawl on a loaded machine
+        clf = StatusClassifier(kind="gbt", params={"max_iter": 20}).fit(data.frame, data.ok)
     proba = clf.predict_proba(data.frame)
     assert proba.shape == (len(data.frame), 2)
     np.testing.assert_allclose(proba.sum(axis=1), 1.0)

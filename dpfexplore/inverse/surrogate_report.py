@@ -57,7 +57,8 @@ def format_report(report: dict[str, Any]) -> str:
             (f"{headline} p95", f"{headline}_p95", ".4g"), ("fit s", "fit_s", ".1f")]))
     lines += ["", "goals:"]
     for name, goal in report["goals"].items():
-        lines.append(f"  {name}: {goal['value']:.4g} (goal {goal['goal']}): "
+        value = f"{goal['value']:,}" if isinstance(goal["value"], int) else f"{goal['value']:.4g}"
+        lines.append(f"  {name}: {value} (goal {goal['goal']:,}): "
                      f"{'met' if goal['met'] else 'NOT met'}")
     lines += ["", report["verdict"]]
     return "\n".join(lines)

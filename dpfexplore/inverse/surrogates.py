@@ -65,7 +65,7 @@ CLASSIFIER_KINDS = ("gbt", "mlp")
 RANGE_SLACK = 1e-9
 #: Rows a Gaussian process is fitted on by default (its fit costs O(rows^3) time and its
 #: hyperparameter gradient O(rows^2 * features) memory).
-GP_MAX_TRAIN = 800
+GP_MAX_TRAIN = 500
 
 ArrayLike2D = NDArray | Sequence[Sequence[float]]
 

@@ -140,7 +140,7 @@ def _read_designs(path: Path):
         raise UsageError(f"{path}: not a Parquet file of designs ({message})") from None
     if "n_units" not in frame.columns:
         raise UsageError(f"{path}: no 'n_units' column (need design rows in the sweep schema)")
-    return frame
+    return frame.reset_index(drop=True)
 
 
 def _predict(args: argparse.Namespace) -> int:

@@ -87,20 +87,27 @@ def test_split_by_design_keeps_every_design_on_one_side(data):
     assert np.unique(ids[capped]).size == 10 and not (capped & test).any()
 
 
-def test_fitted_model_never_saw_a_held_out_row(data, fitted):
-    """Distance 0 to the neighbours model's training set marks a row it was fitted on: under a
-    split by design each design's rows are all at 0 or all above (a row split mixes them)."""
-    knn = fitted.regressors["knn"]
-    frame = data.frame[data.ok]
+def _seen_rows(knn, frame):
+    """Rows the neighbours model was fitted on: distance 0 to its training set."""
     n_units, scaled, _ = knn._features(frame)
     seen = np.zeros(len(frame), dtype=bool)
     for n, z in scaled.items():
         train_x = knn.models_[n]._fit_X
         dist = np.min(np.linalg.norm(z[:, None, :] - train_x[None, :, :], axis=2), axis=1)
         seen[n_units == n] = dist == 0.0
-    per_design = pd.DataFrame({"id": frame["design_id"].to_numpy(), "seen": seen})
+    return pd.DataFrame({"id": frame["design_id"].to_numpy(), "seen": seen})
+
+
+def test_fitted_model_never_saw_a_held_out_row(data, fitted):
+    """Under a split by design each design's rows are all seen in training or none is."""
+    frame = data.frame[data.ok]
+    per_design = _seen_rows(fitted.regressors["knn"], frame)
     mixed = per_design.groupby("id")["seen"].nunique() > 1
     assert not mixed.any()
+    # control: the same check catches a split by row
+    rows = np.random.default_rng(0).random(len(frame)) < 0.75
+    by_row = DesignSurrogate(kind="knn").fit(frame[rows], frame.loc[rows, list(OUTPUTS)])
+    assert (_seen_rows(by_row, frame).groupby("id")["seen"].nunique() > 1).any()
     # every design has ok rows (its flat state exists), so all held-out designs show up here
     held_out = (~per_design.groupby("id")["seen"].any()).sum()
     assert held_out == fitted.report["split"]["test_designs"]

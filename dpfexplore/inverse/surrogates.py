@@ -13,9 +13,8 @@ that ``N`` (``3 N + 2`` in the paper's box); three closed forms per dome (MODEL.
 microseconds for a batch): its energy ratio ``alpha`` (whether a dome is bistable on its own is
 the first thing the existence of the all-inverted state depends on), its reach ``d`` and its
 isolated inverted extension ``u_2 d`` (``u_2`` = 3/4 without an inverted minimum), which set how
-far an inverted unit bends the finger (they halved the tip error of an MLP at N = 7 with 2,500
-training designs); and, when the training rows request several states, the requested state's
-bits. Variables constant in the training rows
+far an inverted unit bends the finger; and, when the training rows request several states, the
+requested state's bits. Variables constant in the training rows
 (``E``, ``nu``, ``r_b``, ``t_ch`` in a sweep of one material) are recorded with their value.
 Inputs are scaled per ``N`` to ``[0, 1]`` on the training box and targets standardised per
 ``N``; one model is fitted per ``N`` (``per_n=True``, the default) or one for all ``N`` with the

@@ -17,7 +17,10 @@ import importlib.metadata
 import platform
 
 #: Version of the physical model and of the meaning of its outputs (see the module docstring).
-MODEL_VERSION = "dpf-lattice-1"
+#: 2: designs outside the physical domain (:mod:`dpfexplore.model.domain`: a dome taller than
+#: its base radius or its unit) are rejected with status ``outside_domain`` instead of solved,
+#: and every dataset has the ``fitted_range`` column.
+MODEL_VERSION = "dpf-lattice-2"
 
 #: Distributions whose versions are stored with a dataset (provenance only).
 _RECORDED_DISTRIBUTIONS = (

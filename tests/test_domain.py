@@ -170,6 +170,8 @@ def test_sweep_rows_carry_the_flag_and_the_domain_status(tmp_path):
     from dpfexplore.sweep.driver import run_sweep
 
     spec = make_job(**{"space.variables.H": {"min": 2.0, "max": 5.4}, "job.samples_per_n": 40})
+    assert spec.fitted_range_note() == "H 2-5.4 mm (fitted 3-5 mm)"  # the sweep summary's note
+    assert make_job().fitted_range_note() is None
     out = tmp_path / "out"
     run_sweep(spec, out)
     field = store.read_schema(out).field("fitted_range")

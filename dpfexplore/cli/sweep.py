@@ -178,6 +178,10 @@ def _sweep(args: argparse.Namespace) -> int:
         f"  statuses: {statuses or 'none'}\n"
         f"  engine {summary.engine}: {timings}; total {summary.wall_s:.2f} s"
     )
+    note = spec.fitted_range_note()
+    if note is not None:
+        print(f"  note: the job's space leaves the range the closed forms were fitted on "
+              f"({note}); the column fitted_range says which rows are extrapolated")  # fmt: skip
     if summary.failures:
         for failure in summary.failures:
             error_line(f"  failed: {failure.task.path}: {failure.error}")

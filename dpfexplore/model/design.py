@@ -22,6 +22,8 @@ from numpy.typing import NDArray
 from . import status as st
 from .constants import constants_are_valid, dome_alpha, dome_radius, dome_stiffness
 from .domain import MAX_UNITS, active_units, fitted_range, outside_domain
+from .formatting import num as _num
+from .formatting import nums as _nums
 
 __all__ = [
     "MATERIALS",
@@ -74,17 +76,6 @@ def material(key: str) -> Material:
 PER_UNIT_FIELDS = ("H", "U_L", "U_sep")
 SHARED_FIELDS = ("t", "t_lim", "E", "nu", "r_b", "t_ch")
 DEFAULTS = {"E": 26.0, "nu": 0.35, "r_b": 5.0, "t_ch": 1.0}
-
-
-def _num(value: Any) -> str:
-    """A number as users write it (``-0.83``, not ``np.float64(-0.83)``)."""
-    if isinstance(value, (bool, np.bool_)):
-        return str(bool(value))
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))
-    return repr(value)
 
 
 def _problems(
@@ -186,7 +177,7 @@ def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
     values = tuple(_number(f"{name}[unit {k + 1}]", v) for k, v in enumerate(value))
     if len(values) != n_units:
         raise ValueError(
-            f"{name} = {list(value)!r}: has {len(values)} values but the design has "
+            f"{name} = {_nums(value)}: has {len(values)} values but the design has "
             f"{n_units} units (len(H)); give one value or one per unit"
         )
     return values

@@ -36,6 +36,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .formatting import nums
+
 __all__ = ["MAX_PRESSURE", "PressureProfile"]
 
 #: Largest chamber pressure of a profile, MPa (module docstring: why 2 MPa).
@@ -114,14 +116,14 @@ class PressureProfile:
             raise ValueError("times = (): a pressure profile needs at least one knot")
         if len(times) != len(pressures):
             raise ValueError(
-                f"pressures = {list(pressures)!r}: {len(pressures)} values for {len(times)} times"
+                f"pressures = {nums(pressures)}: {len(pressures)} values for {len(times)} times"
             )
         for i, v in enumerate(times):
             _check_time(f"times[{i}]", v)
         for i, v in enumerate(pressures):
             _check_pressure(f"pressures[{i}]", v)
         if any(b < a for a, b in pairwise(times)):
-            raise ValueError(f"times = {list(times)!r}: must be non-decreasing")
+            raise ValueError(f"times = {nums(times)}: must be non-decreasing")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "pressures", pressures)
 
@@ -136,7 +138,8 @@ class PressureProfile:
             ``τ1 <= τ2 <= τ3 <= τ4``.
         """
         if np.ndim(tau) != 1 or len(tau) != 4:
-            raise ValueError(f"tau = {tau!r}: need four times tau1, tau2, tau3, tau4 (s)")
+            shown = nums(tau) if np.ndim(tau) == 1 else repr(tau)
+            raise ValueError(f"tau = {shown}: need four times tau1, tau2, tau3, tau4 (s)")
         return cls.pulses([(P0, *tau)])
 
     @classmethod
@@ -147,13 +150,13 @@ class PressureProfile:
         last_end = -math.inf
         for i, pulse in enumerate(pulses):
             if len(pulse) != 5:
-                raise ValueError(f"pulses[{i}] = {pulse!r}: need (P0, tau1, tau2, tau3, tau4)")
+                raise ValueError(f"pulses[{i}] = {nums(pulse)}: need (P0, tau1, tau2, tau3, tau4)")
             P0, *tau = (float(v) for v in pulse)
             _check_pressure("P0", P0, plateau=True)
             for k, v in enumerate(tau):
                 _check_time(f"tau[{k}]", v)
             if any(b < a for a, b in pairwise(tau)):
-                raise ValueError(f"tau = {tau!r}: need tau1 <= tau2 <= tau3 <= tau4 (s)")
+                raise ValueError(f"tau = {nums(tau)}: need tau1 <= tau2 <= tau3 <= tau4 (s)")
             if tau[0] < last_end:
                 raise ValueError(
                     f"pulses[{i}] starts at tau1 = {tau[0]} s, before the previous pulse ends "

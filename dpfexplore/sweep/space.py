@@ -59,7 +59,7 @@ from pathlib import Path
 from typing import Any
 
 from ..model.design import DEFAULTS, MATERIALS
-from ..model.domain import MAX_UNITS
+from ..model.domain import FITTED_RANGES, MAX_UNITS
 from ..model.pressure import PressureProfile
 from . import _jobfile as _v
 from ._jobfile import JobSpecError
@@ -305,6 +305,23 @@ class JobSpec:
             "space": data["space"],
             "compute": data["compute"],
         }
+
+    def fitted_range_note(self) -> str | None:
+        """One line naming the variables whose range leaves the closed forms' fitted ranges.
+
+        :data:`dpfexplore.model.domain.FITTED_RANGES`; None when the whole space is inside.
+        Which rows are outside is in each row's ``fitted_range`` column.
+        """
+        parts = []
+        for name, (low, high, unit) in FITTED_RANGES.items():
+            variable = self.space.variable(name)
+            if variable.low < low or variable.high > high:
+                span = f"{variable.low:g}" + (
+                    f"-{variable.high:g}" if variable.sampled else ""
+                )
+                fitted = f"{low:g}" if low == high else f"{low:g}-{high:g}"
+                parts.append(f"{name} {span} {unit} (fitted {fitted} {unit})")
+        return "; ".join(parts) if parts else None
 
     def fingerprint(self) -> str:
         """SHA-256 of :meth:`result_defining` in canonical JSON: equal iff the rows are equal."""

@@ -1,4 +1,7 @@
-"""Parquet storage of sweep results: schema, atomic chunk commits, manifest, readers.
+"""Parquet storage of sweep results: atomic chunk commits, manifest, verified readers.
+
+The dataset schema (columns, units, metadata) lives in :mod:`dpfexplore.sweep.schema` and is
+re-exported here.
 
 Layout of a sweep directory::
 
@@ -18,7 +21,7 @@ Layout of a sweep directory::
 * The schema is fixed before the first design is evaluated (:func:`dataset_schema`); every
   field carries its physical unit and a description in its Arrow field metadata
   (``unit``, ``description``), and the schema metadata key ``dpfexplore`` holds the job
-  spec, seed, fingerprint, model version and package versions (:func:`dataset_metadata`).
+  spec, seed, fingerprint, model version and package versions (:mod:`.schema`).
 * A chunk is written to a unique temporary name (a leading ``.``, which Parquet readers skip),
   flushed and fsync-ed, then renamed onto its deterministic name ``N05/part-000012.parquet``:
   a retried chunk overwrites, it never duplicates, and a reader never sees half a file.
@@ -51,7 +54,7 @@ import os
 import re
 import time
 import uuid
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -61,15 +64,27 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
-from numpy.typing import NDArray
 
-from ..model import status as st
-from ..model.version import MODEL_VERSION, package_versions
-from .space import JobSpec
+from .schema import (  # the schema lives in schema.py; importable from here as before
+    FORMAT,
+    METADATA_KEY,
+    STATUS_LABELS,
+    STATUS_TYPE,
+    column,
+    dataset_metadata,
+    describe_schema,
+    design_fields,
+    schema_metadata,
+    table_from_columns,
+    with_dataset_metadata,
+)
 
 __all__ = [
     "FORMAT",
     "MANIFEST",
+    "METADATA_KEY",
+    "STATUS_LABELS",
+    "STATUS_TYPE",
     "ChunkRecord",
     "Manifest",
     "StoreError",
@@ -84,19 +99,17 @@ __all__ = [
     "read_manifest",
     "read_results",
     "remove_leftovers",
+    "schema_metadata",
     "table_digest",
     "table_from_columns",
     "verify_chunk",
+    "with_dataset_metadata",
     "write_chunk",
     "write_manifest",
 ]
 
-#: Identifies the layout; bump when it changes incompatibly.
-FORMAT = "dpfexplore-sweep/1"
 MANIFEST = "_manifest.json"
 COMMON_METADATA = "_common_metadata"
-#: Schema-metadata key of the dataset's JSON metadata.
-METADATA_KEY = b"dpfexplore"
 #: Schema-metadata key, in each chunk file, of the chunk's identity and content digest.
 CHUNK_KEY = b"dpfexplore.chunk"
 TEMP_SUFFIX = ".tmp"
@@ -105,159 +118,6 @@ _PART = re.compile(r"^N(\d+)/part-(\d+)\.parquet$")
 
 class StoreError(Exception):
     """A sweep directory that cannot be used as asked (another job's, corrupt, not a sweep)."""
-
-
-# ----------------------------------------------------------------------------- schema
-
-
-def column(
-    name: str, dtype: pa.DataType, unit: str, description: str, *, per_unit: bool = False
-) -> pa.Field:
-    """An Arrow field with its physical unit and description in the field metadata.
-
-    ``per_unit=True`` marks a column of unit ``k`` (``H_3``, ``reset_time_3``): it is null in
-    rows of designs with fewer than ``k`` units.
-    """
-    metadata = {"unit": unit, "description": description}
-    if per_unit:
-        metadata["per_unit"] = "true"
-    return pa.field(name, dtype, nullable=True, metadata=metadata)
-
-
-#: Label of each status code, indexed by code (the codes are 0..n-1; Status(i) fails loudly
-#: at import if that ever stops being true).
-STATUS_LABELS = [st.Status(code).label for code in range(len(st.Status))]
-STATUS_TYPE = pa.dictionary(pa.int8(), pa.string())
-
-_VARIABLE_DOCS = {
-    "H": ("mm", "dome height of unit {k}"),
-    "U_L": ("mm", "unit length of unit {k}"),
-    "U_sep": ("mm", "unit separation of unit {k}"),
-}
-_SHARED_DOCS = {
-    "t": ("mm", "dome thickness"),
-    "t_lim": ("mm", "limiting-layer thickness"),
-    "E": ("MPa", "Young's modulus"),
-    "nu": ("1", "Poisson ratio"),
-    "r_b": ("mm", "dome base radius"),
-    "t_ch": ("mm", "chamber wall thickness"),
-}
-
-
-def design_fields(max_units: int) -> list[pa.Field]:
-    """Columns that identify and describe a design (repeated on each of its state rows)."""
-    fields = [
-        column("design_id", pa.int64(), "1",
-               "design number within the sweep: designs of smaller N first, then plan order"),
-        column("n_units", pa.int8(), "1", "number of units N"),
-        column("sample", pa.int64(), "1", "index of the design in the sample plan of its N"),
-    ]
-    for name, (unit, text) in _VARIABLE_DOCS.items():
-        fields += [
-            column(f"{name}_{k}", pa.float64(), unit, text.format(k=k), per_unit=True)
-            for k in range(1, max_units + 1)
-        ]
-    fields += [
-        column(name, pa.float64(), unit, text) for name, (unit, text) in _SHARED_DOCS.items()
-    ]
-    fields.append(column(
-        "problem", pa.string(), "1",
-        "why the design is invalid (null for a valid design); see status",
-    ))
-    fields.append(column(
-        "fitted_range", pa.bool_(), "1",
-        "true when the design's H (every unit), t, E and r_b lie in the ranges the closed-form "
-        "spring constants were fitted on (dpfexplore.model.domain.FITTED_RANGES: H 3-5 mm, "
-        "t 0.5-1 mm, E 5-40 MPa, r_b 5 mm); false: its results extrapolate the closed forms",
-    ))
-    return fields
-
-
-def dataset_metadata(spec: JobSpec) -> dict[str, Any]:
-    """The dataset-level metadata: job spec, seed, fingerprint, model and package versions."""
-    return {
-        "format": FORMAT,
-        "job": spec.to_dict(),
-        "seed": spec.seed,
-        "fingerprint": spec.fingerprint(),
-        "model_version": MODEL_VERSION,
-        "versions": package_versions(),
-    }
-
-
-def with_dataset_metadata(schema: pa.Schema, metadata: Mapping[str, Any]) -> pa.Schema:
-    """``schema`` carrying ``metadata`` as JSON under the ``dpfexplore`` key."""
-    return schema.with_metadata({METADATA_KEY: json.dumps(metadata, sort_keys=True).encode()})
-
-
-def schema_metadata(schema: pa.Schema) -> dict[str, Any]:
-    """The JSON metadata a dataset schema carries (empty if none)."""
-    raw = (schema.metadata or {}).get(METADATA_KEY)
-    return json.loads(raw) if raw else {}
-
-
-def describe_schema(schema: pa.Schema) -> pd.DataFrame:
-    """One row per column: name, Arrow type, unit, description (for documentation)."""
-    rows = []
-    for f in schema:
-        meta = {k.decode(): v.decode() for k, v in (f.metadata or {}).items()}
-        rows.append({
-            "column": f.name,
-            "type": str(f.type),
-            "unit": meta.get("unit", ""),
-            "description": meta.get("description", ""),
-        })
-    return pd.DataFrame(rows)
-
-
-def _unit_of_column(f: pa.Field) -> int | None:
-    if not f.metadata or f.metadata.get(b"per_unit") != b"true":
-        return None
-    return int(f.name.rsplit("_", 1)[1])
-
-
-def table_from_columns(
-    schema: pa.Schema, columns: Mapping[str, Any], n_units: NDArray[np.integer]
-) -> pa.Table:
-    """Build a table of ``schema`` from row-aligned arrays.
-
-    Parameters
-    ----------
-    schema : pyarrow.Schema
-    columns : mapping of str to array_like
-        One entry per field, all of the same length: a NumPy array, or a ready Arrow array of
-        the field's type. A per-unit field ``name_k`` may come as one array ``name`` of shape
-        ``(n_rows, MAX_UNITS)``. Status-label fields (``dictionary<int8, string>``) take the
-        integer codes of :mod:`dpfexplore.model.status`; string fields take sequences of str/None.
-    n_units : ndarray of int, shape (n_rows,)
-        Units of each row's design: per-unit columns are null past it.
-
-    Raises
-    ------
-    KeyError
-        If a field of the schema has no array (the schema is the contract).
-    """
-    arrays = []
-    n_units = np.asarray(n_units)
-    for f in schema:
-        unit = _unit_of_column(f)
-        if f.name in columns:
-            values = columns[f.name]
-        elif unit is not None and f.name.rsplit("_", 1)[0] in columns:
-            values = np.asarray(columns[f.name.rsplit("_", 1)[0]])[:, unit - 1]
-        else:
-            raise KeyError(f"no values for column {f.name!r}")
-        if isinstance(values, (pa.Array, pa.ChunkedArray)):
-            arrays.append(values if values.type == f.type else values.cast(f.type))
-        elif f.type == STATUS_TYPE:
-            codes = pa.array(np.asarray(values, dtype=np.int8), pa.int8())
-            arrays.append(pa.DictionaryArray.from_arrays(codes, pa.array(STATUS_LABELS)))
-        elif pa.types.is_string(f.type):
-            arrays.append(pa.array(list(values), pa.string()))
-        else:
-            mask = (n_units < unit) if unit is not None else None
-            arrays.append(pa.array(np.asarray(values), type=f.type, mask=mask))
-    return pa.Table.from_arrays(arrays, schema=schema)
 
 
 # ----------------------------------------------------------------------------- chunks
@@ -327,8 +187,8 @@ def _atomic_write(path: Path, data: bytes | memoryview) -> None:
     _fsync_dir(path.parent)
 
 
-def _column_digest(digest, column: pa.ChunkedArray) -> None:
-    array = column.combine_chunks() if column.num_chunks != 1 else column.chunk(0)
+def _column_digest(digest, values: pa.ChunkedArray) -> None:
+    array = values.combine_chunks() if values.num_chunks != 1 else values.chunk(0)
     if pa.types.is_dictionary(array.type):
         array = array.dictionary_decode()
     digest.update(np.asarray(array.is_valid()).tobytes())
@@ -350,9 +210,9 @@ def table_digest(table: pa.Table) -> str:
     equals the digest of the table that was written.
     """
     digest = hashlib.sha256()
-    for name, column in zip(table.column_names, table.columns, strict=True):
-        digest.update(f"{name}:{column.type}".encode())
-        _column_digest(digest, column)
+    for name, values in zip(table.column_names, table.columns, strict=True):
+        digest.update(f"{name}:{values.type}".encode())
+        _column_digest(digest, values)
     return digest.hexdigest()
 
 

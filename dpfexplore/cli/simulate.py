@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
+from ._output import fitted_range_line, output_path
 
 
 def register(subparsers) -> None:
@@ -20,14 +21,15 @@ def register(subparsers) -> None:
         "profile (s; 'inf' = still inverted at --t-end), its class and the final state.",
     )
     parser.add_argument("design", help="design TOML file (a [design] table) or an example name")
-    parser.add_argument("--P0", type=float, default=0.7, help="pulse pressure, MPa (default 0.7)")
+    parser.add_argument("--P0", type=float, default=0.7,
+                        help="pulse pressure, MPa (default 0.7; 0 < P0 <= 2)")
     parser.add_argument(
         "--tau", default="0,1,5,5.1",
         help="tau1,tau2,tau3,tau4 in s: ramp start, full pressure, release start, release end",
     )  # fmt: skip
     parser.add_argument(
         "--profile", default=None,
-        help="piecewise-linear profile 't:P,t:P,...' (s:MPa), overrides --P0/--tau",
+        help="piecewise-linear profile 't:P,t:P,...' (s:MPa, 0 <= P <= 2), overrides --P0/--tau",
     )  # fmt: skip
     parser.add_argument("--t-end", type=float, default=15.0, help="end of the run, s")
     parser.add_argument(
@@ -57,14 +59,21 @@ def _profile(args):
     from ..solvers.dynamics import PressureProfile
 
     if args.profile:
-        return PressureProfile.parse(args.profile)
+        try:
+            return PressureProfile.parse(args.profile)
+        except ValueError as exc:
+            raise UsageError(f"--profile: {exc}") from None
     try:
         tau = [float(v) for v in args.tau.split(",")]
     except ValueError:
-        raise UsageError(f"--tau {args.tau!r}: give four comma-separated times in s") from None
+        raise UsageError(f"--tau {args.tau}: give four comma-separated times in s") from None
     if len(tau) != 4:
-        raise UsageError(f"--tau {args.tau!r}: give four comma-separated times in s")
-    return PressureProfile.pulse(args.P0, tau)
+        raise UsageError(f"--tau {args.tau}: give four comma-separated times in s")
+    try:
+        return PressureProfile.pulse(args.P0, tau)
+    except ValueError as exc:
+        option = "--P0" if str(exc).startswith("P0") else "--tau"
+        raise UsageError(f"{option}: {exc}") from None
 
 
 def run(args) -> int:
@@ -75,10 +84,23 @@ def run(args) -> int:
     try:
         design = _design(args.design)
         profile = _profile(args)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    plot = output_path(args.plot) if args.plot is not None else None
+    if args.method != "radau":
+        from ..solvers.compilation import compile_notice
+
+        notice = compile_notice(["dynamics"])
+        if notice:
+            error_line(f"dpfexplore simulate: {notice} ...")
+    try:
         result = simulate(design, profile, t_end=args.t_end, method=args.method, atol=args.atol)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     summary = result.to_dict()
+    note = design.fitted_range_note
+    summary["fitted_range"] = note is None
+    summary["fitted_range_note"] = note
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -92,8 +114,10 @@ def run(args) -> int:
             print(f"{k + 1:>4} {result.unit_class[k] or 'never inv.':>11} "
                   f"{result.snap_through[k]:>15.4f} {result.snap_back[k]:>12.4f} "
                   f"{result.reset_time[k]:>10.4f}")  # fmt: skip
-    if args.plot is not None:
-        _save_plot(result, args.plot)
+        if note is not None:
+            print(fitted_range_line(note))
+    if plot is not None:
+        _save_plot(result, plot)
     return EXIT_OK if result.status == Status.OK else EXIT_FAILURE
 
 
@@ -105,5 +129,4 @@ def _save_plot(result, path: Path) -> None:
     fig = Figure(figsize=(7, 7), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
     plot_simulation(result, axes)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)

@@ -78,6 +78,14 @@ class StaticsEvaluator:
     def __repr__(self) -> str:
         return f"StaticsEvaluator({self.compute!r})"
 
+    def kernel_groups(self) -> list[str]:
+        """Kernel groups this job needs (:mod:`dpfexplore.solvers.compilation`)."""
+        groups = ["statics"]
+        load = self.compute.reset_times
+        if load is not None:
+            groups.append("release" if load.method == "release" else "reset")
+        return groups
+
     def warm_up(self) -> float:
         """Compile the kernels this job calls (:func:`dpfexplore.sweep.warmup.compile_kernels`)."""
         from .warmup import compile_kernels
@@ -98,9 +106,10 @@ class StaticsEvaluator:
             column("status", pa.int8(), "1",
                    "outcome code of the row (dpfexplore.model.status.Status)"),
             column("status_label", STATUS_TYPE, "1",
-                   "outcome: ok, invalid_input, invalid_constants, not_converged, collapsed "
-                   "(requested state does not exist; outputs describe the found state), "
-                   "nonfinite, degenerate_geometry, unstable"),
+                   "outcome: ok, invalid_input, invalid_constants, outside_domain (a dome "
+                   "taller than its base radius or its unit; not solved), not_converged, "
+                   "collapsed (requested state does not exist; outputs describe the found "
+                   "state), nonfinite, degenerate_geometry, unstable"),
             column("energy", pa.float64(), "N·mm", "total elastic energy of the state"),
             column("energy_linear", pa.float64(), "N·mm", "energy of posts and limiting layer"),
             column("energy_dome", pa.float64(), "N·mm", "energy of the dome springs"),

@@ -59,7 +59,8 @@ from pathlib import Path
 from typing import Any
 
 from ..model.design import DEFAULTS, MATERIALS
-from ..model.domain import MAX_UNITS
+from ..model.domain import FITTED_RANGES, MAX_UNITS
+from ..model.pressure import PressureProfile
 from . import _jobfile as _v
 from ._jobfile import JobSpecError
 
@@ -305,6 +306,23 @@ class JobSpec:
             "compute": data["compute"],
         }
 
+    def fitted_range_note(self) -> str | None:
+        """One line naming the variables whose range leaves the closed forms' fitted ranges.
+
+        :data:`dpfexplore.model.domain.FITTED_RANGES`; None when the whole space is inside.
+        Which rows are outside is in each row's ``fitted_range`` column.
+        """
+        parts = []
+        for name, (low, high, unit) in FITTED_RANGES.items():
+            variable = self.space.variable(name)
+            if variable.low < low or variable.high > high:
+                span = f"{variable.low:g}" + (
+                    f"-{variable.high:g}" if variable.sampled else ""
+                )
+                fitted = f"{low:g}" if low == high else f"{low:g}-{high:g}"
+                parts.append(f"{name} {span} {unit} (fitted {fitted} {unit})")
+        return "; ".join(parts) if parts else None
+
     def fingerprint(self) -> str:
         """SHA-256 of :meth:`result_defining` in canonical JSON: equal iff the rows are equal."""
         canonical = json.dumps(self.result_defining(), sort_keys=True, separators=(",", ":"))
@@ -540,19 +558,21 @@ def _parse_compute(compute: Mapping[str, Any]) -> ComputeSpec:
 def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
     key = "compute.reset_times"
     _v.check_keys(table, key, required=("P0", "tau", "t_end"), optional=("method",))
-    P0 = _v.positive(table, key, "P0", "MPa")
+    P0 = table["P0"]
+    if isinstance(P0, bool) or not isinstance(P0, (int, float)):
+        raise JobSpecError(f"{key}.P0 = {P0!r}: must be a number (MPa)")
     tau_value = table["tau"]
     if not isinstance(tau_value, list) or len(tau_value) != 4:
         raise JobSpecError(f"{key}.tau = {tau_value!r}: must be a list of 4 times [tau1..tau4] (s)")
-    tau = []
     for i, item in enumerate(tau_value):
-        if isinstance(item, bool) or not isinstance(item, (int, float)) or not math.isfinite(item):
-            raise JobSpecError(f"{key}.tau[{i}] = {item!r}: must be a finite number (s)")
-        if item < 0:
-            raise JobSpecError(f"{key}.tau[{i}] = {item!r}: must be >= 0 s")
-        if tau and item < tau[-1]:
-            raise JobSpecError(f"{key}.tau = {tau_value!r}: must be non-decreasing")
-        tau.append(float(item))
+        if isinstance(item, bool) or not isinstance(item, (int, float)):
+            raise JobSpecError(f"{key}.tau[{i}] = {item!r}: must be a number (s)")
+    tau = [float(item) for item in tau_value]
+    try:  # the one validation of pressure profiles (physical range: model/pressure.py)
+        PressureProfile.pulse(float(P0), tau)
+    except ValueError as exc:
+        raise JobSpecError(f"{key}.{exc}") from None
+    P0 = float(P0)
     t_end = _v.positive(table, key, "t_end", "s")
     if t_end <= tau[3]:
         raise JobSpecError(f"{key}.t_end = {t_end!r}: must be after tau4 = {tau[3]!r} s")

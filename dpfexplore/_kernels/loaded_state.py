@@ -56,8 +56,10 @@ from .layout import (
 SNAPPED_GUESS_EXTENSION = 1.3
 #: Penalty stiffness of the hold at the force peak, relative to the dome's ``k_b``.
 HOLD_PENALTY = 10.0
-#: Newton controls: force tolerance (N), iteration cap per solve, largest move per step (mm).
-FTOL = 1e-8
+#: Newton controls: force tolerance (N) of the held rounds (a margin needs ~1e-4 N) and of the
+#: released equilibrium the dynamics start from, iteration cap per solve, largest move (mm).
+FTOL_ROUNDS = 1e-5
+FTOL = 1e-7
 MAX_ITER = 100
 MAX_MOVE = 100.0
 #: Snapped-dome rounds before giving up (each round adds at least one dome: N + 1 suffice).
@@ -255,7 +257,7 @@ def loaded_state(unit_params, h, pressure, x, margin, u):
                 held[k, COL_PEN] = HOLD_PENALTY * unit_params[k, COL_KB]
                 c[k] = peak[k]
         extension_guess(unit_params, h, c, x)
-        code, it = loaded_newton(x, held, h, pressure, FTOL, MAX_ITER, MAX_MOVE, scratch)
+        code, it = loaded_newton(x, held, h, pressure, FTOL_ROUNDS, MAX_ITER, MAX_MOVE, scratch)
         total += it
         if code != st.OK:
             return code, -1, total

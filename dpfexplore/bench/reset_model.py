@@ -67,6 +67,9 @@ def compare(out: dict, ref: dict, n_units: np.ndarray) -> dict:
         covered = (out["reset_time_lo"][meta] <= t_ref[meta]) & (
             t_ref[meta] <= out["reset_time_hi"][meta])  # fmt: skip
     agree = (classes(t_out) == classes(t_ref))[active]
+    levels = (0.5, 0.9, 0.95, 0.99, 1.0)
+    n_of_unit = np.broadcast_to(n_units[:, None], t_ref.shape)[meta]
+    by_n = {int(n): float(np.median(rel[n_of_unit == n])) for n in np.unique(n_of_unit)}
     return {
         "median_rel_err": float(np.median(rel)) if rel.size else float("nan"),
         "p95_rel_err": float(np.quantile(rel, 0.95)) if rel.size else float("nan"),
@@ -77,6 +80,10 @@ def compare(out: dict, ref: dict, n_units: np.ndarray) -> dict:
         "metastable_units": int(meta.sum()),
         "units": int(active.sum()),
         "class_mismatches": int((~agree).sum()),
+        "rel_err_quantiles": {f"{q:g}": float(np.quantile(rel, q)) for q in levels}
+        if rel.size else {},
+        "median_rel_err_by_n_units": by_n,
+        "within_1pct": float(np.mean(rel <= 0.01)) if rel.size else float("nan"),
     }
 
 

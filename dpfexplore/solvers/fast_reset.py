@@ -49,6 +49,7 @@ from .._kernels.fast_reset import (
     UD_U_LOAD,
     fast_reset_batch,
 )
+from .._kernels.layout import COL_ALPHA
 from .._kernels.release import UD_EVENT_ERROR, UD_EVENT_STEP
 from ..model import status as st
 from ..model.design import DesignBatch
@@ -61,10 +62,9 @@ from .dynamics_common import (
     CLASS_NEVER_INVERTED,
     METHODS,
     controls,
-    empty_reset_columns,
 )
 from .fast_reset_model import FEATURES, ResetModel, load_reset_model
-from .lattice import batch_constants, pack_batch
+from .lattice import pack_batch
 
 __all__ = [
     "FALLBACK_CORE",
@@ -121,7 +121,8 @@ def _single_pulse(profile: PressureProfile) -> tuple[float, tuple[float, ...]] |
 
 
 def fast_reset_core(batch: DesignBatch, profile: PressureProfile, *, t_end: float,
-                    atol: float, rows: NDArray | None = None) -> dict[str, NDArray]:  # fmt: skip
+                    atol: float, rows: NDArray | None = None,
+                    status: NDArray | None = None) -> dict[str, NDArray]:  # fmt: skip
     """The physical core (no fit) on the valid rows of a batch (``rows``: a subset of those).
 
     Parameters
@@ -134,35 +135,36 @@ def fast_reset_core(batch: DesignBatch, profile: PressureProfile, *, t_end: floa
         Position tolerance of the release integration.
     rows : ndarray of int, optional
         Rows to run (default: every valid row).
+    status : ndarray of int8, optional
+        ``batch.status()``, if the caller has it already.
 
     Returns
     -------
     dict
         The columns of ``reset_times_batch`` (``snap_through`` NaN) plus ``"unit_diag"``
-        (n, MAX_UNITS, N_UNIT_DIAG) and ``"design_diag"`` (n, N_DESIGN_DIAG), NaN where not run.
+        (n, MAX_UNITS, N_UNIT_DIAG), ``"design_diag"`` (n, N_DESIGN_DIAG), NaN where not run,
+        and ``"alpha"`` (n, MAX_UNITS), each unit's dome energy ratio (NaN past ``N``).
     """
     pulse = _single_pulse(profile)
     if pulse is None:
         raise ValueError(f"profile = {profile!r}: the fast model needs one pulse (0, P0, P0, 0)")
-    out = empty_reset_columns(batch)
-    n = len(batch)
-    out["unit_diag"] = np.full((n, MAX_UNITS, N_UNIT_DIAG), np.nan)
-    out["design_diag"] = np.full((n, N_DESIGN_DIAG), np.nan)
+    out = _empty_core(batch, status)
     valid = out["status"] == st.OK
     if rows is not None:
-        chosen = np.zeros(n, dtype=bool)
+        chosen = np.zeros(len(batch), dtype=bool)
         chosen[rows] = True
         valid &= chosen
     if not valid.any():
         return out
     unit_params, h, n_units = pack_batch(batch)
+    out["alpha"] = unit_params[:, :, COL_ALPHA].copy()
     knot_t, knot_p = profile.knots()
     ctrl = controls(METHODS["rodas4-overdamped"], t_release=profile.t_release, atol=atol,
                     rtol=None, h_max=CORE_H_MAX, max_steps=CORE_MAX_STEPS,
                     stop_when_reset=True)  # fmt: skip
     ctrl[CTRL_H_INIT] = CORE_H_INIT
     ctrl[CTRL_H_MAX] = CORE_H_MAX
-    codes = np.zeros(n, dtype=np.int64)
+    codes = np.zeros(len(batch), dtype=np.int64)
     previous = numba.set_parallel_chunksize(1)  # rows differ in cost by 10x or more
     try:
         fast_reset_batch(unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL,
@@ -183,9 +185,7 @@ def unit_features(batch: DesignBatch, core: dict[str, NDArray],
     """
     design, unit = np.nonzero(units)
     n_units = batch.n_units[design]
-    with np.errstate(all="ignore"):
-        alpha = batch_constants(batch, domes=False)["alpha"]
-    alpha = np.where(np.arange(MAX_UNITS)[None, :] < batch.n_units[:, None], alpha, 0.0)
+    alpha = np.where(np.arange(MAX_UNITS)[None, :] < batch.n_units[:, None], core["alpha"], 0.0)
     padded = np.pad(alpha, ((0, 0), (1, 1)))  # α of the neighbours, 0 beyond the ends
     ud = core["unit_diag"][design, unit]
     dd = core["design_diag"][design]
@@ -291,7 +291,8 @@ def fast_reset_times_batch(
         if not max_rel_halfwidth > 0.0:
             raise ValueError(f"max_rel_halfwidth = {max_rel_halfwidth!r}: must be > 0")
     n = len(batch)
-    valid = batch.status() == st.OK
+    status = batch.status()
+    valid = status == st.OK
     reason = np.zeros(n, dtype=np.int16)
     reason[valid & ~in_domain(model, batch)] |= FALLBACK_DOMAIN
     scene_ok = in_scene(model, profile, t_end)
@@ -301,9 +302,10 @@ def fast_reset_times_batch(
     horizon = t_end - profile.t_release
     if fast.any():
         core = fast_reset_core(batch, profile, t_end=profile.t_release + horizon * (
-            1.0 + HORIZON_SLACK), atol=model.atol, rows=np.flatnonzero(fast))  # fmt: skip
+            1.0 + HORIZON_SLACK), atol=model.atol, rows=np.flatnonzero(fast),
+            status=status)  # fmt: skip
     else:
-        core = _empty_core(batch)
+        core = _empty_core(batch, status)
     out = {key: core[key] for key in ("status", "final_state", "reset_time", "snap_through",
                                       "snap_back", "unit_class")}  # fmt: skip
     reason[fast & (core["status"] != st.OK)] |= FALLBACK_CORE
@@ -341,11 +343,20 @@ def fast_reset_times_batch(
     return out
 
 
-def _empty_core(batch: DesignBatch) -> dict[str, NDArray]:
-    out = empty_reset_columns(batch)
+def _empty_core(batch: DesignBatch, status: NDArray | None) -> dict[str, NDArray]:
+    """The core's columns before anything ran (the ``reset_times_batch`` contract's and more)."""
     n = len(batch)
-    out["unit_diag"] = np.full((n, MAX_UNITS, N_UNIT_DIAG), np.nan)
-    out["design_diag"] = np.full((n, N_DESIGN_DIAG), np.nan)
+    out = {
+        "status": (batch.status() if status is None else status).astype(np.int8),
+        "final_state": np.full(n, -1, dtype=np.int64),
+        "reset_time": np.full((n, MAX_UNITS), np.nan),
+        "snap_through": np.full((n, MAX_UNITS), np.nan),
+        "snap_back": np.full((n, MAX_UNITS), np.nan),
+        "unit_class": np.full((n, MAX_UNITS), CLASS_NEVER_INVERTED, dtype=np.int8),
+        "unit_diag": np.full((n, MAX_UNITS, N_UNIT_DIAG), np.nan),
+        "design_diag": np.full((n, N_DESIGN_DIAG), np.nan),
+        "alpha": np.full((n, MAX_UNITS), np.nan),
+    }
     return out
 
 

@@ -320,6 +320,7 @@ def fit_reset_model(options: TrainingOptions = TrainingOptions(),
                          t_end, options.atol)  # fmt: skip
     q, abs_half, facts = _conformal(model, calibration, options.horizon)
     importance = _importance(model, data)
+    ablation = _ablation(model, data, calibration)
     info = {
         "trained": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
         "seconds": round(time.perf_counter() - start, 1),
@@ -328,6 +329,7 @@ def fit_reset_model(options: TrainingOptions = TrainingOptions(),
         "rounds": rounds,
         "calibration": facts,
         "feature_importance": importance,
+        "ablation": ablation,
         "versions": package_versions(),
     }
     model = ResetModel(**{**{k: getattr(model, k) for k in model.__dataclass_fields__},
@@ -348,6 +350,48 @@ def _importance(model: ResetModel, data: _Labelled) -> dict[str, float]:
         shuffled[:, j] = rng.permutation(shuffled[:, j])
         out[name] = float(np.mean(np.abs(model.correction.predict(shuffled) - base)))
     return dict(sorted(out.items(), key=lambda item: -item[1]))
+
+
+#: Features a fit without the release dynamics can use: the design and the static loading.
+STATIC_FEATURES = tuple(name for name in FEATURES if name not in (
+    "log_T_core", "crossings", "log_event_step", "event_error", "n_reset_core",
+    "release_steps"))  # fmt: skip
+
+
+def _ablation(model: ResetModel, data: _Labelled, calibration: _Labelled) -> dict:
+    """Relative errors of the core alone, corrected, and of a fit without the release.
+
+    On the calibration designs' metastable units; the last is a fit of ``log T`` on the static
+    features only (the design and the static loading, no release dynamics: what a surrogate
+    without the physics of the release gets, trained on the same designs).
+    """
+
+    def units(d: _Labelled):
+        core_t = d.core["reset_time"]
+        ref_t = d.ref["reset_time"]
+        with np.errstate(invalid="ignore"):
+            mask = ((d.core["status"] == 0) & (d.ref["status"] == 0))[:, None] & np.isfinite(
+                core_t) & np.isfinite(ref_t) & (ref_t >= 0.05) & (core_t >= model.small_T)
+        return unit_features(d.batch, d.core, mask), ref_t[mask], core_t[mask]
+
+    def stats(rel):
+        return {"median": float(np.median(rel)), "p95": float(np.quantile(rel, 0.95)),
+                "max": float(rel.max()), "units": int(rel.size)}  # fmt: skip
+
+    x_train, t_train, _ = units(data)
+    x_test, t_test, core_test = units(calibration)
+    if not (t_train.size and t_test.size):
+        return {}
+    static = [FEATURES.index(name) for name in STATIC_FEATURES]
+    fit = _gbr(n_estimators=1500, max_depth=5, loss="huber", alpha=0.9).fit(
+        x_train[:, static], np.log(t_train))  # fmt: skip
+    corrected = core_test * np.exp(model.correction.predict(x_test))
+    return {
+        "static_features": list(STATIC_FEATURES),
+        "static_fit": stats(np.abs(np.exp(fit.predict(x_test[:, static])) / t_test - 1.0)),
+        "core_alone": stats(np.abs(core_test / t_test - 1.0)),
+        "core_corrected": stats(np.abs(corrected / t_test - 1.0)),
+    }
 
 
 def _int(seed_sequence: np.random.SeedSequence) -> int:

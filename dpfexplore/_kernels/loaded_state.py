@@ -16,8 +16,8 @@ Which domes snap (the pattern)
     round repeats (a snap curls the finger and changes the others' load) until no held dome
     wants to snap; then the holds are released and Newton settles the loaded equilibrium.
     Measured against the full loading dynamics on 8,000 random designs with low domes
-    (``bench dynamics`` distribution, 0.7 MPa): the same inverted units on all but 7;
-    those had ``|λ|`` below 0.1 N, which the caller treats as undecided.
+    (``bench dynamics`` distribution, 0.7 MPa): the same snapped units on all but 5, each of
+    those decided by ``|λ| < 0.005 N``; the fast model treats ``|λ| < 0.01 N`` as undecided.
 Newton without an energy
     The pressure load follows the faces and is not conservative, so the equilibrium is a root
     of the force residual, solved by Newton on the banded LU of ``H - P_J`` with an Armijo

@@ -29,7 +29,9 @@ from collections.abc import Sequence
 from ._output import SafeStreamHandler, UsageError, discard, error_line
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
-COMMAND_MODULES = ("states", "sweep", "simulate", "simulate_leg", "resetmaps", "surrogate", "bench")
+COMMAND_MODULES = (
+    "states", "sweep", "simulate", "simulate_leg", "resetmaps", "surrogate", "resetmodel", "bench",
+)
 
 EXIT_OK = 0
 EXIT_FAILURE = 1

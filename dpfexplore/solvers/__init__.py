@@ -15,6 +15,9 @@ dynamics_scipy
     The trusted baseline: the same equations through ``scipy.integrate.solve_ivp``.
 reduced
     The release model, a reduced reset-time model with its error measured.
+fast_reset, fast_reset_model, fast_reset_train
+    The fast reset-time model (``reset_times_batch(..., method="fast")``): physical core,
+    fitted correction and interval, fallback; its JSON model file; its training.
 dynamics
     :func:`~.dynamics.simulate` and :func:`~.dynamics.reset_times_batch` (MODEL.md §8).
 resetmaps

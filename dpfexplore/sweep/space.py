@@ -42,6 +42,8 @@ Layout of a job file (lengths in mm, ``E`` in MPa, pressure in MPa, times in s):
     P0 = 0.7                      # pressure plateau, MPa
     tau = [0.0, 1.0, 5.0, 5.1]    # tau1..tau4 of the pressure profile (MODEL.md §8), s
     t_end = 10.0                  # simulation horizon, s
+    method = "rodas4"             # optional: "fast" = the fast reset model (its scene only;
+    max_rel_halfwidth = 0.05      # optional, fast only: fall back where an interval is wider)
 
 Only what ``[compute]`` asks for is computed and stored.
 """
@@ -184,13 +186,18 @@ class PressureLoad:
         Simulation horizon (absolute time, > ``tau4``); a unit that has not reset by then gets
         a reset time of ``inf``.
     method : str or None
-        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch` (None: its default).
+        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch` (None: its default);
+        ``"fast"`` is the fast reset model (:mod:`dpfexplore.solvers.fast_reset`), which adds
+        each unit's 90 % interval and a per-design fallback flag to the dataset.
+    max_rel_halfwidth : float or None
+        ``"fast"`` only: designs with a wider relative interval run the full model.
     """
 
     P0: float
     tau: tuple[float, float, float, float]
     t_end: float
     method: str | None = None
+    max_rel_halfwidth: float | None = None
 
 
 @dataclass(frozen=True)
@@ -281,6 +288,8 @@ class JobSpec:
             compute["reset_times"] = {"P0": load.P0, "tau": list(load.tau), "t_end": load.t_end}
             if load.method is not None:
                 compute["reset_times"]["method"] = load.method
+            if load.max_rel_halfwidth is not None:
+                compute["reset_times"]["max_rel_halfwidth"] = load.max_rel_halfwidth
         space_dict: dict[str, Any] = {
             "n_units": list(space.n_units),
             "variables": {v.name: v.to_toml() for v in space.variables},
@@ -557,7 +566,8 @@ def _parse_compute(compute: Mapping[str, Any]) -> ComputeSpec:
 
 def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
     key = "compute.reset_times"
-    _v.check_keys(table, key, required=("P0", "tau", "t_end"), optional=("method",))
+    _v.check_keys(table, key, required=("P0", "tau", "t_end"),
+                  optional=("method", "max_rel_halfwidth"))
     P0 = table["P0"]
     if isinstance(P0, bool) or not isinstance(P0, (int, float)):
         raise JobSpecError(f"{key}.P0 = {P0!r}: must be a number (MPa)")
@@ -582,10 +592,16 @@ def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
 
         batch_methods = [
             name for name, info in METHODS.items()
-            if info.integrator >= 0 or info.model == "release"
+            if info.integrator >= 0 or info.model in ("release", "fast")
         ]
         if method not in batch_methods:
             raise JobSpecError(
                 f"{key}.method = {method!r}: must be one of {', '.join(batch_methods)}"
             )
-    return PressureLoad(P0=P0, tau=(tau[0], tau[1], tau[2], tau[3]), t_end=t_end, method=method)
+    width = None
+    if "max_rel_halfwidth" in table:
+        if method != "fast":
+            raise JobSpecError(f"{key}.max_rel_halfwidth: only with method = \"fast\"")
+        width = _v.positive(table, key, "max_rel_halfwidth", "1")
+    return PressureLoad(P0=P0, tau=(tau[0], tau[1], tau[2], tau[3]), t_end=t_end, method=method,
+                        max_rel_halfwidth=width)

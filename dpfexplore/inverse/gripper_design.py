@@ -1,0 +1,204 @@
+"""The multi-aperture gripper scene (paper eq. opti_multi; MODEL.md §7, §9).
+
+Method
+------
+1. **Candidates.** A Latin hypercube over the finger's variables only. Each candidate's four
+   sequential states are solved once; the base angle ``θ_B`` and length ``Base_L`` that fit its
+   apertures best follow without any further solve: the aperture is
+   ``a_j = 2 Base_L - 2 u_j(θ)`` with ``u_j = sin θ x_j + cos θ (y_j - h)``, so for each ``θ``
+   of a fine grid the best ``Base_L`` is a mean, and ``θ`` is the grid's best.
+2. **Apertures met.** Trust-region least squares on all variables (finger, ``θ_B``,
+   ``Base_L``) from the best distinct candidates, until every aperture is within a small
+   fraction of its tolerance.
+3. **Stiffness maximised.** SLSQP maximises the tip stiffness of the activated state subject to
+   the apertures staying within half their tolerance and the tip unit staying in a band of its
+   isolated-dome ``α`` (above the bistable limit ``1/9``, below a cap): the cheap, analytic proxy
+   of metastability that keeps the search where the dynamics can hold.
+4. **Finalists simulated.** Only the final candidates are simulated in the full model under the
+   scene's pressure pulse: the tip unit must reset, after at least ``min_reset_s``, while the
+   others stay inverted. A finalist that resets too soon has its ``α`` cap lowered toward
+   ``1/9`` (one that never resets, its floor raised) and step 3 is repeated from it. The
+   sequential states' pressure windows come from :mod:`dpfexplore.inverse.windows`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..model.constants import dome_alpha, dome_radius
+from ..model.pressure import PressureProfile
+from ..solvers.dynamics import simulate
+from .evaluation import Evaluator
+from .optimiser import (
+    Refinement,
+    TargetResult,
+    _distinct_starts,
+    latin_candidates,
+    maximise_stiffness,
+    refine,
+)
+from .scenes import Evaluation, GripperProblem
+from .windows import pressure_windows
+
+__all__ = ["ALPHA_BISTABLE", "gripper_problem", "metastability", "solve_gripper"]
+
+#: Isolated-dome bistability limit (MODEL.md §4).
+ALPHA_BISTABLE = 1.0 / 9.0
+#: Grid of base angles of the candidate step.
+_THETA_GRID = 721
+
+
+def gripper_problem(spec, evaluator: Evaluator) -> GripperProblem:
+    """The gripper problem of a scene."""
+    return GripperProblem(spec.design_variables(spec.n_units[0]), spec.gripper, evaluator)
+
+
+def _best_base(problem: GripperProblem, ev: Evaluation) -> NDArray:
+    """Box coordinates of the ``θ_B``, ``Base_L`` that fit each candidate's apertures best."""
+    g = problem.spec
+    (t0, t1), (b0, b1) = g.theta_B_deg, g.base_L
+    theta = np.radians(np.linspace(t0, t1, _THETA_GRID))
+    tips = ev.columns["_tips"]  # (m, S, 2)
+    x = tips[..., 0][:, None, :]
+    y = (tips[..., 1] - ev.columns["_h"][:, None])[:, None, :]
+    u = np.sin(theta)[None, :, None] * x + np.cos(theta)[None, :, None] * y  # (m, G, S)
+    targets = np.asarray(g.apertures)
+    base = np.clip(np.mean(u + targets / 2.0, axis=2), b0, b1)  # (m, G)
+    cost = np.sum((2.0 * base[..., None] - 2.0 * u - targets) ** 2, axis=2)
+    cost = np.where(np.isfinite(cost), cost, np.inf)
+    k = np.argmin(cost, axis=1)
+    rows = np.arange(len(k))
+    z_theta = (np.degrees(theta[k]) - t0) / (t1 - t0) if t1 > t0 else np.zeros(len(k))
+    z_base = (base[rows, k] - b0) / (b1 - b0) if b1 > b0 else np.zeros(len(k))
+    return np.column_stack([np.clip(z_theta, 0, 1), np.clip(z_base, 0, 1)])
+
+
+def _screen(problem: GripperProblem, z_finger: NDArray) -> Evaluation:
+    """Candidates with their best base: one solve of the states per candidate."""
+    z = np.column_stack([z_finger, np.full((len(z_finger), 2), 0.5)])
+    batch, states, want = problem.requests(z, stiffness=False)
+    out = problem.evaluator.solve(batch, states, stiffness=want)
+    first = problem.finish(z, batch, out)
+    z[:, problem.n_finger:] = _best_base(problem, first)
+    ev = problem.finish(z, batch, out)
+    problem.record(batch, ev, "candidate")
+    return ev
+
+
+def alpha_of(problem: GripperProblem, z: NDArray) -> float:
+    """Isolated-dome ``α`` of the metastable unit at a box point (closed form, no solve)."""
+    design = problem.designs(np.atleast_2d(z))
+    k = problem.spec.metastable_unit - 1
+    H, t = design.H[0, k], design.t[0]
+    return float(dome_alpha(H, t, dome_radius(H, design.r_b[0])))
+
+
+def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:
+    """SLSQP constraints ``low <= α <= high`` with central-difference gradients (closed form)."""
+
+    def grad(z: NDArray, sign: float) -> NDArray:
+        g = np.zeros_like(z)
+        for j in range(problem.n_finger):
+            up, down = z.copy(), z.copy()
+            up[j], down[j] = min(z[j] + 1e-6, 1.0), max(z[j] - 1e-6, 0.0)
+            if up[j] > down[j]:
+                g[j] = sign * (alpha_of(problem, up) - alpha_of(problem, down)) / (up[j] - down[j])
+        return g
+
+    return [
+        {"type": "ineq", "fun": lambda z: alpha_of(problem, z) - low,
+         "jac": lambda z: grad(z, 1.0)},
+        {"type": "ineq", "fun": lambda z: high - alpha_of(problem, z),
+         "jac": lambda z: grad(z, -1.0)},
+    ]  # fmt: skip
+
+
+def metastability(problem: GripperProblem, z: NDArray, evaluator: Evaluator) -> dict:
+    """Full-model run of the scene's pulse: does the tip unit reset late enough, alone?"""
+    g = problem.spec
+    design = problem.designs(np.atleast_2d(z)).design(0)
+    profile = PressureProfile.pulse(g.pulse_P0, g.pulse_tau)
+    run = simulate(design, profile, t_end=g.pulse_t_end, stop_when_reset=True, n_samples=0)
+    evaluator.count("simulations")
+    k = g.metastable_unit - 1
+    reset = float(run.reset_time[k])
+    others = [i for i in range(design.n_units) if i != k and g.activated[i] == "1"]
+    others_stay = all(math.isinf(float(run.reset_time[i])) for i in others)
+    ok = run.status.label == "ok" and np.isfinite(reset) and reset >= g.min_reset_s and others_stay
+    return {"ok": bool(ok), "reset_time_s": reset, "status": run.status.label,
+            "final_state": run.final_state, "classes": list(run.unit_class),
+            "others_stay_inverted": bool(others_stay)}  # fmt: skip
+
+
+def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
+    """Design the multi-aperture gripper of a scene (see the module docstring)."""
+    counts0 = dict(evaluator.counts)
+    wall0 = evaluator.wall_s
+    g = spec.gripper
+    settings = spec.optimiser
+    problem = gripper_problem(spec, evaluator)
+    zf = latin_candidates(problem.n_finger, settings.candidates_per_n, spec.seed)
+    candidates = _screen(problem, zf)
+    tol = g.aperture_tol
+    goal = (1e-3 * tol) ** 2
+    result = TargetResult(target_index=0, target=tuple(g.apertures), best=None, reachable=False,
+                          per_n={problem.n_units: float(np.min(candidates.objective))})  # fmt: skip
+    for i in _distinct_starts(candidates, settings.starts_per_n):
+        run = refine(problem, candidates.z[i], goal=goal, max_iter=settings.max_iter)
+        result.starts.append(run)
+        if result.best is None or run.objective < result.best.objective:
+            result.best = run
+    finalists = []
+    for run in sorted(result.starts, key=lambda r: r.objective):
+        if np.max(np.abs(run.evaluation.residual[0])) > 0.5 * tol:
+            continue
+        finalists.append(_stiffen(problem, run, evaluator, spec))
+    good = [f for f in finalists if f["checks"]["ok"]]
+    pool = good or finalists
+    if pool:
+        best = max(pool, key=lambda f: f["stiffness"])
+        result.best = best["refinement"]
+        result.extra = {"metastability": best["checks"], "alpha_band": best["band"],
+                        "finalists": [{"stiffness": f["stiffness"], "checks": f["checks"]}
+                                      for f in finalists]}  # fmt: skip
+    result.reachable = result.best is not None and bool(
+        np.max(np.abs(np.nan_to_num(result.best.evaluation.residual[0], nan=np.inf))) <= tol)
+    if result.best is not None:
+        design = problem.designs(np.atleast_2d(result.best.z)).design(0)
+        result.extra["windows"] = pressure_windows(design, g.states, evaluator)
+    result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
+    result.wall_s = evaluator.wall_s - wall0
+    return result
+
+
+def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spec) -> dict:
+    """Maximise the activated state's stiffness from an aperture solution; simulate the result."""
+    g = problem.spec
+    tol = 0.5 * g.aperture_tol
+    low, high = ALPHA_BISTABLE, max(0.2, alpha_of(problem, run.z) + 1e-3)
+    z = run.z
+    ev = run.evaluation
+    checks: dict = {}
+    for _ in range(4):
+        band = _alpha_band(problem, low, high)
+        z_new, ev_new = maximise_stiffness(problem, z, tol, max_iter=spec.optimiser.max_iter,
+                                           extra_constraints=band)  # fmt: skip
+        if z_new is not None:
+            z, ev = z_new, ev_new
+        checks = metastability(problem, z, evaluator)
+        if checks["ok"]:
+            break
+        alpha = alpha_of(problem, z)
+        if np.isfinite(checks["reset_time_s"]):  # resets too soon: closer to the bistable limit
+            high = ALPHA_BISTABLE + 0.5 * (alpha - ALPHA_BISTABLE)
+        else:  # never resets: away from it
+            low = alpha + 0.25 * (high - alpha)
+    if not np.isfinite(ev.stiffness[0]):
+        ev = problem.evaluate(np.atleast_2d(z), purpose="front", stiffness=True)
+    refinement = Refinement(problem=problem, z=z, evaluation=ev, objective=float(ev.objective[0]),
+                            iterations=0, reached=True)  # fmt: skip
+    return {"refinement": refinement, "stiffness": float(ev.stiffness[0]), "checks": checks,
+            "band": [low, high]}  # fmt: skip

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model.constants import dome_alpha, dome_radius
+from ..model.design import Design
 from ..model.pressure import PressureProfile
 from ..solvers.dynamics import simulate
 from .evaluation import Evaluator
@@ -40,6 +41,7 @@ from .optimiser import (
     maximise_stiffness,
     refine,
 )
+from .scene_jobs import GripperSpec
 from .scenes import Evaluation, GripperProblem
 from .windows import pressure_windows
 
@@ -116,10 +118,8 @@ def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:
     ]  # fmt: skip
 
 
-def metastability(problem: GripperProblem, z: NDArray, evaluator: Evaluator) -> dict:
+def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
     """Full-model run of the scene's pulse: does the tip unit reset late enough, alone?"""
-    g = problem.spec
-    design = problem.designs(np.atleast_2d(z)).design(0)
     profile = PressureProfile.pulse(g.pulse_P0, g.pulse_tau)
     run = simulate(design, profile, t_end=g.pulse_t_end, stop_when_reset=True, n_samples=0)
     evaluator.count("simulations")
@@ -188,7 +188,7 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
                                            extra_constraints=band)  # fmt: skip
         if z_new is not None:
             z, ev = z_new, ev_new
-        checks = metastability(problem, z, evaluator)
+        checks = metastability(problem.designs(np.atleast_2d(z)).design(0), g, evaluator)
         if checks["ok"]:
             break
         alpha = alpha_of(problem, z)

@@ -23,7 +23,7 @@ Method
    tolerance; the report gives the nearest tip found and the tips of every evaluated design
    (the sampled reachable region) per N.
 
-Each scene kind has a solver in :data:`SOLVERS` (the gripper's is in
+Each scene kind has a solver in :data:`dpfexplore.inverse.design.SOLVERS` (the gripper's is in
 :mod:`dpfexplore.inverse.gripper_design`).
 """
 
@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -408,27 +408,38 @@ def _best_per_n(runs: Sequence[Refinement]) -> list[Refinement]:
 
 
 def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
-    """Stiffness against tip tolerance, from every N where the target was met."""
-    front = [FrontPoint(tol, None, None, np.inf, -np.inf) for tol in spec.front]
+    """Stiffness against tip tolerance, from every N where the target was met.
+
+    Each rung is answered by the stiffest of *all* designs evaluated with their stiffness on
+    the way (every SLSQP iterate, line-search point and derivative stencil point is an exact
+    evaluation), not only by the end point of its own SLSQP run; so a looser rung is never less
+    stiff than a tighter one.
+    """
+    problems = {id(run.problem): run.problem for run in result.starts if run.reached}
+    for problem in problems.values():
+        problem.archive = []
     for run in result.starts:
         if not run.reached:
             continue
         z = run.z
-        for point in front:
-            z_new, ev = maximise_stiffness(run.problem, z, point.tolerance,
-                                           max_iter=spec.optimiser.max_iter)  # fmt: skip
-            if z_new is None:
-                continue
-            z = z_new
-            k = float(ev.stiffness[0])
-            if k > point.stiffness:
-                point.z, point.problem, point.stiffness = z_new, run.problem, k
-                point.distance = math.sqrt(float(ev.objective[0]))
-    # A looser rung is at least as stiff as a tighter one (its feasible set contains it).
-    for tighter, looser in zip(front, front[1:], strict=False):
-        if tighter.stiffness > looser.stiffness:
-            looser.z, looser.problem = tighter.z, tighter.problem
-            looser.stiffness, looser.distance = tighter.stiffness, tighter.distance
+        for tol in spec.front:
+            z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=spec.optimiser.max_iter)
+            if z_new is not None:
+                z = z_new
+    front = [FrontPoint(tol, None, None, np.inf, -np.inf) for tol in spec.front]
+    for problem in problems.values():
+        for objective, stiffness, z in problem.archive:
+            ok = np.isfinite(objective) & np.isfinite(stiffness)
+            for point in front:
+                inside = ok & (objective <= point.tolerance**2)
+                if not np.any(inside):
+                    continue
+                i = int(np.argmax(np.where(inside, stiffness, -np.inf)))
+                if stiffness[i] > point.stiffness:
+                    point.z, point.problem = z[i].copy(), problem
+                    point.stiffness = float(stiffness[i])
+                    point.distance = math.sqrt(float(objective[i]))
+        problem.archive = None
     return front
 
 
@@ -436,9 +447,3 @@ def designs_of(problem: Problem, z: NDArray) -> Design:
     """The finger design of one box point."""
     return problem.designs(np.atleast_2d(z)).design(0)
 
-
-#: Scene kind -> solver of one target: ``solver(spec, target_index, evaluator) -> TargetResult``.
-SOLVERS: dict[str, Callable[..., TargetResult]] = {
-    "position": solve_position_target,
-    "position_stiffness": lambda spec, i, ev: solve_position_target(spec, i, ev, exhaustive=True),
-}

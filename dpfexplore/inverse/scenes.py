@@ -79,6 +79,9 @@ class Problem:
     n_residuals: int
     target_index: int
     evaluator: Evaluator
+    #: When a list, every evaluation with stiffness appends ``(objective, stiffness, z)`` to it
+    #: (the optimiser's archive of exactly evaluated designs).
+    archive: list | None = None
 
     @property
     def n_units(self) -> int:
@@ -105,6 +108,8 @@ class Problem:
                                    derivative=purpose == "derivative")  # fmt: skip
         ev = self.finish(z, batch, out)
         self.record(batch, ev, purpose)
+        if stiffness and self.archive is not None:
+            self.archive.append((ev.objective, ev.stiffness, z))
         return ev
 
     def record(self, batch: DesignBatch, ev: Evaluation, purpose: str) -> None:

@@ -35,7 +35,7 @@ from ..solvers.statics import find_state
 from .evaluation import Evaluator
 from .optimiser import TargetResult
 
-__all__ = ["FITTED_RANGES", "fitted_range", "position_report", "gripper_report", "write_report"]
+__all__ = ["FITTED_RANGES", "fitted_range", "gripper_report", "position_report", "write_report"]
 
 #: Where the closed forms of MODEL.md §3 were fitted (H, t in mm; E in MPa).
 FITTED_RANGES = {"H": (3.0, 5.0), "t": (0.5, 1.0), "E": (5.0, 40.0)}

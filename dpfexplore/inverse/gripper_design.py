@@ -119,7 +119,7 @@ def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:
 
 
 def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
-    """Full-model run of the scene's pulse: does the tip unit reset late enough, alone?"""
+    """Full-model run of the scene's pulse: the tip unit must reset late enough, and alone."""
     profile = PressureProfile.pulse(g.pulse_P0, g.pulse_tau)
     run = simulate(design, profile, t_end=g.pulse_t_end, stop_when_reset=True, n_samples=0)
     evaluator.count("simulations")

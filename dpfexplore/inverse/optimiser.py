@@ -368,14 +368,23 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
             result.per_n[n] = min(result.per_n[n], run.objective)
             if result.best is None or run.objective < result.best.objective:
                 result.best = run
-            if run.reached:
+            if run.objective <= spec.tolerance:
                 reached_n.add(n)
                 if not exhaustive:
                     break
         if reached_n and not exhaustive:
             break
     result.reachable = result.best is not None and result.best.objective <= spec.tolerance
-    if result.best is None:  # no candidate had the targeted state: report the best candidate
+    if not result.reachable:
+        # The nearest tip of any evaluated design (derivative stencils included).
+        problem = min(problems, key=lambda p: p.best_seen[0])
+        objective, z = problem.best_seen
+        if z is not None and (result.best is None or objective < result.best.objective):
+            ev = problem.evaluate(z[None, :], purpose="nearest")
+            result.best = Refinement(problem, z, ev, float(ev.objective[0]), 0, False)
+        for p in problems:
+            result.per_n[p.n_units] = min(result.per_n[p.n_units], p.best_seen[0])
+    if result.best is None:  # no design had the targeted state: report the best candidate
         i = order[0]
         j = int(np.argmin(candidates[i].objective))
         result.best = Refinement(problems[i], candidates[i].z[j], candidates[i],
@@ -383,8 +392,12 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
     if stiff_scene and result.reachable:
         result.front = _front(spec, result, reached_n)
     if stiff_scene and spec.weights is not None and result.best is not None:
-        runs = [refine(r.problem, r.z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
-                for r in _best_per_n(result.starts)]  # fmt: skip
+        # From the best design of every N and from every rung of the front: the weighted
+        # optimum lies on the front's side of the trade-off.
+        seeds = [(r.problem, r.z) for r in _best_per_n(result.starts)]
+        seeds += [(p.problem, p.z) for p in result.front if p.z is not None]
+        runs = [refine(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
+                for problem, z in seeds]  # fmt: skip
         result.weighted = min(runs, key=lambda r: _weighted(r, spec.weights))
     result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
     result.wall_s = evaluator.wall_s - wall0
@@ -415,12 +428,11 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
     evaluation), not only by the end point of its own SLSQP run; so a looser rung is never less
     stiff than a tighter one.
     """
-    problems = {id(run.problem): run.problem for run in result.starts if run.reached}
+    met = [run for run in result.starts if run.objective <= spec.tolerance]
+    problems = {id(run.problem): run.problem for run in met}
     for problem in problems.values():
         problem.archive = []
-    for run in result.starts:
-        if not run.reached:
-            continue
+    for run in met:
         z = run.z
         for tol in spec.front:
             z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=spec.optimiser.max_iter)

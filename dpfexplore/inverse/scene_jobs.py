@@ -70,6 +70,7 @@ import math
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -219,7 +220,8 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
           optional=("name", "description", "material", "E", "nu", "seed"))  # fmt: skip
     kind = scene["kind"]
     if kind not in SCENE_KINDS:
-        raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {', '.join(SCENE_KINDS)}")
+        known = ", ".join(SCENE_KINDS)
+        raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {known}")
     name = _string(scene, "scene", "name", default_name)
     if not name or "/" in name:
         raise SceneSpecError(f"scene.name = {name!r}: need a non-empty name without '/'")
@@ -263,8 +265,8 @@ def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
     objective = data.get("objective", {})
     if not isinstance(objective, Mapping):
         raise SceneSpecError(f"objective = {objective!r}: must be a table")
-    _keys(objective, "objective", required=(),
-          optional=("state", "tolerance", *(("front", "weights") if stiffness else ())))  # fmt: skip
+    extra = ("front", "weights") if stiffness else ()
+    _keys(objective, "objective", required=(), optional=("state", "tolerance", *extra))
     state = _string(objective, "objective", "state", "all_inverted")
     if state != "all_inverted":
         if len(fields["n_units"]) != 1 or len(state) != fields["n_units"][0] or \
@@ -320,7 +322,7 @@ def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str,
         raise SceneSpecError(f"gripper.pulse = {pulse!r}: must be a table")
     _keys(pulse, "gripper.pulse", required=("P0", "tau"), optional=("t_end",))
     tau = _numbers(pulse["tau"], "gripper.pulse.tau", length=4, unit="s")
-    if any(b < a for a, b in zip(tau, tau[1:], strict=False)) or tau[0] < 0:
+    if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
         raise SceneSpecError(f"gripper.pulse.tau = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
     t_end = _positive(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
     if t_end <= tau[3]:

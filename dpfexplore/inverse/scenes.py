@@ -82,6 +82,8 @@ class Problem:
     #: When a list, every evaluation with stiffness appends ``(objective, stiffness, z)`` to it
     #: (the optimiser's archive of exactly evaluated designs).
     archive: list | None = None
+    #: The lowest objective (mm²) of any evaluated point of this problem, and that point.
+    best_seen: tuple[float, NDArray | None] = (np.inf, None)
 
     @property
     def n_units(self) -> int:
@@ -108,6 +110,10 @@ class Problem:
                                    derivative=purpose == "derivative")  # fmt: skip
         ev = self.finish(z, batch, out)
         self.record(batch, ev, purpose)
+        if len(z):
+            i = int(np.argmin(ev.objective))
+            if ev.objective[i] < self.best_seen[0]:
+                self.best_seen = (float(ev.objective[i]), z[i].copy())
         if stiffness and self.archive is not None:
             self.archive.append((ev.objective, ev.stiffness, z))
         return ev
@@ -116,7 +122,8 @@ class Problem:
         """Add evaluated designs to the scene's history."""
         columns = {k: v for k, v in ev.columns.items() if not k.startswith("_")}
         self.evaluator.record(batch, target=self.target_index, purpose=purpose,
-                              objective=ev.objective, stiffness=ev.stiffness, **columns)  # fmt: skip
+                              objective=ev.objective, stiffness=ev.stiffness,
+                              **columns)  # fmt: skip
 
     def jacobian(self, ev: Evaluation, *, stiffness: bool = False) -> tuple[NDArray, NDArray]:
         """``d residual / dz`` (r, dim) and ``d log K / dz`` (dim,) at the first row of ``ev``.
@@ -178,12 +185,15 @@ class PositionProblem(Problem):
         self.target_index = target_index
 
     def designs(self, z: NDArray) -> DesignBatch:
+        """The designs of box points ``z``."""
         return self.variables.designs(z)
 
     def requests(self, z: NDArray, *, stiffness: bool) -> tuple[DesignBatch, NDArray, NDArray]:
+        """One state per design; its stiffness only when asked."""
         return self.designs(z), np.array([self.state]), np.array([stiffness])
 
     def finish(self, z: NDArray, batch: DesignBatch, out: dict[str, NDArray]) -> Evaluation:
+        """Residual ``tip - target`` (mm) where the state exists."""
         ok = out["status"][:, 0] == st.OK
         tip = np.column_stack([out["tip_x"][:, 0], out["tip_y"][:, 0]])
         residual = np.where(ok[:, None], tip - self.target, np.nan)
@@ -219,6 +229,7 @@ class GripperProblem(Problem):
         self.targets = np.asarray(spec.apertures, dtype=float)
 
     def designs(self, z: NDArray) -> DesignBatch:
+        """The finger designs of box points (the base variables are not part of a finger)."""
         return self.variables.designs(z[:, : self.n_finger])
 
     def base(self, z: NDArray) -> tuple[NDArray, NDArray]:
@@ -227,11 +238,13 @@ class GripperProblem(Problem):
         return t0 + (t1 - t0) * z[:, self.n_finger], b0 + (b1 - b0) * z[:, self.n_finger + 1]
 
     def requests(self, z: NDArray, *, stiffness: bool) -> tuple[DesignBatch, NDArray, NDArray]:
+        """The targeted states (and the activated one); stiffness of the activated one if asked."""
         want = np.zeros(self.states.size, dtype=bool)
         want[self.activated_column] = stiffness
         return self.designs(z), self.states, want
 
     def finish(self, z: NDArray, batch: DesignBatch, out: dict[str, NDArray]) -> Evaluation:
+        """Apertures minus targets (mm) where every state exists (MODEL.md §7 transform)."""
         ok = np.all(out["status"] == st.OK, axis=1)
         theta, base_l = self.base(z)
         h = segment_height(batch.r_b, batch.t_lim, batch.t)

@@ -44,7 +44,7 @@ def pressure_windows(design: Design, states: Sequence[str], evaluator: Evaluator
     if module is None:
         return {"computed": False, "sequence": None, "windows": [None] * len(states),
                 "in_order": None,
-                "note": "snap pressures not available (dpfexplore.solvers.snap missing)"}  # fmt: skip
+                "note": "not computed: dpfexplore.solvers.snap is not installed"}  # fmt: skip
     seq = module.snap_pressures(design, P_max=P_max, direction="up")
     evaluator.count("snap")
     visited = list(seq.states)

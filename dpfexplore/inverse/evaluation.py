@@ -67,6 +67,9 @@ class Evaluator:
         self.counts: Counter[str] = Counter({kind: 0 for kind in EVALUATION_KINDS})
         self._records: list[dict[str, NDArray]] = []
         self.started = time.perf_counter()
+        #: ``(designs evaluated, seconds, best objective so far)`` after each recorded batch.
+        self.trace: list[tuple[int, float, float]] = []
+        self._best = np.inf
 
     # ------------------------------------------------------------------ solving
 
@@ -154,6 +157,27 @@ class Evaluator:
             row[key] = np.broadcast_to(np.asarray(value), (n,)).copy()
         row["evaluation"] = np.arange(self.n_recorded, self.n_recorded + n, dtype=np.int64)
         self._records.append(row)
+        if "objective" in row:
+            finite = row["objective"][np.isfinite(row["objective"])]
+            if finite.size:
+                self._best = min(self._best, float(np.min(finite)))
+        self.trace.append((self.counts["designs"], self.wall_s, self._best))
+
+    def reached(self, threshold: float) -> tuple[int | None, float | None]:
+        """Designs evaluated and seconds until the best objective was at most ``threshold``."""
+        for count, seconds, best in self.trace:
+            if best <= threshold:
+                return count, seconds
+        return None, None
+
+    def best_at(self, *, evaluations: float = np.inf, seconds: float = np.inf) -> float:
+        """Best objective recorded within an evaluation count and a wall time."""
+        best = np.inf
+        for count, wall, value in self.trace:
+            if count > evaluations or wall > seconds:
+                break
+            best = value
+        return best
 
     @property
     def n_recorded(self) -> int:

@@ -176,7 +176,8 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
         "ours_objective": ours["objective"], "ours_total_evals": ours["evals"],
         "ours_total_wall_s": ours["wall_s"],
         "best_baseline": best_name, "baseline_evals": best.get(f"evals_to_{key}"),
-        "baseline_wall_s": best.get(f"wall_s_to_{key}"), "baseline_objective": best.get("objective"),
+        "baseline_wall_s": best.get(f"wall_s_to_{key}"),
+        "baseline_objective": best.get("objective"),
         "baseline_budget_evals": best.get("evals"), "methods": methods,
     }  # fmt: skip
 

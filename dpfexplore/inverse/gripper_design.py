@@ -13,7 +13,11 @@ Method
 3. **Stiffness maximised.** SLSQP maximises the tip stiffness of the activated state subject to
    the apertures staying within half their tolerance and the tip unit staying in a band of its
    isolated-dome ``α`` (above the bistable limit ``1/9``, below a cap): the cheap, analytic proxy
-   of metastability that keeps the search where the dynamics can hold.
+   of metastability that keeps the search where the dynamics can hold. Where the snap-pressure
+   continuation is available, every state's pressure window is at least ``min_window_kPa``
+   (finite-difference gradients of the windows). Consecutive ordered heights differ by the
+   scene's ``variables.min_step`` exactly (the box map), since equal domes would snap
+   together and leave no window between their states.
 4. **Finalists simulated.** Only the final candidates are simulated in the full model under the
    scene's pressure pulse: the tip unit must reset, after at least ``min_reset_s``, while the
    others stay inverted. A finalist that resets too soon has its ``α`` cap lowered toward
@@ -43,12 +47,14 @@ from .optimiser import (
 )
 from .scene_jobs import GripperSpec
 from .scenes import Evaluation, GripperProblem
-from .windows import pressure_windows
+from .windows import pressure_windows, snap_available, window_widths
 
 __all__ = ["ALPHA_BISTABLE", "gripper_problem", "metastability", "solve_gripper"]
 
 #: Isolated-dome bistability limit (MODEL.md §4).
 ALPHA_BISTABLE = 1.0 / 9.0
+#: Bisection rounds on the tip unit's alpha band (each one SLSQP run and one simulation).
+_ROUNDS = 6
 #: Grid of base angles of the candidate step.
 _THETA_GRID = 721
 
@@ -118,6 +124,30 @@ def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:
     ]  # fmt: skip
 
 
+def _window_constraints(problem: GripperProblem, evaluator: Evaluator) -> list[dict]:
+    """SLSQP constraints ``window_j >= min_window`` (kPa) from the snap-pressure continuation."""
+    g = problem.spec
+    cache: dict = {}
+
+    def widths(z: NDArray) -> NDArray:
+        key = np.clip(z, 0, 1).tobytes()
+        if key not in cache:
+            design = problem.designs(np.atleast_2d(np.clip(z, 0, 1))).design(0)
+            cache[key] = np.maximum(np.array(window_widths(design, g.states, evaluator)), -1e3)
+        return cache[key]
+
+    def grad(z: NDArray, j: int) -> NDArray:
+        out = np.zeros_like(z)
+        for i in range(problem.n_finger):
+            up, down = z.copy(), z.copy()
+            up[i], down[i] = min(z[i] + 1e-5, 1.0), max(z[i] - 1e-5, 0.0)
+            out[i] = (widths(up)[j] - widths(down)[j]) / (up[i] - down[i])
+        return out
+
+    return [{"type": "ineq", "fun": lambda z, j=j: widths(z)[j] - g.min_window_kPa,
+             "jac": lambda z, j=j: grad(z, j)} for j in range(len(g.states))]  # fmt: skip
+
+
 def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
     """Full-model run of the scene's pulse: the tip unit must reset late enough, and alone."""
     profile = PressureProfile.pulse(g.pulse_P0, g.pulse_tau)
@@ -178,12 +208,19 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
     """Maximise the activated state's stiffness from an aperture solution; simulate the result."""
     g = problem.spec
     tol = 0.5 * g.aperture_tol
-    low, high = ALPHA_BISTABLE, max(0.2, alpha_of(problem, run.z) + 1e-3)
+    # Bracket of the tip unit's alpha: at or below a_lo it stayed inverted (bistable in the
+    # finger), at or above a_hi it reset too soon. Stiffening pushes alpha to the band's top, so
+    # the top is bisected until the simulated finalist is metastable.
+    a_lo, a_hi = ALPHA_BISTABLE, 1.0 / 3.0
+    high = float(np.clip(alpha_of(problem, run.z), a_lo + 0.01, a_hi))
     z = run.z
     ev = run.evaluation
     checks: dict = {}
-    for _ in range(4):
-        band = _alpha_band(problem, low, high)
+    order = []
+    if snap_available() and g.min_window_kPa > 0:
+        order = _window_constraints(problem, evaluator)
+    for _ in range(_ROUNDS):
+        band = _alpha_band(problem, a_lo, high) + order
         z_new, ev_new = maximise_stiffness(problem, z, tol, max_iter=spec.optimiser.max_iter,
                                            extra_constraints=band)  # fmt: skip
         if z_new is not None:
@@ -192,10 +229,12 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
         if checks["ok"]:
             break
         alpha = alpha_of(problem, z)
-        if np.isfinite(checks["reset_time_s"]):  # resets too soon: closer to the bistable limit
-            high = ALPHA_BISTABLE + 0.5 * (alpha - ALPHA_BISTABLE)
-        else:  # never resets: away from it
-            low = alpha + 0.25 * (high - alpha)
+        if np.isfinite(checks["reset_time_s"]):  # resets too soon
+            a_hi = min(a_hi, alpha)
+        else:  # never resets
+            a_lo = max(a_lo, alpha)
+        high = 0.5 * (a_lo + a_hi)
+    low = a_lo
     if not np.isfinite(ev.stiffness[0]):
         ev = problem.evaluate(np.atleast_2d(z), purpose="front", stiffness=True)
     refinement = Refinement(problem=problem, z=z, evaluation=ev, objective=float(ev.objective[0]),

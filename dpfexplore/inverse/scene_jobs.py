@@ -25,6 +25,7 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     heights = "descending"        # "free", "ascending" (H_{k+1} >= H_k) or "descending"
     ordered_units = [1, 2, 3, 4]  # optional: the units the order covers (default all)
     tied = [[5, 6]]               # optional: groups of units with one shared height
+    min_step = 0.0                # optional: least difference of consecutive ordered heights
     shared_U_L = true             # one U_L for all units (default) or one per unit
     shared_U_sep = true
 
@@ -360,7 +361,8 @@ SCENE_KINDS: dict[str, Callable[[Mapping[str, Any], dict[str, Any]], dict[str, A
 
 def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
     _keys(table, "variables", required=("n_units", "H", "U_L", "U_sep", "t", "t_lim"),
-          optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep"))  # fmt: skip
+          optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep",
+                    "min_step"))  # fmt: skip
     n_units = _n_units(table["n_units"])
     out: dict[str, Any] = {}
     H = table["H"]
@@ -398,6 +400,12 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
         ):
             raise SceneSpecError(f"variables.tied = {tied!r}: need lists of unit numbers")
         out["tied"] = tuple(tuple(g) for g in tied)
+    if "min_step" in table:
+        step = table["min_step"]
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or \
+                not math.isfinite(step) or step < 0:  # fmt: skip
+            raise SceneSpecError(f"variables.min_step = {step!r}: must be a number >= 0 mm")
+        out["min_step"] = float(step)
     for name in ("shared_U_L", "shared_U_sep"):
         value = table.get(name, True)
         if not isinstance(value, bool):

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from ..model.design import Design
 from .evaluation import Evaluator
 
-__all__ = ["pressure_windows", "snap_available"]
+__all__ = ["pressure_windows", "snap_available", "window_widths"]
 
 
 def _snap_module():
@@ -59,3 +59,16 @@ def pressure_windows(design: Design, states: Sequence[str], evaluator: Evaluator
     in_order = len(positions) == len(states) and positions == sorted(positions)
     return {"computed": True, "sequence": visited, "windows": windows, "in_order": in_order,
             "note": "quasi-static continuation under a slow ramp (dpfexplore.solvers.snap)"}
+
+
+def window_widths(design: Design, states: Sequence[str], evaluator: Evaluator) -> list[float]:
+    """Width (kPa) of each targeted state's window; ``-inf`` where it is not visited in order.
+
+    Needs the snap-pressure continuation (:func:`snap_available`).
+    """
+    report = pressure_windows(design, states, evaluator)
+    if not report["computed"]:
+        raise RuntimeError(report["note"])
+    if not report["in_order"]:
+        return [-float("inf")] * len(states)
+    return [w[1] - w[0] if w is not None else -float("inf") for w in report["windows"]]

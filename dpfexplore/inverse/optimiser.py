@@ -63,6 +63,8 @@ GOAL_FRACTION = 1e-3
 #: settled in a local minimum above the goal (a zero-residual solve converges quadratically, so
 #: this never stops one that is reaching its target).
 FTOL = 1e-4
+#: Exact position solutions (the stiffest ones) that a stiffness front is grown from.
+FRONT_STARTS = 3
 
 
 @dataclass
@@ -433,6 +435,11 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
     stiff than a tighter one.
     """
     met = [run for run in result.starts if run.objective <= spec.tolerance]
+    # The front grows from the stiffest exact solutions (one stiffness solve each).
+    stiffness = [float(r.problem.evaluate(r.z[None, :], purpose="front", stiffness=True)
+                       .stiffness[0]) for r in met]  # fmt: skip
+    order = np.argsort(-np.nan_to_num(np.array(stiffness), nan=-np.inf))
+    met = [met[i] for i in order[:FRONT_STARTS]]
     problems = {id(run.problem): run.problem for run in met}
     for problem in problems.values():
         problem.archive = []

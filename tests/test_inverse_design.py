@@ -216,6 +216,10 @@ def test_gripper_scene_meets_apertures_and_its_toml_reproduces_them(tmp_path, ca
     main(["design", str(path), "--out", str(out), "--json"])
     row = json.loads(capsys.readouterr().out)["results"][0]
     assert len(row["apertures"]) == 4 and "pressure_windows" in row
+    counts = row["evaluations"]  # four states per design, stiffness of the activated one only
+    assert counts["state_solves"] == 4 * counts["designs"]
+    assert 0 < counts["stiffness"] <= counts["designs"]
+    assert 1 <= counts["simulations"] <= 2 * 6  # finalists only: starts x bisection rounds
     assert max(abs(a - t) for a, t in zip(row["apertures"], [70, 60, 45, 35], strict=True)) \
         <= 0.05  # fmt: skip
     assert main(["states", str(out / "gripper.toml"), "--json", "--gripper",

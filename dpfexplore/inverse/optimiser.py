@@ -63,6 +63,8 @@ GOAL_FRACTION = 1e-3
 #: settled in a local minimum above the goal (a zero-residual solve converges quadratically, so
 #: this never stops one that is reaching its target).
 FTOL = 1e-4
+#: A short first refinement that ends within this squared distance (mm²) is continued at once.
+PROMISING = 1e-2
 #: Exact position solutions (the stiffest ones) that a stiffness front is grown from.
 FRONT_STARTS = 3
 
@@ -363,14 +365,30 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
                           best=None, reachable=False,
                           per_n={n: v for n, v in best_candidate.items()})  # fmt: skip
     reached_n: set[int] = set()
-    for round_ in range(settings.starts_per_n):
+    # Rounds: first a short refinement from the best start of every N (most reachable targets
+    # are met there), then that refinement continued with the full budget from the N nearest
+    # the target first, then the further starts.
+    quick = max(8, settings.max_iter // 5)
+    plan = [(0, quick, False), (0, settings.max_iter, True)]
+    plan += [(k, settings.max_iter, False) for k in range(1, settings.starts_per_n)]
+    last: dict[int, Refinement] = {}
+    for start, budget, resume in plan:
+        if resume:
+            order = sorted(order, key=lambda i: result.per_n[problems[i].n_units])
         for i in order:
             problem, ev = problems[i], candidates[i]
             n = problem.n_units
-            if n in reached_n or round_ >= len(starts[n]):
+            if n in reached_n or start >= len(starts[n]):
                 continue
-            run = refine(problem, ev.z[starts[n][round_]], goal=goal, max_iter=settings.max_iter)
-            result.starts.append(run)
+            z0 = last[n].z if resume and n in last else ev.z[starts[n][start]]
+            run = refine(problem, z0, goal=goal, max_iter=budget)
+            if not resume and budget < settings.max_iter and goal < run.objective <= PROMISING:
+                # Converging on this N: finish here rather than after the other N.
+                run = refine(problem, run.z, goal=goal, max_iter=settings.max_iter)
+            last[n] = run
+            if not resume or run.objective < result.per_n[n] or n not in {
+                    r.problem.n_units for r in result.starts}:  # fmt: skip
+                result.starts.append(run)
             result.per_n[n] = min(result.per_n[n], run.objective)
             if result.best is None or run.objective < result.best.objective:
                 result.best = run

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -229,13 +230,21 @@ def run(args: argparse.Namespace) -> int:
             spec = parse_scene(document, default_name=spec.name)
         for index in targets:
             rows.append(bench_position(spec, index, material, args))
+            _progress(rows[-1], started)
     if not args.skip_gripper:
         rows.append(bench_gripper(args))
+        _progress(rows[-1], started)
     record = {"benchmark": "design", "machine": machine_info(), "rows": rows,
               "wall_s": time.perf_counter() - started, "summary": _goals(rows)}  # fmt: skip
     save = REPORTS / "bench-design.json" if args.save else None
     emit(record, as_json=args.json, text=_text(record), save=save)
     return 0
+
+
+def _progress(row: dict, started: float) -> None:
+    print(f"{time.perf_counter() - started:8.1f} s  {row['scene']} {row['target']} "
+          f"{row['material']}: ours {row['ours_objective']:.2e}, {row['best_baseline']} "
+          f"{_fmt(row['baseline_objective'], '.2e')}", file=sys.stderr, flush=True)
 
 
 def _ratio(a, b):

@@ -69,7 +69,7 @@ PROMISING = 1e-2
 FRONT_STARTS = 3
 
 
-@dataclass
+@dataclass(eq=False)
 class Refinement:
     """Outcome of one gradient refinement."""
 
@@ -385,10 +385,12 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
             if not resume and budget < settings.max_iter and goal < run.objective <= PROMISING:
                 # Converging on this N: finish here rather than after the other N.
                 run = refine(problem, run.z, goal=goal, max_iter=settings.max_iter)
-            last[n] = run
-            if not resume or run.objective < result.per_n[n] or n not in {
-                    r.problem.n_units for r in result.starts}:  # fmt: skip
+            if resume and n in last:  # the continued run replaces the short one
+                slot = next(j for j, r in enumerate(result.starts) if r is last[n])
+                result.starts[slot] = run
+            else:
                 result.starts.append(run)
+            last[n] = run
             result.per_n[n] = min(result.per_n[n], run.objective)
             if result.best is None or run.objective < result.best.objective:
                 result.best = run
@@ -430,8 +432,6 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
 
 def _weighted(run: Refinement, weights: tuple[float, float]) -> float:
     k = run.evaluation.stiffness[0]
-    if not np.isfinite(k):
-        k = run.evaluation.stiffness[0]
     return weights[0] * run.objective + weights[1] / k**2 if np.isfinite(k) else np.inf
 
 

@@ -129,8 +129,12 @@ def _print_summary(spec, rows, outcome, out: Path) -> None:
                   f" N/mm")  # fmt: skip
             meta = r.get("metastability") or {}
             print(f"  tip unit: reset after {_fmt(meta.get('reset_time_s'), '.4f')} s "
-                  f"({'ok' if meta.get('ok') else 'NOT metastable'}); pressure windows: "
-                  f"{r['pressure_windows_detail'].get('note')}")  # fmt: skip
+                  f"({'ok' if meta.get('ok') else 'NOT metastable'})")  # fmt: skip
+            windows = "; ".join("-" if w is None else f"{w[0]:.1f}-{w[1]:.1f}"
+                                for w in r["pressure_windows"] or [])  # fmt: skip
+            print(f"  pressure windows (kPa): {windows} "
+                  f"({'ok' if r.get('windows_ok') else 'NOT ok'}; "
+                  f"{r['pressure_windows_detail'].get('note')})")  # fmt: skip
             if "reference" in r:
                 ref = r["reference"]
                 ap = ", ".join(f"{a:.3f}" for a in ref["apertures"])

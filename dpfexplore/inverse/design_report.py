@@ -34,6 +34,7 @@ from ..solvers.lattice import spring_constants
 from ..solvers.statics import find_state
 from .evaluation import Evaluator
 from .optimiser import TargetResult
+from .windows import pressure_windows
 
 __all__ = ["FITTED_RANGES", "fitted_range", "gripper_report", "position_report", "write_report"]
 
@@ -181,7 +182,7 @@ def _gripper_entry(design: Design, g, theta: float, base_l: float, evaluator: Ev
 
 def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
     """The verified report of the gripper scene (the ``--json`` row)."""
-    from .gripper_design import metastability
+    from .gripper_design import metastability, windows_ok
 
     g = spec.gripper
     best = result.best
@@ -192,10 +193,7 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
     checks = result.extra.get("metastability", {})
     met = entry["verification"]["stable"] and max(abs(e) for e in entry["aperture_errors"]) <= \
         g.aperture_tol  # fmt: skip
-    window_ok = None
-    if windows.get("computed"):
-        window_ok = bool(windows["in_order"]) and all(
-            w is not None and w[1] - w[0] >= g.min_window_kPa for w in windows["windows"])
+    window_ok = windows_ok(windows, g.min_window_kPa) if windows.get("computed") else None
     row: dict[str, Any] = {
         "target": list(g.apertures), "reachable": bool(met), **entry,
         "pressure_windows": windows.get("windows"), "pressure_windows_detail": windows,
@@ -208,6 +206,7 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
         ref.pop("_nodes")
         ref.pop("_h")
         ref["metastability"] = metastability(g.reference, g, evaluator)
+        ref["pressure_windows"] = pressure_windows(g.reference, g.states, evaluator)["windows"]
         row["reference"] = ref
         if ref["stiffness"] is not None and entry["stiffness"] is not None:
             row["stiffness_ratio_to_reference"] = entry["stiffness"] / ref["stiffness"]

@@ -20,9 +20,11 @@ Method
    together and leave no window between their states.
 4. **Finalists simulated.** Only the final candidates are simulated in the full model under the
    scene's pressure pulse: the tip unit must reset, after at least ``min_reset_s``, while the
-   others stay inverted. A finalist that resets too soon has its ``α`` cap lowered toward
-   ``1/9`` (one that never resets, its floor raised) and step 3 is repeated from it. The
-   sequential states' pressure windows come from :mod:`dpfexplore.inverse.windows`.
+   others stay inverted. A finalist that resets too soon has the top of its ``α`` band
+   lowered toward ``1/9`` (one that never resets, its floor raised), and step 3 is repeated
+   from it. Then the finalists' pressure windows are checked (snap pressures, or slow-ramp
+   simulations where the continuation is not installed: :mod:`.windows`), and the stiffest
+   finalist that is metastable and has its windows wins.
 """
 
 from __future__ import annotations
@@ -163,6 +165,12 @@ def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
             "others_stay_inverted": bool(others_stay)}  # fmt: skip
 
 
+def windows_ok(windows: dict, min_window_kPa: float) -> bool:
+    """Every targeted state met in order, each window at least ``min_window_kPa`` wide."""
+    return bool(windows.get("in_order")) and all(
+        w is not None and w[1] - w[0] >= min_window_kPa for w in windows["windows"])
+
+
 def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
     """Design the multi-aperture gripper of a scene (see the module docstring)."""
     counts0 = dict(evaluator.counts)
@@ -185,18 +193,25 @@ def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult
     for run in sorted(result.starts, key=lambda r: r.objective):
         if np.max(np.abs(run.evaluation.residual[0])) > 0.5 * tol:
             continue
-        finalists.append(_stiffen(problem, run, evaluator, spec))
-    good = [f for f in finalists if f["checks"]["ok"]]
-    pool = good or finalists
+        finalist = _stiffen(problem, run, evaluator, spec)
+        design = problem.designs(np.atleast_2d(finalist["refinement"].z)).design(0)
+        windows = pressure_windows(design, g.states, evaluator)
+        finalist["windows"] = windows
+        finalist["windows_ok"] = windows_ok(windows, g.min_window_kPa)
+        finalists.append(finalist)
+    # Metastable and with its windows first, then metastable, then the rest; stiffest wins.
+    pool = [f for f in finalists if f["checks"]["ok"] and f["windows_ok"]] or \
+        [f for f in finalists if f["checks"]["ok"]] or finalists  # fmt: skip
     if pool:
         best = max(pool, key=lambda f: f["stiffness"])
         result.best = best["refinement"]
         result.extra = {"metastability": best["checks"], "alpha_band": best["band"],
-                        "finalists": [{"stiffness": f["stiffness"], "checks": f["checks"]}
-                                      for f in finalists]}  # fmt: skip
+                        "windows": best["windows"],
+                        "finalists": [{"stiffness": f["stiffness"], "checks": f["checks"],
+                                       "windows_ok": f["windows_ok"]} for f in finalists]}
     result.reachable = result.best is not None and bool(
         np.max(np.abs(np.nan_to_num(result.best.evaluation.residual[0], nan=np.inf))) <= tol)
-    if result.best is not None:
+    if result.best is not None and "windows" not in result.extra:
         design = problem.designs(np.atleast_2d(result.best.z)).design(0)
         result.extra["windows"] = pressure_windows(design, g.states, evaluator)
     result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}

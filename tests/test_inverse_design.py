@@ -219,7 +219,12 @@ def test_gripper_scene_meets_apertures_and_its_toml_reproduces_them(tmp_path, ca
     counts = row["evaluations"]  # four states per design, stiffness of the activated one only
     assert counts["state_solves"] == 4 * counts["designs"]
     assert 0 < counts["stiffness"] <= counts["designs"]
-    assert 1 <= counts["simulations"] <= 2 * 6  # finalists only: starts x bisection rounds
+    # finalists only: starts x (bisection rounds + two ramps for the windows)
+    assert 1 <= counts["simulations"] <= 2 * (6 + 2)
+    windows = row["pressure_windows"]
+    assert len(windows) == 4 and row["pressure_windows_detail"]["computed"]
+    if row["windows_ok"]:
+        assert all(w[1] - w[0] >= 10.0 for w in windows)
     assert max(abs(a - t) for a, t in zip(row["apertures"], [70, 60, 45, 35], strict=True)) \
         <= 0.05  # fmt: skip
     assert main(["states", str(out / "gripper.toml"), "--json", "--gripper",
@@ -311,3 +316,24 @@ def test_pressure_windows_agree_with_a_slow_ramp_simulation():
             continue
         unit = state.rindex("1")  # the unit whose snap enters this state
         assert window[0] == pytest.approx(ramp_kpa[unit], abs=5.0)
+
+
+def test_pressure_windows_hold_their_states_in_the_full_model():
+    from dpfexplore.inverse.windows import pressure_windows
+    from dpfexplore.model.pressure import PressureProfile
+    from dpfexplore.solvers.dynamics import simulate
+
+    design = Design(**GRIPPER)
+    states = ["10000", "11000", "11100", "11110"]
+    report = pressure_windows(design, states, Evaluator(5))
+    assert report["computed"] and report["in_order"] and report["sequence"] == states
+    windows = report["windows"]
+    for a, b in zip(windows, windows[1:], strict=False):  # contiguous, rising
+        assert a[0] < a[1] == b[0] < b[1]
+    assert "unit 5" in report["note"]  # the tip unit snaps too, and resets on release
+    # Raised slowly into the middle of a window and released, the finger keeps that state.
+    for state, (low, high) in zip(states[:3], windows[:3], strict=True):
+        P0 = 0.5e-3 * (low + high)
+        run = simulate(design, PressureProfile.pulse(P0, (0.0, 8.0, 9.0, 10.0)), t_end=11.0,
+                       n_samples=0)  # fmt: skip
+        assert run.final_state == state, (state, P0)

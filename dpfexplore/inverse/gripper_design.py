@@ -29,6 +29,7 @@ Method
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
@@ -50,6 +51,8 @@ from .optimiser import (
 from .scene_jobs import GripperSpec
 from .scenes import Evaluation, GripperProblem
 from .windows import pressure_windows, snap_available, window_widths
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["ALPHA_BISTABLE", "gripper_problem", "metastability", "solve_gripper"]
 
@@ -219,15 +222,36 @@ def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult
     return result
 
 
+#: Step of the alpha band beyond a failed finalist while only one side of the bracket is known.
+_ALPHA_STEP = 0.02
+
+
+def _next_band(a_lo: float, a_hi: float) -> tuple[float, float]:
+    """The alpha band of the next round from the bracket ``(a_lo, a_hi)`` of failed alphas.
+
+    With both sides known, the middle half of the bracket (bisection); with one side only, a
+    narrow band one step beyond it (a far band may leave the apertures unreachable nearby).
+    """
+    top_known, bottom_known = a_hi < 1.0 / 3.0, a_lo > ALPHA_BISTABLE
+    if not (top_known or bottom_known):  # only alphas below the bistable limit failed
+        return ALPHA_BISTABLE, ALPHA_BISTABLE + _ALPHA_STEP
+    if top_known and bottom_known:
+        mid, width = 0.5 * (a_lo + a_hi), 0.25 * (a_hi - a_lo)
+        return mid - width, mid + width
+    if bottom_known:
+        return a_lo + 0.5 * _ALPHA_STEP, a_lo + 1.5 * _ALPHA_STEP
+    return max(ALPHA_BISTABLE, a_hi - 1.5 * _ALPHA_STEP), a_hi - 0.5 * _ALPHA_STEP
+
+
 def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spec) -> dict:
     """Maximise the activated state's stiffness from an aperture solution; simulate the result."""
     g = problem.spec
     tol = 0.5 * g.aperture_tol
     # Bracket of the tip unit's alpha: at or below a_lo it stayed inverted (bistable in the
-    # finger), at or above a_hi it reset too soon. Stiffening pushes alpha to the band's top, so
-    # the top is bisected until the simulated finalist is metastable.
+    # finger), at or above a_hi it reset too soon. Each failed round moves the band to the right
+    # side of its alpha (see _next_band).
     a_lo, a_hi = ALPHA_BISTABLE, 1.0 / 3.0
-    high = float(np.clip(alpha_of(problem, run.z), a_lo + 0.01, a_hi))
+    low, high = a_lo, float(np.clip(alpha_of(problem, run.z), a_lo + 0.01, a_hi))
     z = run.z
     ev = run.evaluation
     checks: dict = {}
@@ -235,21 +259,22 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
     if snap_available() and g.min_window_kPa > 0:
         order = _window_constraints(problem, evaluator)
     for _ in range(_ROUNDS):
-        band = _alpha_band(problem, a_lo, high) + order
+        band = _alpha_band(problem, low, high) + order
         z_new, ev_new = maximise_stiffness(problem, z, tol, max_iter=spec.optimiser.max_iter,
                                            extra_constraints=band)  # fmt: skip
         if z_new is not None:
             z, ev = z_new, ev_new
         checks = metastability(problem.designs(np.atleast_2d(z)).design(0), g, evaluator)
+        alpha = alpha_of(problem, z)
+        logger.info("gripper finalist: alpha %.4f in [%.4f, %.4f], reset %s s, stiffness %.5f",
+                    alpha, low, high, checks["reset_time_s"], ev.stiffness[0])
         if checks["ok"]:
             break
-        alpha = alpha_of(problem, z)
-        if np.isfinite(checks["reset_time_s"]):  # resets too soon
+        if np.isfinite(checks["reset_time_s"]):  # resets too soon: below this alpha
             a_hi = min(a_hi, alpha)
-        else:  # never resets
+        else:  # never resets: above this alpha
             a_lo = max(a_lo, alpha)
-        high = 0.5 * (a_lo + a_hi)
-    low = a_lo
+        low, high = _next_band(a_lo, a_hi)
     if not np.isfinite(ev.stiffness[0]):
         ev = problem.evaluate(np.atleast_2d(z), purpose="front", stiffness=True)
     refinement = Refinement(problem=problem, z=z, evaluation=ev, objective=float(ev.objective[0]),

@@ -284,8 +284,11 @@ def maximise_stiffness(
             ev = problem.evaluate(z[None, :], purpose="front", stiffness=True)
             cache.clear()
             cache[key] = ev
-            if ev.ok[0] and ev.objective[0] <= tol2 and ev.stiffness[0] > best["k"] \
-                    and all(c["fun"](z) >= 0 for c in extra_constraints):  # fmt: skip
+            # SLSQP meets active constraints to rounding: a relative slack of 1e-9 accepts its
+            # end point without moving a reported design measurably.
+            if ev.ok[0] and ev.objective[0] <= tol2 * (1 + 1e-9) and \
+                    ev.stiffness[0] > best["k"] and \
+                    all(c["fun"](z) >= -1e-9 for c in extra_constraints):  # fmt: skip
                 best.update(k=float(ev.stiffness[0]), z=z.copy(), ev=ev)
         return cache[key]
 
@@ -316,11 +319,12 @@ def maximise_stiffness(
 
     at(z0)
     if problem.dim:
-        minimize(objective, np.clip(z0, 0.0, 1.0), jac=objective_grad, method="SLSQP",
-                 bounds=[(0.0, 1.0)] * problem.dim,
-                 constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_grad},
-                              *extra_constraints],
-                 options={"maxiter": max_iter, "ftol": 1e-10})  # fmt: skip
+        out = minimize(objective, np.clip(z0, 0.0, 1.0), jac=objective_grad, method="SLSQP",
+                       bounds=[(0.0, 1.0)] * problem.dim,
+                       constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_grad},
+                                    *extra_constraints],
+                       options={"maxiter": max_iter, "ftol": 1e-10})  # fmt: skip
+        logger.debug("SLSQP: %s after %d iterations", out.message, out.nit)
     return best["z"], best["ev"]
 
 

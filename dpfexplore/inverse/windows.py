@@ -98,8 +98,8 @@ def pressure_windows(design: Design, states: Sequence[str], evaluator: Evaluator
     others = [k for k in range(n) if k not in units and np.isfinite(pressures[k])]
     note = method
     if others:
-        note += "; " + ", ".join(f"unit {k + 1} snaps at {1000 * pressures[k]:.1f} kPa and "
-                                 "resets on release" for k in others)  # fmt: skip
+        note += "; " + ", ".join(f"unit {k + 1} (inverted in no targeted state) snaps at "
+                                 f"{1000 * pressures[k]:.1f} kPa" for k in others)  # fmt: skip
     if windows and windows[-1] is not None:
         note += f"; the last window is open above (to {1000 * P_max:g} kPa)"
     return {"computed": True, "method": method,

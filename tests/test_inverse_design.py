@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -328,9 +329,9 @@ def test_pressure_windows_hold_their_states_in_the_full_model():
     report = pressure_windows(design, states, Evaluator(5))
     assert report["computed"] and report["in_order"] and report["sequence"] == states
     windows = report["windows"]
-    for a, b in zip(windows, windows[1:], strict=False):  # contiguous, rising
+    for a, b in pairwise(windows):  # contiguous, rising
         assert a[0] < a[1] == b[0] < b[1]
-    assert "unit 5" in report["note"]  # the tip unit snaps too, and resets on release
+    assert "unit 5" in report["note"]  # the tip unit snaps too (it resets on release)
     # Raised slowly into the middle of a window and released, the finger keeps that state.
     for state, (low, high) in zip(states[:3], windows[:3], strict=True):
         P0 = 0.5e-3 * (low + high)

@@ -1,5 +1,33 @@
 """Inverse design: from what a finger must do to verified designs.
 
-Lookup over sweep datasets, surrogates, scenes and the optimiser that solves them build on the
-solvers and sweeps below this package.
+variables
+    :class:`DesignVariables`: bounds and constraints as an exact map of the unit box.
+scene_jobs
+    Scene files (TOML): kinds, targets, variables, objective, budget (:func:`load_scene`).
+evaluation
+    :class:`Evaluator`: every exact model solve of a scene, counted by kind and recorded.
+derivatives
+    Design sensitivities for the optimiser (the one place that computes them).
+scenes
+    The problems of each scene kind: residuals and stiffness of box points.
+optimiser
+    Latin hypercube for every N, trust-region refinement, SLSQP stiffness fronts.
+gripper_design, windows
+    The multi-aperture gripper scene; pressure windows from snap pressures.
+design_report, design
+    Verification of every reported design, the report files, :func:`design_scene`.
 """
+
+from .design import design_scene, run_design
+from .scene_jobs import SceneSpec, SceneSpecError, load_scene, parse_scene
+from .variables import DesignVariables
+
+__all__ = [
+    "DesignVariables",
+    "SceneSpec",
+    "SceneSpecError",
+    "design_scene",
+    "load_scene",
+    "parse_scene",
+    "run_design",
+]

@@ -8,8 +8,12 @@
 
 :data:`SOLVERS` maps each scene kind to the solver of one target
 (:func:`dpfexplore.inverse.optimiser.solve_position_target`,
-:func:`dpfexplore.inverse.gripper_design.solve_gripper`); :data:`REPORTS` to the function that
-verifies and reports its result (:mod:`dpfexplore.inverse.design_report`).
+:func:`dpfexplore.inverse.gripper_design.solve_gripper`,
+:func:`dpfexplore.inverse.pickplace_design.solve_pickplace`,
+:func:`dpfexplore.inverse.walker_design.solve_walker`); :data:`REPORTS` to the function that
+verifies and reports its result (:mod:`dpfexplore.inverse.design_report`,
+:mod:`dpfexplore.inverse.timing_report`, :mod:`dpfexplore.inverse.walker_report`), and
+:data:`WRITERS` to the writer of its files where it is not the default.
 """
 
 from __future__ import annotations
@@ -24,9 +28,14 @@ from .design_report import gripper_report, position_report, write_report
 from .evaluation import Evaluator
 from .gripper_design import solve_gripper
 from .optimiser import TargetResult, solve_position_target
+from .pickplace_design import solve_pickplace
 from .scene_jobs import SceneSpec
+from .timing_report import pickplace_report, write_timing_report
+from .walker_design import solve_walker
+from .walker_report import walker_report
 
-__all__ = ["REPORTS", "SOLVERS", "DesignOutcome", "Progress", "design_scene", "run_design"]
+__all__ = ["REPORTS", "SOLVERS", "WRITERS", "DesignOutcome", "Progress", "design_scene",
+           "run_design"]
 
 logger = logging.getLogger(__name__)
 
@@ -35,12 +44,21 @@ SOLVERS: dict[str, Callable[[SceneSpec, int, Evaluator], TargetResult]] = {
     "position": solve_position_target,
     "position_stiffness": lambda spec, i, ev: solve_position_target(spec, i, ev, exhaustive=True),
     "gripper": solve_gripper,
+    "pickplace": solve_pickplace,
+    "walker_leg": solve_walker,
 }
 #: Scene kind -> ``report(spec, result, evaluator) -> dict`` (verified ``--json`` row).
 REPORTS: dict[str, Callable[[SceneSpec, TargetResult, Evaluator], dict[str, Any]]] = {
     "position": position_report,
     "position_stiffness": position_report,
     "gripper": gripper_report,
+    "pickplace": pickplace_report,
+    "walker_leg": walker_report,
+}
+#: Scene kind -> writer of its report files (default :func:`.design_report.write_report`).
+WRITERS: dict[str, Callable[..., list[Path]]] = {
+    "pickplace": write_timing_report,
+    "walker_leg": write_timing_report,
 }
 
 
@@ -65,8 +83,20 @@ class DesignOutcome:
 
 
 def n_targets(spec: SceneSpec) -> int:
-    """Targets of a scene (the gripper has one: its set of apertures)."""
-    return 1 if spec.kind == "gripper" else len(spec.targets)
+    """Result rows of a scene (the gripper has one: its set of apertures)."""
+    if spec.kind == "gripper":
+        return 1
+    if spec.kind == "pickplace":
+        return spec.pickplace.n_results
+    if spec.kind == "walker_leg":
+        return spec.walker.n_results
+    return len(spec.targets)
+
+
+def _progress_text(i: int, total: int, row: dict[str, Any]) -> str:
+    objective = row.get("objective")
+    shown = f"{objective:.3g}" if isinstance(objective, (int, float)) else str(objective)
+    return f"result {i + 1}/{total} {row.get('target')}: objective {shown}"
 
 
 def design_scene(spec: SceneSpec, *, progress: Progress | None = None) -> DesignOutcome:
@@ -81,11 +111,10 @@ def design_scene(spec: SceneSpec, *, progress: Progress | None = None) -> Design
             result = SOLVERS[spec.kind](spec, i, evaluator)
             row = REPORTS[spec.kind](spec, result, evaluator)
             rows.append(row)
-            logger.info("target %d: objective %s, %s", i + 1, row["objective"],
+            logger.info("target %d: objective %s, %s", i + 1, row.get("objective"),
                         "reachable" if row["reachable"] else "unreachable")  # fmt: skip
             if progress is not None:
-                progress.advance(f"target {i + 1}/{total} {row['target']}: objective "
-                                 f"{row['objective']:.3g}")  # fmt: skip
+                progress.advance(_progress_text(i, total, row))
     finally:
         if progress is not None:
             progress.close()
@@ -96,6 +125,6 @@ def run_design(spec: SceneSpec, out: str | Path, *, plot: bool = False,
                progress: Progress | None = None) -> DesignOutcome:  # fmt: skip
     """Solve a scene and write its report to ``out`` (see :mod:`.design_report`)."""
     outcome = design_scene(spec, progress=progress)
-    write_report(spec, outcome.rows, outcome.evaluator, Path(out), wall_s=outcome.wall_s,
-                 plot=plot)  # fmt: skip
+    writer = WRITERS.get(spec.kind, write_report)
+    writer(spec, outcome.rows, outcome.evaluator, Path(out), wall_s=outcome.wall_s, plot=plot)
     return outcome

@@ -14,7 +14,11 @@ Kinds of evaluation (:data:`EVALUATION_KINDS`)
     ``derivative``    designs evaluated only for a finite-difference derivative
     ``snap``          snap-pressure continuations (:mod:`dpfexplore.inverse.snap`)
     ``simulations``   full-dynamics runs (pressure pulse, Rodas4)
-    ``verifications`` single-design re-solves of reported designs (``find_state``)
+    ``screening``     reduced-model reset times (``method="fast"`` or ``"release"``): screening
+                      only, never reported
+    ``sections``      leg sections simulated in the full model (:mod:`dpfexplore.solvers.leg`)
+    ``verifications`` single-design re-solves of reported designs (``find_state``, or a
+                      full-model simulation at a tight tolerance for the timing scenes)
 """
 
 from __future__ import annotations
@@ -28,13 +32,18 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model.design import DesignBatch
+from ..model.design import Design, DesignBatch
+from ..model.pressure import PressureProfile
+from ..solvers.dynamics import SimulationResult, reset_times_batch, simulate
 from ..solvers.statics import solve_batch
 
 __all__ = ["EVALUATION_KINDS", "Evaluator", "few_threads"]
 
 EVALUATION_KINDS = ("designs", "state_solves", "stiffness", "derivative", "snap", "simulations",
-                    "verifications")  # fmt: skip
+                    "screening", "sections", "verifications")  # fmt: skip
+#: Reduced reset-time models: their evaluations count as ``screening``, the others as
+#: ``simulations``.
+SCREENING_METHODS = ("fast", "release")
 #: Batches of at most this many rows run on one thread.
 _SMALL_BATCH = 96
 
@@ -70,6 +79,8 @@ class Evaluator:
         #: ``(designs evaluated, seconds, best objective so far)`` after each recorded batch.
         self.trace: list[tuple[int, float, float]] = []
         self._best = np.inf
+        #: Results shared by the targets of one scene run (e.g. a screening grid), by key.
+        self.cache: dict = {}
 
     # ------------------------------------------------------------------ solving
 
@@ -131,6 +142,41 @@ class Evaluator:
         if derivative:
             self.counts["derivative"] += n
         return out
+
+    def reset_times(self, batch: DesignBatch, profile: PressureProfile, *, t_end: float,
+                    method: str = "rodas4", atol: float | None = None,
+                    verification: bool = False) -> dict[str, NDArray]:  # fmt: skip
+        """Reset times of ``batch`` under ``profile`` (:func:`reset_times_batch`), counted.
+
+        Reduced models (:data:`SCREENING_METHODS`) count as ``screening``, the full model as
+        ``simulations`` (or ``verifications`` when ``verification``). Rows run in parallel.
+        Note that the batch runs stop once every inverted unit is back below its barrier; where
+        a unit may re-invert after that (a neighbour's snap-back pushing it back), use
+        :meth:`simulate`, which follows the whole horizon.
+        """
+        out = reset_times_batch(batch, profile, t_end=t_end, method=method, atol=atol)
+        n = len(batch)
+        if method in SCREENING_METHODS:
+            self.counts["screening"] += n
+        else:
+            self.counts["verifications" if verification else "simulations"] += n
+        self.counts["designs"] += n
+        return out
+
+    def simulate(self, design: Design, profile: PressureProfile, *, t_end: float,
+                 kind: str = "simulations", **options) -> SimulationResult:  # fmt: skip
+        """One full-model run (:func:`dpfexplore.solvers.dynamics.simulate`), counted as ``kind``.
+
+        Runs to ``t_end`` (no early stop unless asked), so a reset time is the last downward
+        crossing of the whole horizon.
+        """
+        if kind not in EVALUATION_KINDS:
+            raise ValueError(f"kind = {kind!r}: one of {EVALUATION_KINDS}")
+        options.setdefault("n_samples", 0)
+        result = simulate(design, profile, t_end=t_end, **options)
+        self.counts[kind] += 1
+        self.counts["designs"] += 1
+        return result
 
     def count(self, kind: str, number: int = 1) -> None:
         """Count evaluations of another kind (``snap``, ``simulations``, ``verifications``)."""

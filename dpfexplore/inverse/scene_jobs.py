@@ -62,7 +62,10 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     reference = {H = [...], ..., theta_B_deg = -27.065, base_L = 20.081}   # optional
 
 New kinds register a parser in :data:`SCENE_KINDS` (and a solver in
-:data:`dpfexplore.inverse.optimiser.SOLVERS`).
+:data:`dpfexplore.inverse.design.SOLVERS`); a kind's own top-level tables go in
+:data:`SCENE_TABLES`, and a kind that describes its variables itself (the walker leg: one set per
+section) in :data:`OWN_VARIABLES`. The timing scenes (``pickplace``, ``walker_leg``) register
+from :mod:`dpfexplore.inverse.timing_jobs`.
 """
 
 from __future__ import annotations
@@ -81,7 +84,9 @@ from ..sweep._jobfile import JobSpecError, check_keys
 from .variables import HEIGHT_ORDERS, DesignVariables
 
 __all__ = [
+    "OWN_VARIABLES",
     "SCENE_KINDS",
+    "SCENE_TABLES",
     "GripperSpec",
     "OptimiserSettings",
     "SceneSpec",
@@ -189,6 +194,9 @@ class SceneSpec:
     weights: tuple[float, float] | None = None
     optimiser: OptimiserSettings = field(default_factory=OptimiserSettings)
     gripper: GripperSpec | None = None
+    #: ``pickplace`` and ``walker_leg`` kinds (:mod:`dpfexplore.inverse.timing_jobs`).
+    pickplace: Any = None
+    walker: Any = None
     document: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def design_variables(self, n_units: int) -> DesignVariables:
@@ -214,15 +222,21 @@ def load_scene(path: str | Path) -> SceneSpec:
 
 def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> SceneSpec:
     """Validate a TOML-shaped mapping into a :class:`SceneSpec`."""
-    _keys(data, "", required=("scene", "variables"),
-          optional=("targets", "objective", "optimiser", "gripper"))  # fmt: skip
-    scene = _table(data, "scene")
-    _keys(scene, "scene", required=("kind",),
-          optional=("name", "description", "material", "E", "nu", "seed"))  # fmt: skip
-    kind = scene["kind"]
+    if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
+        _keys(data, "", required=("scene",), optional=tuple(data))
+        _keys(_table(data, "scene"), "scene", required=("kind",),
+              optional=tuple(data["scene"]))  # fmt: skip
+    kind = data["scene"]["kind"]
     if kind not in SCENE_KINDS:
         known = ", ".join(SCENE_KINDS)
         raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {known}")
+    own = kind in OWN_VARIABLES
+    tables = SCENE_TABLES.get(kind, ("targets", "objective", "gripper"))
+    _keys(data, "", required=("scene",) if own else ("scene", "variables"),
+          optional=("optimiser", *tables))  # fmt: skip
+    scene = _table(data, "scene")
+    _keys(scene, "scene", required=("kind",),
+          optional=("name", "description", "material", "E", "nu", "seed"))  # fmt: skip
     name = _string(scene, "scene", "name", default_name)
     if not name or "/" in name:
         raise SceneSpecError(f"scene.name = {name!r}: need a non-empty name without '/'")
@@ -230,14 +244,14 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise SceneSpecError(f"scene.seed = {seed!r}: must be an integer >= 0")
     E, nu, material = _material(scene)
-    n_units, variables = _variables(_table(data, "variables"))
+    n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
     fields = dict(kind=kind, name=name, description=_string(scene, "scene", "description", ""),
                   seed=seed, E=E, nu=nu, material=material, n_units=n_units,
                   variables=variables, optimiser=_optimiser(data.get("optimiser", {})),
                   document=_plain(data))  # fmt: skip
     fields.update(SCENE_KINDS[kind](data, fields))
     spec = SceneSpec(**fields)
-    for n in spec.n_units:
+    for n in () if own else spec.n_units:
         try:
             spec.design_variables(n)
         except ValueError as exc:
@@ -354,6 +368,12 @@ SCENE_KINDS: dict[str, Callable[[Mapping[str, Any], dict[str, Any]], dict[str, A
     "position_stiffness": _parse_position,
     "gripper": _parse_gripper,
 }
+#: Top-level tables a kind may have besides ``scene``, ``variables`` and ``optimiser``
+#: (default: ``targets``, ``objective``, ``gripper``; each parser rejects the ones it does not use).
+SCENE_TABLES: dict[str, tuple[str, ...]] = {}
+#: Kinds without a ``[variables]`` table (their parser reads their variables; ``n_units`` is set
+#: by the parser).
+OWN_VARIABLES: set[str] = set()
 
 
 # ----------------------------------------------------------------------------- pieces

@@ -8,59 +8,35 @@ targeted state (the gripper's metastable tip unit) are left out of the sequence:
 snap during the ramp, but it resets when the pressure is released, and the bistable units alone
 set the state the finger keeps.
 
-Snap pressures come from the quasi-static continuation of :mod:`dpfexplore.solvers.snap` where it
-is installed (``snap_pressures``: the equilibrium followed under the non-conservative pressure
-load of MODEL.md §8, with fold detection), else from slow-ramp simulations extrapolated to the
-quasi-static limit (:func:`dpfexplore.solvers.ramp.inversion_pressures`: two full-model runs,
-counted as simulations), which is too slow to sit inside an optimisation loop but checks every
-final design.
+Snap pressures come from :mod:`dpfexplore.inverse.inversion` (the one place that reads them): the
+quasi-static continuation of :mod:`dpfexplore.solvers.snap` where it is installed, else slow-ramp
+simulations extrapolated to the quasi-static limit (two full-model runs, counted as simulations),
+which is too slow to sit inside an optimisation loop but checks every final design.
 """
 
 from __future__ import annotations
 
-import importlib
 import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from ..model.design import Design, DesignBatch
+from ..model.design import Design
+from . import inversion
 from .evaluation import Evaluator
 
 __all__ = ["pressure_windows", "snap_available", "window_widths"]
 
 
-def _snap_module():
-    try:
-        return importlib.import_module("dpfexplore.solvers.snap")
-    except ImportError:
-        return None
-
-
 def snap_available() -> bool:
     """Whether the snap-pressure continuation is available (fast enough for the loop)."""
-    return _snap_module() is not None
+    return inversion.snap_available()
 
 
 def _unit_pressures(design: Design, evaluator: Evaluator, P_max: float) -> tuple[list, str]:
     """First snap pressure (MPa) of every unit under a rising pressure, and the method."""
-    module = _snap_module()
-    n = design.n_units
-    if module is not None:
-        seq = module.snap_pressures(design, P_max=P_max, direction="up")
-        evaluator.count("snap")
-        pressures = [math.nan] * n
-        for event in seq.events:
-            for unit in event.units:
-                if math.isnan(pressures[unit - 1]):
-                    pressures[unit - 1] = float(event.pressure)
-        return pressures, "quasi-static continuation (dpfexplore.solvers.snap)"
-    from ..solvers.ramp import inversion_pressures
-
-    values = inversion_pressures(DesignBatch.from_designs([design]), P_max=P_max)[0, :n]
-    evaluator.count("simulations", 2)
-    return [float(v) for v in values], ("slow-ramp simulations extrapolated to the quasi-static "
-                                        "limit (dpfexplore.solvers.ramp)")  # fmt: skip
+    values = inversion.unit_inversion_pressures([design], evaluator, P_max=P_max)[0]
+    return [float(v) for v in values], inversion.inversion_method()
 
 
 def pressure_windows(design: Design, states: Sequence[str], evaluator: Evaluator,

@@ -1,0 +1,488 @@
+"""The pick-and-place scene (paper eq. opti_pick_and_place; MODEL.md §9): reset times by design.
+
+The variables are one height (the tied ``H_5 = H_6``) and ``t``; the objective reset time (the
+scene's unit, by default the last non-hold unit to reset: the object is released) is smooth
+along lines of constant ``t`` except at class changes, and diverges at the bistable edge
+(:mod:`.reset_problem`). Finite differences of the full model are noisy at the integrator's
+tolerance there, so the optimiser here does not use them: it brackets and roots.
+
+Method
+------
+1. **Screening** (once per scene run, shared by its targets): a grid of ``grid.t`` lines of
+   constant ``t`` with ``grid.H`` heights each, reset times by the reduced model (the fast model
+   where its trained scene is the scene's pulse, else ``release``: :func:`screening_method`) in one
+   parallel batch, and the grasp state's stiffness by the statics (one batch). The grid gives the
+   reachable range of reset times (its extremes re-simulated in the full model).
+2. **Target reset time.** The sign changes of ``log(reset / target)`` between neighbours on the
+   lines (:func:`line_brackets`), inside the fitted range first when ``prefer_fitted``, stiffest
+   grasp first; the first bracket is closed by Brent's method on the full model
+   (:func:`root_on_line`, ``search_atol``), stopping once within a tenth of the tolerance; the
+   design is re-simulated alone to the horizon at ``verify_atol`` (no early stop) and accepted if
+   its reset time is within the tolerance and its hold units stay inverted; else the next
+   bracket. No bracket anywhere: the target is out of reach, and the nearest verified design and
+   the range are reported.
+3. **Reset times of two units** (``unit_targets``: e.g. the paper's finger's 2.657 and 1.613 s):
+   two equations in the two variables, solved by nested roots: for each ``t``, the height that
+   gives the first unit its time (Brent, bracket grown from the screening's estimate); then
+   Brent on ``t`` for the second unit's time. The outer bracket comes from the screening.
+4. **Difference of two profiles** (``difference``): on a few lines of ``t``, the difference
+   ``RT_2 - RT_1`` of the objective reset under the two profiles is maximised over the admissible
+   heights whose resets stay within ``max_reset`` (bounded scalar search on the full model,
+   the cap located by a root); the line optima with their grasp stiffness form the front
+   (non-dominated), and the paper's weighted sum picks one of them when weights are given.
+
+Only the full model's values are reported; every reported design is re-simulated alone.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from itertools import pairwise
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import brentq, minimize_scalar
+
+from ..model.design import Design
+from ..solvers.dynamics_common import CLASS_METASTABLE
+from .evaluation import Evaluator
+from .optimiser import TargetResult
+from .reset_problem import (
+    Bracket,
+    ResetEval,
+    ResetProblem,
+    finite_log,
+    grow_bracket,
+    line_brackets,
+    root_on_line,
+    screening_method,
+)
+from .timing_jobs import PulseSpec
+
+__all__ = ["Screen", "check_design", "screen_pickplace", "solve_pickplace"]
+
+logger = logging.getLogger(__name__)
+
+#: Brackets tried per target before it is declared out of reach.
+MAX_BRACKETS = 6
+#: Lines of ``t`` of the difference front.
+FRONT_LINES = 8
+#: Lines of ``t`` whose exact two-unit error is computed (those the screening puts nearest).
+CANDIDATE_LINES = 6
+#: Search tolerance as a fraction of the scene's (a margin for the verification).
+SEARCH_FRACTION = 0.1
+#: ``|log(reset / target)|`` at or above this marks an end that diverged (bistable) or went
+#: negative (:data:`dpfexplore.inverse.reset_problem._LOG_INF` is 50).
+_DIVERGED = 40.0
+
+
+@dataclass
+class Screen:
+    """The screening grid of a pick-and-place scene run (shared by its targets)."""
+
+    problem: ResetProblem
+    shape: tuple[int, int]
+    ev: ResetEval
+    stiffness: NDArray
+    fitted: NDArray
+    method: str
+    note: str
+    wall_s: float
+    ranges: dict = field(default_factory=dict)
+    second: ResetEval | None = None
+    second_method: str = ""
+
+
+def _grid(spec) -> tuple[NDArray, tuple[int, int]]:
+    p = spec.pickplace
+    zt = np.linspace(0.0, 1.0, p.grid_t)
+    zh = np.linspace(0.0, 1.0, p.grid_H)
+    z = np.column_stack([np.tile(zh, p.grid_t), np.repeat(zt, p.grid_H)])
+    return z, (p.grid_t, p.grid_H)
+
+
+def screen_pickplace(spec, evaluator: Evaluator) -> Screen:
+    """The screening of a scene (cached on the evaluator: computed once per run)."""
+    cached = evaluator.cache.get("pickplace-screen")
+    if cached is not None:
+        return cached
+    started = time.perf_counter()
+    p = spec.pickplace
+    problem = ResetProblem(spec, evaluator, target_index=-1)
+    z, shape = _grid(spec)
+    method, note = screening_method(p.screening, p.pulse)
+    ev = problem.resets(z, purpose="screening", method=method)
+    stiffness = problem.grasp_stiffness(z, purpose="screening")
+    fitted = problem.designs(z).in_fitted_range()
+    screen = Screen(problem, shape, ev, stiffness, fitted, method, note, 0.0)
+    if p.difference is not None:
+        second_method, _ = screening_method(p.screening, p.difference.pulse)
+        screen.second = problem.resets(z, purpose="screening", method=second_method,
+                                       pulse=p.difference.pulse, profile_index=2)  # fmt: skip
+        screen.second_method = second_method
+    screen.ranges = _reachable_range(spec, screen, evaluator)
+    screen.wall_s = time.perf_counter() - started
+    evaluator.cache["pickplace-screen"] = screen
+    return screen
+
+
+def check_design(problem: ResetProblem, design: Design, *, pulse: PulseSpec | None = None,
+                 atol: float) -> dict:  # fmt: skip
+    """Full-model run of a design to the horizon at ``atol``: reset times, classes, objective."""
+    from ..solvers.dynamics_common import CLASS_NAMES
+
+    run = problem.simulate(design, pulse=pulse, atol=atol)
+    codes = {name: code for code, name in CLASS_NAMES.items()}
+    classes = np.array([[codes[c] for c in run.unit_class]], dtype=np.int64)
+    reset = run.reset_time[None, :]
+    value, ok = problem.objective_value(reset, classes, np.array([int(run.status)]))
+    return {"reset_times": run.reset_time.copy(), "classes": list(run.unit_class),
+            "final_state": run.final_state, "status": run.status.label,
+            "value": float(value[0]), "admissible": bool(ok[0]),
+            "objective_unit": problem.objective_unit(run.reset_time, classes[0]),
+            "atol": atol, "t_end": run.t_end}  # fmt: skip
+
+
+def _reachable_range(spec, screen: Screen, evaluator: Evaluator) -> dict:
+    """Range of the objective reset over admissible, metastable-objective screening designs."""
+    ev, p = screen.ev, spec.pickplace
+    problem = screen.problem
+    n = ev.reset.shape[1]
+    rows = np.arange(len(ev.z))
+    units = np.array([problem.objective_unit(ev.reset[i], ev.classes[i]) if ev.admissible[i]
+                      else 0 for i in rows])  # fmt: skip
+    meta = ev.admissible & np.isfinite(ev.value) & (units > 0)
+    meta &= np.array([units[i] > 0 and ev.classes[i, units[i] - 1] == CLASS_METASTABLE
+                      for i in rows])  # fmt: skip
+    out: dict = {"method": screen.method, "grid": {"t": p.grid_t, "H": p.grid_H},
+                 "designs": len(ev.z), "admissible": int(ev.admissible.sum()),
+                 "metastable": int(meta.sum()), "n_units": n}  # fmt: skip
+    for key, mask in (("all", meta), ("fitted_range", meta & screen.fitted)):
+        if not mask.any():
+            out[key] = None
+            continue
+        values = np.where(mask, ev.value, np.nan)
+        lo, hi = int(np.nanargmin(values)), int(np.nanargmax(values))
+        entry = {"min_s": float(values[lo]), "max_s": float(values[hi])}
+        for name, i in (("min", lo), ("max", hi)):
+            design = problem.design(ev.z[i])
+            check = check_design(problem, design, atol=p.search_atol)
+            entry[f"{name}_design"] = {"H": list(design.H), "t": design.t}
+            entry[f"{name}_full_model_s"] = check["value"]
+        out[key] = entry
+    out["note"] = (
+        "Reset times of admissible designs (hold units bistable, objective unit metastable) on the "
+        "screening grid; the extremes re-simulated in the full model. The upper end is the "
+        "horizon's, not the model's: the reset time diverges at the bistable edge "
+        f"(horizon {p.pulse.horizon:g} s after the release)."
+    )
+    return out
+
+
+# ----------------------------------------------------------------------------- one target
+
+
+def _order(brackets: list[Bracket], prefer_fitted: bool) -> list[Bracket]:
+    return sorted(brackets, key=lambda b: (prefer_fitted and not b.in_fitted_range,
+                                           -np.nan_to_num(b.stiffness, nan=-np.inf)))  # fmt: skip
+
+
+def _solve_target(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
+    p = spec.pickplace
+    target = p.targets[index]
+    problem = ResetProblem(spec, evaluator, target_index=index)
+    brackets = _order(line_brackets(screen.ev, screen.shape, target, fitted=screen.fitted,
+                                    stiffness=screen.stiffness), p.prefer_fitted)  # fmt: skip
+    ftol = math.log1p(SEARCH_FRACTION * p.tolerance)
+    attempts = []
+    for bracket in brackets[:MAX_BRACKETS]:
+        zt = bracket.z_lo[1]
+
+        def func(x: float, zt: float = zt) -> float:
+            ev = problem.resets([[x, zt]], purpose="root", method="rodas4", atol=p.search_atol,
+                                objective_target=target)  # fmt: skip
+            return float(ev.log_ratio(target)[0])
+
+        x, calls = root_on_line(func, bracket.z_lo[0], bracket.z_hi[0], bracket.f_lo,
+                                bracket.f_hi, ftol=ftol)  # fmt: skip
+        design = problem.design([x, zt])
+        check = check_design(problem, design, atol=p.verify_atol)
+        error = abs(check["value"] / target - 1.0) if check["admissible"] else math.inf
+        attempts.append({"z": [x, zt], "design": design, "check": check, "error": error,
+                         "root_evaluations": calls, "bracket": bracket})  # fmt: skip
+        logger.info("pickplace target %.4g s: bracket t-line %.4f -> reset %.5g s (error %.2e)",
+                    target, zt, check["value"], error)
+        if error <= p.tolerance:
+            break
+    best = min(attempts, key=lambda a: a["error"]) if attempts else None
+    if best is None or best["error"] > p.tolerance:
+        nearest = _nearest(problem, screen, target)
+        if nearest is not None and (best is None or nearest["error"] < best["error"]):
+            best = nearest
+    return {"kind": "target", "target": target, "best": best, "attempts": attempts,
+            "brackets": len(brackets), "problem": problem}  # fmt: skip
+
+
+def _nearest(problem: ResetProblem, screen: Screen, target: float) -> dict | None:
+    """The screening design nearest the target (log scale), verified in the full model."""
+    f = np.abs(screen.ev.log_ratio(target))
+    if not np.any(np.isfinite(f)):
+        return None
+    i = int(np.nanargmin(f))
+    design = problem.design(screen.ev.z[i])
+    check = check_design(problem, design, atol=problem.p.verify_atol)
+    error = abs(check["value"] / target - 1.0) if check["admissible"] else math.inf
+    return {"z": list(screen.ev.z[i]), "design": design, "check": check, "error": error,
+            "root_evaluations": 0, "bracket": None}  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- two units
+
+
+def _line_estimate(f1: NDArray, f2: NDArray, zh: NDArray) -> tuple[float, float] | None:
+    """On one screened line: where ``f1`` crosses 0 (linear) and ``f2`` there (linear)."""
+    for i in range(len(zh) - 1):
+        a, b = f1[i], f1[i + 1]
+        if not (np.isfinite(a) and np.isfinite(b)) or (a < 0) == (b < 0):
+            continue
+        if max(abs(a), abs(b)) >= _DIVERGED:  # a diverging end: the estimate is the other end
+            w = 0.0 if abs(a) < abs(b) else 1.0
+        else:
+            w = -a / (b - a)
+        x = zh[i] + w * (zh[i + 1] - zh[i])
+        c, d = f2[i], f2[i + 1]
+        if not (np.isfinite(c) and np.isfinite(d)):
+            continue
+        return float(x), float(c + w * (d - c))
+    return None
+
+
+def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
+    p = spec.pickplace
+    goal = p.unit_targets[index - len(p.targets)]
+    (u1, u2), (t1, t2) = goal.units, goal.reset
+    problem = ResetProblem(spec, evaluator, target_index=index)
+    hold = problem.hold
+    ftol = math.log1p(SEARCH_FRACTION * p.tolerance)
+    zh = np.linspace(0.0, 1.0, screen.shape[1])
+    f1 = screen.ev.unit_log_ratio(u1, t1, hold).reshape(screen.shape)
+    f2 = screen.ev.unit_log_ratio(u2, t2, hold).reshape(screen.shape)
+    lines = np.linspace(0.0, 1.0, screen.shape[0])
+    estimates = [_line_estimate(f1[j], f2[j], zh) for j in range(screen.shape[0])]
+    cache: dict = {}
+
+    def unit_f(x: float, zt: float) -> tuple[float, float]:
+        key = (x, zt)
+        if key not in cache:
+            ev = problem.resets([[x, zt]], purpose="root", method="rodas4", atol=p.search_atol)
+            cache[key] = (float(ev.unit_log_ratio(u1, t1, hold)[0]),
+                          float(ev.unit_log_ratio(u2, t2, hold)[0]))  # fmt: skip
+        return cache[key]
+
+    inner_at: dict[float, float] = {}
+
+    def inner(zt: float, guess: float) -> float | None:
+        grown = grow_bracket(lambda x: unit_f(x, zt)[0], guess)
+        if grown is None:
+            return None
+        x, _ = root_on_line(lambda x: unit_f(x, zt)[0], *grown, ftol=ftol * 0.1)
+        inner_at[zt] = x
+        return x
+
+    def guess_at(zt: float) -> float:
+        known = [(abs(k - zt), v) for k, v in inner_at.items()]
+        if known:
+            return min(known)[1]
+        j = int(np.argmin(np.abs(lines - zt)))
+        est = estimates[j] or next((e for e in estimates if e is not None), (0.5, 0.0))
+        return est[0]
+
+    def outer(zt: float) -> float:
+        x = inner(zt, guess_at(zt))
+        if x is None:
+            return math.nan
+        return unit_f(x, zt)[1]
+
+    # Lines where the screening puts the second unit near its time; their exact values (inner
+    # root on the full model), then a root in t between lines of opposite sign, or the smallest
+    # |error| near the best line when the two level curves run side by side (they nearly do for
+    # the paper's finger: its two tip units keep their ratio of reset times along the curve).
+    known = [(j, e) for j, e in enumerate(estimates) if e is not None]
+    if not known:
+        return {"kind": "unit_target", "target": list(goal.reset), "units": list(goal.units),
+                "best": None, "attempts": [], "brackets": 0, "problem": problem}  # fmt: skip
+    near = sorted(known, key=lambda je: abs(je[1][1]))[:CANDIDATE_LINES]
+    exact = {}
+    for j, (x0, _) in sorted(near):
+        x = inner(float(lines[j]), x0)
+        if x is not None:
+            exact[j] = unit_f(x, float(lines[j]))[1]
+    solutions = []
+    js = sorted(exact)
+    for a, b in pairwise(js):
+        if b == a + 1 and (exact[a] < 0) != (exact[b] < 0):
+            za, zb, ga, gb = float(lines[a]), float(lines[b]), exact[a], exact[b]
+            try:
+                zt = brentq(_finite_or, za, zb, args=(outer, ga, gb, za, zb), xtol=1e-9,
+                            maxiter=60)  # fmt: skip
+                solutions.append(zt)
+            except ValueError:
+                pass
+    # Lines already within half the tolerance are answers as they stand.
+    solutions += [float(lines[j]) for j in js if abs(exact[j]) <= math.log1p(0.5 * p.tolerance)]
+    if not solutions and exact:
+        j = min(exact, key=lambda k: abs(exact[k]))
+        step = float(lines[1] - lines[0]) if len(lines) > 1 else 0.0
+        lo, hi = max(0.0, float(lines[j]) - step), min(1.0, float(lines[j]) + step)
+        found = minimize_scalar(lambda v: abs(np.nan_to_num(outer(v), nan=1e3)),
+                                bounds=(lo, hi), method="bounded",
+                                options={"xatol": 1e-6, "maxiter": 30})  # fmt: skip
+        solutions.append(float(found.x))
+    attempts = []
+    for zt in solutions:
+        x = inner_at.get(zt)
+        if x is None:
+            x = inner(zt, guess_at(zt))
+        if x is None:
+            continue
+        design = problem.design([x, zt])
+        check = check_design(problem, design, atol=p.verify_atol)
+        r = check["reset_times"]
+        errors = [abs(r[u1 - 1] / t1 - 1.0), abs(r[u2 - 1] / t2 - 1.0)]
+        ok = check["admissible"] and all(np.isfinite(errors))
+        error = max(errors) if ok else math.inf
+        attempts.append({"z": [x, zt], "design": design, "check": check, "error": error,
+                         "unit_errors": errors, "root_evaluations": len(cache)})  # fmt: skip
+    # Inside the fitted range first among those that meet the tolerance, then the smallest error.
+    best = min(attempts, key=lambda a: (a["error"] > p.tolerance,
+                                        p.prefer_fitted and not a["design"].in_fitted_range,
+                                        a["error"]), default=None)  # fmt: skip
+    return {"kind": "unit_target", "target": list(goal.reset), "units": list(goal.units),
+            "best": best, "attempts": attempts, "brackets": len(solutions),
+            "problem": problem}  # fmt: skip
+
+
+def _finite_or(v: float, outer, ga: float, gb: float, a: float, b: float) -> float:
+    # An outer point whose inner root failed takes the sign of the nearer end (keeps Brent going).
+    value = outer(v)
+    if np.isfinite(value):
+        return value
+    return ga if abs(v - a) < abs(v - b) else gb
+
+
+# ----------------------------------------------------------------------------- difference
+
+
+def _solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
+    p = spec.pickplace
+    d = p.difference
+    problem = ResetProblem(spec, evaluator, target_index=index)
+    v1, v2 = screen.ev.value, screen.second.value
+    cap = d.max_reset
+    with np.errstate(invalid="ignore"):
+        ok = screen.ev.admissible & screen.second.admissible & (v1 >= 0.05) & (v1 <= cap) & \
+            (v2 >= 0.05) & (v2 <= cap)  # fmt: skip
+    with np.errstate(invalid="ignore"):
+        diff = np.where(ok, v2 - v1, np.nan).reshape(screen.shape)
+    ok = ok.reshape(screen.shape)
+    zh = np.linspace(0.0, 1.0, screen.shape[1])
+    lines = [j for j in range(screen.shape[0]) if ok[j].any()]
+    if len(lines) > FRONT_LINES:
+        lines = [lines[round(k)] for k in np.linspace(0, len(lines) - 1, FRONT_LINES)]
+    points = []
+
+    def both(x: float, zt: float) -> tuple[float, float]:
+        e1 = problem.resets([[x, zt]], purpose="difference", method="rodas4", atol=p.search_atol)
+        e2 = problem.resets([[x, zt]], purpose="difference", method="rodas4", atol=p.search_atol,
+                            pulse=d.pulse, profile_index=2)  # fmt: skip
+        return float(e1.value[0]), float(e2.value[0])
+
+    for j in lines:
+        zt = float(np.linspace(0.0, 1.0, screen.shape[0])[j])
+        i_best = int(np.nanargmax(diff[j]))
+        lo = hi = i_best
+        while lo > 0 and ok[j, lo - 1]:
+            lo -= 1
+        while hi < len(zh) - 1 and ok[j, hi + 1]:
+            hi += 1
+        x_lo, x_hi = zh[lo], zh[hi]
+        if hi < len(zh) - 1:  # the cap RT <= max_reset lies between hi and hi + 1: locate it
+            def over(x: float, zt: float = zt) -> float:
+                r1, r2 = both(x, zt)
+                worst = max(r1, r2) if np.isfinite(r1) and np.isfinite(r2) else math.inf
+                return finite_log(worst, cap) if not math.isnan(worst) else math.nan
+
+            f_a, f_b = over(zh[hi]), over(zh[hi + 1])
+            if np.isfinite(f_a) and np.isfinite(f_b) and f_a < 0 <= f_b:
+                x_hi, _ = root_on_line(over, zh[hi], zh[hi + 1], f_a, f_b, ftol=1e-4)
+                x_hi = zh[hi] + (x_hi - zh[hi]) * (1 - 1e-6)
+
+        def negative(x: float, zt: float = zt) -> float:
+            r1, r2 = both(x, zt)
+            good = np.isfinite(r1) and np.isfinite(r2) and 0.05 <= r1 <= cap and 0.05 <= r2 <= cap
+            return -(r2 - r1) if good else 1e3
+
+        if x_hi > x_lo:
+            found = minimize_scalar(negative, bounds=(x_lo, x_hi), method="bounded",
+                                    options={"xatol": 1e-5})  # fmt: skip
+            x = float(found.x)
+        else:
+            x = float(x_lo)
+        design = problem.design([x, zt])
+        c1 = check_design(problem, design, atol=p.verify_atol)
+        c2 = check_design(problem, design, pulse=d.pulse, atol=p.verify_atol)
+        good = c1["admissible"] and c2["admissible"] and all(
+            np.isfinite(c["value"]) and 0.05 <= c["value"] <= cap for c in (c1, c2))
+        stiffness = float(problem.grasp_stiffness(np.array([[x, zt]]), purpose="difference")[0])
+        points.append({"z": [x, zt], "design": design, "checks": [c1, c2], "ok": bool(good),
+                       "difference": c2["value"] - c1["value"], "stiffness": stiffness})
+    front = _non_dominated([q for q in points if q["ok"]])
+    weighted = None
+    if d.weights is not None and front:
+        w1, w2 = d.weights
+        weighted = min(front, key=lambda q: w1 / q["stiffness"] ** 2 + w2 / q["difference"]
+                       if q["difference"] > 0 else math.inf)  # fmt: skip
+    best = max(front, key=lambda q: q["difference"]) if front else None
+    return {"kind": "difference", "target": None, "best": best, "front": front,
+            "lines": points, "weighted": weighted, "problem": problem}  # fmt: skip
+
+
+def _non_dominated(points: list[dict]) -> list[dict]:
+    """Points not beaten in both difference and stiffness, by difference descending."""
+    out = [q for q in points if not any(
+        o["difference"] >= q["difference"] and o["stiffness"] >= q["stiffness"] and
+        (o["difference"] > q["difference"] or o["stiffness"] > q["stiffness"]) for o in points)]
+    return sorted(out, key=lambda q: -q["difference"])
+
+
+# ----------------------------------------------------------------------------- solver
+
+
+def solve_pickplace(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
+    """One result of a pick-and-place scene: a target, a pair of unit targets, or the front.
+
+    Result ``i`` is target ``i`` for ``i < len(targets)``, then the unit targets, then the
+    difference objective. The outcome is in ``TargetResult.extra`` (read by
+    :func:`dpfexplore.inverse.timing_report.pickplace_report`).
+    """
+    counts0 = dict(evaluator.counts)
+    wall0 = evaluator.wall_s
+    p = spec.pickplace
+    screen = screen_pickplace(spec, evaluator)
+    if target_index < len(p.targets):
+        outcome = _solve_target(spec, target_index, evaluator, screen)
+    elif target_index < len(p.targets) + len(p.unit_targets):
+        outcome = _solve_units(spec, target_index, evaluator, screen)
+    else:
+        outcome = _solve_difference(spec, target_index, evaluator, screen)
+    best = outcome["best"]
+    reachable = best is not None and (best.get("ok", False) if outcome["kind"] == "difference"
+                                      else best["error"] <= p.tolerance)  # fmt: skip
+    result = TargetResult(target_index=target_index, target=outcome["target"], best=None,
+                          reachable=bool(reachable), extra=outcome)  # fmt: skip
+    result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
+    result.wall_s = evaluator.wall_s - wall0
+    return result

@@ -32,6 +32,7 @@ from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
 from .model.status import Status
 from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
 from .solvers.lattice import spring_constants
+from .solvers.sensitivities import Sensitivities
 from .solvers.statics import (
     SolverOptions,
     StateResult,
@@ -56,6 +57,7 @@ __all__ = [
     "Material",
     "PressureProfile",
     "SimulationResult",
+    "Sensitivities",
     "SolverOptions",
     "StateResult",
     "Status",

@@ -22,6 +22,7 @@ Parameters, in this order (:func:`parameter_names`): ``H_1..H_N``, ``U_L_1..U_L_
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,17 +51,24 @@ OUTPUTS = {
 COLUMNS = {f"d_{name}": row for name, row in OUTPUTS.items()}
 
 
+@functools.cache
 def parameter_names(n_units: int) -> tuple[str, ...]:
     """Parameter names in sensitivity order: ``("H_1", ..., "U_sep_N", "t", "t_lim", "E")``."""
     per_unit = tuple(f"{kind}_{k}" for kind in PER_UNIT for k in range(1, n_units + 1))
     return per_unit + SHARED
 
 
+@functools.cache
 def batch_columns(n_units: int) -> NDArray:
-    """Indices of an ``N``-unit design's parameters among the ``3·MAX_UNITS + 3`` batch columns."""
+    """Indices of an ``N``-unit design's parameters among the ``3·MAX_UNITS + 3`` batch columns.
+
+    Cached per ``N`` (single designs in optimiser loops ask for it on every call): read-only.
+    """
     units = np.arange(n_units)
     per_unit = [kind * MAX_UNITS + units for kind in range(len(PER_UNIT))]
-    return np.concatenate([*per_unit, 3 * MAX_UNITS + np.arange(len(SHARED))])
+    columns = np.concatenate([*per_unit, 3 * MAX_UNITS + np.arange(len(SHARED))])
+    columns.flags.writeable = False
+    return columns
 
 
 @dataclass(frozen=True)

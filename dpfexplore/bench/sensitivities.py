@@ -1,0 +1,404 @@
+"""``dpfexplore bench sensitivities``: design sensitivities against finite differences, API costs.
+
+Per finger size N, on designs of the paper's box whose domes are all bistable (the all-inverted
+state, or the state it collapses to, kept where its softest mode is above 1e-3 N/mm, i.e. far
+from a fold):
+
+* the kernel cost of the sensitivities (all ``3N + 3`` parameters, every output and ``dx*/dθ``)
+  against the kernel cost of the solve they come from, design by design (goal <= 2x); each
+  design's time is its median over passes through all designs, so a burst of load from another
+  tenant inflates one pass, not a design;
+* the baseline: central finite differences of the solver through the API (``find_state`` at
+  ``θ ± ε``, ``ε = 1e-5 |θ|``), timed, and its kernel floor (``2P`` kernel solves);
+* errors of ours and of that baseline against a trusted reference: Richardson-extrapolated
+  central differences of the solver at tight tolerance (steps ``2e-4`` and ``1e-4``), as the
+  largest difference over parameters relative to each output's largest derivative, apart for
+  tip, bend, curvature and energy and for the stiffness (whose reference is the noisier).
+
+API costs, on the shared machine in the same process: ``find_state`` per call on a five-unit
+finger (the paper's gripper) with and without sensitivities, against the kernel's cost for that
+design, and ``solve_batch`` per design for batches of 1, 8 and 64 five-unit designs against the
+kernel's mean per-design cost for the same designs and states. Compile time is measured in fresh
+processes with an empty Numba cache, apart from run times.
+
+:func:`measure` returns the record (for other benchmarks to print these rows, e.g.
+:func:`text_rows`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_time
+
+#: Finger sizes measured by default.
+UNITS = (2, 5, 8, 12)
+#: Relative step of the baseline's central differences.
+FD_STEP = 1e-5
+#: Steps of the Richardson-extrapolated reference (mm; MPa for E: times E). The stiffness's
+#: differences are noise-limited below this (its round-off, ~1e-10 relative in a Hessian whose
+#: stiff posts and soft bending modes are six decades apart, over the step).
+REFERENCE_STEP = 2e-4
+#: A state is "far from a fold" when its softest mode is above this (N/mm).
+MIN_EIG_FAR = 1e-3
+#: Batch sizes of the solve_batch rows.
+BATCH_SIZES = (1, 8, 64)
+
+
+def register(subparsers) -> None:
+    """Add ``bench sensitivities``."""
+    parser = subparsers.add_parser(
+        "sensitivities",
+        help="design sensitivities vs finite differences; find_state / small-batch API costs",
+        description=__doc__.split("\n\n")[1],
+    )
+    parser.add_argument("--json", action="store_true", help="print the JSON record")
+    parser.add_argument("--units", default=",".join(map(str, UNITS)),
+                        help="finger sizes N (default 2,5,8,12)")  # fmt: skip
+    parser.add_argument("--designs", type=int, default=30, help="designs per N (timing)")
+    parser.add_argument("--reference-designs", type=int, default=5,
+                        help="designs per N checked against the finite-difference reference")
+    parser.add_argument("--seed", type=int, default=2025)
+    parser.add_argument("--no-compile", action="store_true",
+                        help="skip the compile-time measurement (two fresh processes)")
+    parser.add_argument("--save", action="store_true",
+                        help=f"also write the record to {REPORTS}/bench-sensitivities.json")
+    parser.set_defaults(handler=run)
+
+
+def _perturbed(design, name: str, delta: float):
+    values = design.to_dict()
+    if name in ("t", "t_lim", "E"):
+        values[name] += delta
+    else:
+        kind, _, unit = name.rpartition("_")
+        column = list(values[kind])
+        column[int(unit) - 1] += delta
+        values[kind] = column
+    return type(design)(**values)
+
+
+def _parameter_value(design, name: str) -> float:
+    if name in ("t", "t_lim", "E"):
+        return float(getattr(design, name))
+    kind, _, unit = name.rpartition("_")
+    return float(getattr(design, kind)[int(unit) - 1])
+
+
+def _outputs(design, state: str, options) -> np.ndarray | None:
+    from ..solvers.statics import find_state
+
+    r = find_state(design, state, options=options)
+    if r.found != state:
+        return None
+    return np.array([r.tip[0], r.tip[1], r.bend_angle, r.curvature, r.energy, r.stiffness])
+
+
+def central_differences(design, state: str, steps, options=None) -> np.ndarray | None:
+    """Central differences of the solver's six outputs, shape (6, P); Richardson when two steps.
+
+    ``steps`` maps a parameter to its step(s); None when a step changes the state.
+    """
+    from ..solvers.sensitivities import parameter_names
+
+    columns = []
+    for name in parameter_names(design.n_units):
+        estimates = []
+        for h in steps(name):
+            plus = _outputs(_perturbed(design, name, h), state, options)
+            minus = _outputs(_perturbed(design, name, -h), state, options)
+            if plus is None or minus is None:
+                return None
+            estimates.append((plus - minus) / (2 * h))
+        if len(estimates) == 2:  # Richardson: the h² error terms cancel
+            estimates = [(4 * estimates[1] - estimates[0]) / 3]
+        columns.append(estimates[0])
+    return np.array(columns).T
+
+
+def _reference_steps(design, name: str) -> list[float]:
+    scale = design.E if name == "E" else 1.0
+    return [REFERENCE_STEP * scale, REFERENCE_STEP / 2 * scale]
+
+
+def _relative_error(values: np.ndarray, reference: np.ndarray) -> NDArray:
+    """Per output: largest difference relative to its largest derivative (NaN if undefined)."""
+    scale = np.abs(reference).max(axis=1) + 1e-300
+    return np.abs(values - reference).max(axis=1) / scale
+
+
+def _sample(n_units: int, n_designs: int, seed: int):
+    """Designs and the states to differentiate (far from a fold), with their shapes."""
+    from ..model import status as st
+    from ..solvers.statics import solve_batch
+    from .statics import sample_bistable_batch
+
+    batch = sample_bistable_batch(n_units, 3 * n_designs, seed)
+    cols = solve_batch(batch, "all_inverted", shapes=True)
+    ok = (cols["status"] == st.OK) | (cols["status"] == st.COLLAPSED)
+    keep = np.flatnonzero(ok & (cols["min_eig"] > MIN_EIG_FAR))[:n_designs]
+    nf = 4 * n_units - 2
+    return [
+        (batch.design(int(i)), int(cols["found"][i]), cols["x"][i, :nf].copy()) for i in keep
+    ]
+
+
+def bench_size(n_units: int, n_designs: int, n_reference: int, seed: int,
+               passes: int = 5, repeats: int = 20) -> dict:  # fmt: skip
+    """Sensitivities of one finger size: kernel costs, the finite-difference baseline, errors."""
+    from .._kernels.batch import solve_repeatedly
+    from .._kernels.sensitivity_batch import sensitivities_repeatedly
+    from ..solvers.lattice import design_kernel_tables
+    from ..solvers.sensitivities import OUTPUTS
+    from ..solvers.statics import DEFAULT_OPTIONS, SolverOptions, find_state, state_string
+
+    controls = DEFAULT_OPTIONS.kernel_args()
+    samples = _sample(n_units, n_designs, seed)
+    prepared = []
+    for design, state, x in samples:
+        tables = design_kernel_tables(design, derivatives=True)
+        up = tables.unit_params[0, :n_units].copy()
+        dtab = tables.derivatives[0, :n_units].copy()
+        h = float(tables.h[0])
+        solve_repeatedly(up, h, state, *controls, True, False, 1)
+        sensitivities_repeatedly(x, up, h, dtab, design.E, 1)
+        prepared.append((up, h, state, x, dtab, design.E))
+    t_solve = np.empty((passes, len(prepared)))
+    t_sens = np.empty((passes, len(prepared)))
+    for k in range(passes):
+        for i, (up, h, state, x, dtab, E) in enumerate(prepared):
+            start = time.perf_counter()
+            solve_repeatedly(up, h, state, *controls, True, False, repeats)
+            t_solve[k, i] = (time.perf_counter() - start) / repeats
+            start = time.perf_counter()
+            sensitivities_repeatedly(x, up, h, dtab, E, repeats)
+            t_sens[k, i] = (time.perf_counter() - start) / repeats
+    solve_us = np.median(t_solve, axis=0) * 1e6
+    sens_us = np.median(t_sens, axis=0) * 1e6
+    n_params = 3 * n_units + 3
+
+    tight = SolverOptions(xtol=1e-11)
+    ours_err, fd_err, fd_us = [], [], []
+    for design, state, _ in samples[:n_reference]:
+        bits = state_string(state, n_units)
+        result = find_state(design, bits, options=tight, sensitivities=True)
+        ours = np.stack([result.sensitivities.of(name) for name in OUTPUTS])
+        reference = central_differences(
+            design, bits, lambda name: _reference_steps(design, name), tight  # noqa: B023
+        )
+        start = time.perf_counter()
+        baseline = central_differences(
+            design, bits, lambda name: [FD_STEP * abs(_parameter_value(design, name))]  # noqa: B023
+        )
+        fd_us.append((time.perf_counter() - start) * 1e6)
+        if reference is None or baseline is None:  # a step crossed into another state
+            continue
+        ours_err.append(_relative_error(ours, reference))
+        fd_err.append(_relative_error(baseline, reference))
+    ours_err = np.array(ours_err).reshape(-1, len(OUTPUTS))
+    fd_err = np.array(fd_err).reshape(-1, len(OUTPUTS))
+    stiffness = list(OUTPUTS).index("stiffness")
+    shape = [j for j in range(len(OUTPUTS)) if j != stiffness]
+    solve_med = float(np.median(solve_us))
+    sens_med = float(np.median(sens_us))
+    return {
+        "n_units": n_units,
+        "designs": len(samples),
+        "parameters": n_params,
+        "solve_us": solve_med,
+        "sensitivities_us": sens_med,
+        "ratio_median": float(np.median(sens_us / solve_us)),
+        "ratio_p90": float(np.percentile(sens_us / solve_us, 90)),
+        "fd_api_us": float(np.median(fd_us)) if fd_us else float("nan"),
+        "fd_kernel_floor_us": 2 * n_params * solve_med,
+        "speedup_vs_fd_api": float(np.median(fd_us)) / sens_med if fd_us else float("nan"),
+        "speedup_vs_fd_kernel_floor": 2 * n_params * solve_med / sens_med,
+        "reference_designs": len(ours_err),
+        "ours_rel_err": _nanmax(ours_err[:, shape]),
+        "fd_rel_err": _nanmax(fd_err[:, shape]),
+        "ours_stiffness_rel_err": _nanmax(ours_err[:, stiffness]),
+        "fd_stiffness_rel_err": _nanmax(fd_err[:, stiffness]),
+    }
+
+
+def _nanmax(values: np.ndarray) -> float:
+    finite = values[np.isfinite(values)]
+    return float(finite.max()) if finite.size else float("nan")
+
+
+def _kernel_us(design, state: int, repeats: int = 50) -> float:
+    """Median kernel time (µs) of one design-state's solve (workspace allocated once)."""
+    from .._kernels.batch import solve_repeatedly
+    from ..solvers.lattice import design_kernel_tables
+    from ..solvers.statics import DEFAULT_OPTIONS
+
+    tables = design_kernel_tables(design)
+    up = tables.unit_params[0, : design.n_units].copy()
+    h = float(tables.h[0])
+    controls = DEFAULT_OPTIONS.kernel_args()
+    return median_time(
+        lambda: solve_repeatedly(up, h, state, *controls, True, True, repeats)
+    ) / repeats * 1e6
+
+
+def _kernel_us_each(batch, states, passes: int = 3, repeats: int = 10) -> np.ndarray:
+    """Kernel time (µs) of each design-state, median over passes through all of them."""
+    from .._kernels.batch import solve_repeatedly
+    from ..solvers.lattice import kernel_tables
+    from ..solvers.statics import DEFAULT_OPTIONS
+
+    tables = kernel_tables(batch)
+    controls = DEFAULT_OPTIONS.kernel_args()
+    args = [
+        (tables.unit_params[i, : batch.n_units[i]].copy(), float(tables.h[i]), int(states[i]))
+        for i in range(len(batch))
+    ]
+    samples = np.empty((passes, len(args)))
+    for k in range(passes):
+        for i, (up, h, state) in enumerate(args):
+            start = time.perf_counter()
+            solve_repeatedly(up, h, state, *controls, True, True, repeats)
+            samples[k, i] = (time.perf_counter() - start) / repeats
+    return np.median(samples, axis=0) * 1e6
+
+
+def bench_api(seed: int) -> dict:
+    """``find_state`` per call and ``solve_batch`` per design against the kernel's own cost."""
+    from .._kernels.sensitivity_batch import sensitivities_repeatedly
+    from ..examples import example_path
+    from ..model.design import load_design
+    from ..solvers.lattice import design_kernel_tables
+    from ..solvers.statics import find_state, parse_state, solve_batch
+    from .statics import sample_bistable_batch
+
+    rows = []
+    for name, bits in (("gripper", "11110"), ("pickplace", "111100")):
+        design = load_design(example_path(name))
+        state = parse_state(bits, design.n_units)
+        plain = find_state(design, bits)
+        kernel = _kernel_us(design, state)
+        tables = design_kernel_tables(design, derivatives=True)
+        up = tables.unit_params[0, : design.n_units].copy()
+        dtab = tables.derivatives[0, : design.n_units].copy()
+        h = float(tables.h[0])
+        sens_kernel = median_time(
+            lambda: sensitivities_repeatedly(plain.x, up, h, dtab, design.E, 50)  # noqa: B023
+        ) / 50 * 1e6
+        call = median_time(lambda: find_state(design, bits)) * 1e6  # noqa: B023
+        call_sens = median_time(
+            lambda: find_state(design, bits, sensitivities=True)  # noqa: B023
+        ) * 1e6
+        rows.append({
+            "design": name, "n_units": design.n_units, "state": bits,
+            "find_state_us": call, "kernel_us": kernel,
+            "find_state_sensitivities_us": call_sens,
+            "kernel_sensitivities_us": kernel + sens_kernel,
+            "overhead_us": call - kernel,
+            "overhead_sensitivities_us": call_sens - kernel - sens_kernel,
+        })  # fmt: skip
+    batch = sample_bistable_batch(5, max(BATCH_SIZES), seed)
+    # the kernel's cost of the same requested states (a collapsing one costs all attempts)
+    kernel_each = _kernel_us_each(batch, solve_batch(batch, "all_inverted")["requested"])
+    batches = []
+    for size in BATCH_SIZES:
+        sub = batch.take(np.arange(size))
+        per_design = median_time(lambda: solve_batch(sub, "all_inverted")) / size * 1e6  # noqa: B023
+        per_design_sens = median_time(
+            lambda: solve_batch(sub, "all_inverted", sensitivities=True)  # noqa: B023
+        ) / size * 1e6
+        kernel_mean = float(np.mean(kernel_each[:size]))
+        batches.append({
+            "batch": size, "solve_batch_us_per_design": per_design,
+            "solve_batch_sensitivities_us_per_design": per_design_sens,
+            "kernel_us_per_design": kernel_mean, "ratio": per_design / kernel_mean,
+        })  # fmt: skip
+    return {"find_state": rows, "solve_batch": batches}
+
+
+def _compile_seconds() -> dict[str, float]:
+    """Cold compile and warm cache-load times of the sensitivity path (fresh processes)."""
+    (import_s, cold_s), (_, warm_s) = fresh_process_timings(
+        """
+        import time
+        t0 = time.perf_counter()
+        from dpfexplore import Design, DesignBatch, find_state, solve_batch
+        design = Design(H=[4.0, 4.2], U_L=8.0, U_sep=2.0, t=0.8, t_lim=1.5)
+        t1 = time.perf_counter()
+        find_state(design, "11", sensitivities=True)
+        solve_batch(DesignBatch.from_designs([design]), sensitivities=True)
+        print(t1 - t0, time.perf_counter() - t1)
+        """
+    )
+    return {"compile_s": cold_s, "cache_load_s": warm_s, "import_s": import_s}
+
+
+def measure(units=UNITS, designs: int = 30, reference_designs: int = 5, seed: int = 2025,
+            compile_time: bool = False) -> dict:  # fmt: skip
+    """The benchmark's record: per-N sensitivity rows, API rows, machine, compile times."""
+    compile_times = (
+        _compile_seconds() if compile_time
+        else {"compile_s": float("nan"), "cache_load_s": float("nan")}
+    )  # fmt: skip
+    by_n = [bench_size(n, designs, reference_designs, seed + n) for n in units]
+    return {
+        "by_n_units": by_n,
+        "api": bench_api(seed),
+        **compile_times,
+        "machine": machine_info(),
+    }
+
+
+def text_rows(record: dict) -> list[str]:
+    """The record as text lines (tables of the per-N rows and the API rows)."""
+    lines = [
+        "sensitivities (all 3N+3 parameters, 6 outputs and dx*/dθ) vs the solve they come from;"
+        " kernel times on one core, median over designs",
+        f"{'N':>3} {'P':>3} {'solve µs':>9} {'sens µs':>8} {'ratio':>6} {'p90':>5} "
+        f"{'FD API µs':>10} {'FD floor µs':>11} {'ours err':>9} {'FD err':>8} "
+        f"{'ours K err':>10} {'FD K err':>9}",
+    ]
+    for r in record["by_n_units"]:
+        lines.append(
+            f"{r['n_units']:>3} {r['parameters']:>3} {r['solve_us']:>9.1f} "
+            f"{r['sensitivities_us']:>8.1f} {r['ratio_median']:>5.2f}x {r['ratio_p90']:>4.2f}x "
+            f"{r['fd_api_us']:>10.0f} {r['fd_kernel_floor_us']:>11.0f} "
+            f"{r['ours_rel_err']:>9.1e} {r['fd_rel_err']:>8.1e} "
+            f"{r['ours_stiffness_rel_err']:>10.1e} {r['fd_stiffness_rel_err']:>9.1e}"
+        )
+    lines.append(f"{'design':>10} {'N':>2} {'find_state µs':>13} {'kernel µs':>9} "
+                 f"{'+sens µs':>9} {'kernel+sens µs':>14}")  # fmt: skip
+    for r in record["api"]["find_state"]:
+        lines.append(
+            f"{r['design']:>10} {r['n_units']:>2} {r['find_state_us']:>13.1f} "
+            f"{r['kernel_us']:>9.1f} {r['find_state_sensitivities_us']:>9.1f} "
+            f"{r['kernel_sensitivities_us']:>14.1f}"
+        )
+    lines.append(f"{'batch':>6} {'solve_batch µs/design':>21} {'+sens':>7} "
+                 f"{'kernel µs/design':>16} {'ratio':>6}")  # fmt: skip
+    for r in record["api"]["solve_batch"]:
+        lines.append(
+            f"{r['batch']:>6} {r['solve_batch_us_per_design']:>21.1f} "
+            f"{r['solve_batch_sensitivities_us_per_design']:>7.1f} "
+            f"{r['kernel_us_per_design']:>16.1f} {r['ratio']:>5.2f}x"
+        )
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``dpfexplore bench sensitivities``."""
+    units = tuple(int(s) for s in args.units.split(","))
+    record = measure(units, args.designs, args.reference_designs, args.seed,
+                     compile_time=not args.no_compile)  # fmt: skip
+    machine = record["machine"]
+    header = [
+        f"machine: {machine['cpu']}, {machine['cores']} cores; {machine['date']}",
+        f"compile (cold cache) {record['compile_s']:.1f} s, cache load "
+        f"{record['cache_load_s']:.2f} s",
+    ]
+    emit(record, as_json=args.json, text="\n".join(header + text_rows(record)),
+         save=REPORTS / "bench-sensitivities.json" if args.save else None)  # fmt: skip
+    return 0

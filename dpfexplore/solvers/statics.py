@@ -357,10 +357,12 @@ def _solve(
     shapes: bool,
     sensitivities: bool,
     shape_derivatives: bool = False,
+    serial: bool | None = None,
 ) -> _Rows:
     """Run the row kernels on packed tables (serial for small batches, else in parallel).
 
-    ``shape_derivatives`` also keeps ``dx*/dθ`` of every row, ``(n_rows, 46, 39)``.
+    ``shape_derivatives`` also keeps ``dx*/dθ`` of every row, ``(n_rows, 46, 39)``; ``serial``
+    overrides the choice by :data:`SERIAL_MAX_ROWS`.
     """
     options = options or DEFAULT_OPTIONS
     n_rows = row_design.shape[0]
@@ -386,7 +388,8 @@ def _solve(
         n_iter,
         x,
     )
-    serial = n_rows <= SERIAL_MAX_ROWS
+    if serial is None:
+        serial = n_rows <= SERIAL_MAX_ROWS
     table = dx = None
     if sensitivities:
         n_params = n_parameters(MAX_UNITS)
@@ -397,6 +400,19 @@ def _solve(
     else:
         (solve_rows_serial if serial else solve_rows)(*args)
     return _Rows(row_design, row_state, out, status, found, n_iter, x, table, dx)
+
+
+def warm_up(batch: DesignBatch, *, sensitivities: bool = False) -> None:
+    """Compile (or load from Numba's cache) every row kernel :func:`solve_batch` may run.
+
+    Both the serial kernels (small batches) and the parallel ones, so that processes started
+    afterwards only load them (see :mod:`dpfexplore.sweep.warmup`).
+    """
+    tables = kernel_tables(batch, derivatives=sensitivities)
+    row_design, row_state = _row_plan(batch, "all_inverted", tables.status == st.OK)
+    for serial in (True, False):
+        _solve(tables, row_design, row_state, stiffness=True, min_eig=True, options=None,
+               shapes=False, sensitivities=sensitivities, serial=serial)  # fmt: skip
 
 
 def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:

@@ -32,6 +32,7 @@ from dpfexplore.model.constants import (
     dome_extrema,
     inversion_threshold,
 )
+from dpfexplore.model.design import status_code
 from dpfexplore.model.domain import MAX_UNITS
 from dpfexplore.solvers import statics
 from dpfexplore.solvers.lattice import (
@@ -191,6 +192,11 @@ def test_compiled_tables_and_status_equal_the_numpy_model_exactly(seed):
     tables = kernel_tables(batch)
     table, h, no_contact = numpy_tables(batch)
     np.testing.assert_array_equal(tables.status, batch.status())
+    # the same rules run as Python, as Design does
+    shared = [getattr(batch, k) for k in ("t", "t_lim", "E", "nu", "r_b", "t_ch")]
+    python = [status_code(int(batch.n_units[i]), batch.H[i], batch.U_L[i], batch.U_sep[i],
+                          *(float(v[i]) for v in shared)) for i in range(len(batch))]  # fmt: skip
+    np.testing.assert_array_equal(python, tables.status)
     valid = tables.status == Status.OK
     # bit for bit, wherever the design is valid (invalid rows are never read)
     np.testing.assert_array_equal(tables.unit_params[valid], table[valid])

@@ -8,10 +8,10 @@ derivatives of the table's constants in the design parameters (for the sensitivi
 inline from the same source as its NumPy functions, so the numbers are bit-identical to theirs.
 
 The status codes are those of :meth:`DesignBatch.status` (``OK``, ``INVALID_INPUT``,
-``INVALID_CONSTANTS``) under the same rules, checked in the same order; only the one-line
-descriptions of the problems stay in the model layer. This makes a batch's validation and
-packing one compiled pass, about a microsecond per design, where the NumPy path costs a few
-hundred microseconds of call overhead for any batch size.
+``INVALID_CONSTANTS``), by :func:`dpfexplore.model.design.status_code` compiled inline; only the
+one-line descriptions of the problems stay with the NumPy validation of the model layer. This
+makes a batch's validation and packing one compiled pass, about a microsecond per design, where
+the NumPy path costs a few hundred microseconds of call overhead for any batch size.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ import math
 
 import numpy as np
 
-from ..model import status as st
 from ..model.constants import (
     ALPHA_BISTABLE,
     NO_CONTACT_REACH,
@@ -35,6 +34,7 @@ from ..model.constants import (
     reach_raw_form,
     segment_height_form,
 )
+from ..model.design import status_code
 from ..model.domain import MAX_UNITS
 from ._jit import kernel
 from .layout import (
@@ -65,35 +65,6 @@ DP_USEP = 2
 DP_T = 3
 DP_TLIM = 4
 N_DPARAM = 5
-
-
-@kernel(inline="always")
-def _positive(v):
-    return math.isfinite(v) and v > 0.0
-
-
-@kernel
-def design_status(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
-    """Status code of one design (the rules of ``model.design._problems``, in its order)."""
-    if not 1 <= n_units <= MAX_UNITS:
-        return st.INVALID_INPUT
-    for k in range(n_units):
-        if not (_positive(H[k]) and _positive(U_L[k]) and _positive(U_sep[k])):
-            return st.INVALID_INPUT
-    if not (_positive(t) and _positive(t_lim) and _positive(E)):
-        return st.INVALID_INPUT
-    if not (math.isfinite(nu) and 0.0 <= nu < 0.5):
-        return st.INVALID_INPUT
-    if not (_positive(r_b) and _positive(t_ch)):
-        return st.INVALID_INPUT
-    for k in range(n_units):
-        R = radius_form(H[k], r_b)
-        k_b = kb_form(E, H[k], t, R)
-        alpha = alpha_form(H[k], t, R)
-        valid = math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0
-        if not valid:
-            return st.INVALID_CONSTANTS
-    return st.OK
 
 
 @kernel
@@ -192,7 +163,7 @@ def design_tables(
     """
     want_derivatives = dtab.shape[0] > 0
     for i in range(n_units.shape[0]):
-        status[i] = design_status(
+        status[i] = status_code(
             n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i]
         )
         h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
@@ -222,4 +193,4 @@ def empty_derivative_table():
 
 
 __all__ = ["DC_H", "DP_H", "DP_T", "DP_TLIM", "DP_UL", "DP_USEP", "N_COLS", "N_DCONST", "N_DPARAM",
-           "design_status", "design_tables", "empty_derivative_table"]
+           "design_tables", "empty_derivative_table"]

@@ -98,6 +98,7 @@ def test_bench_sensitivities_record(capsys, tmp_path, monkeypatch):
         assert r["ours_rel_err"] < 1e-6 and r["ours_stiffness_rel_err"] < 1e-5
     api = record["api"]
     assert [r["batch"] for r in api["solve_batch"]] == [1, 8, 64]
+    assert all(r["ratio"] > 0 and r["ratio_sensitivities"] > 0 for r in api["solve_batch"])
     assert {r["design"] for r in api["find_state"]} == {"gripper", "pickplace"}
     saved = json.loads((tmp_path / "results" / "reports" / "bench-sensitivities.json").read_text())
     assert saved["by_n_units"][0]["n_units"] == 2

@@ -17,6 +17,7 @@ Decisions the model leaves open
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -188,8 +189,7 @@ def batch_constants(batch: DesignBatch, *, domes: bool = True) -> dict:
         )
 
 
-@dataclass(frozen=True)
-class KernelTables:
+class KernelTables(NamedTuple):
     """What the state kernels read about a batch of designs (:func:`kernel_tables`).
 
     Attributes

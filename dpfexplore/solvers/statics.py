@@ -105,6 +105,7 @@ class SolverOptions:
 
 
 DEFAULT_OPTIONS = SolverOptions()
+_DEFAULT_CONTROLS = DEFAULT_OPTIONS.kernel_args()
 
 
 def parse_state(state: str | int | Sequence[int], n_units: int) -> int:
@@ -364,7 +365,7 @@ def _solve(
     ``shape_derivatives`` also keeps ``dx*/dθ`` of every row, ``(n_rows, 46, 39)``; ``serial``
     overrides the choice by :data:`SERIAL_MAX_ROWS`.
     """
-    options = options or DEFAULT_OPTIONS
+    controls = _DEFAULT_CONTROLS if options is None else options.kernel_args()
     n_rows = row_design.shape[0]
     out = np.empty((n_rows, kstates.N_OUT))
     status = np.empty(n_rows, dtype=np.int8)
@@ -379,7 +380,7 @@ def _solve(
         tables.status,
         row_design,
         row_state,
-        *options.kernel_args(),
+        *controls,
         stiffness,
         min_eig,
         out,
@@ -424,8 +425,9 @@ def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:
         "status": rows.status,
         "n_iter": rows.n_iter,
     }
-    out = rows.out
-    result.update({name: np.ascontiguousarray(out[:, col]) for name, col in OUTPUT_COLUMNS.items()})
+    # one copy makes every output column a contiguous row of its own
+    by_column = np.ascontiguousarray(rows.out.T)
+    result.update({name: by_column[col] for name, col in OUTPUT_COLUMNS.items()})
     if shapes:
         result["x"] = rows.x
     if rows.sens is not None:

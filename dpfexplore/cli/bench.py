@@ -9,7 +9,9 @@ from __future__ import annotations
 import importlib
 
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
-BENCHMARKS = ("statics", "sweep", "dynamics", "surrogate", "reset_model", "design")
+BENCHMARKS = (
+    "statics", "sweep", "dynamics", "sensitivities", "surrogate", "reset_model", "design",
+)
 
 
 def register(subparsers) -> None:

@@ -284,7 +284,7 @@ def test_bench_design_record(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     code = main(["bench", "design", "--json", "--targets", "2", "--materials", "cheetah-95a",
                  "--n-units", "2,3", "--tpe-budget", "12", "--gp-budget", "4", "--skip-gripper",
-                 "--save"])  # fmt: skip
+                 "--skip-pickplace", "--skip-walker", "--save"])  # fmt: skip
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     (row,) = record["rows"]

@@ -12,10 +12,12 @@ method):
   ``bayesian-optimization`` package, UCB acquisition), one optimiser per N as the paper ran it,
   taking turns so that no N is favoured by order.
 
-The paper's ten position targets (five targets, Cheetah 95A and NinjaFlex 85A scenes) and the
-gripper: for each method the exact evaluations and wall time to reach 0.5 mm², 1e-6 mm² and the
-paper's objective, the best objective at the same number of evaluations and at the same wall
-time as ours, and the best objective within the baseline's budget. A black-box method gets
+The paper's ten position targets (five targets, Cheetah 95A and NinjaFlex 85A scenes), the
+gripper, and the timing scenes (pick-and-place target reset times and walker legs, against TPE at
+equal wall time: :mod:`dpfexplore.bench.design_timing`): for each method the exact evaluations
+and wall time to reach 0.5 mm², 1e-6 mm² and the paper's objective, the best objective at the
+same number of evaluations and at the same wall time as ours, and the best objective within the
+baseline's budget. A black-box method gets
 :data:`PENALTY` for a design whose targeted state does not exist (it has no tip in that state).
 Baselines need the ``baselines`` extra (``pip install -e ".[baselines]"``).
 """
@@ -67,6 +69,15 @@ def register(subparsers) -> None:
     parser.add_argument("--gripper-budget", type=int, default=600,
                         help="baseline evaluations on the gripper's apertures")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--skip-position", action="store_true", help="no position targets")
+    parser.add_argument("--skip-pickplace", action="store_true", help="no pick-and-place targets")
+    parser.add_argument("--skip-walker", action="store_true", help="no walker legs")
+    parser.add_argument("--pickplace-targets", default="0.3,1,2,3",
+                        help="pick-and-place target reset times (s)")  # fmt: skip
+    parser.add_argument("--timing-tpe-factor", type=float, default=10.0,
+                        help="timing scenes: TPE gets this many times our wall time")
+    parser.add_argument("--timing-min-seconds", type=float, default=5.0,
+                        help="timing scenes: TPE gets at least this many seconds")
     parser.set_defaults(handler=run)
 
 
@@ -221,7 +232,8 @@ def run(args: argparse.Namespace) -> int:
     rows = []
     started = time.perf_counter()
     targets = [int(t) - 1 for t in args.targets.split(",") if t]
-    for material in [m for m in args.materials.split(",") if m]:
+    materials = [] if args.skip_position else [m for m in args.materials.split(",") if m]
+    for material in materials:
         spec = load_scene(JOBS / SCENES[material])
         if args.n_units:
             document = dict(spec.document)
@@ -234,6 +246,13 @@ def run(args: argparse.Namespace) -> int:
     if not args.skip_gripper:
         rows.append(bench_gripper(args))
         _progress(rows[-1], started)
+    from .design_timing import bench_pickplace, bench_walker
+
+    for skip, bench in ((args.skip_pickplace, bench_pickplace), (args.skip_walker, bench_walker)):
+        if not skip:
+            for row in bench(args, JOBS):
+                rows.append(row)
+                _progress(row, started)
     record = {"benchmark": "design", "machine": machine_info(), "rows": rows,
               "wall_s": time.perf_counter() - started, "summary": _goals(rows)}  # fmt: skip
     save = REPORTS / "bench-design.json" if args.save else None
@@ -268,6 +287,18 @@ def _goals(rows: list[dict]) -> dict:
                        "wall_ratio": _ratio(r["ours_wall_s"], r["baseline_wall_s"]),
                        "baseline_reached_paper": r["baseline_evals"] is not None})  # fmt: skip
     out["ratios"] = ratios
+    timing = [r for r in rows if r["scene"] == "pickplace" or r["scene"].startswith("walker")]
+    out["timing_scenes"] = [{"scene": r["scene"], "target": r["target"],
+                             "ours_wall_s_to_goal": r["ours_wall_s"],
+                             "tpe_wall_s_to_goal": r["baseline_wall_s"],
+                             "tpe_objective_at_ours_wall": r["baseline_objective_at_ours_wall"],
+                             "wall_ratio": r["wall_ratio_to_goal"],
+                             "ratio_is_lower_bound": r["wall_ratio_is_lower_bound"],
+                             "goal": r["goal"], "goal_tight": r.get("goal_tight"),
+                             "wall_ratio_to_tight": r.get("wall_ratio_to_tight"),
+                             "tight_ratio_is_lower_bound":
+                             r.get("wall_ratio_to_tight_is_lower_bound")}
+                            for r in timing]  # fmt: skip
     return out
 
 
@@ -293,6 +324,15 @@ def _text(record: dict) -> str:
     s = record["summary"]
     lines.append(f"position targets met to 1e-6 mm²: {s['position_met_1e-6']}/"
                  f"{s['position_targets']}; slowest target {_fmt(s['position_max_wall_s'])} s")
+    for t in s.get("timing_scenes", []):
+        bound = ">= " if t["ratio_is_lower_bound"] else ""
+        tight = "" if t.get("goal_tight") is None else (
+            f"; to {t['goal_tight']:g}: ratio {'>= ' if t['tight_ratio_is_lower_bound'] else ''}"
+            f"{_fmt(t['wall_ratio_to_tight'], '.1f')}")  # fmt: skip
+        lines.append(f"{t['scene']} {t['target']}: ours {_fmt(t['ours_wall_s_to_goal'], '.2f')} "
+                     f"s to {t['goal']:g}, TPE {_fmt(t['tpe_wall_s_to_goal'], '.2f')} s; ratio "
+                     f"{bound}{_fmt(t['wall_ratio'], '.1f')}; TPE's best at our wall time "
+                     f"{_fmt(t['tpe_objective_at_ours_wall'], '.3g')}{tight}")  # fmt: skip
     lines.append(f"total {record['wall_s']:.1f} s on {record['machine']['cores']} cores "
                  f"({record['machine']['cpu']})")  # fmt: skip
     return "\n".join(lines)

@@ -36,7 +36,9 @@ def _pickplace(spec, rows) -> None:
     if rng:
         print(f"  reachable reset times: {rng['min_s']:.3f} to {rng['max_s']:.3f} s"
               + (f" (inside the fitted range {fit['min_s']:.3f} to {fit['max_s']:.3f} s)"
-                 if fit else "") + "; the upper end diverges at the bistable edge")  # fmt: skip
+                 if fit else "") + " on the screening grid; every time up to the horizon "
+              f"({r0['reachable_range']['supremum_s']:g} s) is reachable: the reset time "
+              "diverges at the bistable edge")  # fmt: skip
     print(f"  {'target s':>14}  {'H tip':>8}  {'t':>7}  {'reset s':>9}  {'error':>9}  "
           f"{'stiff N/mm':>10}  {'wall s':>6}  met")  # fmt: skip
     for r in rows:

@@ -32,7 +32,7 @@ from .pickplace_design import solve_pickplace
 from .scene_jobs import SceneSpec
 from .timing_report import pickplace_report, write_timing_report
 from .walker_design import solve_walker
-from .walker_report import walker_report
+from .walker_report import walker_report, write_walker_report
 
 __all__ = ["REPORTS", "SOLVERS", "WRITERS", "DesignOutcome", "Progress", "design_scene",
            "run_design"]
@@ -58,7 +58,7 @@ REPORTS: dict[str, Callable[[SceneSpec, TargetResult, Evaluator], dict[str, Any]
 #: Scene kind -> writer of its report files (default :func:`.design_report.write_report`).
 WRITERS: dict[str, Callable[..., list[Path]]] = {
     "pickplace": write_timing_report,
-    "walker_leg": write_timing_report,
+    "walker_leg": write_walker_report,
 }
 
 

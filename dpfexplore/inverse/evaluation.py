@@ -46,12 +46,14 @@ EVALUATION_KINDS = ("designs", "state_solves", "stiffness", "derivative", "snap"
 SCREENING_METHODS = ("fast", "release")
 #: Batches of at most this many rows run on one thread.
 _SMALL_BATCH = 96
+#: The same for dynamics (a run costs milliseconds: two designs already share the threads well).
+_SMALL_DYNAMICS = 1
 
 
 @contextlib.contextmanager
-def few_threads(rows: int) -> Iterator[None]:
-    """Run the enclosed Numba calls on one thread when ``rows`` is small."""
-    if rows > _SMALL_BATCH:
+def few_threads(rows: int, limit: int = _SMALL_BATCH) -> Iterator[None]:
+    """Run the enclosed Numba calls on one thread when ``rows`` is at most ``limit``."""
+    if rows > limit:
         yield
         return
     previous = numba.get_num_threads()
@@ -149,13 +151,15 @@ class Evaluator:
         """Reset times of ``batch`` under ``profile`` (:func:`reset_times_batch`), counted.
 
         Reduced models (:data:`SCREENING_METHODS`) count as ``screening``, the full model as
-        ``simulations`` (or ``verifications`` when ``verification``). Rows run in parallel.
+        ``simulations`` (or ``verifications`` when ``verification``). Rows run in parallel
+        (small batches on one thread, as :meth:`solve`).
         Note that the batch runs stop once every inverted unit is back below its barrier; where
         a unit may re-invert after that (a neighbour's snap-back pushing it back), use
         :meth:`simulate`, which follows the whole horizon.
         """
-        out = reset_times_batch(batch, profile, t_end=t_end, method=method, atol=atol)
         n = len(batch)
+        with few_threads(n, _SMALL_DYNAMICS):
+            out = reset_times_batch(batch, profile, t_end=t_end, method=method, atol=atol)
         if method in SCREENING_METHODS:
             self.counts["screening"] += n
         else:
@@ -173,7 +177,8 @@ class Evaluator:
         if kind not in EVALUATION_KINDS:
             raise ValueError(f"kind = {kind!r}: one of {EVALUATION_KINDS}")
         options.setdefault("n_samples", 0)
-        result = simulate(design, profile, t_end=t_end, **options)
+        with few_threads(1):
+            result = simulate(design, profile, t_end=t_end, **options)
         self.counts[kind] += 1
         self.counts["designs"] += 1
         return result

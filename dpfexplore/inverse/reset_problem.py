@@ -74,7 +74,10 @@ def screening_method(preferred: str, pulse: PulseSpec) -> tuple[str, str]:
     if not in_scene(model, pulse.profile, pulse.t_end):
         return "release", ("release (the pulse or horizon is outside the fast model's trained "
                            f"scene: P0 = {model.P0} MPa, tau = {list(model.tau)} s)")  # fmt: skip
-    return "fast", "fast (the scene's pulse is the fast model's trained scene)"
+    domain = ", ".join(f"{k} {v[0]:g}-{v[1]:g}" for k, v in model.domain.items()
+                       if k in ("H", "t"))  # fmt: skip
+    return "fast", ("fast inside its trained domain (" + domain + "), release outside it (the "
+                    "scene's pulse is the fast model's trained scene)")  # fmt: skip
 
 
 @dataclass
@@ -231,29 +234,63 @@ class ResetProblem(Problem):
         z = np.atleast_2d(np.asarray(z, dtype=float))
         pulse = self.p.pulse if pulse is None else pulse
         batch = self.designs(z)
-        out = self.evaluator.reset_times(batch, pulse.profile, t_end=pulse.t_end, method=method,
-                                         atol=atol)  # fmt: skip
+        if method == "fast":
+            out, methods = self._fast_or_release(batch, pulse)
+        else:
+            out = self.evaluator.reset_times(batch, pulse.profile, t_end=pulse.t_end,
+                                             method=method, atol=atol)  # fmt: skip
+            methods = np.full(len(z), method)
         n = self.variables.n_units
         reset, classes = out["reset_time"][:, :n], out["unit_class"][:, :n].astype(np.int64)
         value, ok = self.objective_value(reset, classes, out["status"])
         ev = ResetEval(z=z, reset=reset, classes=classes, final_state=out["final_state"],
                        status=out["status"], value=value, admissible=ok, method=method)  # fmt: skip
-        if "fallback" in out:
-            ev.extra["fallback"] = out["fallback"]
+        ev.extra["methods"] = methods
         self._record(batch, ev, purpose, objective_target, profile_index)
         return ev
+
+    def _fast_or_release(self, batch: DesignBatch, pulse: PulseSpec
+                         ) -> tuple[dict[str, NDArray], NDArray]:  # fmt: skip
+        """The fast model on the rows inside its trained domain, ``release`` on the others.
+
+        (Outside its domain the fast model would run the full model instead: far slower than
+        the release model, which is all a screening needs.)
+        """
+        from ..solvers.fast_reset import in_domain
+        from ..solvers.fast_reset_model import load_reset_model
+
+        inside = in_domain(load_reset_model(), batch)
+        methods = np.where(inside, "fast", "release")
+        parts = {}
+        for name in ("fast", "release"):
+            rows = np.flatnonzero(methods == name)
+            if rows.size:
+                parts[name] = (rows, self.evaluator.reset_times(
+                    batch.take(rows), pulse.profile, t_end=pulse.t_end, method=name))
+        out: dict[str, NDArray] = {}
+        for key in ("status", "final_state", "reset_time", "unit_class"):
+            first = next(iter(parts.values()))[1][key]
+            out[key] = np.empty((len(batch), *first.shape[1:]), dtype=first.dtype)
+            for rows, part in parts.values():
+                out[key][rows] = part[key]
+        if "fast" in parts:
+            rows, part = parts["fast"]
+            fell_back = part["fallback"]
+            methods[rows[fell_back]] = "fast (fallback: rodas4)"
+        return out, methods
 
     def _record(self, batch: DesignBatch, ev: ResetEval, purpose: str, target: float | None,
                 profile_index: int) -> None:  # fmt: skip
         exact = ev.method not in ("fast", "release")
         objective = np.full(len(ev.z), np.nan)
-        if target is not None and exact:
+        if target is not None and exact:  # screening rows are never the answer
             with np.errstate(invalid="ignore"):
                 objective = np.where(ev.admissible, np.abs(ev.value / target - 1.0), np.nan)
         columns = {f"reset_{k + 1}": ev.reset[:, k] for k in range(ev.reset.shape[1])}
         columns.update({f"class_{k + 1}": ev.classes[:, k].astype(np.int8)
                         for k in range(ev.classes.shape[1])})  # fmt: skip
-        self.evaluator.record(batch, target=self.target_index, purpose=purpose, method=ev.method,
+        self.evaluator.record(batch, target=self.target_index, purpose=purpose,
+                              method=ev.extra.get("methods", ev.method),
                               profile=profile_index, objective=objective,
                               reset_objective=ev.value, admissible=ev.admissible,
                               status=ev.status, final_state=ev.final_state,

@@ -28,7 +28,7 @@ Pick-and-place (MODEL.md §9, paper eq. opti_pick_and_place)::
     grasp_state = "111100"         # whose tip stiffness is reported and maximised
                                    # (default: the hold units inverted)
     screening = "fast"             # "fast" (where its trained scene matches), "release", "rodas4"
-    grid = {t = 26, H = 81}        # screening lines of t, points of H per line
+    grid = {t = 11, H = 41}        # screening lines of t, points of H per line
     search_atol = 1e-6             # mm: full model inside the root finding
     verify_atol = 1e-7             # mm: full model of every reported design
     prefer_fitted = true           # answer inside the fitted range when a bracket lies there
@@ -399,8 +399,8 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
         pulse=pulse, hold_units=hold, reset_unit=reset_unit, targets=tuple(targets),
         unit_targets=tuple(unit_targets),
         tolerance=_positive(p, "pickplace", "tolerance", 0.01), grasp_state=grasp,
-        screening=screening, grid_t=_integer(grid, "pickplace.grid", "t", 26, 2, 1000),
-        grid_H=_integer(grid, "pickplace.grid", "H", 81, 3, 10000),
+        screening=screening, grid_t=_integer(grid, "pickplace.grid", "t", 11, 2, 1000),
+        grid_H=_integer(grid, "pickplace.grid", "H", 41, 3, 10000),
         search_atol=_positive(p, "pickplace", "search_atol", 1e-6),
         verify_atol=_positive(p, "pickplace", "verify_atol", 1e-7),
         prefer_fitted=_bool(p, "pickplace", "prefer_fitted", True), difference=difference,

@@ -6,7 +6,7 @@ reported are that run's. Grasp stiffnesses are :func:`dpfexplore.solvers.statics
 re-solves. Units whose reach ``d`` is clamped are classed ``no_contact``. Every design carries
 ``fitted_range`` and ``fitted_range_note`` (:attr:`dpfexplore.model.design.Design.in_fitted_range`).
 
-Files (:func:`write_timing_report`)
+Files (:func:`write_timing_report`; the walker's :func:`.walker_report.write_walker_report`)
     ``summary.json``, ``history.parquet``   as :func:`.design_report.write_report`
     ``result-KK.toml``     pick-and-place: the design of result KK (``[design]``, read by
                            ``dpfexplore states`` and ``dpfexplore simulate``) and ``[result]``
@@ -31,7 +31,7 @@ from .design_report import _json_default, _num, _toml_value, public
 from .evaluation import Evaluator
 from .optimiser import TargetResult
 
-__all__ = ["json_times", "pickplace_report", "write_timing_report"]
+__all__ = ["json_times", "pickplace_report", "write_common", "write_timing_report"]
 
 VERIFIED_BY = ("simulated alone to the horizon (no early stop) by the full model (rodas4) at "
                "atol = {atol:g} mm; the reported reset times and classes are this run's")
@@ -68,15 +68,16 @@ def _check_entry(check: dict) -> dict[str, Any]:
 
 def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
     """The verified ``--json`` row of one pick-and-place result (target, unit pair or front)."""
-    from .pickplace_design import screen_pickplace
+    from .pickplace_design import reachable_range, screen_pickplace
 
     p = spec.pickplace
     extra = result.extra
+    ranges = reachable_range(spec, evaluator)
     screen = screen_pickplace(spec, evaluator)
     common = {
         "objective_kind": extra["kind"], "reset_unit": p.reset_unit,
         "grasp_state": p.grasp_state, "profile": p.pulse.to_dict(),
-        "reachable_range": screen.ranges,
+        "reachable_range": ranges,
         "screening": {"method": screen.method, "note": screen.note,
                       "designs": len(screen.ev.z), "wall_s": screen.wall_s},
         "evaluations": dict(result.counts), "wall_s": result.wall_s,
@@ -105,6 +106,10 @@ def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[s
                          "t_end": check["t_end"], "grasp_state": grasp["status"]},
         "search": {"brackets": extra.get("brackets"), "tried": len(extra["attempts"]),
                    "root_evaluations": best.get("root_evaluations")},
+        "wall_s_note": "the target's search and verification; the screening and the reachable "
+                       "range of the scene are in screening.wall_s and reachable_range.wall_s "
+                       "(shared by every result of the run; the first result's wall_s includes "
+                       "its first stage)",
     })  # fmt: skip
     if extra["kind"] == "unit_target":
         row["unit_errors"] = [_num(e) for e in best["unit_errors"]]
@@ -182,9 +187,9 @@ def _result_toml(row: dict[str, Any], title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_timing_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
-                        *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
-    """Write summary, history, design or leg files and (optionally) figures; returns the paths."""
+def write_common(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
+                 *, wall_s: float) -> list[Path]:  # fmt: skip
+    """``summary.json`` and ``history.parquet`` (as :func:`.design_report.write_report`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = {"scene": spec.document, "kind": spec.kind, "name": spec.name,
@@ -198,21 +203,24 @@ def write_timing_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, 
     path = out / "history.parquet"
     history.to_parquet(path, index=False)
     written.append(path)
-    if spec.kind == "pickplace":
-        for i, row in enumerate(rows):
-            if row.get("design") is None:
-                continue
-            path = out / f"result-{i + 1:02d}.toml"
-            what = (f"target reset {row['target_reset']} s" if row["target_reset"] is not None
-                    else "largest reset-time difference of the two profiles")  # fmt: skip
-            path.write_text(_result_toml(row, f"{spec.name}: result {i + 1}, {what}"))
-            written.append(path)
-        if plot:
-            written += _pickplace_figures(spec, rows, evaluator, history, out)
-    else:
-        from .walker_report import write_walker_files
+    return written
 
-        written += write_walker_files(spec, rows, out, plot=plot)
+
+def write_timing_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
+                        *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
+    """Pick-and-place: summary, history, result TOMLs and (optionally) figures; the paths."""
+    out = Path(out)
+    written = write_common(spec, rows, evaluator, out, wall_s=wall_s)
+    for i, row in enumerate(rows):
+        if row.get("design") is None:
+            continue
+        path = out / f"result-{i + 1:02d}.toml"
+        what = (f"target reset {row['target_reset']} s" if row["target_reset"] is not None
+                else "largest reset-time difference of the two profiles")  # fmt: skip
+        path.write_text(_result_toml(row, f"{spec.name}: result {i + 1}, {what}"))
+        written.append(path)
+    if plot:
+        written += _pickplace_figures(spec, rows, evaluator, evaluator.history(), out)
     return written
 
 

@@ -17,10 +17,10 @@ import numpy as np
 from .design_report import _num, _toml_value
 from .evaluation import Evaluator
 from .optimiser import TargetResult
-from .timing_report import VERIFIED_BY, json_times
+from .timing_report import VERIFIED_BY, json_times, write_common
 from .walker_design import violation
 
-__all__ = ["inverted_intervals", "walker_report", "write_walker_files"]
+__all__ = ["inverted_intervals", "walker_report", "write_walker_report"]
 
 _ROLES = ("purple", "green", "action")
 
@@ -142,9 +142,11 @@ def _leg_toml(row: dict[str, Any], spec, title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_walker_files(spec, rows: list[dict[str, Any]], out: Path, *, plot: bool) -> list[Path]:
-    """Leg TOMLs of the designed legs and, with ``plot``, tip paths and timing diagrams."""
-    written = []
+def write_walker_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
+                        *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
+    """Summary, history, leg TOMLs and, with ``plot``, tip paths and timing diagrams (paths)."""
+    out = Path(out)
+    written = write_common(spec, rows, evaluator, out, wall_s=wall_s)
     for row in rows:
         if row.get("design") is None:
             continue

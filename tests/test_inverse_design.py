@@ -18,7 +18,7 @@ from dpfexplore.cli import main
 from dpfexplore.inverse.design import design_scene
 from dpfexplore.inverse.evaluation import Evaluator
 from dpfexplore.inverse.scene_jobs import SceneSpecError, load_scene, parse_scene
-from dpfexplore.inverse.scenes import GripperProblem
+from dpfexplore.inverse.scenes import GripperProblem, PositionProblem
 from dpfexplore.inverse.variables import DesignVariables
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.model.gripper import gripper_aperture
@@ -204,6 +204,30 @@ def test_gripper_transform_reproduces_the_implementation_apertures():
         up = problem.evaluate((zz + step)[None], purpose="test").residual[0]
         down = problem.evaluate((zz - step)[None], purpose="test").residual[0]
         np.testing.assert_allclose(jac[:, j], (up - down) / 2e-6, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["position", "gripper"])
+def test_scene_jacobians_from_sensitivities_equal_central_differences(kind):
+    """The optimiser's derivatives (one solve with the model's sensitivities, chained through
+    the reparametrisation) against central differences of the exact model in the same box."""
+    if kind == "gripper":
+        spec = load_scene(JOBS / "design-gripper.toml")
+        problem = GripperProblem(spec.design_variables(5), spec.gripper, Evaluator(5))
+        z, _ = problem.variables.encode(DesignBatch.from_designs([Design(**GRIPPER)]))
+        point = np.append(z[0], [0.4, 0.6])
+    else:
+        variables = DesignVariables(n_units=4, heights="descending")
+        problem = PositionProblem(variables, (40.0, 30.0), "all_inverted", Evaluator(4))
+        point = np.random.default_rng(5).uniform(0.2, 0.8, variables.n_variables)
+    ev = problem.evaluate(point[None], purpose="test", stiffness=True)
+    assert ev.ok[0]
+    before = problem.evaluator.counts["designs"]
+    d_res, d_logk = problem.jacobian(ev, stiffness=True)
+    assert problem.evaluator.counts["designs"] - before == 1  # one solve per Jacobian
+    fd_res, fd_logk = problem._difference_jacobian(ev, stiffness=True)
+    scale = np.max(np.abs(fd_res))
+    np.testing.assert_allclose(d_res, fd_res, rtol=0, atol=2e-5 * scale)
+    np.testing.assert_allclose(d_logk, fd_logk, rtol=0, atol=2e-5 * np.max(np.abs(fd_logk)))
 
 
 @pytest.mark.slow

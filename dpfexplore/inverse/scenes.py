@@ -140,6 +140,8 @@ class Problem:
         batch, states, want = self.requests(z, stiffness=stiffness)
         out = self.evaluator.solve(batch, states, stiffness=want, derivative=True,
                                    sensitivities=True)  # fmt: skip
+        # The history lists every model evaluation, this re-solve of the point included.
+        self.record(batch, self.finish(z, batch, out), "derivative")
         dtheta = self.variables.jacobian(z[:, : self.variables.n_variables])[0]
         cols = batch_columns(self.n_units)
         d_tip = np.stack([out["d_tip_x"][0][:, cols], out["d_tip_y"][0][:, cols]], axis=1) @ dtheta

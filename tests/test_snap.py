@@ -95,6 +95,34 @@ def test_jacobian_is_the_derivative_of_the_residual_and_not_symmetric(which, gri
     assert asym == pytest.approx(pressure, rel=1e-12)  # faces give ±P/2 blocks: |K - Kᵀ| = P
 
 
+@pytest.mark.parametrize("singular", [False, True])
+def test_bordered_lu_solves_banded_systems_with_a_border_even_where_k_is_singular(singular):
+    from dpfexplore._kernels.bordered_lu import bordered_factor, bordered_solve
+
+    rng = np.random.default_rng(11)
+    band = 7
+    for n in (2, 10, 30, 46):
+        k = np.zeros((n, n))
+        for i in range(n):
+            lo, hi = max(0, i - band), min(n, i + band + 1)
+            k[i, lo:hi] = rng.standard_normal(hi - lo)
+        k += (3.0 + n / 4) * np.eye(n)
+        if singular:  # a fold: K singular, the bordered matrix regular
+            k = k + k.T
+            k -= np.linalg.eigvalsh(k)[n // 2] * np.eye(n)
+        a = np.zeros((n + 1, n + 1))
+        a[:n, :n] = k
+        a[:n, n] = rng.standard_normal(n)
+        a[n] = rng.standard_normal(n + 1)
+        rhs = rng.standard_normal(n + 1)
+        factors, piv, z = a.copy(), np.empty(n + 2, dtype=np.int64), rhs.copy()
+        assert bordered_factor(factors, n + 1, piv, band) == 0
+        bordered_solve(factors, n + 1, piv, z, band)
+        assert np.abs(a @ z - rhs).max() < 1e-12 * np.abs(a).max() * np.abs(z).max()
+        # the banded elimination is kept unless K's singular direction calls for the border row
+        assert (piv[n + 1] < n + 1) == singular
+
+
 # ---- a single unit cell against an independent model ------------------------------------------
 
 
@@ -350,6 +378,13 @@ def test_start_state_and_its_checks(gripper):
         snap_pressures(gripper, model="radau")
 
 
+def test_units_without_dome_contact_are_flagged():
+    design = Design(H=[4.0, 3.2], U_L=7.0, U_sep=[1.5, 4.5], t=0.8, t_lim=1.4)
+    assert list(spring_constants(design).no_contact) == [False, True]
+    seq = snap_pressures(design, P_max=0.5, release=False)
+    assert seq.no_contact == (False, True) and seq.to_dict()["no_contact"] == [False, True]
+
+
 def test_inversion_pressure(gripper, gripper_up):
     assert inversion_pressure(gripper, 1, P_max=0.7) == gripper_up.events[1].pressure
     assert inversion_pressure(gripper, 4, P_max=0.5) == math.inf
@@ -373,6 +408,7 @@ def test_batch_matches_single_designs(gripper, gripper_up):
         assert list(out["release_state"][i, : len(released)]) == released
         inv = out["inversion_pressure"][i, : design.n_units]
         assert np.array_equal(inv, seq.inversion_pressures())
+        assert tuple(out["no_contact"][i, : design.n_units]) == seq.no_contact
     assert out["status"][-1] == Status.INVALID_INPUT and out["n_events"][-1] == 0
     assert np.isnan(out["inversion_pressure"][-1]).all()
 

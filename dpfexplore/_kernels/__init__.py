@@ -28,4 +28,7 @@ reduced
     The release model: a cheaper reset-time model with its error measured.
 dynamics_batch
     ``prange`` entry point for reset times of many designs.
+continuation, snap
+    Equilibrium branches under a slow pressure ramp (pseudo-arclength, folds, crossings) and
+    the snap pressures: landings by the equations of motion, ``prange`` over designs.
 """

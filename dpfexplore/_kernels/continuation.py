@@ -18,8 +18,8 @@ Corrector
     Keller's pseudo-arclength: from a point ``y0`` with unit tangent ``t0`` and a step ``σ``,
     Newton on ``[R(y); t0·(y - y0) - σ] = 0`` from the predictor ``y0 + σ t0``. Its matrix, the
     bordered ``[[K, -f/PRESSURE_SCALE], [t0ᵀ]]``, stays regular through a fold (where ``K`` is
-    singular), so the branch is followed around it. Factored by the dense LU of
-    :mod:`.dense_lu` (the border breaks the band; at most 47 x 47).
+    singular), so the branch is followed around it. Factored by the bordered banded LU of
+    :mod:`.bordered_lu` (the border row stays a pivot candidate, so folds are safe).
 Tangent
     The same factorisation at the converged point gives the next tangent: ``[[K, -f/w], [t0ᵀ]]
     z = e_last``, normalised; ``t0·z = 1`` orients it along the direction of travel.
@@ -40,7 +40,8 @@ import math
 import numpy as np
 
 from ._jit import kernel
-from .dense_lu import lu_factor, lu_solve
+from .bordered_lu import bordered_factor, bordered_solve
+from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
 from .dynamics import add_pressure_forces, add_pressure_jacobian
 from .events import margins
 from .lattice import GRADIENT, HESSIAN, N_SPLIT, assemble
@@ -82,7 +83,7 @@ def workspace(n_units):
         np.empty(n),
         np.empty((n, n)),
         np.empty((n + 1, n + 1)),
-        np.empty(n + 1, dtype=np.int64),
+        np.empty(n + 2, dtype=np.int64),
         np.empty(n + 1),
         np.empty(N_SPLIT),
         np.empty(n_units),
@@ -126,7 +127,7 @@ def _factor_bordered(border, ws, n):
         big[i, n] = -f[i] * inv_w
     for j in range(n + 1):
         big[n, j] = border[j]
-    return lu_factor(big, n + 1, piv, n)
+    return bordered_factor(big, n + 1, piv, BAND)
 
 
 @kernel
@@ -136,7 +137,7 @@ def _tangent(ws, n, t):
     for i in range(n):
         rhs[i] = 0.0
     rhs[n] = 1.0
-    lu_solve(big, n + 1, piv, rhs, n)
+    bordered_solve(big, n + 1, piv, rhs, BAND)
     norm = 0.0
     for i in range(n + 1):
         norm += rhs[i] * rhs[i]
@@ -185,7 +186,7 @@ def correct(y0, t0, sigma, unit_params, h, ws, y, t):
         for i in range(n):
             rhs[i] = -res[i]
         rhs[n] = -arc
-        lu_solve(big, n + 1, piv, rhs, n)
+        bordered_solve(big, n + 1, piv, rhs, BAND)
         size = 0.0
         for i in range(n + 1):
             y[i] += rhs[i]

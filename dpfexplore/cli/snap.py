@@ -73,6 +73,10 @@ def _print_table(seq, design, name) -> None:
     if not seq.fitted_range:
         print("warning: the design is outside the fitted range of the closed forms "
               "(H in [3, 5] mm, t in [0.5, 1] mm): the constants are extrapolated")  # fmt: skip
+    loose = [str(k + 1) for k, flag in enumerate(seq.no_contact) if flag]
+    if loose:
+        print(f"note: unit(s) {', '.join(loose)} have no dome contact (reach clamped to 0.01 mm): "
+              "their events are the model's artefact")  # fmt: skip
     print(f"{'pressure/MPa':>12}  {'event':<8}  {'before':>{design.n_units}} -> "
           f"{'after':<{design.n_units}}  units")  # fmt: skip
     for e in seq.events:

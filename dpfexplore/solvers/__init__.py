@@ -19,4 +19,7 @@ dynamics
     :func:`~.dynamics.simulate` and :func:`~.dynamics.reset_times_batch` (MODEL.md §8).
 resetmaps
     The paper's metastable-dome maps (reset time against H, t and hold time).
+snap, snap_results
+    :func:`~.snap.snap_pressures`: the states a slow pressure ramp visits, its snap pressures
+    and each state's pressure window (quasi-static continuation, landings by the dynamics).
 """

@@ -162,6 +162,10 @@ class SnapSequence:
         Whether the design is inside the fitted domain of the closed forms (MODEL.md §3:
         ``H`` in [3, 5] mm, ``t`` in [0.5, 1] mm); results outside it are the model's, not
         trusted physics.
+    no_contact : tuple of bool
+        Per unit: the closed form of the dome's reach was not positive (MODEL.md §3, ``d``
+        clamped to 0.01 mm). Such a dome cannot bend the finger, and its "inversion" over a
+        0.01 mm reach is the model's artefact: its events happen at a few kPa.
     stats : dict
         Continuation steps (accepted, rejected), landing steps, events.
     """
@@ -178,6 +182,7 @@ class SnapSequence:
     final_x: NDArray
     model: str
     fitted_range: bool
+    no_contact: tuple[bool, ...] = ()
     stats: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -235,6 +240,7 @@ class SnapSequence:
             "status": self.status.label,
             "model": self.model,
             "fitted_range": self.fitted_range,
+            "no_contact": list(self.no_contact),
             "events": [e.to_dict() for e in self.events],
             "states": [v.to_dict() for v in self.visits],
             "inversion_pressures": [_json_number(v) for v in self.inversion_pressures()],

@@ -11,10 +11,10 @@ pressure rises (``sign = +1``) or falls (``-1``), and records two kinds of event
   decided by the dynamics: :func:`land` kicks the fold state along the branch's direction of
   travel (the fold's null direction, toward the unstable branch: the side the ramp pushes it)
   and integrates the equations of motion (MODEL.md §8, Rodas4, full or overdamped) at the fold
-  pressure plus ``LANDING_DP`` until the motion has settled onto an equilibrium that Newton
-  polishes at the fold pressure and :func:`certify_stable` certifies. The continuation resumes
-  from there. A cascade (several units going at once) is one snap whose landing differs from
-  the state before it in several units.
+  pressure plus a small offset (``LANDING_DP``) until the motion has settled onto an equilibrium
+  that Newton polishes at the fold pressure and :func:`certify_stable` certifies. The
+  continuation resumes from there. A cascade (several units going at once) is one snap whose
+  landing differs from the state before it in several units.
 
 Why the fold pressure needs no dynamics but the landing does: in the limit of a slow ramp the
 finger follows its stable branch quasi-statically, and inertia and damping only act once that
@@ -71,10 +71,15 @@ EV_AFTER = 3  # state integer after
 EV_CERT = 4  # landing's stability certificate (see certify_stable); inf for crossings
 EV_SETTLE = 5  # s of motion simulated before the landing was accepted (0 for crossings)
 EV_STEPS = 6  # Rodas4 steps of the landing
-N_EV = 7
+EV_DP = 7  # MPa past the fold at which the landing's motion settled (0 for crossings)
+N_EV = 8
 
 KIND_SNAP = 1
 KIND_CROSSING = 2
+#: A fold past which the motion did not settle on any equilibrium within the landing's time
+#: budget (the walk stops there): the follower load is not conservative, and past some folds
+#: of strongly curled fingers the motion is a slow relaxation oscillation instead.
+KIND_UNSETTLED = 3
 
 #: Columns of the path table (one row per accepted branch point, fold and landing).
 PATH_P = 0  # MPa
@@ -122,10 +127,14 @@ MAX_STEPS = 20000
 #: whose reach is 0.01 mm (the kick moved them by ten reaches): hence the second limit.
 LANDING_KICK = 0.1
 KICK_DU = 1.0
-#: The motion runs at the fold pressure plus this (MPa, in the ramp's direction): past the
-#: fold there is no equilibrium nearby, so the kicked state cannot creep back.
-LANDING_DP = 1e-8
-#: First stretch of simulated motion (s); each further stretch doubles, up to MAX_SETTLE.
+#: The motion runs at the fold pressure plus the first of these (MPa, in the ramp's direction):
+#: past the fold there is no equilibrium nearby, so the kicked state cannot creep back. Where
+#: the fold is so flat that the motion has not settled after MAX_SETTLE s (the passage time
+#: grows as the inverse square root of the offset), the next offset takes over. The landing is
+#: polished at the fold pressure either way; the offset used is recorded (EV_DP).
+LANDING_DP = (1e-8, 1e-5, 1e-3)
+#: First stretch of simulated motion (s); each further stretch doubles, up to MAX_SETTLE per
+#: offset.
 FIRST_CHUNK = 0.05
 MAX_SETTLE = 400.0
 #: The relaxed state is accepted when Newton (at the fold pressure) moves it by at most
@@ -241,7 +250,7 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
     ``phys`` selects the model (node mass 0: overdamped), ``kick`` (mm) the size of the first
     displacement along ``direction`` (``<= 0``: :func:`default_kick`). On success ``x_land``
     holds the equilibrium at ``p_fold`` and ``info`` ``(certificate, seconds simulated, Rodas4
-    steps, kick)``.
+    steps, kick, pressure offset)``.
     Returns a status.
     """
     n_units = unit_params.shape[0]
@@ -262,44 +271,52 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
         y[i] = x_fold[i] + kick * unit[i]
         y[n + i] = 0.0
     knot_t = np.zeros(1)
-    knot_p = np.full(1, p_fold + sign * LANDING_DP)
+    knot_p = np.zeros(1)
     rec = np.empty((n_units, N_REC))
     log = np.empty((0, 3))
     stats = np.zeros(N_STATS, dtype=np.int64)
     t_out = np.empty(0)
     x_out = np.empty((0, n))
-    local = ctrl.copy()
     t = 0.0
-    chunk = FIRST_CHUNK
     steps = 0
-    while t < MAX_SETTLE:
-        code = rodas4(y, t, t + chunk, unit_params, h, knot_t, knot_p, phys, local, t_out, x_out,
-                      rec, log, stats)  # fmt: skip
-        steps += stats[STAT_STEPS]
-        if code != st.OK:
-            info[2] = steps
-            return code
-        t += chunk
-        local[CTRL_H_INIT] = chunk / 8.0  # the motion has slowed: no need to start at 1e-6 s
-        chunk *= 2.0
-        for i in range(n):
-            x_land[i] = y[i]
-        if loaded_equilibrium(x_land, unit_params, h, p_fold, POLISH_FTOL, POLISH_ITER,
-                              POLISH_MOVE) != st.OK:  # fmt: skip
-            continue
-        moved = 0.0
-        jump = 0.0
-        for i in range(n):
-            moved = max(moved, abs(x_land[i] - y[i]))
-            jump = max(jump, abs(x_land[i] - x_fold[i]))
-        if moved > POLISH_MAX or jump < JUMP_MIN * kick:
-            continue
-        cert = certify_stable(x_land, p_fold, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO])
-        if cert > 0.0:
-            info[0] = cert
-            info[1] = t
-            info[2] = steps
-            return st.OK
+    for stage in range(len(LANDING_DP)):
+        # A stage that does not settle goes on from where the motion got to, a little further
+        # past the fold: a staircase of slow ramps through a very flat fold's bottleneck.
+        offset = LANDING_DP[stage]
+        knot_p[0] = p_fold + sign * offset
+        local = ctrl.copy()
+        chunk = FIRST_CHUNK
+        stage_end = t + MAX_SETTLE
+        while t < stage_end:
+            code = rodas4(y, t, t + chunk, unit_params, h, knot_t, knot_p, phys, local, t_out,
+                          x_out, rec, log, stats)  # fmt: skip
+            steps += stats[STAT_STEPS]
+            if code != st.OK:
+                info[2] = steps
+                return code
+            t += chunk
+            local[CTRL_H_INIT] = chunk / 8.0  # the motion has slowed: no need to start at 1e-6 s
+            chunk *= 2.0
+            for i in range(n):
+                x_land[i] = y[i]
+            if loaded_equilibrium(x_land, unit_params, h, p_fold, POLISH_FTOL, POLISH_ITER,
+                                  POLISH_MOVE) != st.OK:  # fmt: skip
+                continue
+            moved = 0.0
+            jump = 0.0
+            for i in range(n):
+                moved = max(moved, abs(x_land[i] - y[i]))
+                jump = max(jump, abs(x_land[i] - x_fold[i]))
+            if moved > POLISH_MAX or jump < JUMP_MIN * kick:
+                continue
+            cert = certify_stable(x_land, p_fold, unit_params, h, phys[PHYS_ETA],
+                                  phys[PHYS_ETA_ISO])  # fmt: skip
+            if cert > 0.0:
+                info[0] = cert
+                info[1] = t
+                info[2] = steps
+                info[4] = offset
+                return st.OK
     info[2] = steps
     return st.NOT_CONVERGED
 
@@ -341,6 +358,7 @@ def _add_event(ev, ev_x, counts, pressure, kind, before, after, x_before, x_afte
     ev[j, EV_CERT] = info[0]
     ev[j, EV_SETTLE] = info[1]
     ev[j, EV_STEPS] = info[2]
+    ev[j, EV_DP] = info[4]
     if ev_x.shape[0] > j:
         for i in range(x_before.shape[0]):
             ev_x[j, 0, i] = x_before[i]
@@ -411,7 +429,7 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
     cross_x = np.empty((n_units, n + 1))
     cross_k = np.empty(n_units, dtype=np.int64)
     x_land = np.empty(n)
-    info = np.zeros(4)
+    info = np.zeros(5)
     p_end_s = p_end * PRESSURE_SCALE
 
     for i in range(n):
@@ -523,6 +541,7 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
         info[0] = np.inf
         info[1] = 0.0
         info[2] = 0.0
+        info[4] = 0.0
         for j in range(n_cross):
             bit = 1 << (n_units - 1 - cross_k[j])
             after = label ^ bit
@@ -546,6 +565,10 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
             if code != st.OK:
                 for i in range(n):
                     x_final[i] = y1[i]
+                if code == st.NOT_CONVERGED:
+                    info[0] = np.nan
+                    _add_event(ev, ev_x, counts, p_fold, KIND_UNSETTLED, label, -1, y1[:n],
+                               y1[:n], info)  # fmt: skip
                 return code
             margins(x_land, unit_params, g0)
             after = state_of(g0, n_units)
@@ -634,6 +657,8 @@ def snap_batch(
         status[i] = code
         ne = min(counts[CNT_EVENTS], capacity)
         n_events[i] = ne
+        if ne > 0 and events[i, ne - 1, EV_KIND] == KIND_UNSETTLED:
+            ne -= 1  # no state after it to release
         if release:
             release_walks(params, h[i], y[:nf], 0.0, events[i], ev_x, ne, p_min, phys, ctrl, kick,
                           release_status[i], release_state[i], release_p[i])  # fmt: skip

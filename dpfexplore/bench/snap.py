@@ -112,6 +112,7 @@ def _ramp_agreement(designs, p_max: float) -> dict:
     state_mismatch = {T: 0 for T in DURATIONS}
     exponents = []
     sim_s = []
+    step_us = []
     for design in designs:
         seq = snap_pressures(design, P_max=p_max, release=False)
         inv = seq.inversion_pressures()
@@ -121,6 +122,7 @@ def _ramp_agreement(designs, p_max: float) -> dict:
             run = simulate(design, PressureProfile([0.0, T], [0.0, p_max]), t_end=T, n_samples=0)
             if T == DURATIONS[-1]:
                 sim_s.append(time.perf_counter() - start)
+                step_us.append(1e6 * sim_s[-1] / max(1, run.stats["steps"] + run.stats["rejected"]))
             sim = run.snap_through * p_max / T
             both = np.isfinite(inv) & np.isfinite(sim)
             lag = sim[both] - inv[both]
@@ -141,6 +143,8 @@ def _ramp_agreement(designs, p_max: float) -> dict:
             [float(min(exponents)), float(max(exponents))] if exponents else None
         ),
         "slowest_ramp_sim_ms_median": 1e3 * float(np.median(sim_s)),
+        # machine speed today, against the README's Rodas4 figures (~11 us per step at N = 6)
+        "rodas4_us_per_step_median": float(np.median(step_us)),
     }
 
 
@@ -197,9 +201,10 @@ def _text(record: dict) -> str:
     lines = [f"snap pressures, rising ramp to {record['P_max']} MPa "
              f"({record['machine']['cpu']}, {record['machine']['date']})"]  # fmt: skip
     g = record["gripper"]
+    step_us = record["slow_ramp_gripper"]["rodas4_us_per_step_median"]
     lines.append(f"gripper: {g['median_ms']:.2f} ms per design, {g['median_ms_with_release']:.2f} "
                  f"ms with releases; one slow-ramp simulation {g['slow_ramp_sim_ms']:.1f} ms "
-                 f"({g['speedup_vs_slow_ramp']:.0f}x)")  # fmt: skip
+                 f"({g['speedup_vs_slow_ramp']:.0f}x); Rodas4 {step_us:.1f} us/step")  # fmt: skip
     lines.append(f"{'N':>3} {'median ms':>10} {'p90 ms':>8} {'+release ms':>12} "
                  f"{'batch ms':>9} {'snaps':>6} {'crossings':>9} {'failed':>6}")  # fmt: skip
     for row in record["by_n_units"]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
@@ -53,6 +54,9 @@ def run(args) -> int:
                              model=args.model)  # fmt: skip
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    except RuntimeError as exc:
+        print(f"dpfexplore snap: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     if args.json:
         print(json.dumps(seq.to_dict(), indent=2))
     else:

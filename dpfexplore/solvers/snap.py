@@ -61,6 +61,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._kernels import continuation as kcont
+from .._kernels import events as kevents
 from .._kernels import snap as ksnap
 from .._kernels.dynamics import ETA_INTERNAL, ETA_ISO, MASS_PER_UNIT, damping_matrix, node_mass
 from .._kernels.dynamics_batch import rest_state
@@ -79,6 +80,7 @@ __all__ = [
     "SnapEvent",
     "SnapSequence",
     "StateVisit",
+    "decay_rate",
     "inversion_pressure",
     "inversion_pressures_batch",
     "snap_pressures",
@@ -99,7 +101,8 @@ EVENT_CAPACITY = 4 * MAX_UNITS
 #: Branch points kept per walk (for plots).
 PATH_CAPACITY = 5_000
 
-_KIND_NAMES = {ksnap.KIND_SNAP: "snap", ksnap.KIND_CROSSING: "crossing"}
+_KIND_NAMES = {ksnap.KIND_SNAP: "snap", ksnap.KIND_CROSSING: "crossing",
+               ksnap.KIND_UNSETTLED: "unsettled"}  # fmt: skip
 
 
 def _pressure(name: str, value) -> float:
@@ -153,6 +156,13 @@ class _Walk:
         self.n_path = int(min(self.counts[ksnap.CNT_PATH], path_rows))
 
 
+def _state(params: LatticeParams, x: NDArray) -> str:
+    """Inversion state of the shape ``x`` (unit 1 first)."""
+    margins = np.empty(params.n_units)
+    kevents.margins(x, params.unit_params, margins)
+    return "".join("1" if g > 0.0 else "0" for g in margins)
+
+
 def _flat(params: LatticeParams) -> NDArray:
     n = n_free(params.n_units)
     y = np.empty(2 * n)
@@ -188,10 +198,16 @@ def decay_rate(params: LatticeParams, x: NDArray, pressure: float, model: str) -
     return float(-np.max(lam.real))
 
 
+def _after(row: NDArray, n_units: int) -> str:
+    """State after an event ("" for an unsettled fold)."""
+    after = int(row[ksnap.EV_AFTER])
+    return state_string(after, n_units) if after >= 0 else ""
+
+
 def _collect(walk: _Walk, n_units: int, direction: str, params, model, verify, events, visits,
              path_parts, segment_offset):  # fmt: skip
     """Append a walk's events, visits and path to the running lists; returns its segments."""
-    state = state_string(int(walk.path[0, ksnap.PATH_STATE]), n_units)
+    state = _state(params, walk.x_start)
     entered = "turn" if visits else "start"  # a cycle's falling walk goes on from the top
     visits.append(StateVisit(state, direction, walk.p_start, math.nan, entered, None))
     for j in range(walk.n_events):
@@ -205,18 +221,21 @@ def _collect(walk: _Walk, n_units: int, direction: str, params, model, verify, e
             kind=kind,
             direction=direction,
             before=state_string(int(row[ksnap.EV_BEFORE]), n_units),
-            after=state_string(int(row[ksnap.EV_AFTER]), n_units),
+            after=_after(row, n_units),
             x_before=walk.ev_x[j, 0].copy(),
             x_after=walk.ev_x[j, 1].copy(),
             settle_time=float(row[ksnap.EV_SETTLE]),
             landing_steps=int(row[ksnap.EV_STEPS]),
             decay_rate=rate,
+            landing_offset=float(row[ksnap.EV_DP]),
         )
         events.append(event)
         last = visits[-1]
         visits[-1] = StateVisit(last.state, last.direction, last.P_enter, event.pressure,
                                 last.entered_by, kind)  # fmt: skip
-        visits.append(StateVisit(event.after, direction, event.pressure, math.nan, kind, None))
+        if event.after:
+            visits.append(StateVisit(event.after, direction, event.pressure, math.nan, kind,
+                                     None))  # fmt: skip
     rows = walk.path[: walk.n_path]
     path_parts.append((rows, segment_offset))
     return int(rows[-1, ksnap.PATH_SEGMENT]) + 1 if len(rows) else 0
@@ -239,7 +258,7 @@ def _start(design, params, start_state, p_start, phys, ctrl, kick) -> tuple[NDAr
     sign = 1 if p_start > 0.0 else -1
     approach = _Walk(params, x, 0.0, p_start, sign, phys, ctrl, kick, path_rows=0)
     if approach.status != st.OK:
-        raise ValueError(
+        raise RuntimeError(
             f"P_start = {p_start}: the ramp from P = 0 to it failed ({approach.status.label})"
         )
     if start_state is not None and approach.n_events:
@@ -302,6 +321,9 @@ def snap_pressures(
     ValueError
         Naming the argument: not a Design, bad pressures or direction, a start state that is
         not stable at ``P = 0`` or does not last to ``P_start``.
+    RuntimeError
+        The unrecorded ramp from ``P = 0`` to ``P_start`` failed (a failure of the recorded
+        walk is reported in :attr:`SnapSequence.status` instead).
     """
     if not isinstance(design, Design):
         raise ValueError(f"design = {design!r}: must be a Design")
@@ -338,7 +360,7 @@ def snap_pressures(
         first_visit = len(visits)
         segment += _collect(walk, n_units, "up" if sign > 0 else "down", params, model, verify,
                             events, visits, path_parts, segment)  # fmt: skip
-        if sign > 0 and release and walk.status == st.OK:
+        if sign > 0 and release:
             _release(params, walk, visits, first_visit, P_min, phys, ctrl, kick, stats)
         if walk.status != st.OK:
             status = walk.status
@@ -359,12 +381,12 @@ def snap_pressures(
 def _release(params, walk: _Walk, visits: list[StateVisit], first: int, p_min: float, phys,
              ctrl, kick, stats) -> None:  # fmt: skip
     """Fill ``released`` and ``P_release_leave`` of the visits of a rising walk."""
-    m = walk.n_events + 1
+    m = len(visits) - first  # the visits: one per event but an unsettled last one, and the start
     rel_status = np.zeros(m, dtype=np.int64)
     rel_state = np.full(m, -1, dtype=np.int64)
     rel_p = np.full(m, np.nan)
     ksnap.release_walks(params.unit_params, params.h, walk.x_start, walk.p_start, walk.ev,
-                        walk.ev_x, walk.n_events, p_min, phys, ctrl, float(kick), rel_status,
+                        walk.ev_x, m - 1, p_min, phys, ctrl, float(kick), rel_status,
                         rel_state, rel_p)  # fmt: skip
     for j in range(m):
         v = visits[first + j]
@@ -428,8 +450,9 @@ def snap_pressures_batch(
     dict of str to ndarray
         ``status`` (int8, (n,)); ``n_events`` (int64, (n,)); per event ``j`` (``(n, 48)``,
         padding NaN / -1): ``event_pressure`` (MPa), ``event_kind`` (int8: 1 snap, 2
-        crossing), ``event_before``, ``event_after`` (state integers, unit 1 = most significant
-        bit); per visited state ``j`` (0 = flat, ``j`` = after event ``j - 1``; ``(n, 49)``):
+        crossing, 3 unsettled), ``event_before``, ``event_after`` (state integers, unit 1 = most
+        significant bit; -1 after an unsettled fold); per visited state ``j`` (0 = flat,
+        ``j`` = after event ``j - 1``; ``(n, 49)``):
         ``release_status`` (int8), ``release_state`` (int64, -1 if none) and
         ``release_pressure`` (MPa: where the state is left on the way down; NaN: never);
         ``inversion_pressure`` ((n, 12), MPa: first pressure at which each unit is inverted;
@@ -508,7 +531,7 @@ def _inversion_from_events(out, n_units, valid) -> NDArray:
         p = out["event_pressure"][:, j : j + 1]
         bit_after = (after >> shift) & 1
         bit_before = (before >> shift) & 1
-        went = active & (before >= 0) & (bit_after == 1) & (bit_before == 0)
+        went = active & (before >= 0) & (after >= 0) & (bit_after == 1) & (bit_before == 0)
         first = went & ~np.isfinite(result)
         result = np.where(first, p, result)
     return result

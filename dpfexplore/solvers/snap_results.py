@@ -30,7 +30,11 @@ class SnapEvent:
     ----------
     pressure : float, MPa
         Fold pressure of a snap, or the pressure of a smooth crossing.
-    kind : {"snap", "crossing"}
+    kind : {"snap", "crossing", "unsettled"}
+        ``"unsettled"``: a fold past which the motion did not come to rest within the landing's
+        budget (1200 s of motion at up to 1 kPa past the fold): the load is not conservative,
+        and past some folds of strongly curled fingers the motion is a slow relaxation
+        oscillation. The walk stops there (status ``NOT_CONVERGED``); ``after`` is "".
     direction : {"up", "down"}
         Rising or falling pressure.
     before, after : str
@@ -41,6 +45,9 @@ class SnapEvent:
         Motion simulated before the landing was accepted (0 for a crossing).
     landing_steps : int
         Rodas4 steps of the landing.
+    landing_offset : float, MPa
+        How far past the fold the landing's motion ran: 1e-8 MPa, or 1e-5 / 1e-3 MPa where the
+        fold is so flat that the motion had not settled after 400 s (0 for a crossing).
     decay_rate : float, 1/s
         Slowest decay rate of the linearised motion about the landing state (positive: stable;
         ``inf`` where not checked: crossings, or ``verify=False``).
@@ -56,16 +63,21 @@ class SnapEvent:
     settle_time: float
     landing_steps: int
     decay_rate: float
+    landing_offset: float = 0.0
 
     @property
     def inverted(self) -> tuple[int, ...]:
         """Units (1-based) inverted by this event."""
+        if not self.after:
+            return ()
         return tuple(k + 1 for k, (a, b) in enumerate(zip(self.before, self.after, strict=True))
                      if a == "0" and b == "1")  # fmt: skip
 
     @property
     def reverted(self) -> tuple[int, ...]:
         """Units (1-based) that snapped back in this event."""
+        if not self.after:
+            return ()
         return tuple(k + 1 for k, (a, b) in enumerate(zip(self.before, self.after, strict=True))
                      if a == "1" and b == "0")  # fmt: skip
 
@@ -80,6 +92,7 @@ class SnapEvent:
             "inverted": list(self.inverted),
             "reverted": list(self.reverted),
             "settle_time_s": self.settle_time,
+            "landing_offset_MPa": self.landing_offset,
             "decay_rate": _json_number(self.decay_rate),
         }
 

@@ -59,10 +59,14 @@ MAX_CORRECTOR_ITER = 8
 CONTRACTION = 0.5
 #: Iterations of the Illinois search for an event inside a step.
 LOCATE_ITER = 80
-#: Arclength bracket (mm, scaled) at which an event is located. The fold pressure is quadratic
-#: in the arclength there, so its error is far below the corrector's; a crossing's pressure
-#: is within ``SIGMA_TOL / PRESSURE_SCALE`` MPa of the bracket.
+#: Arclength bracket (mm, scaled) at which an event is located, or an event function this
+#: small: ``|t_p| <= FOLD_TOL`` at a fold, whose pressure is quadratic in the arclength there
+#: (``P* - P ~ t_p²/(4 a)``, ~1e-13 MPa for the lattices here, far below the corrector's
+#: ~1e-10 MPa); ``|u - u_inv| <= MARGIN_TOL`` at a crossing; ``|p̃ - p̃_end| <= END_TOL`` mm.
 SIGMA_TOL = 1e-10
+FOLD_TOL = 1e-7
+MARGIN_TOL = 1e-11
+END_TOL = 1e-10
 
 #: Event functions of :func:`locate` besides a unit's margin (unit index ``k >= 0``).
 WHICH_FOLD = -1
@@ -220,6 +224,12 @@ def locate(which, y0, t0, s_lo, g_lo, s_hi, g_hi, unit_params, h, p_end_scaled, 
     ``(status, s)``; status is a ``CORRECT_*`` code.
     """
     g = ws[8]
+    if which == WHICH_FOLD:
+        tol = FOLD_TOL
+    elif which == WHICH_END:
+        tol = END_TOL
+    else:
+        tol = MARGIN_TOL
     s = 0.5 * (s_lo + s_hi)
     side = 0
     evaluated = False
@@ -232,7 +242,7 @@ def locate(which, y0, t0, s_lo, g_lo, s_hi, g_hi, unit_params, h, p_end_scaled, 
             return code, s
         evaluated = True
         gs = event_value(which, y, t, unit_params, p_end_scaled, g)
-        if gs == 0.0:
+        if abs(gs) <= tol:
             break
         if (gs > 0.0) == (g_hi > 0.0):
             s_hi = s

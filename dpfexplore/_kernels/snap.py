@@ -144,9 +144,10 @@ MAX_SETTLE = 400.0
 #: within 1e-6 mm of a landing integrated at atol 1e-5 mm and polished from 0.01 mm.
 POLISH_MAX = 0.2
 JUMP_MIN = 0.1
-#: Newton polish: residual tolerance (N), iterations, largest move per iteration (mm).
+#: Newton polish: residual tolerance (N), iterations (near an equilibrium it converges in a
+#: few; mid-snap it should give up early), largest move per iteration (mm).
 POLISH_FTOL = 1e-9
-POLISH_ITER = 30
+POLISH_ITER = 10
 POLISH_MOVE = 0.5
 #: Stability margin required of the eigenvalue certificate, relative to the largest rate.
 STABLE_RTOL = 1e-10

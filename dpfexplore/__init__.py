@@ -32,6 +32,7 @@ from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
 from .model.status import Status
 from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
 from .solvers.lattice import spring_constants
+from .solvers.snap import SnapSequence, inversion_pressure, snap_pressures, snap_pressures_batch
 from .solvers.statics import (
     SolverOptions,
     StateResult,
@@ -56,11 +57,13 @@ __all__ = [
     "Material",
     "PressureProfile",
     "SimulationResult",
+    "SnapSequence",
     "SolverOptions",
     "StateResult",
     "Status",
     "enumerate_states",
     "find_state",
+    "inversion_pressure",
     "load_design",
     "load_job",
     "read_results",
@@ -68,6 +71,8 @@ __all__ = [
     "run_sweep",
     "sequential_states",
     "simulate",
+    "snap_pressures",
+    "snap_pressures_batch",
     "solve_batch",
     "spring_constants",
 ]

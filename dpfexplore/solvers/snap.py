@@ -23,18 +23,23 @@ What decides what
     Inertia and damping do not enter the fold pressure (a property of the static branch); they
     decide where the finger lands after a snap, so the landing is simulated: the fold state is
     kicked by ``kick`` mm along the fold's null direction (toward the branch beyond the fold,
-    the side the ramp pushes it) and the equations of motion run at the fold pressure (plus
-    1e-8 MPa) with Rodas4, full model by default or overdamped (``model=``), until Newton can
-    polish the motion's end onto an equilibrium it certifies stable. The landing may differ from
-    the state before in several units: a *cascade*, reported as one snap at one pressure with
-    all those units (what a slow-ramp simulation shows as snap-through times a few ms apart).
+    the side the ramp pushes it; 0.1 mm, or less so that no dome moves by more than its reach)
+    and the equations of motion run at the fold pressure (plus 1e-8 MPa) with Rodas4, full
+    model by default or overdamped (``model=``), until Newton can polish the motion's end onto
+    an equilibrium it certifies stable. The landing may differ from the state before in
+    several units: a *cascade*, reported as one snap at one pressure with all those units
+    (what a slow-ramp simulation shows as snap-through times a few ms apart). Past a very flat
+    fold the motion may not settle within 400 s; it then runs 1e-5, then 1e-3 MPa past the fold
+    (``SnapEvent.landing_offset``), as a slow ramp would carry it on. Past a few folds of
+    strongly curled fingers it never settles (the follower load drives a slow relaxation
+    oscillation): such an event is ``"unsettled"`` and ends the walk.
 Tolerances
-    Equilibria to 1e-9 N (largest residual force); a fold's pressure is located on the branch
-    to an arclength of 1e-10 (its pressure error is quadratic in that, far below the
-    corrector's ~1e-10 MPa); crossings to 1e-11 MPa. Landings: Rodas4 at ``atol = 3e-3`` mm
-    (only the basin matters: 1e-3 and 1e-2 mm landed where 1e-5 and 1e-6 mm did on 168 snaps of
-    random designs), accepted when Newton moves the motion's end by at most 0.2 mm onto an
-    equilibrium certified stable.
+    Equilibria to 1e-9 N (largest residual force); a fold is located where the tangent's
+    pressure component is below 1e-7 (the pressure error is quadratic in that: ~1e-13 MPa, far
+    below the corrector's ~1e-10 MPa); crossings where ``|u - u_inv| < 1e-11``. Landings:
+    Rodas4 at ``atol = 3e-3`` mm (only the basin matters: 1e-3 and 1e-2 mm landed where 1e-5
+    and 1e-6 mm did on 168 snaps of random designs), accepted when Newton moves the motion's
+    end by at most 0.2 mm onto an equilibrium certified stable.
 Stability
     Every state reported is a stable equilibrium at its pressure. The load is not conservative,
     so "minimum" means linearly stable: the kernels certify it by a positive definite symmetric

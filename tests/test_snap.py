@@ -460,3 +460,19 @@ def test_cli_bad_input_exits_2(argv, capsys):
     assert main(["snap", *argv]) == 2
     err = capsys.readouterr().err
     assert err.startswith("dpfexplore snap: error:") and err.count("\n") == 1
+
+
+@pytest.mark.slow
+def test_bench_snap_record(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code = main(["bench", "snap", "--json", "--units", "2", "--designs", "2", "--ramp-designs",
+                 "1", "--rounds", "1", "--no-compile", "--save"])  # fmt: skip
+    assert code == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["gripper"]["median_ms"] > 0 and record["by_n_units"][0]["n_units"] == 2
+    ramp = record["slow_ramp"]
+    # the lag shrinks as the ramp slows, and every final state agrees
+    assert ramp["max_lag_MPa"][0] > ramp["max_lag_MPa"][1] > ramp["max_lag_MPa"][2] > 0
+    assert ramp["final_state_mismatches"] == [0, 0, 0]
+    assert 0.5 < ramp["lag_exponent_median"] < 0.8
+    assert (tmp_path / "results" / "reports" / "bench-snap.json").exists()

@@ -313,7 +313,7 @@ def snap_pressures(
     kick : float, mm, optional
         First displacement of a landing along the fold's null direction; by default 0.1 mm, or
         less if that would move a dome by more than its reach
-        (:func:`dpfexplore._kernels.snap.default_kick`).
+        (:func:`dpfexplore._kernels.landing.default_kick`).
     verify : bool
         Re-check every landing with the eigenvalues of the linearised motion (dense LAPACK,
         ~0.1-1 ms each); a landing that fails makes the status ``UNSTABLE``.

@@ -42,7 +42,8 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--units", default="2,4,6,8", help="finger sizes N (default 2,4,6,8)")
+    parser.add_argument("--units", type=_unit_list, default=(2, 4, 6, 8),
+                        help="finger sizes N, comma-separated (default 2,4,6,8)")
     parser.add_argument("--designs", type=int, default=40, help="random designs per N")
     parser.add_argument("--ramp-designs", type=int, default=8,
                         help="random designs (N = 2-4) checked against slow ramps")  # fmt: skip
@@ -54,6 +55,14 @@ def register(subparsers) -> None:
     parser.add_argument("--save", action="store_true",
                         help=f"write the record to {REPORTS}/bench-snap.json")  # fmt: skip
     parser.set_defaults(handler=run)
+
+
+def _unit_list(text: str) -> tuple[int, ...]:
+    """``--units``: comma-separated numbers of units (argparse reports a bad value)."""
+    try:
+        return tuple(int(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give comma-separated integers") from None
 
 
 def random_designs(rng: np.random.Generator, n_units: int, count: int):
@@ -166,12 +175,7 @@ def run(args: argparse.Namespace) -> int:
     from ..examples import example_path
     from ..model.design import load_design
 
-    try:
-        units = [int(v) for v in args.units.split(",")]
-    except ValueError:
-        from ..cli import UsageError
-
-        raise UsageError(f"--units {args.units!r}: give comma-separated integers") from None
+    units = args.units
     rng = np.random.default_rng(args.seed)
     gripper = load_design(example_path("gripper"))
     record: dict = {"benchmark": "snap", "machine": machine_info(), "P_max": args.P_max}

@@ -34,6 +34,7 @@ from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_bat
 from .solvers.lattice import spring_constants
 from .solvers.leg import load_leg, simulate_leg
 from .solvers.sensitivities import Sensitivities
+from .solvers.snap import SnapSequence, inversion_pressure, snap_pressures, snap_pressures_batch
 from .solvers.statics import (
     SolverOptions,
     StateResult,
@@ -59,11 +60,13 @@ __all__ = [
     "PressureProfile",
     "Sensitivities",
     "SimulationResult",
+    "SnapSequence",
     "SolverOptions",
     "StateResult",
     "Status",
     "enumerate_states",
     "find_state",
+    "inversion_pressure",
     "load_design",
     "load_job",
     "load_leg",
@@ -73,6 +76,8 @@ __all__ = [
     "sequential_states",
     "simulate",
     "simulate_leg",
+    "snap_pressures",
+    "snap_pressures_batch",
     "solve_batch",
     "spring_constants",
 ]

@@ -18,7 +18,7 @@ from dpfexplore.cli import main
 from dpfexplore.inverse.design import design_scene
 from dpfexplore.inverse.evaluation import Evaluator
 from dpfexplore.inverse.scene_jobs import SceneSpecError, load_scene, parse_scene
-from dpfexplore.inverse.scenes import GripperProblem
+from dpfexplore.inverse.scenes import GripperProblem, PositionProblem
 from dpfexplore.inverse.variables import DesignVariables
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.model.gripper import gripper_aperture
@@ -206,6 +206,30 @@ def test_gripper_transform_reproduces_the_implementation_apertures():
         np.testing.assert_allclose(jac[:, j], (up - down) / 2e-6, rtol=1e-6, atol=1e-6)
 
 
+@pytest.mark.parametrize("kind", ["position", "gripper"])
+def test_scene_jacobians_from_sensitivities_equal_central_differences(kind):
+    """The optimiser's derivatives (one solve with the model's sensitivities, chained through
+    the reparametrisation) against central differences of the exact model in the same box."""
+    if kind == "gripper":
+        spec = load_scene(JOBS / "design-gripper.toml")
+        problem = GripperProblem(spec.design_variables(5), spec.gripper, Evaluator(5))
+        z, _ = problem.variables.encode(DesignBatch.from_designs([Design(**GRIPPER)]))
+        point = np.append(z[0], [0.4, 0.6])
+    else:
+        variables = DesignVariables(n_units=4, heights="descending")
+        problem = PositionProblem(variables, (40.0, 30.0), "all_inverted", Evaluator(4))
+        point = np.random.default_rng(5).uniform(0.2, 0.8, variables.n_variables)
+    ev = problem.evaluate(point[None], purpose="test", stiffness=True)
+    assert ev.ok[0]
+    before = problem.evaluator.counts["designs"]
+    d_res, d_logk = problem.jacobian(ev, stiffness=True)
+    assert problem.evaluator.counts["designs"] - before == 1  # one solve per Jacobian
+    fd_res, fd_logk = problem._difference_jacobian(ev, stiffness=True)
+    scale = np.max(np.abs(fd_res))
+    np.testing.assert_allclose(d_res, fd_res, rtol=0, atol=2e-5 * scale)
+    np.testing.assert_allclose(d_logk, fd_logk, rtol=0, atol=2e-5 * np.max(np.abs(fd_logk)))
+
+
 @pytest.mark.slow
 def test_gripper_scene_meets_apertures_and_its_toml_reproduces_them(tmp_path, capsys):
     text = (JOBS / "design-gripper.toml").read_text()
@@ -300,23 +324,23 @@ def test_bench_design_record(capsys, tmp_path, monkeypatch):
 
 
 def test_pressure_windows_agree_with_a_slow_ramp_simulation():
-    snap = pytest.importorskip("dpfexplore.solvers.snap")
     from dpfexplore.inverse.windows import pressure_windows
     from dpfexplore.model.pressure import PressureProfile
     from dpfexplore.solvers.dynamics import simulate
 
     design = Design(**GRIPPER)
-    report = pressure_windows(design, ["10000", "11000", "11100", "11110"], Evaluator(5))
-    assert report["computed"] and snap is not None
-    # a ramp of 0.05 MPa/s: quasi-static against the lattice's ~1e-3 s relaxation
-    run = simulate(design, PressureProfile([0.0, 20.0], [0.0, 1.0]), t_end=20.0, n_samples=0)
-    ramp_kpa = 1000.0 * run.snap_through / 20.0  # first crossing of each unit, kPa
-    for state, window in zip(["10000", "11000", "11100", "11110"], report["windows"],
-                             strict=True):  # fmt: skip
-        if window is None:
-            continue
-        unit = state.rindex("1")  # the unit whose snap enters this state
-        assert window[0] == pytest.approx(ramp_kpa[unit], abs=5.0)
+    states = ["10000", "11000", "11100", "11110"]
+    report = pressure_windows(design, states, Evaluator(5))
+    assert report["computed"] and report["in_order"]
+    # A 2000 s ramp to 1 MPa: slow against the lattice's relaxation, so each unit's first
+    # inversion lags the quasi-static snap by about a kPa (O(rate^(2/3)) at a fold).
+    run = simulate(design, PressureProfile([0.0, 2000.0], [0.0, 1.0]), t_end=2000.0,
+                   n_samples=0)  # fmt: skip
+    ramp_kpa = 1000.0 * run.snap_through / 2000.0
+    for state, window in zip(states, report["windows"], strict=True):
+        unit = state.rindex("1")  # the unit whose snap opens this grasp state's window
+        lag = ramp_kpa[unit] - window[0]
+        assert 0.0 <= lag < 3.0, (state, window, ramp_kpa[unit])
 
 
 def test_pressure_windows_hold_their_states_in_the_full_model():
@@ -327,11 +351,12 @@ def test_pressure_windows_hold_their_states_in_the_full_model():
     design = Design(**GRIPPER)
     states = ["10000", "11000", "11100", "11110"]
     report = pressure_windows(design, states, Evaluator(5))
-    assert report["computed"] and report["in_order"] and report["sequence"] == states
+    assert report["computed"] and report["in_order"]
+    # The metastable tip unit snaps first under the ramp; it resets on release.
+    assert report["sequence"][:3] == ["00000", "00001", "10001"]
     windows = report["windows"]
     for a, b in pairwise(windows):  # contiguous, rising
         assert a[0] < a[1] == b[0] < b[1]
-    assert "unit 5" in report["note"]  # the tip unit snaps too (it resets on release)
     # Raised slowly into the middle of a window and released, the finger keeps that state.
     for state, (low, high) in zip(states[:3], windows[:3], strict=True):
         P0 = 0.5e-3 * (low + high)

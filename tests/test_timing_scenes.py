@@ -242,7 +242,9 @@ def test_walker_front_leg_meets_its_requirements_when_resimulated(walker):
     assert np.all(p[0, :2] <= g.walk_pressure - m)
     assert g.walk_pressure + m <= p[1, 0] <= g.turn_pressure - m
     assert p[1, 1] >= g.turn_pressure + m
-    assert _unit(row, "action", 1)["inversion_pressure_MPa"] == pytest.approx(p[1, 0], rel=1e-6)
+    # the scene's pressures (continuation) agree with the ramps to their ~1 % accuracy
+    assert _unit(row, "action", 1)["inversion_pressure_MPa"] == pytest.approx(p[1, 0], rel=0.02)
+    assert _unit(row, "purple", 2)["inversion_pressure_MPa"] == pytest.approx(p[0, 1], rel=0.02)
 
 
 def test_walker_legs_written_reproduce_stride_through_simulate_leg(walker):

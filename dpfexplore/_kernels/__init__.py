@@ -35,4 +35,8 @@ reduced
     The release model: a cheaper reset-time model with its error measured.
 dynamics_batch
     ``prange`` entry point for reset times of many designs.
+bordered_lu, continuation, landing, snap
+    Equilibrium branches under a slow pressure ramp (bordered banded LU, pseudo-arclength
+    continuation, folds, crossings), landings after a snap by the equations of motion, and
+    the snap pressures of one design or many (``prange``).
 """

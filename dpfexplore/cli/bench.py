@@ -10,7 +10,8 @@ import importlib
 
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
 BENCHMARKS = (
-    "statics", "sweep", "dynamics", "sensitivities", "surrogate", "reset_model", "design",
+    "statics", "sweep", "dynamics", "sensitivities", "snap", "surrogate", "reset_model",
+    "design",
 )
 
 

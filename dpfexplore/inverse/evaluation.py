@@ -11,7 +11,9 @@ Kinds of evaluation (:data:`EVALUATION_KINDS`)
                       compare)
     ``state_solves``  (design, state) equilibria solved
     ``stiffness``     of those, the ones whose tip stiffness was also computed
-    ``derivative``    designs evaluated only for a finite-difference derivative
+    ``derivative``    designs evaluated for a derivative (one solve with the model's
+                      sensitivities per Jacobian; a central-difference stencil where the
+                      sensitivities are not defined)
     ``snap``          snap-pressure continuations (:mod:`dpfexplore.inverse.snap`)
     ``simulations``   full-dynamics runs (pressure pulse, Rodas4)
     ``screening``     reduced-model reset times (``method="fast"`` or ``"release"``): screening
@@ -33,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model.design import Design, DesignBatch
+from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
 from ..solvers.dynamics import SimulationResult, reset_times_batch, simulate
 from ..solvers.statics import solve_batch
@@ -48,6 +51,9 @@ SCREENING_METHODS = ("fast", "release")
 _SMALL_BATCH = 96
 #: The same for dynamics (a run costs milliseconds: two designs already share the threads well).
 _SMALL_DYNAMICS = 1
+#: Sensitivity columns the scenes use, and their width (every parameter of MAX_UNITS units).
+_SENSITIVITY_KEYS = ("d_tip_x", "d_tip_y", "d_stiffness")
+N_SENSITIVITY_COLUMNS = 3 * MAX_UNITS + 3
 
 
 @contextlib.contextmanager
@@ -93,6 +99,7 @@ class Evaluator:
         *,
         stiffness: Sequence[bool] | NDArray | bool = False,
         derivative: bool = False,
+        sensitivities: bool = False,
     ) -> dict[str, NDArray]:
         """Solve ``states[j]`` of every design for each ``j``; columns of shape ``(n, S)``.
 
@@ -105,7 +112,11 @@ class Evaluator:
         stiffness : bool or sequence of bool (length S)
             Which of the states also get their tip stiffness.
         derivative : bool
-            Count these designs as finite-difference evaluations.
+            Count these designs as evaluations made for a derivative.
+        sensitivities : bool
+            Also return the model's design sensitivities (``d_tip_x``, ``d_tip_y``,
+            ``d_stiffness``: shape ``(n, S, 3·MAX_UNITS + 3)``, columns of
+            :func:`dpfexplore.solvers.sensitivities.batch_columns`).
 
         Returns
         -------
@@ -120,6 +131,8 @@ class Evaluator:
         n_states = states.shape[1]
         want = np.broadcast_to(np.asarray(stiffness, dtype=bool), (n_states,))
         out = {
+            **({key: np.full((n, n_states, N_SENSITIVITY_COLUMNS), np.nan)
+                for key in _SENSITIVITY_KEYS} if sensitivities else {}),
             "status": np.empty((n, n_states), np.int8),
             "found": np.empty((n, n_states), np.int64),
             **{key: np.full((n, n_states), np.nan) for key in
@@ -132,9 +145,13 @@ class Evaluator:
             rows = np.repeat(np.arange(n), cols.size)
             requested = states[:, cols].reshape(-1)
             with few_threads(rows.size):
-                res = solve_batch(batch.take(rows), requested, stiffness=with_k, min_eig=with_k)
+                res = solve_batch(batch.take(rows), requested, stiffness=with_k, min_eig=with_k,
+                                  sensitivities=sensitivities)  # fmt: skip
             for key in ("status", "found", "tip_x", "tip_y", "bend_angle"):
                 out[key][:, cols] = res[key].reshape(n, cols.size)
+            if sensitivities:
+                for key in _SENSITIVITY_KEYS:
+                    out[key][:, cols] = res[key].reshape(n, cols.size, -1)
             if with_k:
                 out["stiffness"][:, cols] = res["stiffness"].reshape(n, cols.size)
                 out["min_eig"][:, cols] = res["min_eig"].reshape(n, cols.size)

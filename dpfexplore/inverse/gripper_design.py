@@ -22,9 +22,9 @@ Method
    scene's pressure pulse: the tip unit must reset, after at least ``min_reset_s``, while the
    others stay inverted. A finalist that resets too soon has the top of its ``α`` band
    lowered toward ``1/9`` (one that never resets, its floor raised), and step 3 is repeated
-   from it. Then the finalists' pressure windows are checked (snap pressures, or slow-ramp
-   simulations where the continuation is not installed: :mod:`.windows`), and the stiffest
-   finalist that is metastable and has its windows wins.
+   from it. Then the finalists' pressure windows are checked (the release windows of the
+   snap-pressure continuation: :mod:`.windows`), and the stiffest finalist that is
+   metastable and has its windows wins.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from .optimiser import (
 )
 from .scene_jobs import GripperSpec
 from .scenes import Evaluation, GripperProblem
-from .windows import pressure_windows, snap_available, window_widths
+from .windows import pressure_windows, window_widths
 
 logger = logging.getLogger(__name__)
 
@@ -256,7 +256,7 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
     ev = run.evaluation
     checks: dict = {}
     order = []
-    if snap_available() and g.min_window_kPa > 0:
+    if g.min_window_kPa > 0:
         order = _window_constraints(problem, evaluator)
     for _ in range(_ROUNDS):
         band = _alpha_band(problem, low, high) + order

@@ -30,6 +30,7 @@ from ..model import status as st
 from ..model.design import DesignBatch
 from ..model.gripper import gripper_aperture
 from ..solvers.lattice import segment_height
+from ..solvers.sensitivities import batch_columns
 from .derivatives import central_differences
 from .evaluation import Evaluator
 from .scene_jobs import GripperSpec
@@ -128,9 +129,49 @@ class Problem:
     def jacobian(self, ev: Evaluation, *, stiffness: bool = False) -> tuple[NDArray, NDArray]:
         """``d residual / dz`` (r, dim) and ``d log K / dz`` (dim,) at the first row of ``ev``.
 
-        Central differences of the exact model (:mod:`dpfexplore.inverse.derivatives`) over the
-        variables that need a solve, analytic derivatives for the others.
+        One solve of that design with the model's design sensitivities (implicit function
+        theorem, :mod:`dpfexplore.solvers.sensitivities`), chained with ``dθ/dz`` of the
+        reparametrisation (:meth:`DesignVariables.jacobian`); variables that need no solve are
+        differentiated analytically. Where the sensitivities are not defined (a Hessian that is
+        not positive definite at the returned shape), central differences of the exact model
+        (:mod:`dpfexplore.inverse.derivatives`) stand in.
         """
+        z = ev.z[:1]
+        batch, states, want = self.requests(z, stiffness=stiffness)
+        out = self.evaluator.solve(batch, states, stiffness=want, derivative=True,
+                                   sensitivities=True)  # fmt: skip
+        # The history lists every model evaluation, this re-solve of the point included.
+        self.record(batch, self.finish(z, batch, out), "derivative")
+        dtheta = self.variables.jacobian(z[:, : self.variables.n_variables])[0]
+        cols = batch_columns(self.n_units)
+        d_tip = np.stack([out["d_tip_x"][0][:, cols], out["d_tip_y"][0][:, cols]], axis=1) @ dtheta
+        d_res = self._residual_derivatives(ev, d_tip, dtheta)  # (r, n_finger)
+        jac = np.zeros((self.n_residuals + stiffness, self.dim))
+        jac[: self.n_residuals, : d_res.shape[1]] = d_res
+        if stiffness:
+            k = out["stiffness"][0, self._stiffness_column]
+            jac[-1, : d_res.shape[1]] = (out["d_stiffness"][0, self._stiffness_column, cols]
+                                         @ dtheta) / k  # fmt: skip
+        if not np.all(np.isfinite(jac)):
+            return self._difference_jacobian(ev, stiffness=stiffness)
+        self._analytic_columns(ev, jac)
+        if stiffness:
+            return jac[:-1], jac[-1]
+        return jac, np.zeros(self.dim)
+
+    def _residual_derivatives(self, ev: Evaluation, d_tip: NDArray, dtheta: NDArray) -> NDArray:
+        """``d residual / dz`` of the finger variables.
+
+        ``d_tip`` is ``d tip / dz`` of each requested state, ``(S, 2, n_finger)``; ``dtheta``
+        the reparametrisation's ``dθ/dz``, ``(3N + 3, n_finger)``.
+        """
+        raise NotImplementedError
+
+    #: Column (state) of :meth:`requests` whose stiffness the scene maximises.
+    _stiffness_column = 0
+
+    def _difference_jacobian(self, ev: Evaluation, *, stiffness: bool) -> tuple[NDArray, NDArray]:
+        """Central differences of the exact model (the fallback of :meth:`jacobian`)."""
         z = ev.z[0]
         f0 = ev.residual[0]
         if stiffness:
@@ -202,6 +243,9 @@ class PositionProblem(Problem):
                    "found": out["found"][:, 0], "tip_x": tip[:, 0], "tip_y": tip[:, 1]}  # fmt: skip
         return Evaluation(z=z, ok=ok, residual=residual, stiffness=k, columns=columns)
 
+    def _residual_derivatives(self, ev: Evaluation, d_tip: NDArray, dtheta: NDArray) -> NDArray:
+        return d_tip[0]
+
 
 class GripperProblem(Problem):
     """The multi-aperture gripper (paper eq. opti_multi; MODEL.md §7, §9).
@@ -266,6 +310,18 @@ class GripperProblem(Problem):
 
     def _solved_columns(self) -> NDArray:
         return np.arange(self.n_finger)
+
+    @property
+    def _stiffness_column(self) -> int:  # type: ignore[override]
+        return self.activated_column
+
+    def _residual_derivatives(self, ev: Evaluation, d_tip: NDArray, dtheta: NDArray) -> NDArray:
+        # a_j = 2 Base_L - 2 [sin θ x_j + cos θ (y_j - h)], h = 1.5 r_b + t_lim + t (MODEL.md §7).
+        theta = math.radians(float(self.base(ev.z[:1])[0][0]))
+        names = self.variables.parameters
+        d_h = dtheta[names.index("t")] + dtheta[names.index("t_lim")]
+        d_tip = d_tip[: self.n_residuals]
+        return -2.0 * (math.sin(theta) * d_tip[:, 0] + math.cos(theta) * (d_tip[:, 1] - d_h))
 
     def _analytic_columns(self, ev: Evaluation, jac: NDArray) -> None:
         # a_j = 2 Base_L - 2 [sin θ x_j + cos θ (y_j - h)] (MODEL.md §7).

@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..model.design import DEFAULTS, Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..solvers.sensitivities import parameter_names
 
 __all__ = ["HEIGHT_ORDERS", "DesignVariables", "parameter_names"]
 
@@ -61,16 +62,6 @@ _RANGED = ("U_L", "U_sep", "t", "t_lim")
 _FIXED = ("E", "nu", "r_b", "t_ch")
 #: How far outside its bounds a decoded parameter may sit from rounding, mm.
 _BOUND_SLACK = 1e-12
-
-
-def parameter_names(n_units: int) -> tuple[str, ...]:
-    """Names of the model parameters in sensitivity order, e.g. ``("H_1", ..., "E")``."""
-    return (
-        *(f"{name}_{k}" for name in _PER_UNIT for k in range(1, n_units + 1)),
-        "t",
-        "t_lim",
-        "E",
-    )
 
 
 def _interval(name: str, value: float | Sequence[float]) -> tuple[float, float]:

@@ -1,5 +1,6 @@
 """Plots: ``plot_*(..., ax=None) -> Axes``; no file I/O and no ``plt.show()`` here.
 
 Modules: :mod:`.statics` (finger shapes), :mod:`.dynamics` (time histories, reset-time maps),
-:mod:`.space` (design-space maps of sweep results), :mod:`.leg` (tip paths of legs).
+:mod:`.space` (design-space maps of sweep results), :mod:`.leg` (tip paths of legs), :mod:`.snap`
+(extensions and tip against pressure on a slow ramp).
 """

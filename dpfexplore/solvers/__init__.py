@@ -26,6 +26,9 @@ resetmaps
     The paper's metastable-dome maps (reset time against H, t and hold time).
 ramp
     Inversion pressures from slow pressure ramps (extrapolated to the quasi-static fold).
+snap, snap_results
+    :func:`~.snap.snap_pressures`: the states a slow pressure ramp visits, its snap pressures
+    and each state's pressure window (quasi-static continuation, landings by the dynamics).
 leg_kinematics, leg
     Legs (MODEL.md §10): sections simulated alone under their phases, composed into a 3D tip
     path; :func:`~.leg.simulate_leg`, :func:`~.leg.load_leg`.

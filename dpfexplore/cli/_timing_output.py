@@ -80,6 +80,11 @@ def _walker(rows) -> None:
                 print(f"      NOT MET: {q['zone']}: {q['requirement']} ({q['value']} vs "
                       f"{q['bound']})")  # fmt: skip
         if "turning" in r:
-            print(f"      turning gait: action unit {r['turning']['action_class']}, stride "
-                  f"{r['turning']['stride']:.3f} mm")  # fmt: skip
+            turn = r["turning"]
+            what = ("inverts and is still inverted at the end of the run "
+                    f"({turn['t_end']:g} s)" if turn["action_inverted_at_end"] else
+                    "inverts and resets within the run" if turn["action_inverts"] else
+                    "does NOT invert")  # fmt: skip
+            print(f"      turning gait (phase 2 at the turning pressure): the action unit {what}; "
+                  f"stride {turn['stride']:.3f} mm")  # fmt: skip
         _flag(r)

@@ -36,29 +36,19 @@ from .evaluation import Evaluator
 from .optimiser import TargetResult
 from .windows import pressure_windows
 
-__all__ = ["FITTED_RANGES", "fitted_range", "gripper_report", "position_report", "write_report"]
+__all__ = ["fitted_range", "gripper_report", "position_report", "write_report"]
 
-#: Where the closed forms of MODEL.md §3 were fitted (H, t in mm; E in MPa).
-FITTED_RANGES = {"H": (3.0, 5.0), "t": (0.5, 1.0), "E": (5.0, 40.0)}
 _VERIFIED_BY = ("re-solved alone by find_state (exact model, default solver options); the "
                 "reported values are this re-solve's")  # fmt: skip
 
 
 def fitted_range(design: Design) -> tuple[bool, str | None]:
-    """Whether a design lies where the closed forms were fitted, and a note naming what does not."""
-    notes = []
-    low, high = FITTED_RANGES["H"]
-    for k, h in enumerate(design.H):
-        if not low - 1e-12 <= h <= high + 1e-12:
-            notes.append(f"H_{k + 1} = {h:.4g} mm outside [{low:g}, {high:g}]")
-    for name in ("t", "E"):
-        low, high = FITTED_RANGES[name]
-        value = getattr(design, name)
-        if not low - 1e-12 <= value <= high + 1e-12:
-            notes.append(f"{name} = {value:.4g} outside [{low:g}, {high:g}]")
-    if not notes:
-        return True, None
-    return False, "outside the fitted range of the closed forms (MODEL.md §3): " + "; ".join(notes)
+    """Whether a design lies where the closed forms were fitted, and a note naming what does not.
+
+    :attr:`Design.in_fitted_range` and :attr:`Design.fitted_range_note` (MODEL.md §3;
+    :data:`dpfexplore.model.domain.FITTED_RANGES`).
+    """
+    return bool(design.in_fitted_range), design.fitted_range_note
 
 
 def _num(value: float) -> float | str | None:

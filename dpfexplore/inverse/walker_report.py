@@ -90,9 +90,11 @@ def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str,
     })  # fmt: skip
     if kind == "front":
         turn = extra["turn"]
+        action_run = turn.sections[2].result
         row["turning"] = {"stride": turn.stride, "extent": turn.extent.tolist(),
-                          "action_class": turn.sections[2].result.unit_class[0],
-                          "tip_path": _path_rows(turn)}  # fmt: skip
+                          "action_inverts": action_run.unit_class[0] is not None,
+                          "action_inverted_at_end": bool(np.isinf(action_run.reset_time[0])),
+                          "t_end": turn.leg.t_end, "tip_path": _path_rows(turn)}  # fmt: skip
     row["candidates"] = {
         role: [{"H": list(c["design"].H), "t": c["design"].t,
                 "met": all(r["met"] for r in c.get("requirements", [])),

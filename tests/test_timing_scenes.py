@@ -262,6 +262,9 @@ def test_walker_legs_written_reproduce_stride_through_simulate_leg(walker):
         assert leg.stride >= spec.walker.requirements.min_stride_ratio * ref.stride
     middle = _row(walker, "middle")
     assert _unit(middle, "action", 1)["class"] == "monostable"
+    # the monostable leg's purple domes have no contact (H = 1.1, t = 1: d clamped), classed so
+    assert middle["monostable_sections"][0]["classes"] == ["no_contact", "no_contact"]
+    assert middle["monostable_sections"][0]["reset_times"] == [None, None]
 
 
 def test_bad_walker_scene_one_line_exit_2(tmp_path, capsys):

@@ -58,6 +58,9 @@ def register(subparsers) -> None:
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument("--save", action="store_true",
                         help=f"also write the record to {REPORTS}/bench-design.json")
+    parser.add_argument("--save-as", default="bench-design.json", metavar="NAME", type=_json_name,
+                        help="file name of --save under the reports folder (e.g. "
+                        "bench-design-timing.json for a run of the timing scenes only)")
     parser.add_argument("--targets", default="1,2,3,4,5", help="targets (1-based) to run")
     parser.add_argument("--materials", default="cheetah-95a,ninjaflex-85a")
     parser.add_argument("--n-units", default=None,
@@ -79,6 +82,13 @@ def register(subparsers) -> None:
     parser.add_argument("--timing-min-seconds", type=float, default=5.0,
                         help="timing scenes: TPE gets at least this many seconds")
     parser.set_defaults(handler=run)
+
+
+def _json_name(text: str) -> str:
+    name = Path(text).name
+    if name != text or not name.endswith(".json"):
+        raise argparse.ArgumentTypeError(f"{text!r}: a file name ending in .json")
+    return name
 
 
 # ----------------------------------------------------------------------------- baselines
@@ -255,7 +265,7 @@ def run(args: argparse.Namespace) -> int:
                 _progress(row, started)
     record = {"benchmark": "design", "machine": machine_info(), "rows": rows,
               "wall_s": time.perf_counter() - started, "summary": _goals(rows)}  # fmt: skip
-    save = REPORTS / "bench-design.json" if args.save else None
+    save = REPORTS / args.save_as if args.save else None
     emit(record, as_json=args.json, text=_text(record), save=save)
     return 0
 

@@ -82,6 +82,10 @@ def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str,
         "monostable_stride": mono.stride, "monostable_extent": mono.extent.tolist(),
         "stride_ratio": _num(extra["stride_ratio"]),
         "monostable_leg": spec.walker.monostable_source,
+        "monostable_sections": [{"name": r.section.name, "H": list(r.section.design.H),
+                                 "t": r.section.design.t, "classes": list(r.result.unit_class),
+                                 "reset_times": json_times(r.result.reset_time)}
+                                for r in mono.sections],
         "fitted_range": not notes, "fitted_range_note": "; ".join(notes) or None,
         "verification": {"method": VERIFIED_BY.format(atol=spec.walker.verify_atol),
                          "sections": "each under the phase of its requirement; the leg composed "

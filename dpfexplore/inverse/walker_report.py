@@ -204,7 +204,10 @@ def _figures(spec, rows, out: Path) -> list[Path]:
                                if u["section"] == run.section.name and u["unit"] == k + 1)
                     if cls == "no_contact":
                         intervals[k] = []
-                    units.append((f"{run.section.name} {k + 1}", intervals[k], cls))
+                    label = f"{run.section.name} {k + 1}"
+                    if not intervals[k] and cls not in (None, "no_contact"):
+                        label += ", flat here"  # its class is that under its requirement's phase
+                    units.append((label, intervals[k], cls))
             marks = [(c * g.period, f"cycle {c + 1}") for c in range(g.cycles)]
             what = "walking" if mode == "walk" else "turning: phase 2 raised in cycle 1"
             plot_gait_timing(phases, units, t_end=float(leg.t[-1]), marks=marks, ax=ax,

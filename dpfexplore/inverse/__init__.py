@@ -16,6 +16,11 @@ gripper_design, windows
     The multi-aperture gripper scene; pressure windows from snap pressures.
 design_report, design
     Verification of every reported design, the report files, :func:`design_scene`.
+timing_jobs, reset_problem, pickplace_screen, pickplace_design, pickplace_front, timing_report
+    The pick-and-place scene: reset times by design (screening, brackets, roots, fronts).
+walker_design, walker_legs, walker_report, inversion
+    The walker-leg scene: zones that keep time, legs composed from section runs, inversion
+    pressures.
 """
 
 from .design import design_scene, run_design

@@ -8,28 +8,28 @@ tolerance there, so the optimiser here does not use them: it brackets and roots.
 
 Method
 ------
-1. **Screening** (once per scene run, shared by its targets): a grid of ``grid.t`` lines of
-   constant ``t`` with ``grid.H`` heights each, reset times by the reduced model (the fast model
-   where its trained scene is the scene's pulse, else ``release``: :func:`screening_method`) in one
-   parallel batch, and the grasp state's stiffness by the statics (one batch). The grid gives the
+1. **Screening** (:mod:`.pickplace_screen`, once per scene run, shared by its targets): a grid
+   of ``grid.t`` lines of constant ``t`` with ``grid.H`` heights each; the fast reset model on the
+   rows of its trained domain (where its trained scene is the scene's pulse), the release model
+   on the others only when needed, the grasp stiffness by the statics. It also gives the
    reachable range of reset times (its extremes re-simulated in the full model).
 2. **Target reset time.** The sign changes of ``log(reset / target)`` between neighbours on the
    lines (:func:`line_brackets`), inside the fitted range first when ``prefer_fitted``, stiffest
-   grasp first; the first bracket is closed by Brent's method on the full model
-   (:func:`root_on_line`, ``search_atol``), stopping once within a tenth of the tolerance; the
-   design is re-simulated alone to the horizon at ``verify_atol`` (no early stop) and accepted if
-   its reset time is within the tolerance and its hold units stay inverted; else the next
-   bracket. No bracket anywhere: the target is out of reach, and the nearest verified design and
-   the range are reported.
+   grasp first. A bracket is closed on the screening model first (Brent's method, cheap), then
+   on the full model (``search_atol``): run at the screening model's root, then at a step set by
+   its slope, and Brent's method on the bracket that makes, stopping within a tenth of the
+   tolerance. The design is re-simulated alone to the horizon at ``verify_atol`` (no early
+   stop) and accepted if its reset time is within the tolerance and its hold units stay
+   inverted; else the next bracket. No bracket anywhere: the target is out of reach, and the
+   nearest verified design and the range are reported.
 3. **Reset times of two units** (``unit_targets``: e.g. the paper's finger's 2.657 and 1.613 s):
    two equations in the two variables, solved by nested roots: for each ``t``, the height that
    gives the first unit its time (Brent, bracket grown from the screening's estimate); then
-   Brent on ``t`` for the second unit's time. The outer bracket comes from the screening.
-4. **Difference of two profiles** (``difference``): on a few lines of ``t``, the difference
-   ``RT_2 - RT_1`` of the objective reset under the two profiles is maximised over the admissible
-   heights whose resets stay within ``max_reset`` (bounded scalar search on the full model,
-   the cap located by a root); the line optima with their grasp stiffness form the front
-   (non-dominated), and the paper's weighted sum picks one of them when weights are given.
+   Brent on ``t`` for the second unit's time between lines of opposite error, or the smallest
+   error near the best line when the two level curves run side by side (they nearly do for the
+   paper's finger). Inside the fitted range first among the answers within the tolerance.
+4. **Difference of two profiles** (``difference``, :mod:`.pickplace_front`): the front of
+   ``RT_2 - RT_1`` against the grasp stiffness, and the paper's weighted sum.
 
 Only the full model's values are reported; every reported design is re-simulated alone.
 """
@@ -38,38 +38,30 @@ from __future__ import annotations
 
 import logging
 import math
-import time
-from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq, minimize_scalar
 
-from ..model.design import Design
-from ..solvers.dynamics_common import CLASS_METASTABLE
 from .evaluation import Evaluator
 from .optimiser import TargetResult
+from .pickplace_front import solve_difference
+from .pickplace_screen import Screen, check_design, screen_pickplace, second_screen
 from .reset_problem import (
     Bracket,
-    ResetEval,
     ResetProblem,
-    finite_log,
     grow_bracket,
     line_brackets,
     root_on_line,
-    screening_method,
 )
-from .timing_jobs import PulseSpec
 
-__all__ = ["Screen", "check_design", "screen_pickplace", "solve_pickplace"]
+__all__ = ["SEARCH_FRACTION", "solve_pickplace"]
 
 logger = logging.getLogger(__name__)
 
 #: Brackets tried per target before it is declared out of reach.
 MAX_BRACKETS = 6
-#: Lines of ``t`` of the difference front.
-FRONT_LINES = 8
 #: Lines of ``t`` whose exact two-unit error is computed (those the screening puts nearest).
 CANDIDATE_LINES = 6
 #: Search tolerance as a fraction of the scene's (a margin for the verification).
@@ -77,182 +69,6 @@ SEARCH_FRACTION = 0.1
 #: ``|log(reset / target)|`` at or above this marks an end that diverged (bistable) or went
 #: negative (:data:`dpfexplore.inverse.reset_problem._LOG_INF` is 50).
 _DIVERGED = 40.0
-
-
-@dataclass
-class Screen:
-    """The screening grid of a pick-and-place scene run (shared by its targets).
-
-    Rows not screened yet have ``admissible`` False and NaN values (``screened`` False); the
-    first stage screens the rows where the fast model is trained (the fitted range lies inside
-    them), ``screen_pickplace(..., complete=True)`` the rest with the release model when a result
-    needs them.
-    """
-
-    problem: ResetProblem
-    shape: tuple[int, int]
-    ev: ResetEval
-    screened: NDArray
-    stiffness: NDArray
-    fitted: NDArray
-    method: str
-    note: str
-    wall_s: float
-    ranges: dict | None = None
-    ranges_wall_s: float = 0.0
-    second: ResetEval | None = None
-    second_method: str = ""
-
-    @property
-    def complete(self) -> bool:
-        """Every grid row screened."""
-        return bool(np.all(self.screened))
-
-
-def _grid(spec) -> tuple[NDArray, tuple[int, int]]:
-    p = spec.pickplace
-    zt = np.linspace(0.0, 1.0, p.grid_t)
-    zh = np.linspace(0.0, 1.0, p.grid_H)
-    z = np.column_stack([np.tile(zh, p.grid_t), np.repeat(zt, p.grid_H)])
-    return z, (p.grid_t, p.grid_H)
-
-
-def _empty_eval(z: NDArray, n: int) -> ResetEval:
-    m = len(z)
-    return ResetEval(z=z, reset=np.full((m, n), np.nan), classes=np.full((m, n), -1, np.int64),
-                     final_state=np.full(m, -1, np.int64), status=np.zeros(m, np.int8),
-                     value=np.full(m, np.nan), admissible=np.zeros(m, bool), method="",
-                     extra={"methods": np.full(m, "", dtype=object)})  # fmt: skip
-
-
-def _fill(full: ResetEval, rows: NDArray, part: ResetEval) -> None:
-    for name in ("reset", "classes", "final_state", "status", "value", "admissible"):
-        getattr(full, name)[rows] = getattr(part, name)
-    full.extra["methods"][rows] = part.extra.get("methods", part.method)
-
-
-def screen_pickplace(spec, evaluator: Evaluator, *, complete: bool = False) -> Screen:
-    """The screening of a scene (cached on the evaluator: computed once per run).
-
-    The first call screens the grid rows inside the fast model's trained domain (all rows when
-    the scene screens with another model) and solves the grasp stiffness of every row (statics,
-    one batch); ``complete=True`` also screens the remaining rows (release model).
-    """
-    screen = evaluator.cache.get("pickplace-screen")
-    if screen is None:
-        started = time.perf_counter()
-        p = spec.pickplace
-        problem = ResetProblem(spec, evaluator, target_index=-1)
-        z, shape = _grid(spec)
-        method, note = screening_method(p.screening, p.pulse)
-        batch = problem.designs(z)
-        if method == "fast":
-            from ..solvers.fast_reset import in_domain
-            from ..solvers.fast_reset_model import load_reset_model
-
-            first = in_domain(load_reset_model(), batch)
-        else:
-            first = np.ones(len(z), dtype=bool)
-        ev = _empty_eval(z, problem.variables.n_units)
-        rows = np.flatnonzero(first)
-        if rows.size:
-            _fill(ev, rows, problem.resets(z[rows], purpose="screening", method=method))
-        ev.method = method
-        stiffness = problem.grasp_stiffness(z, purpose="screening")
-        screen = Screen(problem, shape, ev, first.copy(), stiffness, batch.in_fitted_range(),
-                        method, note, 0.0)  # fmt: skip
-        screen.wall_s = time.perf_counter() - started
-        evaluator.cache["pickplace-screen"] = screen
-    if complete and not screen.complete:
-        started = time.perf_counter()
-        rows = np.flatnonzero(~screen.screened)
-        part = screen.problem.resets(screen.ev.z[rows], purpose="screening", method="release")
-        _fill(screen.ev, rows, part)
-        screen.screened[:] = True
-        if screen.method == "fast":
-            screen.note += f"; the {rows.size} rows outside it by the release model"
-        screen.wall_s += time.perf_counter() - started
-    return screen
-
-
-def second_screen(spec, evaluator: Evaluator) -> Screen:
-    """The complete screening with the difference objective's second profile screened too."""
-    screen = screen_pickplace(spec, evaluator, complete=True)
-    if screen.second is None:
-        started = time.perf_counter()
-        p = spec.pickplace
-        method, _ = screening_method(p.screening, p.difference.pulse)
-        screen.second = screen.problem.resets(screen.ev.z, purpose="screening", method=method,
-                                              pulse=p.difference.pulse, profile_index=2)
-        screen.second_method = method
-        screen.wall_s += time.perf_counter() - started
-    return screen
-
-
-def reachable_range(spec, evaluator: Evaluator) -> dict:
-    """The range of reset times over the whole box (completes the screening; cached)."""
-    screen = screen_pickplace(spec, evaluator, complete=True)
-    if screen.ranges is None:
-        started = time.perf_counter()
-        screen.ranges = _reachable_range(spec, screen, evaluator)
-        screen.ranges_wall_s = time.perf_counter() - started
-        screen.ranges["wall_s"] = screen.wall_s + screen.ranges_wall_s
-    return screen.ranges
-
-
-def check_design(problem: ResetProblem, design: Design, *, pulse: PulseSpec | None = None,
-                 atol: float) -> dict:  # fmt: skip
-    """Full-model run of a design to the horizon at ``atol``: reset times, classes, objective."""
-    from ..solvers.dynamics_common import CLASS_NAMES
-
-    run = problem.simulate(design, pulse=pulse, atol=atol)
-    codes = {name: code for code, name in CLASS_NAMES.items()}
-    classes = np.array([[codes[c] for c in run.unit_class]], dtype=np.int64)
-    reset = run.reset_time[None, :]
-    value, ok = problem.objective_value(reset, classes, np.array([int(run.status)]))
-    return {"reset_times": run.reset_time.copy(), "classes": list(run.unit_class),
-            "final_state": run.final_state, "status": run.status.label,
-            "value": float(value[0]), "admissible": bool(ok[0]),
-            "objective_unit": problem.objective_unit(run.reset_time, classes[0]),
-            "atol": atol, "t_end": run.t_end}  # fmt: skip
-
-
-def _reachable_range(spec, screen: Screen, evaluator: Evaluator) -> dict:
-    """Range of the objective reset over admissible, metastable-objective screening designs."""
-    ev, p = screen.ev, spec.pickplace
-    problem = screen.problem
-    n = ev.reset.shape[1]
-    rows = np.arange(len(ev.z))
-    units = np.array([problem.objective_unit(ev.reset[i], ev.classes[i]) if ev.admissible[i]
-                      else 0 for i in rows])  # fmt: skip
-    meta = ev.admissible & np.isfinite(ev.value) & (units > 0)
-    meta &= np.array([units[i] > 0 and ev.classes[i, units[i] - 1] == CLASS_METASTABLE
-                      for i in rows])  # fmt: skip
-    out: dict = {"method": screen.method, "grid": {"t": p.grid_t, "H": p.grid_H},
-                 "designs": len(ev.z), "admissible": int(ev.admissible.sum()),
-                 "metastable": int(meta.sum()), "n_units": n}  # fmt: skip
-    for key, mask in (("all", meta), ("fitted_range", meta & screen.fitted)):
-        if not mask.any():
-            out[key] = None
-            continue
-        values = np.where(mask, ev.value, np.nan)
-        lo, hi = int(np.nanargmin(values)), int(np.nanargmax(values))
-        entry = {"min_s": float(values[lo]), "max_s": float(values[hi])}
-        for name, i in (("min", lo), ("max", hi)):
-            design = problem.design(ev.z[i])
-            check = check_design(problem, design, atol=p.search_atol)
-            entry[f"{name}_design"] = {"H": list(design.H), "t": design.t}
-            entry[f"{name}_full_model_s"] = check["value"]
-        out[key] = entry
-    out["supremum_s"] = p.pulse.horizon
-    out["note"] = (
-        "Reset times of admissible designs (hold units bistable, objective unit metastable) on the "
-        "screening grid; the extremes re-simulated in the full model. Every time between the "
-        "smallest and the horizon is reachable: along a line of t the reset time is continuous "
-        "and diverges at the bistable edge, so the supremum is the horizon "
-        f"({p.pulse.horizon:g} s after the release), not the grid's largest value."
-    )
-    return out
 
 
 # ----------------------------------------------------------------------------- one target
@@ -497,91 +313,6 @@ def _finite_or(v: float, outer, ga: float, gb: float, a: float, b: float) -> flo
     return ga if abs(v - a) < abs(v - b) else gb
 
 
-# ----------------------------------------------------------------------------- difference
-
-
-def _solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
-    p = spec.pickplace
-    d = p.difference
-    problem = ResetProblem(spec, evaluator, target_index=index)
-    v1, v2 = screen.ev.value, screen.second.value
-    cap = d.max_reset
-    with np.errstate(invalid="ignore"):
-        ok = screen.ev.admissible & screen.second.admissible & (v1 >= 0.05) & (v1 <= cap) & \
-            (v2 >= 0.05) & (v2 <= cap)  # fmt: skip
-    with np.errstate(invalid="ignore"):
-        diff = np.where(ok, v2 - v1, np.nan).reshape(screen.shape)
-    ok = ok.reshape(screen.shape)
-    zh = np.linspace(0.0, 1.0, screen.shape[1])
-    lines = [j for j in range(screen.shape[0]) if ok[j].any()]
-    if len(lines) > FRONT_LINES:
-        lines = [lines[round(k)] for k in np.linspace(0, len(lines) - 1, FRONT_LINES)]
-    points = []
-
-    def both(x: float, zt: float) -> tuple[float, float]:
-        e1 = problem.resets([[x, zt]], purpose="difference", method="rodas4", atol=p.search_atol)
-        e2 = problem.resets([[x, zt]], purpose="difference", method="rodas4", atol=p.search_atol,
-                            pulse=d.pulse, profile_index=2)  # fmt: skip
-        return float(e1.value[0]), float(e2.value[0])
-
-    for j in lines:
-        zt = float(np.linspace(0.0, 1.0, screen.shape[0])[j])
-        i_best = int(np.nanargmax(diff[j]))
-        lo = hi = i_best
-        while lo > 0 and ok[j, lo - 1]:
-            lo -= 1
-        while hi < len(zh) - 1 and ok[j, hi + 1]:
-            hi += 1
-        x_lo, x_hi = zh[lo], zh[hi]
-        if hi < len(zh) - 1:  # the cap RT <= max_reset lies between hi and hi + 1: locate it
-            def over(x: float, zt: float = zt) -> float:
-                r1, r2 = both(x, zt)
-                worst = max(r1, r2) if np.isfinite(r1) and np.isfinite(r2) else math.inf
-                return finite_log(worst, cap) if not math.isnan(worst) else math.nan
-
-            f_a, f_b = over(zh[hi]), over(zh[hi + 1])
-            if np.isfinite(f_a) and np.isfinite(f_b) and f_a < 0 <= f_b:
-                x_hi, _ = root_on_line(over, zh[hi], zh[hi + 1], f_a, f_b, ftol=1e-4)
-                x_hi = zh[hi] + (x_hi - zh[hi]) * (1 - 1e-6)
-
-        def negative(x: float, zt: float = zt) -> float:
-            r1, r2 = both(x, zt)
-            good = np.isfinite(r1) and np.isfinite(r2) and 0.05 <= r1 <= cap and 0.05 <= r2 <= cap
-            return -(r2 - r1) if good else 1e3
-
-        if x_hi > x_lo:
-            found = minimize_scalar(negative, bounds=(x_lo, x_hi), method="bounded",
-                                    options={"xatol": 1e-5})  # fmt: skip
-            x = float(found.x)
-        else:
-            x = float(x_lo)
-        design = problem.design([x, zt])
-        c1 = check_design(problem, design, atol=p.verify_atol)
-        c2 = check_design(problem, design, pulse=d.pulse, atol=p.verify_atol)
-        good = c1["admissible"] and c2["admissible"] and all(
-            np.isfinite(c["value"]) and 0.05 <= c["value"] <= cap for c in (c1, c2))
-        stiffness = float(problem.grasp_stiffness(np.array([[x, zt]]), purpose="difference")[0])
-        points.append({"z": [x, zt], "design": design, "checks": [c1, c2], "ok": bool(good),
-                       "difference": c2["value"] - c1["value"], "stiffness": stiffness})
-    front = _non_dominated([q for q in points if q["ok"]])
-    weighted = None
-    if d.weights is not None and front:
-        w1, w2 = d.weights
-        weighted = min(front, key=lambda q: w1 / q["stiffness"] ** 2 + w2 / q["difference"]
-                       if q["difference"] > 0 else math.inf)  # fmt: skip
-    best = max(front, key=lambda q: q["difference"]) if front else None
-    return {"kind": "difference", "target": None, "best": best, "front": front,
-            "lines": points, "weighted": weighted, "problem": problem}  # fmt: skip
-
-
-def _non_dominated(points: list[dict]) -> list[dict]:
-    """Points not beaten in both difference and stiffness, by difference descending."""
-    out = [q for q in points if not any(
-        o["difference"] >= q["difference"] and o["stiffness"] >= q["stiffness"] and
-        (o["difference"] > q["difference"] or o["stiffness"] > q["stiffness"]) for o in points)]
-    return sorted(out, key=lambda q: -q["difference"])
-
-
 # ----------------------------------------------------------------------------- solver
 
 
@@ -601,7 +332,7 @@ def solve_pickplace(spec, target_index: int, evaluator: Evaluator) -> TargetResu
         outcome = _solve_units(spec, target_index, evaluator,
                                screen_pickplace(spec, evaluator, complete=True))  # fmt: skip
     else:
-        outcome = _solve_difference(spec, target_index, evaluator, second_screen(spec, evaluator))
+        outcome = solve_difference(spec, target_index, evaluator, second_screen(spec, evaluator))
     best = outcome["best"]
     reachable = best is not None and (best.get("ok", False) if outcome["kind"] == "difference"
                                       else best["error"] <= p.tolerance)  # fmt: skip

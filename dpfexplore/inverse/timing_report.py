@@ -68,7 +68,7 @@ def _check_entry(check: dict) -> dict[str, Any]:
 
 def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
     """The verified ``--json`` row of one pick-and-place result (target, unit pair or front)."""
-    from .pickplace_design import reachable_range, screen_pickplace
+    from .pickplace_screen import reachable_range, screen_pickplace
 
     p = spec.pickplace
     extra = result.extra
@@ -240,7 +240,7 @@ def _pickplace_figures(spec, rows, evaluator: Evaluator, history, out: Path) -> 
 
     from ..plotting.design import plot_objective_history
     from ..plotting.timing import plot_difference_front, plot_reset_screen
-    from .pickplace_design import screen_pickplace
+    from .pickplace_screen import screen_pickplace
 
     screen = screen_pickplace(spec, evaluator)
     z = screen.ev.z

@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,15 +51,15 @@ from numpy.typing import NDArray
 from ..model.design import Design, DesignBatch
 from ..model.pressure import PressureProfile
 from ..solvers.dynamics_common import CLASS_METASTABLE, CLASS_MONOSTABLE, CLASS_NAMES
-from ..solvers.leg import Leg, LegResult, SectionRun, section_nodes, simulate_section
-from ..solvers.leg_kinematics import compose, tip_node
 from .evaluation import Evaluator
 from .inversion import inversion_method, unit_inversion_pressures
 from .optimiser import TargetResult
 from .reset_problem import finite_log, grow_bracket, root_on_line
 from .timing_jobs import WalkerSpec
+from .walker_legs import LegComposer, violation
+from .walker_legs import requirement as _req
 
-__all__ = ["WalkerSearch", "solve_walker"]
+__all__ = ["WalkerSearch", "search_of", "solve_walker", "violation"]
 
 logger = logging.getLogger(__name__)
 
@@ -78,7 +77,7 @@ def _code(name: str | None) -> int:
     return _CODES[name]
 
 
-class WalkerSearch:
+class WalkerSearch(LegComposer):
     """One scene run's sections, searches and leg simulations (cached on the evaluator)."""
 
     def __init__(self, spec, evaluator: Evaluator) -> None:
@@ -523,91 +522,6 @@ class WalkerSearch:
             _req("action", "units after it invert above walking pressure + margin", first_rest,
                  g.walk_pressure + m, bool(first_rest >= g.walk_pressure + m)),
         ]  # fmt: skip
-
-    # ------------------------------------------------------------------ legs
-
-    def walk_phases(self, cycles: int = 1) -> dict[str, PressureProfile]:
-        """Both phases at the walking pressure."""
-        return {"1": self.gait.phase(1, cycles=cycles), "2": self.gait.phase(2, cycles=cycles)}
-
-    def turn_phases(self, cycles: int = 1) -> dict[str, PressureProfile]:
-        """Phase 2 raised in the first cycle (the turning command)."""
-        return {"1": self.gait.phase(1, cycles=cycles),
-                "2": self.gait.phase(2, cycles=cycles, raised_first=True)}  # fmt: skip
-
-    def leg_of(self, purple: Design, green: Design, action: Design,
-               phases: dict[str, PressureProfile], *, t_end: float | None = None,
-               name: str = "") -> Leg:  # fmt: skip
-        """The scene's base leg with these sections and phases."""
-        designs = {"purple": purple, "green": green, "action": action}
-        phase_of = {"purple": "1", "green": "2", "action": "2"}
-        sections = tuple(replace(s, design=designs[s.name], phase=phase_of[s.name])
-                         for s in self.w.leg.sections)  # fmt: skip
-        return replace(self.w.leg, sections=sections, phases=phases,
-                       t_end=self.gait.t_end if t_end is None else t_end,
-                       name=name or self.w.leg.name)  # fmt: skip
-
-    def leg(self, purple: Design, green: Design, action: Design,
-            phases: dict[str, PressureProfile], *, t_end: float | None = None,
-            leg: Leg | None = None) -> LegResult:  # fmt: skip
-        """Simulate and compose a leg; each (section, phase) simulated once per scene run."""
-        leg = leg or self.leg_of(purple, green, action, phases, t_end=t_end)
-        runs = []
-        for s in leg.sections:
-            profile = leg.phases[s.phase]
-            key = (s.design, profile, leg.t_end, leg.n_samples)
-            if key not in self.legs:
-                result, t_start = simulate_section(s, profile, t_end=leg.t_end,
-                                                   n_samples=leg.n_samples, method=leg.method,
-                                                   atol=leg.atol)  # fmt: skip
-                self.evaluator.count("sections")
-                self.evaluator.count("designs")
-                self.legs[key] = (result, t_start, section_nodes(result))
-            result, t_start, nodes = self.legs[key]
-            runs.append(SectionRun(s, result, t_start, nodes, s.design.in_fitted_range,
-                                   s.design.fitted_range_note))  # fmt: skip
-        placed = compose(leg.composition, [r.nodes for r in runs],
-                         [s.mount_deg for s in leg.sections])  # fmt: skip
-        notes = [f"{r.section.name}: {r.fitted_range_note}" for r in runs if not r.fitted_range]
-        return LegResult(leg=leg, t=leg.times(), tip=placed[-1][:, tip_node(
-            leg.sections[-1].design.n_units)].copy(), placed=placed, sections=tuple(runs),
-            fitted_range=not notes, fitted_range_note="; ".join(notes) or None)  # fmt: skip
-
-    def monostable(self) -> LegResult:
-        """The scene's monostable leg at the walking gait."""
-        if "monostable" not in self.sections:
-            mono = self.w.monostable_leg
-            d = {s.name: s.design for s in mono.sections}
-            leg = self.leg_of(d["purple"], d["green"], d["action"], self.walk_phases(),
-                              name="monostable")  # fmt: skip
-            leg = replace(leg, sections=tuple(replace(s, design=d[s.name]) for s in leg.sections))
-            self.sections["monostable"] = self.leg(d["purple"], d["green"], d["action"],
-                                                   self.walk_phases(), leg=leg)  # fmt: skip
-        return self.sections["monostable"]
-
-
-def _req(zone: str, text: str, value, bound, met) -> dict:
-    return {"zone": zone, "requirement": text, "value": value, "bound": bound, "met": bool(met)}
-
-
-def violation(requirements: list[dict]) -> float:
-    """How far a design is from meeting every requirement: 0 when all are met.
-
-    Each unmet numeric requirement adds its shortfall relative to its bound, each unmet class
-    or flag requirement adds 1 (the objective both our search and the benchmark's black box are
-    measured by).
-    """
-    total = 0.0
-    for r in requirements:
-        if r["met"]:
-            continue
-        value, bound = r["value"], r["bound"]
-        if isinstance(value, (int, float)) and isinstance(bound, (int, float)) and \
-                not isinstance(value, bool) and math.isfinite(value) and bound != 0:  # fmt: skip
-            total += abs(value - bound) / abs(bound)
-        else:
-            total += 1.0
-    return total
 
 
 def search_of(spec, evaluator: Evaluator) -> WalkerSearch:

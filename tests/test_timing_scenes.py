@@ -156,6 +156,30 @@ def test_paper_finger_reset_times_as_targets(tmp_path, capsys):
     np.testing.assert_allclose(run.reset_time[4:], paper, rtol=0.01)
 
 
+def test_two_profile_difference_front_is_verified(tmp_path, capsys):
+    extra = ("[pickplace.difference]\nprofile = {P0 = 1.0, tau = [0.0, 1.0, 5.0, 5.1]}\n"
+             "max_reset = 6.0\nweights = [1.0, 1.0]")
+    path = tmp_path / "scene.toml"
+    path.write_text(pickplace_scene([], extra=extra, grid="{t = 4, H = 21}"))
+    assert main(["design", str(path), "--out", str(tmp_path / "o"), "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)["results"]
+    assert row["objective_kind"] == "difference" and row["front"]
+    second = PressureProfile.pulse(1.0, (0.0, 1.0, 5.0, 5.1))
+    for point in row["front"]:
+        design = Design.from_dict(point["design"])
+        r1 = full_run(design)
+        r2 = simulate(design, second, t_end=15.0, atol=TIGHT, n_samples=0)
+        last1, last2 = (float(np.nanmax(np.where(np.isinf(r.reset_time[4:]), np.nan,
+                                                 r.reset_time[4:]))) for r in (r1, r2))
+        assert last1 <= 6.0 and last2 <= 6.0
+        assert r1.unit_class[:4] == ("bistable",) * 4 == r2.unit_class[:4]
+        assert point["difference"] == pytest.approx(last2 - last1, abs=1e-5)
+    pairs = [(q["difference"], q["stiffness"]) for q in row["front"]]
+    for d, k in pairs:  # non-dominated
+        assert not any(d2 >= d and k2 >= k and (d2, k2) != (d, k) for d2, k2 in pairs)
+    assert row["weighted"]["weights"] == [1.0, 1.0]
+
+
 def test_target_reset_option_and_bad_pickplace_input(tmp_path, capsys):
     path = tmp_path / "scene.toml"
     path.write_text(pickplace_scene([1.0]))

@@ -74,6 +74,9 @@ def test_bad_input_is_one_line_and_exit_code_2(dataset, tmp_path, capsys):
                                                    "--constraints", "heights"])  # fmt: skip
     assert "state" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--state", "12"])
     assert "k = 0" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--k", "0"])
+    assert "constraints apply" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
+                                                          "--constraints", "t=0.7"])  # fmt: skip
+    assert "finite" in one_line_error(capsys, ["lookup", d, "--target", "nan,2"])
     assert "scales" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
                                                "--scales", "1,-1"])  # fmt: skip
 
@@ -154,3 +157,20 @@ def test_table_output(dataset, capsys):
     assert "status" in lines[1] and "stiffness" in lines[1]
     assert len([line for line in lines if line.strip().startswith(("1 ", "2 ", "3 "))]) == 3
     assert "re-solved by the exact model" in out
+
+
+@pytest.mark.slow
+def test_bench_lookup_record(dataset, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = copy_dataset(dataset, tmp_path / "data")
+    assert main(["bench", "lookup", "--dataset", str(path), "--builds", "1", "--queries", "8",
+                 "--targets", "3", "--tries", "2", "--json", "--save"]) == 0  # fmt: skip
+    record = json.loads(capsys.readouterr().out)
+    assert record["build"]["rows_read"] == 160 and record["build"]["build_s"] > 0
+    for case in record["query"]["cases"].values():
+        assert case["same_rows_as_scan"] is True and case["ours_ms"] > 0 and case["scan_ms"] > 0
+    refinement = record["refinement"]
+    assert refinement["targets"] == 3 and 0 <= refinement["met_any_try"] <= 1
+    assert refinement["worst_met_error_mm"] <= 1e-6
+    saved = tmp_path / "results" / "reports" / "bench-lookup.json"
+    assert json.loads(saved.read_text())["benchmark"] == "lookup"

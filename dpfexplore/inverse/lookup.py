@@ -48,7 +48,8 @@ from ..sweep.store import read_results, read_schema
 from .datasets import DatasetInfo, dataset_info
 from .lookup_index import DEFAULT_COLUMNS, LookupIndex, mask_of
 from .lookup_store import IndexOrigin, open_index
-from .refine import REFINABLE_COLUMNS, Refinement, refine, variables_for
+from .refine import REFINABLE_COLUMNS, Refinement, variables_for
+from .refine import refine as refine_design
 
 __all__ = [
     "FITTED_RANGES",
@@ -377,6 +378,14 @@ def lookup(
     if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol = {tol!r}: must be finite and > 0")
     columns = tuple(columns)
+    target = np.asarray(target, dtype=float).reshape(-1)
+    if target.shape != (len(columns),) or not np.all(np.isfinite(target)):
+        raise ValueError(
+            f"target = {target.tolist()!r}: need {len(columns)} finite values, one per column "
+            f"({', '.join(columns)})"
+        )
+    if constraints and not refine:
+        raise ValueError("constraints apply to the refinement: ask for refine=True (--refine)")
     if refine:
         for name in columns:
             if name not in REFINABLE_COLUMNS:
@@ -400,7 +409,6 @@ def lookup(
             f"{dataset}: no usable rows (status ok and finite {', '.join(columns)}) in "
             f"{info.rows_committed} committed rows"
         )
-    target = np.asarray(target, dtype=float).reshape(-1)
     mask = None
     if where:
         keys = read_results(dataset, columns=["design_id", "requested"], where=where)
@@ -422,8 +430,9 @@ def lookup(
         space = parse_job(info.job).space
         for i, design in enumerate(designs):
             variables = variables_for(space, design, constraints)
-            refinements[i] = refine_candidate(
-                design, int(states[i]), target, variables, index, tol, max_evaluations
+            refinements[i] = refine_design(
+                design, int(states[i]), target, variables=variables, columns=index.columns,
+                scales=index.scales, tol=tol, max_evaluations=max_evaluations,
             )
             designs[i] = refinements[i].design
     candidates = _verified(designs, states, rows, distance, index, target, tol, refinements)
@@ -447,14 +456,6 @@ def lookup(
         index_origin=origin, index_rows=len(index), query_seconds=query_seconds,
         seconds=time.perf_counter() - start, notes=notes, state=state,
         n_units=tuple(n_units) if n_units is not None else None, where=where, index=index,
-    )
-
-
-def refine_candidate(design, state, target, variables, index, tol, max_evaluations) -> Refinement:
-    """One candidate through :func:`~.refine.refine` with the index's columns and scales."""
-    return refine(
-        design, state, target, variables=variables, columns=index.columns, scales=index.scales,
-        tol=tol, max_evaluations=max_evaluations,
     )
 
 

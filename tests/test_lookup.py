@@ -13,6 +13,7 @@ import pytest
 from sweep_helpers import make_job
 
 from dpfexplore import Design, find_state
+from dpfexplore.inverse import lookup_index
 from dpfexplore.inverse.datasets import dataset_info
 from dpfexplore.inverse.lookup import fitted_range, lookup, parse_n_units
 from dpfexplore.inverse.lookup_index import StaleIndexError, build_index, mask_of
@@ -56,7 +57,11 @@ def brute_force(frame, target, k, columns=("tip_x", "tip_y"), scales=(1.0, 1.0))
                     strict=True)), d[order]  # fmt: skip
 
 
-def test_query_equals_brute_force_scan_with_every_filter(sequential):
+@pytest.mark.parametrize("scan_rows", [0, 16384], ids=["tree-for-filters", "scan-small-sets"])
+def test_query_equals_brute_force_scan_with_every_filter(sequential, scan_rows, monkeypatch):
+    # Row filters are served by the tree (asking for more neighbours until k pass) or, for
+    # small filtered sets, by a scan; the threshold 0 forces the tree whenever it can serve.
+    monkeypatch.setattr(lookup_index, "_SCAN_ROWS", scan_rows)
     _, path = sequential
     frame = ok_rows(path)
     index = build_index(path)
@@ -78,7 +83,7 @@ def test_query_equals_brute_force_scan_with_every_filter(sequential):
             assert got == want
             np.testing.assert_allclose(got_d, want_d, rtol=0, atol=1e-12)
         # a row filter (a --where expression) is exact, including very selective ones
-        for share in (0.5, 0.02):
+        for share in (0.5, 0.2, 0.02):
             allowed = RNG.random(len(frame)) < share
             keys = frame.loc[allowed, ["design_id", "requested"]]
             mask = mask_of(index, {c: keys[c].to_numpy() for c in keys})
@@ -226,7 +231,7 @@ def test_bad_lookups_raise_naming_the_problem(sequential, tmp_path):
     _, path = sequential
     with pytest.raises(ValueError, match="column 'tip_z'"):
         lookup(path, (1.0, 2.0), columns=("tip_x", "tip_z"))
-    with pytest.raises(ValueError, match="need 2 values"):
+    with pytest.raises(ValueError, match="need 2 finite values"):
         lookup(path, (1.0, 2.0, 3.0))
     with pytest.raises(ValueError, match="not numeric"):
         lookup(path, (1.0, 2.0), columns=("tip_x", "status_label"))

@@ -32,6 +32,7 @@ from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
 from .model.status import Status
 from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
 from .solvers.lattice import spring_constants
+from .solvers.leg import load_leg, simulate_leg
 from .solvers.statics import (
     SolverOptions,
     StateResult,
@@ -63,11 +64,13 @@ __all__ = [
     "find_state",
     "load_design",
     "load_job",
+    "load_leg",
     "read_results",
     "reset_times_batch",
     "run_sweep",
     "sequential_states",
     "simulate",
+    "simulate_leg",
     "solve_batch",
     "spring_constants",
 ]

@@ -15,6 +15,11 @@ Class within the finger
     sooner, including during the release ramp), or -1 (never inverted). A metastable unit
     whose reset takes longer than the horizon is reported bistable: the horizon bounds what a
     simulation can tell.
+No contact
+    A unit whose reach ``d`` was clamped (MODEL.md §3: the closed form gave ``d <= 0``) has no
+    inversion in this model's sense: its threshold sits a few µm from flat. Its class is set to
+    ``CLASS_NO_CONTACT`` after the run, outside the kernels
+    (:func:`dpfexplore.solvers.dynamics_common.mark_no_contact`), which only know ``d``.
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ CLASS_NEVER_INVERTED = -1
 CLASS_BISTABLE = 0
 CLASS_METASTABLE = 1
 CLASS_MONOSTABLE = 2
+CLASS_NO_CONTACT = 3
 
 
 @kernel

@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
-COMMAND_MODULES = ("states", "sweep", "simulate", "resetmaps", "lookup", "bench")
+COMMAND_MODULES = ("states", "sweep", "simulate", "simulate_leg", "resetmaps", "lookup", "bench")
 
 EXIT_OK = 0
 EXIT_FAILURE = 1

@@ -142,6 +142,20 @@ class PressureProfile:
         """End of the profile (the last knot, ``τ_end``), s."""
         return self.times[-1]
 
+    def zero_until(self) -> float:
+        """End of the initial stretch without pressure, s.
+
+        The largest ``T`` such that ``P(t) = 0`` for every ``t < T``: the knot before the first
+        non-zero pressure (``inf`` if the pressure is always 0, ``-inf`` if it starts non-zero).
+        A finger at rest stays at rest until then, so its integration can start there.
+        """
+        nonzero = [i for i, p in enumerate(self.pressures) if p != 0.0]
+        if not nonzero:
+            return math.inf
+        if nonzero[0] == 0:
+            return -math.inf
+        return self.times[nonzero[0] - 1]
+
     def knots(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Knot arrays ``(times, pressures)`` for the kernels."""
         return np.array(self.times), np.array(self.pressures)

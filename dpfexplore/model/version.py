@@ -17,7 +17,7 @@ import importlib.metadata
 import platform
 
 #: Version of the physical model and of the meaning of its outputs (see the module docstring).
-MODEL_VERSION = "dpf-lattice-1"
+MODEL_VERSION = "dpf-lattice-2"
 
 #: Distributions whose versions are stored with a dataset (provenance only).
 _RECORDED_DISTRIBUTIONS = (

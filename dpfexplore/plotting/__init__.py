@@ -1,6 +1,6 @@
 """Plots: ``plot_*(..., ax=None) -> Axes``; no file I/O and no ``plt.show()`` here.
 
 Modules: :mod:`.statics` (finger shapes), :mod:`.dynamics` (time histories, reset-time maps),
-:mod:`.space` (design-space maps of sweep results), :mod:`.lookup` (the tip region a dataset
-reaches, with a lookup's target and designs).
+:mod:`.space` (design-space maps of sweep results), :mod:`.leg` (tip paths of legs),
+:mod:`.lookup` (the tip region a dataset reaches, with a lookup's target and designs).
 """

@@ -19,4 +19,11 @@ dynamics
     :func:`~.dynamics.simulate` and :func:`~.dynamics.reset_times_batch` (MODEL.md §8).
 resetmaps
     The paper's metastable-dome maps (reset time against H, t and hold time).
+ramp
+    Inversion pressures from slow pressure ramps (extrapolated to the quasi-static fold).
+fitted_range
+    Whether a design lies where the closed forms were fitted (MODEL.md §3).
+leg_kinematics, leg
+    Legs (MODEL.md §10): sections simulated alone under their phases, composed into a 3D tip
+    path; :func:`~.leg.simulate_leg`, :func:`~.leg.load_leg`.
 """

@@ -41,6 +41,7 @@ none hangs.
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -89,6 +90,7 @@ def simulate(
     profile: PressureProfile,
     *,
     t_end: float,
+    t_start: float = 0.0,
     method: str = DEFAULT_METHOD,
     n_samples: int = 601,
     atol: float | None = None,
@@ -111,6 +113,13 @@ def simulate(
     profile : PressureProfile
     t_end : float, s
         End of the run; at least ``profile.t_release``.
+    t_start : float, s
+        Start of the integration: the finger keeps its initial state (the samples before
+        ``t_start`` hold it) and integration starts there. Exact when that state is at rest
+        under zero pressure (the default start): the pressure must be 0 on ``[0, t_start)``
+        (:meth:`PressureProfile.zero_until`).
+        A leg section whose phase starts later is integrated only from its phase's start
+        (:mod:`dpfexplore.solvers.leg`). Not for ``method="radau"``.
     method : str
         See :data:`METHODS` (module docstring).
     n_samples : int
@@ -149,8 +158,10 @@ def simulate(
     info = method_info(method)
     if n_samples < 0:
         raise ValueError(f"n_samples = {n_samples!r}: must be >= 0")
+    t_start = _quiet_start(t_start, profile, t_end)
     if info.name == "radau":
         custom = {"x0": x0 is not None, "v0": v0 is not None, "lattice": lattice is not None,
+                  "t_start": t_start != 0.0,
                   "eta": eta != kdyn.ETA_INTERNAL or eta_iso != kdyn.ETA_ISO}  # fmt: skip
         if any(custom.values()):
             raise ValueError(
@@ -197,13 +208,26 @@ def simulate(
     rec = np.empty((n_units, kev.N_REC))
     log = np.zeros((event_capacity, 3))
     stats = np.zeros(kev.N_STATS, dtype=np.int64)
-    code = integrate(info.integrator, y, 0.0, t_end, params.unit_params, params.h, knot_t,
+    code = integrate(info.integrator, y, t_start, t_end, params.unit_params, params.h, knot_t,
                      knot_p, phys, ctrl, t_out, x_out, rec, log, stats)  # fmt: skip
     status = st.Status(code)
     if status != st.OK:
         logger.warning("simulate(%s, method=%s): %s", design.name or "design", method, status.label)
     return build_result(design, profile, info.name, status, params, t_out, x_out, rec, log, stats,
                    y[:n].copy(), y[n:].copy(), t_end)  # fmt: skip
+
+
+def _quiet_start(t_start, profile: PressureProfile, t_end: float) -> float:
+    """``t_start`` as a float; ``ValueError`` unless in ``[0, t_end]`` with no pressure before."""
+    t_start = float(t_start)
+    if not math.isfinite(t_start) or t_start < 0.0 or t_start > t_end:
+        raise ValueError(f"t_start = {t_start!r}: must be a time in [0, t_end = {t_end}] s")
+    if t_start > 0.0 and t_start > profile.zero_until():
+        raise ValueError(
+            f"t_start = {t_start} s: the pressure is not 0 before it (it rises after "
+            f"{profile.zero_until()} s); the finger would not stay at rest"
+        )
+    return t_start
 
 
 def reset_times_batch(
@@ -241,10 +265,11 @@ def reset_times_batch(
     dict
         ``"status"`` (int8, (n,)), ``"final_state"`` (int64 (n,), unit 1 = most significant
         bit; -1 for invalid rows), ``"reset_time"``, ``"snap_through"``, ``"snap_back"``
-        (float64 (n, 12), s; NaN for padding, invalid rows and units never inverted; reset
-        ``inf`` if never reset within the horizon), ``"unit_class"`` (int8 (n, 12): 0
-        bistable, 1 metastable, 2 monostable, -1 never inverted or padding). Invalid designs
-        (``batch.status() != OK``) keep their status and NaN outputs.
+        (float64 (n, 12), s; NaN for padding, invalid rows, units never inverted and
+        no-contact units; reset ``inf`` if never reset within the horizon), ``"unit_class"``
+        (int8 (n, 12): 0 bistable, 1 metastable, 2 monostable, 3 no contact (reach ``d``
+        clamped, MODEL.md §3: no inversion in this model), -1 never inverted or padding).
+        Invalid designs (``batch.status() != OK``) keep their status and NaN outputs.
     """
     if not isinstance(batch, DesignBatch):
         raise ValueError(f"batch = {batch!r}: must be a DesignBatch")

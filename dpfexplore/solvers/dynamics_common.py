@@ -22,12 +22,14 @@ from .._kernels.dynamics_batch import (
     CLASS_METASTABLE,
     CLASS_MONOSTABLE,
     CLASS_NEVER_INVERTED,
+    CLASS_NO_CONTACT,
     INTEGRATOR_DOPRI5,
     INTEGRATOR_RODAS4,
     summarise_units,
 )
 from .._kernels.lattice import dome_extensions, unpack_nodes
 from ..model import status as st
+from ..model.constants import dome_reach
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
@@ -43,17 +45,20 @@ __all__ = [
     "check_horizon",
     "controls",
     "empty_reset_columns",
+    "mark_no_contact",
     "method_info",
     "positive_number",
     "run_reset_batch",
 ]
 
-#: Unit class codes (``reset_times_batch()["unit_class"]``) and their names.
+#: Unit class codes (``reset_times_batch()["unit_class"]``) and their names. ``no_contact``: the
+#: unit's reach ``d`` is clamped (MODEL.md §3), so it has no inversion and no reset time.
 CLASS_NAMES: dict[int, str | None] = {
     CLASS_NEVER_INVERTED: None,
     CLASS_BISTABLE: "bistable",
     CLASS_METASTABLE: "metastable",
     CLASS_MONOSTABLE: "monostable",
+    CLASS_NO_CONTACT: "no_contact",
 }
 
 
@@ -135,13 +140,16 @@ class SimulationResult:
         First upward and last downward threshold crossing (NaN if none).
     reset_time : ndarray of shape (N,), s
         After ``profile.t_release``; ``inf`` if still inverted at ``t_end``; NaN if never
-        inverted.
+        inverted or no contact.
     unit_class : tuple of (str or None)
-        ``"bistable"``, ``"metastable"``, ``"monostable"`` or None (never inverted).
+        ``"bistable"``, ``"metastable"``, ``"monostable"``, ``"no_contact"`` (reach ``d``
+        clamped: no inversion in this model; its times are NaN and its final-state bit 0) or
+        None (never inverted).
     final_state : str
         Inversion bits at the end, unit 1 first (e.g. ``"111100"``).
     events : ndarray of shape (n_events, 3)
-        Every crossing: time (s), unit (1-based), direction (+1 snap-through, -1 snap-back).
+        Every threshold crossing, no-contact units' included: time (s), unit (1-based),
+        direction (+1 snap-through, -1 snap-back).
     final_x, final_v : ndarray of shape (4N - 2,)
         State at the end of the run (mm, mm/s).
     t_end : float, s
@@ -252,6 +260,11 @@ def build_result(design, profile, method, status, params, t_out, x_out, rec, log
     classes = np.empty(n_units, dtype=np.int64)
     state = summarise_units(rec, profile.t_release, int(status), reset, snap_through, snap_back,
                             classes)  # fmt: skip
+    no_contact = dome_reach(design.H, design.t, design.U_sep, design.t_ch)[1]
+    states = np.array([state], dtype=np.int64)
+    mark_no_contact(no_contact[None], np.array([n_units]), states, reset[None],
+                    snap_through[None], snap_back[None], classes[None])  # fmt: skip
+    state = int(states[0])
     tip, ext = _tip_and_extensions(params, x_out)
     n_events = int(min(stats[kev.STAT_EVENTS], log.shape[0]))
     events = log[:n_events].copy()
@@ -301,6 +314,33 @@ def _tip_and_extensions(params, x_out: NDArray) -> tuple[NDArray, NDArray]:
     return tip, ext
 
 
+def mark_no_contact(no_contact, n_units, final_state, reset, snap_through, snap_back,
+                    unit_class) -> None:  # fmt: skip
+    """Class the no-contact units of simulated designs, in place.
+
+    A unit whose reach ``d`` was clamped (MODEL.md §3) crosses its threshold a few µm from
+    flat, so its "inversion" and "reset" mean nothing: its class becomes ``CLASS_NO_CONTACT``
+    (a property of the design, whatever the run's status), its reset and snap times NaN and its
+    bit of the final state 0.
+
+    Parameters
+    ----------
+    no_contact : ndarray of bool, shape (n, k)
+        Per design and unit; False on padding and on rows that were not simulated.
+    n_units : ndarray of int, shape (n,)
+    final_state : ndarray of int64, shape (n,)
+        Unit 1 = most significant of ``n_units`` bits; entries < 0 (no state) are left alone.
+    reset, snap_through, snap_back : ndarray of shape (n, >= k), s
+    unit_class : ndarray of int, shape (n, >= k)
+    """
+    rows, units = np.nonzero(no_contact)
+    for i, k in zip(rows, units, strict=True):
+        reset[i, k] = snap_through[i, k] = snap_back[i, k] = np.nan
+        unit_class[i, k] = CLASS_NO_CONTACT
+        if final_state[i] >= 0:
+            final_state[i] &= ~(1 << int(n_units[i] - 1 - k))
+
+
 def empty_reset_columns(batch: DesignBatch) -> dict[str, NDArray]:
     """The arrays of the :func:`reset_times_batch` contract before any simulation.
 
@@ -341,4 +381,8 @@ def run_reset_batch(batch, profile, info, atol, max_steps, launch) -> dict[str, 
     finally:
         numba.set_parallel_chunksize(previous)
     status[valid] = codes[valid].astype(np.int8)
+    with np.errstate(invalid="ignore"):
+        no_contact = dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
+    mark_no_contact(no_contact & valid[:, None], n_units, out["final_state"], out["reset_time"],
+                    out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
     return out

@@ -166,11 +166,12 @@ def _dynamics_fields(max_units: int) -> list[pa.Field]:
     per_unit = (
         ("reset_time", pa.float64(), "s",
          "time from the end of release until unit {k} falls back below its barrier "
-         "(inf: not within the horizon; NaN: never inverted or not simulated)"),
+         "(inf: not within the horizon; NaN: never inverted, no contact or not simulated)"),
         ("snap_through", pa.float64(), "s", "time unit {k} snapped through (inverted)"),
         ("snap_back", pa.float64(), "s", "time unit {k} snapped back"),
         ("unit_class", pa.int8(), "1",
          "class of unit {k} in its finger: 0 bistable, 1 metastable, 2 monostable, "
+         "3 no contact (reach d clamped: no inversion in this model), "
          "-1 never inverted or not simulated"),
     )
     for name, dtype, unit, text in per_unit:

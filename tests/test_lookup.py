@@ -216,6 +216,18 @@ def test_dataset_being_written_is_read_through_committed_chunks(sequential, tmp_
     assert any("incomplete" in n and "committed chunks" in n for n in result.notes)
 
 
+def test_dataset_of_another_model_version_is_said_so(sequential, tmp_path):
+    _, original = sequential
+    path = tmp_path / "data"
+    copy_dataset(original, path)
+    assert not any("model version" in n for n in lookup(path, (30.0, 20.0), k=1).notes)
+    manifest = store.read_manifest(path)
+    manifest.model_version = "dpf-lattice-0"
+    store.write_manifest(path, manifest)
+    notes = lookup(path, (30.0, 20.0), k=1).notes
+    assert any("model version 'dpf-lattice-0'" in n and "re-solved" in n for n in notes)
+
+
 def test_fitted_range_and_n_units_parsing():
     inside = Design(H=[3.5, 4.0], U_L=7.0, U_sep=2.0, t=0.8, t_lim=1.5)
     assert fitted_range(inside) == (True, None)

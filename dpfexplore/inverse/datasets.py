@@ -59,6 +59,8 @@ class DatasetInfo:
         Committed chunk files (relative paths), in (N, chunk) order.
     job : dict
         The job that wrote the dataset (:meth:`~dpfexplore.sweep.space.JobSpec.to_dict`).
+    model_version : str
+        Model version that wrote the dataset.
     """
 
     root: Path
@@ -69,6 +71,7 @@ class DatasetInfo:
     rows_committed: int
     chunks: tuple[str, ...]
     job: Mapping = field(default_factory=dict, compare=False, repr=False)
+    model_version: str = ""
 
     @property
     def note(self) -> str | None:
@@ -105,4 +108,5 @@ def dataset_info(root: str | Path) -> DatasetInfo:
         rows_committed=manifest.n_rows,
         chunks=tuple(r.path for r in records),
         job=manifest.job,
+        model_version=manifest.model_version,
     )

@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..model.version import MODEL_VERSION
 from ..solvers.statics import OUTPUT_COLUMNS, solve_batch, state_string
 from ..sweep.space import parse_job
 from ..sweep.store import read_results, read_schema
@@ -375,6 +376,12 @@ def lookup(
     start = time.perf_counter()
     info = dataset_info(dataset)
     notes = [info.note] if info.note else []
+    if info.model_version != MODEL_VERSION:
+        notes.append(
+            f"the dataset was written by model version {info.model_version!r}; designs are "
+            f"re-solved by this model ({MODEL_VERSION!r}), whose outputs may differ from the "
+            "dataset's"
+        )
     if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol = {tol!r}: must be finite and > 0")
     columns = tuple(columns)

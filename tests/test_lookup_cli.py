@@ -169,8 +169,10 @@ def test_bench_lookup_record(dataset, tmp_path, capsys, monkeypatch):
     assert record["build"]["rows_read"] == 160 and record["build"]["build_s"] > 0
     for case in record["query"]["cases"].values():
         assert case["same_rows_as_scan"] is True and case["ours_ms"] > 0 and case["scan_ms"] > 0
-    refinement = record["refinement"]
-    assert refinement["targets"] == 3 and 0 <= refinement["met_any_try"] <= 1
-    assert refinement["worst_met_error_mm"] <= 1e-6
+    for name in ("exact", "central_differences"):
+        refinement = record["refinement"][name]
+        assert refinement["targets"] == 3 and 0 <= refinement["met_any_try"] <= 1
+        assert refinement["worst_met_error_mm"] <= 1e-6
+    assert record["refinement"]["speedup_vs_central"] > 0
     saved = tmp_path / "results" / "reports" / "bench-lookup.json"
     assert json.loads(saved.read_text())["benchmark"] == "lookup"

@@ -8,8 +8,9 @@ import pytest
 from sweep_helpers import make_job
 
 from dpfexplore import Design, DesignBatch, find_state, solve_batch
-from dpfexplore.inverse.lookup import lookup
+from dpfexplore.inverse.lookup import designs_of, lookup
 from dpfexplore.inverse.refine import (
+    _central_differences,
     _model_outputs,
     parse_constraints,
     refine,
@@ -59,6 +60,13 @@ def test_target_from_a_known_design_is_met(inverted, seed):
     _, target = held_out_tip(3 + seed % 2, seed)
     result = lookup(path, target, k=3, refine=True)
     assert result.reachable
+    # the same from the central-difference baseline
+    _, rows = result.index.query(target, 1)
+    start = designs_of(result.index, rows).design(0)
+    variables = variables_for(make_job(**{"space.n_units": [3, 4]}).space, start)
+    baseline = refine(start, int(result.index.requested[rows[0]]), target,
+                      variables=variables, sensitivities="central")  # fmt: skip
+    assert baseline.status == "ok" and baseline.error <= 1e-6
     best = result.best
     assert best.status == "ok" and best.met and best.refined and best.error <= 1e-6
     # independently of the lookup's own verification
@@ -168,13 +176,15 @@ def test_bounds_stop_the_refinement_short():
     assert result.error > 1e-3
 
 
-def test_central_difference_sensitivities_agree_with_wider_differences():
+def test_exact_and_central_difference_sensitivities_agree_with_wider_differences():
     design = Design(H=[4.2, 3.9, 4.6], U_L=[6.0, 8.0, 7.0], U_sep=[2.0, 3.0, 1.5], t=0.7,
                     t_lim=1.4)  # fmt: skip
     batch = DesignBatch.from_designs([design])
     columns = ("tip_x", "tip_y", "stiffness")
-    values, jac, status = _model_outputs(batch, 7, columns, derivatives=True)
-    assert status == 0 and jac.shape == (3, 12)
+    values, exact, status = _model_outputs(batch, 7, columns, derivatives=True)
+    same, central, _ = _central_differences(batch, 7, columns, derivatives=True)
+    assert status == 0 and exact.shape == central.shape == (3, 12)
+    np.testing.assert_array_equal(values, same)
     theta = np.concatenate([design.H, design.U_L, design.U_sep, [design.t, design.t_lim, design.E]])
     for j in range(theta.size):
         h = 1e-4 * max(abs(theta[j]), 1.0)
@@ -186,7 +196,9 @@ def test_central_difference_sensitivities_agree_with_wider_differences():
             out = solve_batch(DesignBatch.from_designs([one]), [7], min_eig=False)
             rows.append([out[c][0] for c in columns])
         wide = (np.array(rows[0]) - np.array(rows[1])) / (2 * h)
-        np.testing.assert_allclose(jac[:, j], wide, rtol=1e-5, atol=1e-7)
+        np.testing.assert_allclose(central[:, j], wide, rtol=1e-5, atol=1e-7)
+        np.testing.assert_allclose(exact[:, j], wide, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(exact, central, rtol=1e-6, atol=1e-9)
     # shapes do not depend on E; stiffness is proportional to it
-    np.testing.assert_allclose(jac[:2, -1], 0.0, atol=1e-8)
-    assert jac[2, -1] == pytest.approx(values[2] / design.E, rel=1e-6)
+    np.testing.assert_allclose(central[:2, -1], 0.0, atol=1e-8)
+    assert exact[2, -1] == pytest.approx(values[2] / design.E, rel=1e-6)

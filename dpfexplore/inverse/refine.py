@@ -4,11 +4,13 @@
 :class:`~dpfexplore.inverse.variables.DesignVariables`, until the outputs of one stable state
 (the tip by default) equal a target to a tolerance (1e-6 mm). It is bounded nonlinear least
 squares on the variables ``z ∈ [0, 1]^m`` of that exact reparametrisation
-(:func:`scipy.optimize.least_squares`, trust-region reflective), with residual
-``(outputs(z) - target) / scales`` and Jacobian ``∂outputs/∂θ · ∂θ/∂z``: the model's design
-sensitivities chained with :meth:`DesignVariables.jacobian`. Every design it evaluates satisfies
-the constraints exactly (heights ordered, ``U_L`` / ``U_sep`` shared, ties), so no penalty is
-needed.
+(:func:`scipy.optimize.least_squares`: dogbox, then trust-region reflective from the same start
+if dogbox stops short; see :data:`_STAGES`), with residual ``(outputs(z) - target) / scales``
+and Jacobian ``∂outputs/∂θ · ∂θ/∂z``: the model's design sensitivities chained with
+:meth:`DesignVariables.jacobian`. Every design it evaluates satisfies the constraints exactly
+(heights ordered, ``U_L`` / ``U_sep`` shared, ties), so no penalty is needed. The problems are
+underdetermined (two tip coordinates, up to 3N + 2 variables): Gauss-Newton steps of minimum
+norm move the design as little as the target allows.
 
 States that vanish
     A state exists only on part of the design space: past a fold the requested inversion
@@ -25,8 +27,8 @@ Sensitivities
     :func:`_model_outputs` is the one place that asks the model for outputs and their
     derivatives with respect to the design parameters ``θ = (H_1..H_N, U_L_1..U_L_N,
     U_sep_1..U_sep_N, t, t_lim, E)``. Until the model's implicit-function sensitivities are on
-    this branch it takes central differences of :func:`~dpfexplore.solvers.statics.solve_batch`
-    (all ``2 (3N + 3)`` perturbed designs in one batch call).
+    this branch it takes :func:`_central_differences`: ``2 (3N + 3)`` perturbed solves in one
+    batch call (``sensitivities="central"``, the baseline of ``dpfexplore bench lookup``).
 """
 
 from __future__ import annotations
@@ -231,8 +233,9 @@ def _model_outputs(
 ) -> tuple[NDArray, NDArray | None, int]:
     """Outputs of one design's state and, if asked, their derivatives with respect to ``θ``.
 
-    The one place to switch to the model's own sensitivities
-    (``solve_batch(..., sensitivities=True)``) when they are available.
+    The one place to switch to the model's implicit-function sensitivities
+    (``solve_batch(..., sensitivities=True)``) once they are on this branch; until then,
+    :func:`_central_differences`.
 
     Returns
     -------
@@ -243,12 +246,20 @@ def _model_outputs(
     status : int
         :mod:`~dpfexplore.model.status` code of the state at the design.
     """
-    # Stiffness always: it needs the Hessian factored at the returned shape, which fails next
-    # to a fold; the verification of a reported design asks for it, so a design accepted here
-    # passes there.
-    stiffness = True
+    return _central_differences(batch, state, columns, derivatives=derivatives)
+
+
+def _central_differences(
+    batch: DesignBatch, state: int, columns: Sequence[str], *, derivatives: bool
+) -> tuple[NDArray, NDArray | None, int]:
+    """:func:`_model_outputs` with derivatives by central differences of the solver.
+
+    Stiffness is always computed: it needs the Hessian factored at the returned shape, which
+    fails next to a fold; the verification of a reported design asks for it, so a design
+    accepted here passes there.
+    """
     if not derivatives:
-        cols = solve_batch(batch, [state], stiffness=stiffness, min_eig=False)
+        cols = solve_batch(batch, [state], stiffness=True, min_eig=False)
         return np.array([cols[c][0] for c in columns]), None, int(cols["status"][0])
     theta = _theta(batch)
     p = theta.size
@@ -256,7 +267,7 @@ def _model_outputs(
     rows = np.repeat(theta[None, :], 2 * p + 1, axis=0)
     rows[1 + np.arange(p), np.arange(p)] += step
     rows[1 + p + np.arange(p), np.arange(p)] -= step
-    cols = solve_batch(_batch_of(rows, batch), [state] * (2 * p + 1), stiffness=stiffness,
+    cols = solve_batch(_batch_of(rows, batch), [state] * (2 * p + 1), stiffness=True,
                        min_eig=False)  # fmt: skip
     values = np.stack([cols[c] for c in columns], axis=1)
     ok = cols["status"] == st.OK
@@ -271,6 +282,12 @@ def _model_outputs(
                    np.where(ok_p, (plus - centre) / h,
                             np.where(ok_m, (centre - minus) / h, 0.0)))  # fmt: skip
     return centre, jac.T, status
+
+
+#: Whether :func:`_model_outputs` has the model's own sensitivities (else central differences).
+_MODEL_SENSITIVITIES = False
+#: How :func:`refine` gets the model's derivatives.
+SENSITIVITIES = {"exact": _model_outputs, "central": _central_differences}
 
 
 # ----------------------------------------------------------------------------- refinement
@@ -296,9 +313,11 @@ class Refinement:
     values : ndarray of shape (d,)
         The outputs at ``design``.
     evaluations : int
-        Model evaluations (designs solved for values; Jacobians counted apart).
+        Designs solved for values (with exact sensitivities, each solve also gives the
+        derivatives).
     jacobians : int
-        Jacobian evaluations.
+        Jacobians used (with exact sensitivities, those of accepted steps come with their
+        values; otherwise each is one batch of perturbed solves).
     collapses : int
         Trial designs whose state collapsed or whose solve failed.
     seconds : float
@@ -319,6 +338,18 @@ class Refinement:
     message: str
 
 
+#: The least-squares runs of a refinement, each from the start, until one meets the target:
+#: dogbox (a dogleg in the box ∩ trust region, minimum-norm Gauss-Newton steps by ``lstsq``)
+#: converges like trf on these small underdetermined problems (median 3 evaluations from a
+#: dataset neighbour) at a fifth of trf's cost per iteration, but its longer steps more often
+#: land past a fold, after which it creeps along it; so it gets 15 evaluations (five times
+#: what it needs when it converges), and trf with LSMR subproblems, whose path differs, takes
+#: the rest of the budget from the same start. trf's exact (SVD) subproblem is not used: its
+#: bound scaling damps every step of these zero-residual problems, converging only linearly
+#: (about 0.65 per iteration).
+_STAGES = (("dogbox", "exact", 15), ("trf", "lsmr", None))
+
+
 class _TargetMet(Exception):
     """Raised from the residual to end the search at the first design that meets the target."""
 
@@ -326,15 +357,20 @@ class _TargetMet(Exception):
 class _Problem:
     """Residual and Jacobian in ``z`` of one refinement, with the best design seen."""
 
-    def __init__(self, variables, state, target, scales, columns, tol) -> None:
+    def __init__(self, variables, state, target, scales, columns, tol, model) -> None:
         self.variables, self.state, self.columns = variables, state, columns
         self.target, self.scales, self.tol = target, scales, tol
+        self.model = model
+        # Derivatives with every value when they cost less than a second solve (the model's
+        # own sensitivities), so that an accepted step has its Jacobian already.
+        self.together = model is _model_outputs and _MODEL_SENSITIVITIES
         self.evaluations = self.jacobians = self.collapses = 0
         self.best_z: NDArray | None = None
         self.best_error = np.inf
         self.best_values = np.full(len(columns), np.nan)
         self.penalty = 1.0
         self._last: tuple[NDArray, NDArray] | None = None
+        self._jac_at: tuple[NDArray, NDArray] | None = None
 
     def residual(self, z: NDArray) -> NDArray:
         if self._last is not None and np.array_equal(self._last[0], z):
@@ -345,12 +381,15 @@ class _Problem:
 
     def _residual(self, z: NDArray) -> NDArray:
         batch = self.variables.designs(z[None, :])
-        values, _, status = _model_outputs(batch, self.state, self.columns, derivatives=False)
+        values, jac, status = self.model(batch, self.state, self.columns,
+                                         derivatives=self.together)  # fmt: skip
         self.evaluations += 1
         if status != st.OK:
             self.collapses += 1
             # Larger than any residual met so far: the trust region rejects the step.
             return np.full(len(self.columns), self.penalty)
+        if jac is not None:
+            self._jac_at = (z.copy(), jac)
         r = (values - self.target) / self.scales
         error = float(np.linalg.norm(r))
         self.penalty = max(self.penalty, 10.0 * (error + 1.0))
@@ -361,10 +400,13 @@ class _Problem:
         return r
 
     def jacobian(self, z: NDArray) -> NDArray:
-        batch = self.variables.designs(z[None, :])
-        _, jac, _ = _model_outputs(batch, self.state, self.columns, derivatives=True)
         self.jacobians += 1
-        if jac is None:  # accepted points exist; a failure here is a solver failure
+        if self._jac_at is not None and np.array_equal(self._jac_at[0], z):
+            jac = self._jac_at[1]
+        else:
+            batch = self.variables.designs(z[None, :])
+            _, jac, _ = self.model(batch, self.state, self.columns, derivatives=True)
+        if jac is None:  # only accepted points get here, where the state exists
             return np.zeros((len(self.columns), self.variables.n_variables))
         return (jac / self.scales[:, None]) @ self.variables.jacobian(z[None, :])[0]
 
@@ -397,6 +439,7 @@ def refine(
     scales: ArrayLike | None = None,
     tol: float = 1e-6,
     max_evaluations: int = 60,
+    sensitivities: str = "exact",
 ) -> Refinement:
     """Move ``design`` inside ``variables`` until the outputs of ``state`` meet ``target``.
 
@@ -420,6 +463,9 @@ def refine(
         Error to reach (1e-6: a micrometre of tip position).
     max_evaluations : int
         Cap on model evaluations for values.
+    sensitivities : {"exact", "central"}
+        The model's implicit-function derivatives, or central differences of the solver (the
+        benchmark's baseline).
 
     Raises
     ------
@@ -442,12 +488,15 @@ def refine(
         raise ValueError(f"scales = {scales.tolist()!r}: need {len(columns)} values > 0")
     if not (np.isfinite(tol) and tol > 0):
         raise ValueError(f"tol = {tol!r}: must be finite and > 0")
+    if sensitivities not in SENSITIVITIES:
+        raise ValueError(f"sensitivities = {sensitivities!r}: choose one of {list(SENSITIVITIES)}")
     if design.n_units != variables.n_units:
         raise ValueError(f"design has {design.n_units} units, the variables {variables.n_units}")
     state_int = parse_state(state, design.n_units)
     bits = state_string(state_int, design.n_units)
     start = time.perf_counter()
-    problem = _Problem(variables, state_int, target, scales, columns, tol)
+    problem = _Problem(variables, state_int, target, scales, columns, tol,
+                       SENSITIVITIES[sensitivities])  # fmt: skip
     z0 = variables.encode(_project(design, variables))[0][0]
 
     def done(z, status, message) -> Refinement:
@@ -468,19 +517,24 @@ def refine(
         return done(z0, "collapsed", f"state {bits} does not exist at the (projected) start")
     if variables.n_variables == 0:
         return done(z0, "not_met", "no free variables")
-    # tr_solver="lsmr": with the exact (SVD) subproblem solver, trf's scaling for the bounds
-    # slows these underdetermined, zero-residual problems to linear convergence (about 0.65
-    # per iteration); the LSMR subproblem keeps the Gauss-Newton step (3-5 Jacobians to 1e-7).
-    # SciPy's LSMR path works in a two-dimensional subspace and fails for one variable.
-    solver = "lsmr" if variables.n_variables >= 2 else "exact"
+    messages = []
     try:
-        result = least_squares(
-            problem.residual, z0, jac=problem.jacobian, bounds=(0.0, 1.0), method="trf",
-            ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=max_evaluations, tr_solver=solver,
-        )
-        message = result.message
+        for method, tr_solver, cap in _STAGES:
+            if method == "trf" and variables.n_variables == 1:
+                tr_solver = "exact"  # SciPy's LSMR path needs two variables
+            budget = max_evaluations - problem.evaluations
+            budget = budget if cap is None else min(cap, budget)
+            if budget <= 0:
+                break
+            result = least_squares(
+                problem.residual, z0, jac=problem.jacobian, bounds=(0.0, 1.0),
+                method=method, tr_solver=tr_solver, ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                max_nfev=budget,
+            )
+            messages.append(f"{method}: {result.message}")
     except _TargetMet:
         return done(problem.best_z, "ok", f"met to {problem.best_error:.2g}")
+    message = "; ".join(messages)
     if problem.collapses:
         return done(problem.best_z, "collapsed",
                     f"state {bits} collapsed at {problem.collapses} trial designs; stopped at "

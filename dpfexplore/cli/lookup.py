@@ -26,7 +26,8 @@ def register(subparsers) -> None:
     )
     parser.add_argument("dataset", type=Path, help="sweep dataset directory")
     parser.add_argument("--target", required=True,
-                        help="target values, comma-separated, one per column (e.g. 25,40 mm)")
+                        help="target values, comma-separated, one per column (e.g. 25,40 mm; "
+                        "a negative first value as --target=-5,30)")
     parser.add_argument("--columns", default="tip_x,tip_y",
                         help="indexed output columns (default tip_x,tip_y)")
     parser.add_argument("--scales",

@@ -39,9 +39,12 @@ def test_sequential_table_with_gripper_apertures(capsys):
         == 0
     )
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 2 + 6
+    # header, units, 6 states, and the note: unit 5 (H = 2.5 mm) is outside the fitted range
+    assert len(lines) == 2 + 6 + 1
     row = next(line for line in lines if line.startswith("11110"))
     assert row.split()[-1] == "35.04"
+    assert lines[-1].startswith("note: outside the range the closed forms were fitted on")
+    assert "H[unit 5] = 2.5 mm below the fitted 3-5 mm" in lines[-1]
 
 
 def test_plot_writes_a_png(tmp_path, capsys):

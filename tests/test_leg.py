@@ -12,7 +12,6 @@ import pytest
 import dpfexplore.cli as cli
 from dpfexplore import Design, PressureProfile, simulate
 from dpfexplore.examples import example_path
-from dpfexplore.solvers.fitted_range import fitted_range
 from dpfexplore.solvers.leg import (
     Leg,
     Section,
@@ -171,13 +170,6 @@ def test_simulate_t_start_needs_a_quiet_profile():
     assert PressureProfile.parse("0:0, 1:0, 1:0.3, 2:0").zero_until() == 1.0
     assert PressureProfile.parse("0:0, 1:0").zero_until() == math.inf
     assert PressureProfile.parse("0:0.1, 1:0").zero_until() == -math.inf
-
-
-def test_fitted_range():
-    assert fitted_range(Design(H=[3.0, 5.0], U_L=6, U_sep=1, t=0.5, t_lim=1, E=40)) == (True, None)
-    inside, note = fitted_range(Design(H=[4.0, 1.1], U_L=6, U_sep=1, t=0.45, t_lim=1, E=26))
-    assert not inside and "H[unit 2] = 1.1 mm" in note and "t = 0.45 mm" in note
-    assert "H[unit 1]" not in note
 
 
 def test_assignments():

@@ -15,7 +15,7 @@ from sweep_helpers import make_job
 from dpfexplore import Design, find_state
 from dpfexplore.inverse import lookup_index
 from dpfexplore.inverse.datasets import dataset_info
-from dpfexplore.inverse.lookup import fitted_range, lookup, parse_n_units
+from dpfexplore.inverse.lookup import lookup, parse_n_units
 from dpfexplore.inverse.lookup_index import StaleIndexError, build_index, mask_of
 from dpfexplore.inverse.lookup_store import index_path, load_index, open_index
 from dpfexplore.sweep import store
@@ -228,11 +228,7 @@ def test_dataset_of_another_model_version_is_said_so(sequential, tmp_path):
     assert any("model version 'dpf-lattice-0'" in n and "re-solved" in n for n in notes)
 
 
-def test_fitted_range_and_n_units_parsing():
-    inside = Design(H=[3.5, 4.0], U_L=7.0, U_sep=2.0, t=0.8, t_lim=1.5)
-    assert fitted_range(inside) == (True, None)
-    low, note = fitted_range(inside.replace(H=[2.5, 4.0], t=1.2))
-    assert not low and "H_1 = 2.5 mm" in note and "t = 1.2 mm" in note
+def test_n_units_parsing():
     assert parse_n_units("3..5") == (3, 4, 5) and parse_n_units("2,7") == (2, 7)
     for bad in ("5..3", "x", "0", "13"):
         with pytest.raises(ValueError, match="n_units"):

@@ -176,3 +176,34 @@ def test_bench_lookup_record(dataset, tmp_path, capsys, monkeypatch):
     assert record["refinement"]["speedup_vs_central"] > 0
     saved = tmp_path / "results" / "reports" / "bench-lookup.json"
     assert json.loads(saved.read_text())["benchmark"] == "lookup"
+
+
+def test_a_chunk_changed_after_its_commit_is_refused(dataset, tmp_path, capsys):
+    path = copy_dataset(dataset, tmp_path / "data")
+    record = sorted(store.read_manifest(path).chunks.values(), key=lambda r: r.path)[0]
+    chunk = path / record.path
+    data = bytearray(chunk.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # same size, other bytes
+    chunk.write_bytes(bytes(data))
+    err = one_line_error(capsys, ["lookup", str(path), "--target", "30,20"])
+    assert record.path in err and "SHA-256" in err
+
+
+def test_designs_outside_the_fitted_range_are_flagged(tmp_path, capsys):
+    path = tmp_path / "low"
+    run_sweep(make_job(**{"job.name": "low", "job.samples_per_n": 30, "space.n_units": [2],
+                          "space.variables.H": {"min": 2.6, "max": 3.4},
+                          "space.variables.t": {"min": 0.5, "max": 0.7}}), path)  # fmt: skip
+    assert main(["lookup", str(path), "--target", "30,12", "--k", "8", "--json"]) == 0
+    candidates = json.loads(capsys.readouterr().out)["candidates"]
+    flags = {c["fitted_range"] for c in candidates}
+    assert flags == {True, False}  # the box straddles H = 3 mm
+    for c in candidates:
+        low = min(c["design"]["H"]) < 3.0
+        assert c["fitted_range"] is not low
+        assert (c["fitted_range_note"] is None) is not low
+        if low:
+            assert "below the fitted 3-5 mm" in c["fitted_range_note"]
+    assert main(["lookup", str(path), "--target", "30,12", "--k", "8"]) == 0
+    out = capsys.readouterr().out
+    assert " NO " in out and "note: outside the fitted range of the closed forms: H[unit" in out

@@ -82,8 +82,8 @@ def test_refusals_write_nothing(tmp_path):
     other = make_job(**{"job.seed": 8})
     with pytest.raises(StoreError, match=r"another job's data \(job.seed differs"):
         run(other, out)
-    with pytest.raises(StoreError, match="pass --resume"):
-        run(spec, out)
+    rerun = run(spec, out)  # complete: a rerun computes nothing and reports it (issue 11)
+    assert rerun.complete and rerun.designs_computed == 0 and rerun.chunks_reused == 4
     with pytest.raises(StoreError, match="chunk sizes"):
         run(spec, out, resume=True, chunk_size=10)
     foreign = tmp_path / "foreign"

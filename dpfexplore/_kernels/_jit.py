@@ -78,6 +78,21 @@ def invalidate_stale_cache() -> None:
 
 invalidate_stale_cache()
 
+def is_cached(dispatcher) -> bool | None:
+    """Whether Numba's cache holds machine code of ``dispatcher`` for this CPU.
+
+    True when its cache index (valid for the current source) has an entry for this machine's
+    target, so the first call loads instead of compiling; None when Numba's cache internals
+    cannot be read (a Numba version that moved them): the caller then cannot tell.
+    """
+    try:
+        index = dispatcher._cache._cache_file._load_index()
+        target = dispatcher.targetctx.codegen().magic_tuple()
+    except Exception:  # private Numba API: any failure means "cannot tell"
+        return None
+    return any(isinstance(key, tuple) and len(key) > 1 and key[1] == target for key in index)
+
+
 _COMMON = {"cache": True, "error_model": "numpy"}
 
 

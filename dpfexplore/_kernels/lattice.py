@@ -41,13 +41,16 @@ from .layout import (
     n_nodes,
 )
 
-#: ``assemble`` modes.
-ENERGY = 0
-GRADIENT = 1
-HESSIAN = 2
+#: ``assemble`` modes. NumPy integers on purpose: Numba types a Python ``int`` constant passed
+#: as an argument as a literal and compiles one copy of :func:`assemble` per mode (three in the
+#: state search alone, about 5 s of compile time each, and every caller re-optimises all the
+#: copies it links); ``int64`` constants give one compiled copy for every caller.
+ENERGY = np.int64(0)
+GRADIENT = np.int64(1)
+HESSIAN = np.int64(2)
 #: The Hessian with every spring's own curvature made non-negative (see :func:`assemble`): a
 #: positive semi-definite model of the energy for steps where the true Hessian is indefinite.
-HESSIAN_CONVEX = 3
+HESSIAN_CONVEX = np.int64(3)
 
 #: Indices into the ``split`` array filled by :func:`assemble`.
 SPLIT_LINEAR = 0  # posts and limiting layer

@@ -1,8 +1,20 @@
 """Command-line interface: ``dpfexplore <command> ...``.
 
 Thin by design: each command module parses its arguments, calls the public API and returns an
-exit code (0 success, 1 failure of the computation, 2 bad input). Command modules register
-themselves through ``register(subparsers)``; :data:`COMMAND_MODULES` lists them.
+exit code (0 success, 1 failure of the computation, 2 bad input, 130 interrupted). Command
+modules register themselves through ``register(subparsers)``; :data:`COMMAND_MODULES` lists
+them.
+
+What every command gets from :func:`main`:
+
+* bad input (:class:`UsageError`, or a ``ValueError``/``OSError`` a command turns into one) is
+  one line on stderr and exit code 2, never a traceback;
+* an option value that starts with ``-`` (``--tau -2,-1,0,0.1``) reaches the option and its
+  validation, instead of argparse's "expected one argument";
+* Ctrl-C ends with one line and exit code 130 (``sweep`` says what was committed and how to
+  resume);
+* a reader that goes away (``dpfexplore query DIR --json | head``) ends the command quietly,
+  and a closed stderr never stops a computation: output that cannot be written is dropped.
 """
 
 from __future__ import annotations
@@ -10,19 +22,23 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import re
 import sys
 from collections.abc import Sequence
 
+from ._output import SafeStreamHandler, UsageError, discard, error_line
+
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
-COMMAND_MODULES = ("states", "sweep", "simulate", "simulate_leg", "resetmaps", "lookup", "bench")
+COMMAND_MODULES = (
+    "states", "sweep", "simulate", "simulate_leg", "resetmaps", "surrogate", "resetmodel",
+    "lookup", "bench",
+)
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
-
-
-class UsageError(Exception):
-    """Bad input from the user: printed as one line, exit code 2."""
+#: Exit code of a command ended by Ctrl-C (128 + SIGINT, the shell's convention).
+EXIT_INTERRUPTED = 130
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -41,19 +57,64 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: A value that argparse would take for an option because it starts with ``-``: a negative
+#: number or a list of them (``-2,-1,0,0.1``, ``-0.7``).
+_DASH_VALUE = re.compile(r"^-\.?\d")
+
+
+def _single_value_options(parser: argparse.ArgumentParser) -> set[str]:
+    """Option strings, over the parser and its subcommands, that take exactly one value."""
+    options: set[str] = set()
+    parsers = [parser]
+    while parsers:
+        current = parsers.pop()
+        for action in current._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                parsers.extend(action.choices.values())
+            elif action.option_strings and action.nargs is None:
+                options.update(action.option_strings)
+    return options
+
+
+def attach_dash_values(argv: Sequence[str], parser: argparse.ArgumentParser) -> list[str]:
+    """Write ``--opt -2,-1`` as ``--opt=-2,-1`` for options that take one value.
+
+    argparse reads a token that starts with ``-`` and is not a plain negative number as an
+    option, so ``--tau -2,-1,0,0.1`` failed with "expected one argument" before the value
+    could be checked. Attached, the value reaches its validation and its real message.
+    """
+    options = _single_value_options(parser)
+    out: list[str] = []
+    for token in argv:
+        if out and out[-1] in options and _DASH_VALUE.match(token):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (``sys.exit(main())`` in the console script)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format="%(asctime)s %(name)s %(levelname)s %(message)s",
-    )
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(attach_dash_values(argv, parser))
+    handler = SafeStreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        handlers=[handler])  # fmt: skip
     try:
-        return int(args.handler(args))
+        code = int(args.handler(args))
+        sys.stdout.flush()
+        return code
     except UsageError as exc:
-        print(f"dpfexplore {args.command}: error: {exc}", file=sys.stderr)
+        error_line(f"dpfexplore {args.command}: error: {exc}")
         return EXIT_USAGE
+    except BrokenPipeError:  # the reader of stdout went away (``| head``): nothing more to say
+        discard("stdout")
+        return EXIT_OK
+    except KeyboardInterrupt:
+        error_line(f"dpfexplore {args.command}: interrupted")
+        return EXIT_INTERRUPTED
 
 
 def run() -> None:

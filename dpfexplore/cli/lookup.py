@@ -51,6 +51,8 @@ def register(subparsers) -> None:
                         "shared=U_L,U_sep, H|U_L|U_sep|t|t_lim=LOW:HIGH or =VALUE")
     parser.add_argument("--no-rebuild", action="store_true",
                         help="refuse a stale index instead of rebuilding it")
+    parser.add_argument("--no-verify", action="store_true",
+                        help="read chunks without checking their SHA-256 against the manifest")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--plot", metavar="FILE.png", type=Path,
                         help="draw the reachable tip region per N with the target and designs")
@@ -90,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
             args.dataset, target, columns=columns, scales=scales, state=args.state,
             n_units=n_units, where=args.where, k=args.k, refine=args.refine,
             constraints=constraints, tol=args.tol, rebuild=not args.no_rebuild,
+            verify=not args.no_verify,
         )
     except (StoreError, StaleIndexError, ValueError) as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
@@ -139,7 +142,7 @@ def _print(result, written) -> None:
         print(f"note: {note}")
     notes = {c.fitted_range_note for c in result.candidates if c.fitted_range_note}
     for note in sorted(notes):
-        print(f"note: a design lies {note}")
+        print(f"note: outside the fitted range of the closed forms: {note}")
     if written:
         print(f"{len(written)} designs written to {written[0].parent}")
 

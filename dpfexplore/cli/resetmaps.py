@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
 
 
 def register(subparsers) -> None:
@@ -44,6 +44,11 @@ def run(args) -> int:
     if args.quick:
         changes.update(H_values=(2.6, 2.9, 3.2), t_values=(0.75, 0.85, 1.0),
                        hold_values=(0.05, 1.0), hold_H=(2.9,))  # fmt: skip
+    from ..solvers.compilation import compile_notice
+
+    notice = compile_notice(["release" if args.method == "release" else "reset"])
+    if notice:
+        error_line(f"dpfexplore reset-maps: {notice} ...")
     try:
         spec = ResetMapSpec(**changes)
         start = time.perf_counter()

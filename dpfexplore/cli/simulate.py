@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
+from ._output import fitted_range_line, output_path
 
 
 def register(subparsers) -> None:
@@ -20,14 +22,15 @@ def register(subparsers) -> None:
         "profile (s; 'inf' = still inverted at --t-end), its class and the final state.",
     )
     parser.add_argument("design", help="design TOML file (a [design] table) or an example name")
-    parser.add_argument("--P0", type=float, default=0.7, help="pulse pressure, MPa (default 0.7)")
+    parser.add_argument("--P0", type=float, default=0.7,
+                        help="pulse pressure, MPa (default 0.7; 0 < P0 <= 2)")
     parser.add_argument(
         "--tau", default="0,1,5,5.1",
         help="tau1,tau2,tau3,tau4 in s: ramp start, full pressure, release start, release end",
     )  # fmt: skip
     parser.add_argument(
         "--profile", default=None,
-        help="piecewise-linear profile 't:P,t:P,...' (s:MPa), overrides --P0/--tau",
+        help="piecewise-linear profile 't:P,t:P,...' (s:MPa, 0 <= P <= 2), overrides --P0/--tau",
     )  # fmt: skip
     parser.add_argument("--t-end", type=float, default=15.0, help="end of the run, s")
     parser.add_argument(
@@ -36,6 +39,12 @@ def register(subparsers) -> None:
         help=f"integrator (default {DEFAULT_METHOD})",
     )  # fmt: skip
     parser.add_argument("--atol", type=float, default=None, help="position tolerance, mm")
+    parser.add_argument(
+        "--max-rel-halfwidth", type=float, default=None,
+        help="--method fast: run the full model where a unit's 90%% interval is wider",
+    )  # fmt: skip
+    parser.add_argument("--reset-model", default=None,
+                        help="--method fast: model file (default: the packaged one)")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--plot", type=Path, default=None, help="write a PNG of the run")
     parser.set_defaults(handler=run)
@@ -57,14 +66,21 @@ def _profile(args):
     from ..solvers.dynamics import PressureProfile
 
     if args.profile:
-        return PressureProfile.parse(args.profile)
+        try:
+            return PressureProfile.parse(args.profile)
+        except ValueError as exc:
+            raise UsageError(f"--profile: {exc}") from None
     try:
         tau = [float(v) for v in args.tau.split(",")]
     except ValueError:
-        raise UsageError(f"--tau {args.tau!r}: give four comma-separated times in s") from None
+        raise UsageError(f"--tau {args.tau}: give four comma-separated times in s") from None
     if len(tau) != 4:
-        raise UsageError(f"--tau {args.tau!r}: give four comma-separated times in s")
-    return PressureProfile.pulse(args.P0, tau)
+        raise UsageError(f"--tau {args.tau}: give four comma-separated times in s")
+    try:
+        return PressureProfile.pulse(args.P0, tau)
+    except ValueError as exc:
+        option = "--P0" if str(exc).startswith("P0") else "--tau"
+        raise UsageError(f"{option}: {exc}") from None
 
 
 def run(args) -> int:
@@ -72,13 +88,32 @@ def run(args) -> int:
     from ..model.status import Status
     from ..solvers.dynamics import simulate
 
+    if args.method != "fast" and (args.max_rel_halfwidth is not None or args.reset_model):
+        raise UsageError("--max-rel-halfwidth and --reset-model need --method fast")
     try:
         design = _design(args.design)
         profile = _profile(args)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if args.method == "fast":
+        if args.plot is not None:
+            raise UsageError("--plot: the fast model computes no trajectory; drop --plot")
+        return _run_fast(args, design, profile)
+    plot = output_path(args.plot) if args.plot is not None else None
+    if args.method != "radau":
+        from ..solvers.compilation import compile_notice
+
+        notice = compile_notice(["dynamics"])
+        if notice:
+            error_line(f"dpfexplore simulate: {notice} ...")
+    try:
         result = simulate(design, profile, t_end=args.t_end, method=args.method, atol=args.atol)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     summary = result.to_dict()
+    note = design.fitted_range_note
+    summary["fitted_range"] = note is None
+    summary["fitted_range_note"] = note
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -92,9 +127,62 @@ def run(args) -> int:
             print(f"{k + 1:>4} {result.unit_class[k] or 'never inv.':>11} "
                   f"{result.snap_through[k]:>15.4f} {result.snap_back[k]:>12.4f} "
                   f"{result.reset_time[k]:>10.4f}")  # fmt: skip
-    if args.plot is not None:
-        _save_plot(result, args.plot)
+        if note is not None:
+            print(fitted_range_line(note))
+    if plot is not None:
+        _save_plot(result, plot)
     return EXIT_OK if result.status == Status.OK else EXIT_FAILURE
+
+
+def _run_fast(args, design, profile) -> int:
+    """``--method fast``: one row of ``reset_times_batch(method="fast")``, printed like a run."""
+    from ..model.design import DesignBatch
+    from ..model.status import Status
+    from ..solvers.dynamics import CLASS_NAMES, reset_times_batch
+    from ..solvers.fast_reset import FALLBACK_REASONS
+
+    out = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=args.t_end,
+                            method="fast", atol=args.atol,
+                            max_rel_halfwidth=args.max_rel_halfwidth,
+                            model=args.reset_model)  # fmt: skip
+    n = design.n_units
+    status = Status(int(out["status"][0]))
+    reset, lo, hi = (out[k][0, :n] for k in ("reset_time", "reset_time_lo", "reset_time_hi"))
+    classes = [CLASS_NAMES[int(c)] for c in out["unit_class"][0, :n]]
+    reasons = [text for bit, text in FALLBACK_REASONS.items()
+               if int(out["fallback_reason"][0]) & bit]  # fmt: skip
+    state = int(out["final_state"][0])
+    final = format(state, f"0{n}b") if state >= 0 else None
+
+    def times(values):
+        return [None if math.isnan(v) else ("inf" if math.isinf(v) else round(float(v), 9))
+                for v in values]  # fmt: skip
+
+    if args.json:
+        print(json.dumps({
+            "final_state": final, "reset_times": times(reset),
+            "reset_time_interval": [times(lo), times(hi)],
+            "snap_through": times(out["snap_through"][0, :n]),
+            "snap_back": times(out["snap_back"][0, :n]), "classes": classes,
+            "status": status.label, "method": "fast", "fallback": bool(out["fallback"][0]),
+            "fallback_reasons": reasons, "horizon": args.t_end - profile.t_release,
+            "t_release": profile.t_release,
+            "fitted_range": design.fitted_range_note is None,
+            "fitted_range_note": design.fitted_range_note,
+        }, indent=2))  # fmt: skip
+    else:
+        print(f"design {design.name or args.design}: {n} units, method fast"
+              f"{' (fell back to rodas4: ' + '; '.join(reasons) + ')' if reasons else ''}, "
+              f"status {status.label}")  # fmt: skip
+        print(f"final state {final} (unit 1 first); horizon {args.t_end - profile.t_release:g} s "
+              f"after the profile ends at {profile.t_release:g} s")  # fmt: skip
+        print(f"{'unit':>4} {'class':>11} {'reset/s':>10} {'90% interval/s':>23}")
+        for k in range(n):
+            print(f"{k + 1:>4} {classes[k] or 'never inv.':>11} {reset[k]:>10.4f} "
+                  f"{lo[k]:>11.4f} {hi[k]:>11.4f}")  # fmt: skip
+        if design.fitted_range_note is not None:
+            print(fitted_range_line(design.fitted_range_note))
+    return EXIT_OK if status == Status.OK else EXIT_FAILURE
 
 
 def _save_plot(result, path: Path) -> None:
@@ -105,5 +193,4 @@ def _save_plot(result, path: Path) -> None:
     fig = Figure(figsize=(7, 7), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
     plot_simulation(result, axes)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)

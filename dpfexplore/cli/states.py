@@ -7,7 +7,8 @@ import json
 import math
 import sys
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
+from ._output import fitted_range_line, output_path
 
 UNITS_HELP = (
     "Units: lengths and tip coordinates in mm (model frame: base at the origin, limiting layer "
@@ -51,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore states``."""
     from ..model.design import load_design
     from ..model.gripper import gripper_aperture
+    from ..solvers.compilation import compile_notice
     from ..solvers.lattice import spring_constants
     from ..solvers.statics import enumerate_states
 
@@ -58,6 +60,10 @@ def run(args: argparse.Namespace) -> int:
         design = load_design(args.design)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
+    plot = output_path(args.plot) if args.plot else None
+    notice = compile_notice(["statics"])
+    if notice:
+        error_line(f"dpfexplore states: {notice} ...")
     results = enumerate_states(design, "sequential" if args.sequential else "all")
     h = spring_constants(design).h
     rows = []
@@ -75,12 +81,21 @@ def run(args: argparse.Namespace) -> int:
         if args.gripper:
             row["aperture"] = _number(float(gripper_aperture(r.tip, h, *args.gripper)))
         rows.append(row)
+    note = design.fitted_range_note
     if args.json:
-        json.dump({"design": design.to_dict(), "states": rows}, sys.stdout, indent=2)
+        document = {
+            "design": design.to_dict(),
+            "fitted_range": note is None,
+            "fitted_range_note": note,
+            "states": rows,
+        }
+        json.dump(document, sys.stdout, indent=2)
         print()
     else:
         _print_table(rows, design.n_units, bool(args.gripper))
-    if args.plot:
+        if note is not None:
+            print(fitted_range_line(note))
+    if plot is not None:
         import matplotlib
 
         matplotlib.use("Agg")
@@ -89,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         from ..plotting.statics import plot_states
 
         ax = plot_states(results)
-        ax.figure.savefig(args.plot, dpi=150, bbox_inches="tight")
+        ax.figure.savefig(plot, dpi=150, bbox_inches="tight")
         plt.close(ax.figure)
     failed = [r for r in results if r.status.label not in ("ok", "collapsed")]
     return EXIT_FAILURE if failed else EXIT_OK

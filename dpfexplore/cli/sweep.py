@@ -1,14 +1,16 @@
 """``dpfexplore sweep``, ``dpfexplore query`` and ``dpfexplore plot-space``.
 
-* ``sweep JOB.toml [--out DIR] [--resume] [--engine local|dask] [--workers N]
+* ``sweep JOB.toml [--out DIR] [--resume] [--repair] [--engine local|dask] [--workers N]
   [--scheduler ADDR] [--chunk-size N]`` runs a job into a Parquet dataset (default
-  ``results/<job name>``), with a progress bar on a terminal and log lines otherwise.
-* ``query DIR --where "n_units == 5 and stiffness > 0.1" [--columns ...] [--csv FILE | --json]``
-  selects committed rows with a :meth:`pandas.DataFrame.query` expression.
+  ``results/<job name>``), with a progress bar on a terminal and log lines otherwise. Rerun on
+  a complete directory of the same job, it prints the summary and computes nothing.
+* ``query DIR --where "n_units == 5 and stiffness > 0.1" [--columns ...] [--csv FILE | --json]
+  [--no-verify]`` selects committed rows with a :meth:`pandas.DataFrame.query` expression.
 * ``plot-space DIR [--out FILE]`` draws the paper's design-space maps (Fig. S design space).
 
-Exit codes: 0 done, 1 some chunks failed (``--resume`` retries them), 2 bad input (one line on
-stderr; nothing written).
+Exit codes: 0 done, 1 some chunks failed (``--resume`` retries them), 2 bad input or a
+directory that cannot be used, e.g. held by another sweep (one line on stderr; nothing written),
+130 interrupted (one line: what is committed, how to resume).
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ import time
 from pathlib import Path
 
 from ..sweep.driver import LogProgress
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
+from ._output import output_path
 
 
 def register(subparsers) -> None:
@@ -34,6 +37,9 @@ def register(subparsers) -> None:
     sweep.add_argument("--out", type=Path, help="dataset directory (default results/<job name>)")
     sweep.add_argument("--resume", action="store_true",
                        help="continue a directory of the same job: recompute what is missing")
+    sweep.add_argument("--repair", action="store_true",
+                       help="rebuild a lost _manifest.json from the chunk files that verify "
+                       "against the job (then --resume computes the rest; both at once work)")
     sweep.add_argument("--engine", choices=("local", "dask"), default="local",
                        help="local: this process on all cores (default); dask: Dask workers")
     sweep.add_argument("--workers", type=int, metavar="N",
@@ -59,6 +65,9 @@ def register(subparsers) -> None:
     output = query.add_mutually_exclusive_group()
     output.add_argument("--csv", type=Path, metavar="FILE", help="write CSV to FILE ('-': stdout)")
     output.add_argument("--json", action="store_true", help="print JSON records")
+    query.add_argument("--no-verify", dest="verify", action="store_false",
+                       help="skip the SHA-256 check of each chunk against the manifest "
+                       "(faster; reads only the columns asked for)")
     query.set_defaults(handler=_query)
 
     plot = subparsers.add_parser(
@@ -78,40 +87,54 @@ def register(subparsers) -> None:
 
 
 class _BarProgress:
-    """tqdm bar on the terminal: designs done, rate, ETA."""
+    """tqdm bar on the terminal: designs done, rate, ETA. Output problems never stop a sweep."""
 
     def __init__(self) -> None:
         self.bar = None
 
     def note(self, text: str) -> None:
-        print(f"sweep: {text} ...", file=sys.stderr, flush=True)
+        error_line(f"sweep: {text} ...")
 
     def start(self, total_designs: int, done_designs: int) -> None:
         from tqdm import tqdm
 
-        self.bar = tqdm(total=total_designs, initial=done_designs, unit="design",
-                        unit_scale=True, dynamic_ncols=True, file=sys.stderr)
+        try:
+            self.bar = tqdm(total=total_designs, initial=done_designs, unit="design",
+                            unit_scale=True, dynamic_ncols=True, file=sys.stderr)
+        except (OSError, ValueError):
+            self.bar = None
 
     def advance(self, record) -> None:
-        self.bar.update(record.stop - record.start)
+        if self.bar is None:
+            return
+        try:
+            self.bar.update(record.stop - record.start)
+        except (OSError, ValueError):  # the terminal went away: go on without a bar
+            self.bar = None
 
     def close(self) -> None:
         if self.bar is not None:
-            self.bar.close()
+            try:
+                self.bar.close()
+            except (OSError, ValueError):
+                pass
 
 
 class _LineProgress(LogProgress):
-    """One line on stderr per ``interval`` seconds (and at the end): for logs and pipes."""
+    """One line on stderr per ``interval`` seconds (and at the end): for logs and pipes.
+
+    Lines that cannot be written (stderr closed) are dropped; the sweep goes on.
+    """
 
     def note(self, text: str) -> None:
         self.emit(text)
 
     def emit(self, text: str) -> None:
-        print(f"{time.strftime('%H:%M:%S')} sweep: {text}", file=sys.stderr, flush=True)
+        error_line(f"{time.strftime('%H:%M:%S')} sweep: {text}")
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..sweep.driver import run_sweep
+    from ..sweep.driver import SweepInterrupted, run_sweep
     from ..sweep.engines import make_engine
     from ..sweep.space import JobSpecError, load_job
     from ..sweep.store import StoreError
@@ -127,6 +150,10 @@ def _sweep(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     out = args.out if args.out is not None else Path("results") / spec.name
+    if args.repair:
+        _repair(args, spec, out)
+        if not args.resume:
+            return EXIT_OK
     progress = _BarProgress() if sys.stderr.isatty() else _LineProgress()
     try:
         summary = run_sweep(
@@ -135,6 +162,13 @@ def _sweep(args: argparse.Namespace) -> int:
         )
     except StoreError as exc:
         raise UsageError(str(exc)) from None
+    except SweepInterrupted as stop:
+        error_line(
+            f"dpfexplore sweep: interrupted; {stop.chunks_committed} of {stop.chunks_total} "
+            f"chunks ({stop.designs_committed} of {stop.n_designs} designs) are committed in "
+            f"{out}; continue with: dpfexplore sweep {args.job} --out {out} --resume"
+        )
+        return EXIT_INTERRUPTED
     statuses = ", ".join(f"{name} {count}" for name, count in summary.statuses.items())
     timings = ", ".join(f"{name} {value:.2f} s" for name, value in summary.timings.items())
     print(
@@ -144,12 +178,36 @@ def _sweep(args: argparse.Namespace) -> int:
         f"  statuses: {statuses or 'none'}\n"
         f"  engine {summary.engine}: {timings}; total {summary.wall_s:.2f} s"
     )
+    note = spec.fitted_range_note()
+    if note is not None:
+        print(f"  note: the job's space leaves the range the closed forms were fitted on "
+              f"({note}); the column fitted_range says which rows are extrapolated")  # fmt: skip
     if summary.failures:
         for failure in summary.failures:
-            print(f"  failed: {failure.task.path}: {failure.error}", file=sys.stderr)
-        print(f"  {len(summary.failures)} chunks failed; rerun with --resume", file=sys.stderr)
+            error_line(f"  failed: {failure.task.path}: {failure.error}")
+        error_line(f"  {len(summary.failures)} chunks failed; rerun with --resume")
         return EXIT_FAILURE
     return EXIT_OK
+
+
+def _repair(args: argparse.Namespace, spec, out: Path) -> None:
+    from ..sweep.repair import repair_sweep
+    from ..sweep.store import StoreError
+
+    try:
+        report = repair_sweep(spec, out, chunk_size=args.chunk_size)
+    except StoreError as exc:
+        raise UsageError(str(exc)) from None
+    remaining = report.chunks_total - len(report.committed)
+    print(
+        f"repair {spec.name}: rebuilt {out}/_manifest.json: {len(report.committed)} of "
+        f"{report.chunks_total} chunks verified against the job and committed "
+        f"({report.designs_committed} of {report.n_designs} designs)"
+    )
+    for path, why in report.rejected:
+        print(f"  left out {path}: {why}")
+    if remaining and not args.resume:
+        print(f"  {remaining} chunks to compute: dpfexplore sweep {args.job} --out {out} --resume")
 
 
 # ----------------------------------------------------------------------------- query
@@ -162,7 +220,7 @@ def _query(args: argparse.Namespace) -> int:
     if args.columns:
         columns = [c for item in args.columns for c in item.split(",") if c]
     try:
-        frame = read_results(args.dir, columns=columns, where=args.where)
+        frame = read_results(args.dir, columns=columns, where=args.where, verify=args.verify)
     except StoreError as exc:
         raise UsageError(str(exc)) from None
     except KeyError as exc:
@@ -175,8 +233,9 @@ def _query(args: argparse.Namespace) -> int:
         if str(args.csv) == "-":
             frame.to_csv(sys.stdout, index=False)
         else:
-            frame.to_csv(args.csv, index=False)
-            print(f"{len(frame)} rows written to {args.csv}", file=sys.stderr)
+            csv = output_path(args.csv)
+            frame.to_csv(csv, index=False)
+            error_line(f"{len(frame)} rows written to {csv}")
     else:
         print(frame.to_string(max_rows=40, index=False))
         print(f"({len(frame)} rows)")
@@ -196,6 +255,8 @@ def _plot_space(args: argparse.Namespace) -> int:
     from ..sweep.store import StoreError, read_results, read_schema
 
     try:
+        if not args.dir.is_dir():
+            raise StoreError(f"{args.dir}: no such directory")
         names = read_schema(args.dir).names
         columns = [c for c in SPACE_COLUMNS if c in names]
         frame = read_results(args.dir, columns=columns)
@@ -205,7 +266,8 @@ def _plot_space(args: argparse.Namespace) -> int:
         axes = plot_design_space(frame)
     except ValueError as exc:
         raise UsageError(f"{args.dir}: {exc}") from None
-    out = args.out if args.out is not None else args.dir.with_name(args.dir.name + ".png")
+    out = output_path(args.out if args.out is not None
+                      else args.dir.with_name(args.dir.name + ".png"))  # fmt: skip
     figure = axes[0].figure
     figure.savefig(out, dpi=150)
     plt.close(figure)

@@ -18,7 +18,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..sweep.store import Manifest, StoreError, read_manifest
+import pyarrow as pa
+
+from ..sweep.store import ChunkRecord, Manifest, StoreError, chunk_bytes, read_manifest
 
 __all__ = ["DatasetInfo", "dataset_checksum", "dataset_info"]
 
@@ -61,6 +63,8 @@ class DatasetInfo:
         The job that wrote the dataset (:meth:`~dpfexplore.sweep.space.JobSpec.to_dict`).
     model_version : str
         Model version that wrote the dataset.
+    records : tuple of ChunkRecord
+        The committed chunks' manifest records, in the order of :attr:`chunks`.
     """
 
     root: Path
@@ -72,6 +76,19 @@ class DatasetInfo:
     chunks: tuple[str, ...]
     job: Mapping = field(default_factory=dict, compare=False, repr=False)
     model_version: str = ""
+    records: tuple[ChunkRecord, ...] = field(default=(), compare=False, repr=False)
+
+    def open_chunk(self, path: str, *, verify: bool = True) -> pa.BufferReader | Path:
+        """A committed chunk file for :func:`pyarrow.parquet.read_table`.
+
+        With ``verify``, the file's bytes checked against the manifest's size and SHA-256
+        (:func:`~dpfexplore.sweep.store.chunk_bytes`: a chunk changed after it was committed is
+        a StoreError naming it), so that what is decoded is what was checked.
+        """
+        if not verify:
+            return self.root / path
+        record = next(r for r in self.records if r.path == path)
+        return pa.BufferReader(chunk_bytes(self.root, record))
 
     @property
     def note(self) -> str | None:
@@ -109,4 +126,5 @@ def dataset_info(root: str | Path) -> DatasetInfo:
         chunks=tuple(r.path for r in records),
         job=manifest.job,
         model_version=manifest.model_version,
+        records=tuple(records),
     )

@@ -53,10 +53,8 @@ from .refine import REFINABLE_COLUMNS, Refinement, variables_for
 from .refine import refine as refine_design
 
 __all__ = [
-    "FITTED_RANGES",
     "Candidate",
     "LookupResult",
-    "fitted_range",
     "lookup",
     "parse_n_units",
     "reachable_tips",
@@ -64,34 +62,9 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: Where the closed forms of MODEL.md §3 were fitted: H and t in mm, E in MPa.
-FITTED_RANGES = {"H": (3.0, 5.0), "t": (0.5, 1.0), "E": (5.0, 40.0)}
 #: Order of candidate statuses in the output (best first within a status by error).
 STATUS_ORDER = ("ok", "not_met", "collapsed", "failed")
 VERIFIED_NOTE = "every reported design was re-solved by the exact model before it was reported"
-
-
-def fitted_range(design: Design) -> tuple[bool, str | None]:
-    """Whether ``design`` lies where the closed forms were fitted, and a note if it does not.
-
-    The one place this is decided until :attr:`Design.in_fitted_range` exists.
-    """
-    problems = []
-    for k, h in enumerate(design.H, start=1):
-        low, high = FITTED_RANGES["H"]
-        if not low <= h <= high:
-            problems.append(f"H_{k} = {h:.4g} mm")
-    for name in ("t", "E"):
-        low, high = FITTED_RANGES[name]
-        value = getattr(design, name)
-        if not low <= value <= high:
-            problems.append(f"{name} = {value:.4g} {'MPa' if name == 'E' else 'mm'}")
-    if not problems:
-        return True, None
-    return False, (
-        "outside the fitted range of the closed forms (H in [3, 5] mm, t in [0.5, 1] mm, "
-        "E in [5, 40] MPa): " + ", ".join(problems)
-    )
 
 
 def parse_n_units(text: str) -> tuple[int, ...]:
@@ -328,6 +301,7 @@ def lookup(
     index: LookupIndex | None = None,
     rebuild: bool = True,
     max_evaluations: int = 60,
+    verify: bool = True,
 ) -> LookupResult:
     """Designs of a sweep dataset whose outputs are nearest to ``target``, verified.
 
@@ -361,6 +335,9 @@ def lookup(
         Rebuild a stale saved index (default) instead of raising StaleIndexError.
     max_evaluations : int
         Model evaluations per refinement.
+    verify : bool
+        Check every chunk read (index build, ``where``, candidate designs) against the
+        manifest's SHA-256 (the default; ``False`` reads only the needed columns).
 
     Raises
     ------
@@ -402,7 +379,8 @@ def lookup(
                 )
     origin = None
     if index is None:
-        index, origin = open_index(dataset, columns, scales, rebuild=rebuild, info=info)
+        index, origin = open_index(dataset, columns, scales, rebuild=rebuild, info=info,
+                                   verify=verify)  # fmt: skip
         if origin.reason:
             notes.append(f"lookup index {origin.action}: {origin.reason}")
     else:
@@ -418,7 +396,8 @@ def lookup(
         )
     mask = None
     if where:
-        keys = read_results(dataset, columns=["design_id", "requested"], where=where)
+        keys = read_results(dataset, columns=["design_id", "requested"], where=where,
+                            verify=verify)  # fmt: skip
         mask = mask_of(index, {c: keys[c].to_numpy() for c in ("design_id", "requested")})
     t0 = time.perf_counter()
     distance, rows = index.query(target, k, n_units=n_units, state=state, mask=mask)
@@ -429,7 +408,7 @@ def lookup(
             f"{list(n_units) if n_units is not None else 'any'}, where = {where!r} "
             f"(the dataset has N = {list(index.n_values)})"
         )
-    batch = designs_of(index, rows)
+    batch = designs_of(index, rows, info=info, verify=verify)
     states = index.requested[rows]
     refinements: list[Refinement | None] = [None] * rows.size
     designs = [batch.design(i) for i in range(rows.size)]
@@ -470,8 +449,18 @@ def _sort_error(error: float) -> float:
     return error if np.isfinite(error) else np.inf
 
 
-def designs_of(index: LookupIndex, rows: NDArray[np.int64]) -> DesignBatch:
-    """The designs of index rows, read from their chunk files (only the design columns)."""
+def designs_of(
+    index: LookupIndex,
+    rows: NDArray[np.int64],
+    *,
+    info: DatasetInfo | None = None,
+    verify: bool = True,
+) -> DesignBatch:
+    """The designs of index rows, read from their chunk files (the design columns).
+
+    ``verify`` checks each file read against the manifest's SHA-256 first.
+    """
+    info = info or dataset_info(index.root)
     schema = read_schema(index.root)
     max_units = sum(1 for name in schema.names if re.fullmatch(r"H_\d+", name))
     per_unit = [f"{p}_{k}" for p in ("H", "U_L", "U_sep") for k in range(1, max_units + 1)]
@@ -483,7 +472,8 @@ def designs_of(index: LookupIndex, rows: NDArray[np.int64]) -> DesignBatch:
     files = index.file[rows]
     for f in np.unique(files):
         pick = np.flatnonzero(files == f)
-        table = pq.read_table(index.root / index.files[f], columns=["n_units", *per_unit, *shared],
+        source = info.open_chunk(index.files[f], verify=verify)
+        table = pq.read_table(source, columns=["n_units", *per_unit, *shared],
                               schema=schema).take(index.row[rows[pick]])  # fmt: skip
         n_units[pick] = table.column("n_units").to_numpy()
         for p in ("H", "U_L", "U_sep"):
@@ -524,14 +514,14 @@ def _verified(designs, states, rows, distance, index, target, tol, refinements) 
         else:
             status = "failed"
         found = int(cols["found"][i])
-        inside, note = fitted_range(design)
         out.append(Candidate(
             design=design, state=state_string(int(states[i]), n),
             found=state_string(found, n) if found >= 0 else "", status=status, values=values,
             tip=tip, stiffness=float(cols["stiffness"][i]), error=error, error_mm=error_mm,
             met=met, refined=refinement is not None, design_id=int(index.design_id[rows[i]]),
             source_distance=float(distance[i]), source_values=source_values,
-            fitted_range=inside, fitted_range_note=note, refinement=refinement,
+            fitted_range=design.in_fitted_range, fitted_range_note=design.fitted_range_note,
+            refinement=refinement,
         ))
     return out
 

@@ -367,15 +367,20 @@ def build_index(
     scales: ArrayLike | None = None,
     *,
     info: DatasetInfo | None = None,
+    verify: bool = True,
 ) -> LookupIndex:
     """Read ``columns`` (and the row identity) of every committed chunk and index them.
 
-    Only ``ok`` rows with finite values in every column are indexed.
+    Only ``ok`` rows with finite values in every column are indexed. With ``verify`` (the
+    default, as every dataset read) each chunk's bytes are checked against the manifest's
+    SHA-256 before they are decoded, which reads every file whole; ``verify=False`` reads only
+    the needed columns.
 
     Raises
     ------
     StoreError
-        ``root`` is not a sweep directory.
+        ``root`` is not a sweep directory, or (``verify``) a chunk changed after it was
+        committed.
     ValueError
         An unknown or non-numeric column, or bad scales.
     """
@@ -388,7 +393,7 @@ def build_index(
     parts: dict[str, list[NDArray]] = {name: [] for name in (*wanted, "file", "row")}
     rows_read = 0
     for f, rel in enumerate(info.chunks):
-        table = pq.read_table(root / rel, columns=wanted, schema=schema)
+        table = pq.read_table(info.open_chunk(rel, verify=verify), columns=wanted, schema=schema)
         values = {name: _numpy(table.column(name)) for name in wanted}
         n = table.num_rows
         rows_read += n

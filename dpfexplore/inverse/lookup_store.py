@@ -159,6 +159,7 @@ def open_index(
     rebuild: bool = True,
     save: bool = True,
     info: DatasetInfo | None = None,
+    verify: bool = True,
 ) -> tuple[LookupIndex, IndexOrigin]:
     """A fresh index of ``columns``: loaded when its file matches the dataset, else built.
 
@@ -168,6 +169,8 @@ def open_index(
         Rebuild a stale index (default); False raises :class:`StaleIndexError` instead.
     save : bool
         Save a built index beside the dataset (a read-only directory is logged, not an error).
+    verify : bool
+        Check each chunk's SHA-256 when building (:func:`~.lookup_index.build_index`).
 
     Raises
     ------
@@ -192,7 +195,7 @@ def open_index(
             reason = str(exc)
         except (OSError, ValueError, KeyError) as exc:  # unreadable: rebuild, it is a cache
             reason = f"{path}: unreadable ({exc})"
-    index = build_index(root, columns, scales, info=info)
+    index = build_index(root, columns, scales, info=info, verify=verify)
     saved = False
     if save:
         try:

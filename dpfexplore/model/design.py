@@ -21,7 +21,9 @@ from numpy.typing import NDArray
 
 from . import status as st
 from .constants import constants_are_valid, dome_alpha, dome_radius, dome_stiffness
-from .domain import MAX_UNITS
+from .domain import MAX_UNITS, active_units, fitted_range, outside_domain
+from .formatting import num as _num
+from .formatting import nums as _nums
 
 __all__ = [
     "MATERIALS",
@@ -83,8 +85,8 @@ def _problems(
 ) -> tuple[NDArray, list[str | None]]:
     """Vectorised validation of padded design arrays.
 
-    Returns each design's status code (``OK``, ``INVALID_INPUT`` or ``INVALID_CONSTANTS``) and a
-    one-line description of its first problem (None when valid).
+    Returns each design's status code (``OK``, ``INVALID_INPUT``, ``OUTSIDE_DOMAIN`` or
+    ``INVALID_CONSTANTS``) and a one-line description of its first problem (None when valid).
     """
     n = n_units.shape[0]
     code = np.full(n, st.OK, dtype=np.int8)
@@ -96,15 +98,18 @@ def _problems(
             message[i] = describe(i)
 
     n_ok = (n_units >= 1) & (n_units <= MAX_UNITS)
-    flag(~n_ok, st.INVALID_INPUT, lambda i: f"N = {n_units[i]}: must be between 1 and {MAX_UNITS}")
-    active = np.arange(MAX_UNITS)[None, :] < np.clip(n_units, 0, MAX_UNITS)[:, None]
+    flag(
+        ~n_ok, st.INVALID_INPUT,
+        lambda i: f"N = {_num(n_units[i])}: must be between 1 and {MAX_UNITS}",
+    )  # fmt: skip
+    active = active_units(n_units)
     for name in PER_UNIT_FIELDS:
         values = per_unit[name]
         bad = active & ~(np.isfinite(values) & (values > 0.0))
 
         def describe(i, name=name, values=values, bad=bad):
             k = int(np.flatnonzero(bad[i])[0])
-            return f"{name}[unit {k + 1}] = {values[i, k]!r}: must be a finite length > 0 mm"
+            return f"{name}[unit {k + 1}] = {_num(values[i, k])}: must be a finite length > 0 mm"
 
         flag(bad.any(axis=1), st.INVALID_INPUT, describe)
     for name in SHARED_FIELDS:
@@ -116,8 +121,32 @@ def _problems(
             bad = ~(np.isfinite(values) & (values > 0.0))
             rule = "must be finite and > 0" + (" MPa" if name == "E" else " mm")
         flag(
-            bad, st.INVALID_INPUT, lambda i, name=name, v=values, r=rule: f"{name} = {v[i]!r}: {r}"
+            bad, st.INVALID_INPUT,
+            lambda i, name=name, v=values, r=rule: f"{name} = {_num(v[i])}: {r}",
+        )  # fmt: skip
+    # The physical domain (model/domain.py): geometries that are not a finger of caps in units.
+    taller_than_base, taller_than_unit = outside_domain(
+        per_unit["H"], per_unit["U_L"], shared["r_b"], active
+    )
+
+    def describe_base(i):
+        k = int(np.flatnonzero(taller_than_base[i])[0])
+        return (
+            f"H[unit {k + 1}] = {_num(per_unit['H'][i, k])} mm: taller than the dome base radius "
+            f"r_b = {_num(shared['r_b'][i])} mm (more than a hemisphere; outside the model's "
+            "domain, see dpfexplore.model.domain)"
         )
+
+    def describe_unit(i):
+        k = int(np.flatnonzero(taller_than_unit[i])[0])
+        return (
+            f"H[unit {k + 1}] = {_num(per_unit['H'][i, k])} mm: not shorter than its unit, "
+            f"U_L[unit {k + 1}] = {_num(per_unit['U_L'][i, k])} mm (the dome leaves no room; "
+            "outside the model's domain, see dpfexplore.model.domain)"
+        )
+
+    flag(taller_than_base.any(axis=1), st.OUTSIDE_DOMAIN, describe_base)
+    flag(taller_than_unit.any(axis=1), st.OUTSIDE_DOMAIN, describe_unit)
     # The closed forms of MODEL.md §3 leave their fitted domain silently; catch the nonsense.
     with np.errstate(all="ignore"):
         H = np.where(active, per_unit["H"], 1.0)
@@ -130,7 +159,8 @@ def _problems(
     def describe_const(i):
         k = int(np.flatnonzero(bad_const[i])[0])
         return (
-            f"H[unit {k + 1}] = {H[i, k]!r} with t = {shared['t'][i]!r}: the closed forms give "
+            f"H[unit {k + 1}] = {_num(H[i, k])} with t = {_num(shared['t'][i])}: the closed "
+            "forms give "
             f"k_b = {k_b[i, k]:.4g} N/mm, alpha = {alpha[i, k]:.4g} "
             "(need k_b > 0 and 0 < alpha < 1; outside the fitted domain)"
         )
@@ -147,7 +177,7 @@ def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
     values = tuple(_number(f"{name}[unit {k + 1}]", v) for k, v in enumerate(value))
     if len(values) != n_units:
         raise ValueError(
-            f"{name} = {list(value)!r}: has {len(values)} values but the design has "
+            f"{name} = {_nums(value)}: has {len(values)} values but the design has "
             f"{n_units} units (len(H)); give one value or one per unit"
         )
     return values
@@ -193,8 +223,11 @@ class Design:
     ------
     ValueError
         Naming the field and its value, for non-finite or non-positive lengths, ``N`` outside
-        1-12, per-unit lists of the wrong length, or constants the closed forms make nonsense
-        (``k_b <= 0``, ``alpha`` outside (0, 1)).
+        1-12, per-unit lists of the wrong length, a geometry outside the model's physical
+        domain (:mod:`dpfexplore.model.domain`: a dome taller than ``r_b`` or than its unit
+        length), or constants the closed forms make nonsense (``k_b <= 0``, ``alpha`` outside
+        (0, 1)). A design inside the domain but outside the ranges the closed forms were
+        fitted on is accepted and flagged (:attr:`in_fitted_range`).
     """
 
     H: tuple[float, ...]
@@ -228,6 +261,23 @@ class Design:
     def n_units(self) -> int:
         """Number of units ``N``."""
         return len(self.H)
+
+    @property
+    def in_fitted_range(self) -> bool:
+        """Whether ``H``, ``t``, ``E`` and ``r_b`` lie where the closed forms were fitted.
+
+        :data:`dpfexplore.model.domain.FITTED_RANGES`; outside, every result of this design is
+        an extrapolation of the closed forms (MODEL.md §3) and is flagged as such.
+        """
+        return self.fitted_range_note is None
+
+    @property
+    def fitted_range_note(self) -> str | None:
+        """One line naming what lies outside the fitted ranges, or None when inside.
+
+        E.g. ``"H[unit 1] = 1.1 mm below the fitted 3-5 mm"``.
+        """
+        return DesignBatch.from_designs([self]).fitted_range_notes()[0]
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Design:
@@ -277,12 +327,19 @@ def load_design(path: str | Path) -> Design:
     Raises
     ------
     ValueError
-        If the file has no ``[design]`` table or the design is invalid (naming the key).
+        If the file cannot be read (missing, a directory, not TOML), has no ``[design]`` table,
+        or the design is invalid (naming the key).
     """
     path = Path(path)
     try:
         with path.open("rb") as fh:
             document = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no such design file") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path}: is a directory, not a design file (TOML)") from None
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML ({exc})") from None
     if "design" not in document:
@@ -356,8 +413,20 @@ class DesignBatch:
         return _problems(self.n_units, per_unit, shared)
 
     def status(self) -> NDArray[np.int8]:
-        """Status code per design: ``OK``, ``INVALID_INPUT`` or ``INVALID_CONSTANTS``."""
+        """Status code per design (``OK``, ``INVALID_INPUT``, ``OUTSIDE_DOMAIN``, ...)."""
         return self.problems()[0]
+
+    def in_fitted_range(self) -> NDArray[np.bool_]:
+        """Per design, :attr:`Design.in_fitted_range`: ndarray of bool, shape ``(n,)``."""
+        return self._fitted_range()[0]
+
+    def fitted_range_notes(self) -> list[str | None]:
+        """Per design, :attr:`Design.fitted_range_note` (None when inside the fitted ranges)."""
+        return self._fitted_range()[1]
+
+    def _fitted_range(self) -> tuple[NDArray[np.bool_], list[str | None]]:
+        shared = {name: getattr(self, name) for name in ("t", "E", "r_b")}
+        return fitted_range(self.n_units, self.H, shared)
 
     def design(self, i: int) -> Design:
         """Row ``i`` as a :class:`Design` (raises ``ValueError`` if that row is invalid)."""

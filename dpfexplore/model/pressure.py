@@ -2,6 +2,27 @@
 
 A :class:`PressureProfile` is data (knot times and pressures) that the integrators read as two
 arrays; its last knot, ``t_release``, is where reset times are measured from (MODEL.md §8).
+
+Validation lives here and only here: the CLI (``--P0``, ``--tau``, ``--profile``), job files
+(``[compute.reset_times]``) and the Python API all build a :class:`PressureProfile`, so every
+entry point accepts and refuses the same profiles with the same one-line message.
+
+Physical range: ``0 <= P <= MAX_PRESSURE`` (2 MPa) at every knot, times ``>= 0`` s.
+    * ``P >= 0``: the model's load (MODEL.md §8) is the inflation of the chambers, pressure
+      times face length pushing every face outward; the dome inversion it tracks is driven by
+      that. A negative (vacuum) pressure is not the load the model describes.
+    * ``P <= 2 MPa``: the paper runs its fingers at 0.4-0.7 MPa. At 2 MPa a thin-wall estimate
+      of the chamber-wall stress, ``P (UC/2) / t_ch`` = 7.5 P for the paper's 15 mm cells and
+      1 mm walls, is 15 MPa, past the yield of the printable TPUs the model is for; the strain
+      of the walls, about that stress over ``E`` (0.6 at E = 26 MPa), is far outside the small
+      strains in which the lattice's linear springs and the fitted dome constants mean
+      anything. 2 MPa is also below the smallest modulus the closed forms were fitted for
+      (5 MPa, :data:`dpfexplore.model.domain.FITTED_RANGES`), so ``P`` stays below ``E`` for
+      every material in the fitted range.
+    * times ``>= 0``: a run starts at rest at ``t = 0``; knots before that would only change
+      the pressure at the start.
+    * a pulse's plateau ``P0`` must be ``> 0``: a pulse of zero pressure is no pulse (a
+      profile of knots may hold zero anywhere).
 """
 
 from __future__ import annotations
@@ -15,7 +36,30 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["PressureProfile"]
+from .formatting import nums
+
+__all__ = ["MAX_PRESSURE", "PressureProfile"]
+
+#: Largest chamber pressure of a profile, MPa (module docstring: why 2 MPa).
+MAX_PRESSURE = 2.0
+
+
+def _check_pressure(name: str, value: float, *, plateau: bool = False) -> None:
+    low = "> 0" if plateau else ">= 0"
+    if not math.isfinite(value) or value < 0.0 or (plateau and value == 0.0):
+        raise ValueError(
+            f"{name} = {value!r}: must be a finite pressure {low} MPa (at most {MAX_PRESSURE:g})"
+        )
+    if value > MAX_PRESSURE:
+        raise ValueError(
+            f"{name} = {value!r}: above {MAX_PRESSURE:g} MPa, the most the model takes (chamber "
+            "walls would be far past yield; see dpfexplore.model.pressure)"
+        )
+
+
+def _check_time(name: str, value: float) -> None:
+    if not math.isfinite(value) or value < 0.0:
+        raise ValueError(f"{name} = {value!r}: must be a finite time >= 0 s (runs start at 0)")
 
 
 @dataclass(frozen=True, init=False)
@@ -42,7 +86,8 @@ class PressureProfile:
     Raises
     ------
     ValueError
-        Naming the field, for empty, non-finite, decreasing or mismatched knots.
+        Naming the field, for empty, non-finite, negative, decreasing or mismatched knots and
+        pressures outside ``[0, MAX_PRESSURE]`` (module docstring).
     """
 
     times: tuple[float, ...]
@@ -71,14 +116,14 @@ class PressureProfile:
             raise ValueError("times = (): a pressure profile needs at least one knot")
         if len(times) != len(pressures):
             raise ValueError(
-                f"pressures = {list(pressures)!r}: {len(pressures)} values for {len(times)} times"
+                f"pressures = {nums(pressures)}: {len(pressures)} values for {len(times)} times"
             )
-        if not all(math.isfinite(v) for v in times):
-            raise ValueError(f"times = {list(times)!r}: must be finite")
-        if not all(math.isfinite(v) for v in pressures):
-            raise ValueError(f"pressures = {list(pressures)!r}: must be finite")
+        for i, v in enumerate(times):
+            _check_time(f"times[{i}]", v)
+        for i, v in enumerate(pressures):
+            _check_pressure(f"pressures[{i}]", v)
         if any(b < a for a, b in pairwise(times)):
-            raise ValueError(f"times = {list(times)!r}: must be non-decreasing")
+            raise ValueError(f"times = {nums(times)}: must be non-decreasing")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "pressures", pressures)
 
@@ -92,6 +137,9 @@ class PressureProfile:
         tau : sequence of 4 floats, s
             ``τ1 <= τ2 <= τ3 <= τ4``.
         """
+        if np.ndim(tau) != 1 or len(tau) != 4:
+            shown = nums(tau) if np.ndim(tau) == 1 else repr(tau)
+            raise ValueError(f"tau = {shown}: need four times tau1, tau2, tau3, tau4 (s)")
         return cls.pulses([(P0, *tau)])
 
     @classmethod
@@ -102,14 +150,13 @@ class PressureProfile:
         last_end = -math.inf
         for i, pulse in enumerate(pulses):
             if len(pulse) != 5:
-                raise ValueError(f"pulses[{i}] = {pulse!r}: need (P0, tau1, tau2, tau3, tau4)")
+                raise ValueError(f"pulses[{i}] = {nums(pulse)}: need (P0, tau1, tau2, tau3, tau4)")
             P0, *tau = (float(v) for v in pulse)
-            if not math.isfinite(P0):
-                raise ValueError(f"P0 = {P0!r}: must be finite (MPa)")
-            if not all(math.isfinite(v) for v in tau) or any(b < a for a, b in pairwise(tau)):
-                raise ValueError(
-                    f"tau = {tau!r}: need finite times with tau1 <= tau2 <= tau3 <= tau4 (s)"
-                )
+            _check_pressure("P0", P0, plateau=True)
+            for k, v in enumerate(tau):
+                _check_time(f"tau[{k}]", v)
+            if any(b < a for a, b in pairwise(tau)):
+                raise ValueError(f"tau = {nums(tau)}: need tau1 <= tau2 <= tau3 <= tau4 (s)")
             if tau[0] < last_end:
                 raise ValueError(
                     f"pulses[{i}] starts at tau1 = {tau[0]} s, before the previous pulse ends "

@@ -19,6 +19,7 @@ DEGENERATE_GEOMETRY = 6
 UNSTABLE = 7
 STEP_LIMIT = 8
 NOT_COMPUTED = 9
+OUTSIDE_DOMAIN = 10
 
 
 class Status(IntEnum):
@@ -48,6 +49,9 @@ class Status(IntEnum):
         A time integrator hit its step cap before the horizon.
     NOT_COMPUTED
         The output was not requested by the job (e.g. reset time of a bistable unit).
+    OUTSIDE_DOMAIN
+        The geometry is not a finger the model describes (:mod:`dpfexplore.model.domain`: a
+        dome taller than its base radius or than its unit); nothing was solved.
     """
 
     OK = OK
@@ -60,6 +64,7 @@ class Status(IntEnum):
     UNSTABLE = UNSTABLE
     STEP_LIMIT = STEP_LIMIT
     NOT_COMPUTED = NOT_COMPUTED
+    OUTSIDE_DOMAIN = OUTSIDE_DOMAIN
 
     @property
     def label(self) -> str:

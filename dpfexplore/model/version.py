@@ -17,6 +17,10 @@ import importlib.metadata
 import platform
 
 #: Version of the physical model and of the meaning of its outputs (see the module docstring).
+#: 2: designs outside the physical domain (:mod:`dpfexplore.model.domain`: a dome taller than
+#: its base radius or its unit) are rejected with status ``outside_domain`` instead of solved,
+#: every dataset has the ``fitted_range`` column, and units whose reach is clamped are classed
+#: ``no_contact`` (code 3) with NaN snap and reset times.
 MODEL_VERSION = "dpf-lattice-2"
 
 #: Distributions whose versions are stored with a dataset (provenance only).

@@ -22,6 +22,11 @@ Methods (``method=``)
     The reduced model of :mod:`dpfexplore.solvers.reduced`: the loading at a loose tolerance, a
     Newton jump to the loaded equilibrium at the end of the hold, the release at full tolerance
     (overdamped). Reset times only (``reset_times_batch``); single pulses with a long hold.
+``"fast"``
+    The fast reset-time model of :mod:`dpfexplore.solvers.fast_reset`: the loading solved
+    statically, the release integrated loosely, a fitted correction, a 90 % interval per unit
+    and a fallback to ``"rodas4"`` where the model is not sure or not trained. Reset times only
+    (``reset_times_batch``), for the scene its model was trained on.
 ``"radau"``
     SciPy's ``solve_ivp(method="Radau")`` on the same full equations with the analytic
     Jacobian (:mod:`dpfexplore.solvers.dynamics_scipy`): the trusted, slow reference.
@@ -40,6 +45,7 @@ none hangs.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 
@@ -67,6 +73,8 @@ from .dynamics_common import (
     run_reset_batch,
 )
 from .dynamics_scipy import simulate_scipy
+from .fast_reset import fast_reset_times_batch
+from .fast_reset_model import ResetModel
 from .lattice import LatticeParams, lattice_params
 from .reduced import release_reset_times_batch
 
@@ -171,11 +179,10 @@ def simulate(
 
         return simulate_scipy(design, profile, t_end=t_end, n_samples=n_samples,
                               atol=atol, rtol=rtol)  # fmt: skip
-    if info.model == "release":
+    if info.model in ("release", "fast"):
         raise ValueError(
-            "method = 'release': the release model gives reset times only; use "
-            "reset_times_batch(..., method='release') or "
-            "dpfexplore.solvers.reduced.release_reset_times"
+            f"method = {info.name!r}: this model gives reset times only; use "
+            f"reset_times_batch(..., method={info.name!r})"
         )
     params = lattice_params(design) if lattice is None else lattice
     n_units = design.n_units
@@ -238,6 +245,8 @@ def reset_times_batch(
     method: str = DEFAULT_METHOD,
     atol: float | None = None,
     max_steps: int | None = None,
+    max_rel_halfwidth: float | None = None,
+    model: ResetModel | str | None = None,
 ) -> dict[str, NDArray]:
     """Reset times of many designs under one profile, evaluated in parallel.
 
@@ -256,9 +265,15 @@ def reset_times_batch(
     t_end : float, s
         Horizon of every run.
     method : str
-        Any Numba method of :data:`METHODS` (``"rodas4"`` by default) or ``"release"``.
+        Any Numba method of :data:`METHODS` (``"rodas4"`` by default), ``"release"`` or
+        ``"fast"``.
     atol : float, optional, mm
     max_steps : int, optional
+    max_rel_halfwidth : float, optional
+        ``"fast"`` only: largest relative half-width of a metastable unit's 90 % interval the
+        caller accepts; designs with a wider one run ``"rodas4"`` instead.
+    model : ResetModel or path, optional
+        ``"fast"`` only: the fitted model (default: the packaged one).
 
     Returns
     -------
@@ -270,11 +285,25 @@ def reset_times_batch(
         (int8 (n, 12): 0 bistable, 1 metastable, 2 monostable, 3 no contact (reach ``d``
         clamped, MODEL.md §3: no inversion in this model), -1 never inverted or padding).
         Invalid designs (``batch.status() != OK``) keep their status and NaN outputs.
+        ``"fast"`` adds ``"reset_time_lo"``, ``"reset_time_hi"`` (the 90 % interval),
+        ``"fallback"`` (bool (n,): the row ran ``"rodas4"``) and ``"fallback_reason"`` (int16
+        bit flags, :data:`dpfexplore.solvers.fast_reset.FALLBACK_REASONS`); its snap-through
+        times are NaN.
     """
     if not isinstance(batch, DesignBatch):
         raise ValueError(f"batch = {batch!r}: must be a DesignBatch")
     t_end = check_horizon(t_end, profile)
     info = method_info(method)
+    if info.model != "fast" and (max_rel_halfwidth is not None or model is not None):
+        raise ValueError(f"method = {method!r}: max_rel_halfwidth and model are for 'fast'")
+    if info.model == "fast":
+        if atol is not None or max_steps is not None:
+            raise ValueError(
+                "method = 'fast': its tolerances are the model's; drop atol, max_steps"
+            )
+        full = functools.partial(reset_times_batch, method=DEFAULT_METHOD)
+        return fast_reset_times_batch(batch, profile, t_end=t_end, full_model=full,
+                                      max_rel_halfwidth=max_rel_halfwidth, model=model)
     if info.model == "release":
         return release_reset_times_batch(batch, profile, t_end=t_end, atol=atol)
     if info.integrator < 0:

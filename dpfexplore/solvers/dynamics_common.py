@@ -70,8 +70,9 @@ class MethodInfo:
     ----------
     name : str
     model : str
-        ``"full"`` (masses), ``"overdamped"`` (inertia dropped) or ``"release"`` (quasi-static
-        loading, overdamped release).
+        ``"full"`` (masses), ``"overdamped"`` (inertia dropped), ``"release"`` (quasi-static
+        loading, overdamped release) or ``"fast"`` (static loading, loose release, fitted
+        correction and fallback: :mod:`dpfexplore.solvers.fast_reset`).
     integrator : int
         Kernel id (-1: not a Numba integrator).
     atol : float, mm
@@ -104,6 +105,8 @@ METHODS: dict[str, MethodInfo] = {
         "dopri5-overdamped", "overdamped", INTEGRATOR_DOPRI5, 1e-3, 2_000_000, 0.5
     ),
     "release": MethodInfo("release", "release", INTEGRATOR_RODAS4, 1e-4, 200_000, 0.5),
+    # the fast model's own tolerance lives in its model file; this one is informative
+    "fast": MethodInfo("fast", "fast", -1, 3e-3, 20_000, 5.0),
     "radau": MethodInfo("radau", "full", -1, 1e-9, 0, math.inf),
 }
 DEFAULT_METHOD = "rodas4"

@@ -61,7 +61,6 @@ from ..model import status as st
 from ..model.design import Design
 from ..model.pressure import PressureProfile
 from .dynamics import DEFAULT_METHOD, SimulationResult, method_info, simulate
-from .fitted_range import fitted_range
 from .lattice import lattice_params
 from .leg_kinematics import COMPOSITIONS, compose, tip_node
 
@@ -444,8 +443,9 @@ def simulate_leg(leg: Leg, *, method: str | None = None, atol: float | None = No
         result, t_start = simulate_section(section, leg.phases[section.phase], t_end=leg.t_end,
                                            n_samples=leg.n_samples, method=method,
                                            atol=atol)  # fmt: skip
-        inside, note = fitted_range(section.design)
-        runs.append(SectionRun(section, result, t_start, section_nodes(result), inside, note))
+        design = section.design
+        runs.append(SectionRun(section, result, t_start, section_nodes(result),
+                               design.in_fitted_range, design.fitted_range_note))
     placed = compose(leg.composition, [run.nodes for run in runs],
                      [s.mount_deg for s in leg.sections])  # fmt: skip
     last = leg.sections[-1].design.n_units

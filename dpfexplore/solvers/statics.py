@@ -39,6 +39,7 @@ from .._kernels.layout import n_free, n_nodes
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..model.formatting import num
 from ..model.status import Status
 from .lattice import batch_constants, lattice_params, pack_batch
 
@@ -85,7 +86,7 @@ class SolverOptions:
         for name in ("gtol", "xtol", "max_step"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
+                raise ValueError(f"{name} = {num(value)}: must be a finite number > 0")
         if (
             isinstance(self.max_iter, bool)
             or not isinstance(self.max_iter, int)

@@ -31,6 +31,7 @@ __all__ = [
     "compute_chunk",
     "dataset_schema",
     "default_chunk_size",
+    "design_columns",
     "evaluate_chunk",
     "plan_chunks",
     "rows_per_design",
@@ -124,7 +125,8 @@ class SweepContext:
     root: str
 
 
-def _design_columns(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
+def design_columns(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
+    """The design columns of a chunk's designs (one entry per design, not per row)."""
     n_units_list = spec.space.n_units
     offset = n_units_list.index(task.n_units) * spec.samples_per_n
     sample = np.arange(task.start, task.stop, dtype=np.int64)
@@ -138,6 +140,7 @@ def _design_columns(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[
     for name in SHARED_VARIABLES:
         columns[name] = getattr(batch, name)
     columns["problem"] = batch.problems()[1]
+    columns["fitted_range"] = batch.in_fitted_range()
     return columns
 
 
@@ -152,7 +155,7 @@ def evaluate_chunk(
     if missing.size:  # the contract: every design keeps a row
         raise RuntimeError(f"evaluator returned no row for designs {missing[:5].tolist()} ...")
     columns: dict[str, object] = {}
-    for name, values in _design_columns(spec, batch, task).items():
+    for name, values in design_columns(spec, batch, task).items():
         if isinstance(values, list):
             columns[name] = [values[i] for i in index]
         else:

@@ -20,6 +20,12 @@ Invariants (tested in ``tests/test_sweep*.py``)
       part files; it refuses a directory made by another job or another model version.
     * Peak memory is bounded by the chunk size: a chunk's designs and rows live only while it is
       evaluated and written; the driver keeps only chunk records.
+    * One sweep at a time per directory: the whole call holds the directory's lock
+      (:mod:`dpfexplore.sweep.lock`); a second sweep into it refuses, naming the holder.
+    * A rerun of a complete directory of the same job (without ``resume``) computes nothing and
+      returns its summary; an incomplete one needs ``resume=True``.
+    * Ctrl-C (``KeyboardInterrupt``) leaves every committed chunk committed and raises
+      :class:`SweepInterrupted`, which says how much that is.
 """
 
 from __future__ import annotations
@@ -46,12 +52,15 @@ from .chunks import (
 )
 from .engines import Engine, LocalEngine
 from .evaluation import Evaluator, StaticsEvaluator
+from .lock import LOCK_NAME, LockHeld, sweep_lock
 from .space import JobSpec
 from .store import ChunkRecord, Manifest, StoreError
 
 __all__ = [
+    "LockHeld",
     "LogProgress",
     "Progress",
+    "SweepInterrupted",
     "SweepSummary",
     "check_output",
     "run_sweep",
@@ -78,8 +87,9 @@ class Progress(Protocol):
 def _note(progress: Progress, text: str) -> None:
     note = getattr(progress, "note", None)
     if note is not None:
-        note(text)
-    logger.info("sweep: %s", text)
+        note(text)  # shown by the progress itself: logging it too would print it twice
+    else:
+        logger.info("sweep: %s", text)
 
 
 class LogProgress:
@@ -165,6 +175,29 @@ class SweepSummary:
     engine: str = ""
 
 
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`run_sweep`: the committed chunks stay committed.
+
+    Attributes
+    ----------
+    out : Path
+    designs_committed, n_designs : int
+        Designs committed in the directory, of the job's total.
+    chunks_committed, chunks_total : int
+    """
+
+    def __init__(self, out: Path, manifest: Manifest, chunks_total: int, n_designs: int):
+        self.out = out
+        self.designs_committed = manifest.n_designs_committed
+        self.n_designs = n_designs
+        self.chunks_committed = len(manifest.chunks)
+        self.chunks_total = chunks_total
+        super().__init__(
+            f"interrupted: {self.chunks_committed} of {chunks_total} chunks "
+            f"({self.designs_committed} of {n_designs} designs) committed in {out}"
+        )
+
+
 @dataclass
 class _Prepared:
     manifest: Manifest
@@ -197,9 +230,11 @@ def check_output(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise StoreError(f"--out {out}: exists and is not a directory")
-    # A run killed while creating the directory leaves at most temporary files behind.
+    # A run killed while creating the directory leaves at most temporary files behind (and
+    # the lock, which the caller holds).
     has_files = out.is_dir() and any(
-        not (p.name.startswith(".") and p.name.endswith(store.TEMP_SUFFIX)) for p in out.iterdir()
+        p.name != LOCK_NAME and not (p.name.startswith(".") and p.name.endswith(store.TEMP_SUFFIX))
+        for p in out.iterdir()
     )
     if not has_files:
         sizes = _chunk_sizes(spec, chunk_size)
@@ -215,7 +250,15 @@ def check_output(
         tasks = plan_chunks(spec, sizes)
         return _Prepared(manifest, tasks, list(tasks), fresh=True)
     if not (out / store.MANIFEST).exists():
-        raise StoreError(f"--out {out}: not empty and not a sweep directory (no {store.MANIFEST})")
+        hint = ""
+        if store.part_files(out):
+            hint = (
+                f"; it holds chunk files: if its {store.MANIFEST} was deleted, rebuild it with "
+                "--repair"
+            )
+        raise StoreError(
+            f"--out {out}: not empty and not a sweep directory (no {store.MANIFEST}){hint}"
+        )
     manifest = store.read_manifest(out)
     if manifest.fingerprint != spec.fingerprint():
         key = spec.first_difference(manifest.result_defining) or "job"
@@ -229,17 +272,27 @@ def check_output(
             f"--out {out}: written by model version {manifest.model_version!r}, this is "
             f"{MODEL_VERSION!r}; results of two model versions cannot share a dataset"
         )
-    if not resume:
-        raise StoreError(
-            f"--out {out}: already holds this job ({manifest.n_designs_committed} of "
-            f"{spec.n_designs} designs committed); pass --resume to continue it"
-        )
     if chunk_size is not None and any(s != chunk_size for s in manifest.chunk_sizes.values()):
         raise StoreError(
             f"--chunk-size {chunk_size}: the directory was started with chunk sizes "
             f"{sorted(set(manifest.chunk_sizes.values()))}; resume keeps them"
         )
     tasks = plan_chunks(spec, manifest.chunk_sizes)
+    if not resume:
+        if not manifest.complete or len(manifest.chunks) != len(tasks):
+            raise StoreError(
+                f"--out {out}: already holds this job, incomplete ({manifest.n_designs_committed}"
+                f" of {spec.n_designs} designs committed); pass --resume to continue it"
+            )
+        # Complete: nothing to compute. Check that it still is before saying so.
+        for path, record in sorted(manifest.chunks.items()):
+            problem = store.verify_chunk(out, record)
+            if problem is not None:
+                raise StoreError(
+                    f"--out {out}: holds this job, complete, but chunk {path} is {problem}; "
+                    "pass --resume to recompute it"
+                )
+        return _Prepared(manifest, tasks, [], fresh=False)
     expected = {task.path: task for task in tasks}
     dropped = []
     for path, record in list(manifest.chunks.items()):
@@ -265,6 +318,8 @@ def _lookup(data: Mapping, dotted: str) -> object:
 def _open_output(out: Path, prepared: _Prepared, schema: pa.Schema) -> None:
     """Create a fresh directory, or clean a resumed one, so that only committed chunks remain."""
     manifest = prepared.manifest
+    if not prepared.fresh and not prepared.pending and not prepared.dropped:
+        return  # a complete directory, rerun: nothing to clean, nothing to rewrite
     if prepared.fresh:
         out.mkdir(parents=True, exist_ok=True)
         store.remove_leftovers(out)
@@ -303,7 +358,8 @@ def run_sweep(
     ----------
     spec : JobSpec
     out : path
-        Sweep directory; created if absent. It must be empty, or (with ``resume``) hold this job.
+        Sweep directory; created if absent. It must be empty, hold this job complete (nothing
+        is computed then), or (with ``resume``) hold this job.
     resume : bool
         Continue a directory made by the same job and model version.
     engine : Engine, optional
@@ -323,13 +379,36 @@ def run_sweep(
     Raises
     ------
     StoreError
-        If ``out`` cannot be used (see :func:`check_output`); nothing is written then.
+        If ``out`` cannot be used (see :func:`check_output`; nothing is written then), or
+        :class:`~dpfexplore.sweep.lock.LockHeld` if another sweep holds it.
+    SweepInterrupted
+        On Ctrl-C (a ``KeyboardInterrupt``), after the sweep has stopped; every chunk
+        committed before stays committed.
     """
     started = time.perf_counter()
     out = Path(out)
     evaluator = evaluator if evaluator is not None else StaticsEvaluator(spec.compute)
     engine = engine if engine is not None else LocalEngine()
     progress = progress if progress is not None else LogProgress()
+    created = not out.exists()
+    try:
+        with sweep_lock(out):
+            return _run_locked(spec, out, resume, engine, evaluator, chunk_size, progress,
+                               started)  # fmt: skip
+    except StoreError:
+        if created:  # bad input writes nothing: remove the directory the lock created
+            _remove_if_empty(out)
+        raise
+
+
+def _remove_if_empty(out: Path) -> None:
+    try:
+        out.rmdir()
+    except OSError:
+        pass
+
+
+def _run_locked(spec, out, resume, engine, evaluator, chunk_size, progress, started):
     prepared = check_output(spec, out, resume=resume, chunk_size=chunk_size)
     schema = dataset_schema(spec, evaluator)
     _open_output(out, prepared, schema)
@@ -342,30 +421,39 @@ def run_sweep(
         engine=engine.name,
     )
     context = SweepContext(spec=spec, evaluator=evaluator, schema=schema, root=str(out.resolve()))
+    remote = getattr(engine, "scheduler", None) is not None
+    chunks_s = 0.0
     try:
-        if prepared.pending:
-            _note(progress, f"compiling kernels and starting the {engine.name} engine")
-            engine.start(context)
-        progress.start(spec.n_designs, manifest.n_designs_committed)
-        chunks_started = time.perf_counter()
         try:
-            for outcome in engine.run(context, prepared.pending) if prepared.pending else ():
-                if isinstance(outcome, ChunkFailure):
-                    logger.error("chunk %s failed: %s", outcome.task.path, outcome.error)
-                    summary.failures.append(outcome)
-                    continue
-                _commit(out, manifest, outcome)
-                summary.chunks_computed += 1
-                summary.designs_computed += outcome.stop - outcome.start
-                progress.advance(outcome)
+            if prepared.pending:
+                _note(progress, _start_note(evaluator, engine))
+                engine.start(context)
+            progress.start(spec.n_designs, manifest.n_designs_committed)
+            chunks_started = time.perf_counter()
+            try:
+                for outcome in engine.run(context, prepared.pending) if prepared.pending else ():
+                    if isinstance(outcome, ChunkFailure):
+                        logger.error("chunk %s failed: %s", outcome.task.path, outcome.error)
+                        summary.failures.append(outcome)
+                        continue
+                    _commit(out, manifest, outcome, remote=remote)
+                    summary.chunks_computed += 1
+                    summary.designs_computed += outcome.stop - outcome.start
+                    progress.advance(outcome)
+            finally:
+                progress.close()
+                chunks_s = time.perf_counter() - chunks_started
         finally:
-            progress.close()
-            chunks_s = time.perf_counter() - chunks_started
-    finally:
-        engine.close()
-    manifest.complete = len(manifest.chunks) == len(prepared.tasks)
-    store.write_manifest(out, manifest)
-    store.remove_leftovers(out)
+            engine.close()
+    except KeyboardInterrupt:
+        # Every chunk committed so far is in the manifest already; files renamed into place
+        # but not committed are removed by the next --resume.
+        store.remove_leftovers(out)
+        raise SweepInterrupted(out, manifest, len(prepared.tasks), spec.n_designs) from None
+    if prepared.pending or prepared.fresh:
+        manifest.complete = len(manifest.chunks) == len(prepared.tasks)
+        store.write_manifest(out, manifest)
+        store.remove_leftovers(out)
     summary.complete = manifest.complete
     summary.rows = manifest.n_rows
     summary.statuses = _status_totals(manifest.chunks.values())
@@ -374,12 +462,28 @@ def run_sweep(
     return summary
 
 
-def _commit(out: Path, manifest: Manifest, record: ChunkRecord) -> None:
+def _start_note(evaluator: Evaluator, engine: Engine) -> str:
+    """What the sweep does before its first chunk: compiling (and how long) or loading."""
+    groups = getattr(evaluator, "kernel_groups", None)
+    notice = None
+    if groups is not None:
+        from ..solvers.compilation import compile_notice
+
+        notice = compile_notice(groups())
+    if notice is not None:
+        return f"{notice}; then starting the {engine.name} engine"
+    return f"loading the compiled kernels and starting the {engine.name} engine"
+
+
+def _commit(out: Path, manifest: Manifest, record: ChunkRecord, *, remote: bool) -> None:
     problem = store.verify_chunk(out, record, checksum=False)
     if problem is not None:
+        hint = (
+            "; with --scheduler, --out must be a directory the workers share with this machine"
+            if remote else "; was the directory changed by another process?"
+        )  # fmt: skip
         raise StoreError(
-            f"chunk {record.path}: a worker reported it written, but here it is {problem}; "
-            "with --scheduler, --out must be a directory the workers share with this machine"
+            f"chunk {record.path}: a worker reported it written, but here it is {problem}{hint}"
         )
     manifest.chunks[record.path] = record
     store.write_manifest(out, manifest)

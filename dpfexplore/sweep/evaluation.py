@@ -78,6 +78,14 @@ class StaticsEvaluator:
     def __repr__(self) -> str:
         return f"StaticsEvaluator({self.compute!r})"
 
+    def kernel_groups(self) -> list[str]:
+        """Kernel groups this job needs (:mod:`dpfexplore.solvers.compilation`)."""
+        groups = ["statics"]
+        load = self.compute.reset_times
+        if load is not None:
+            groups.append("release" if load.method == "release" else "reset")
+        return groups
+
     def warm_up(self) -> float:
         """Compile the kernels this job calls (:func:`dpfexplore.sweep.warmup.compile_kernels`)."""
         from .warmup import compile_kernels
@@ -98,9 +106,10 @@ class StaticsEvaluator:
             column("status", pa.int8(), "1",
                    "outcome code of the row (dpfexplore.model.status.Status)"),
             column("status_label", STATUS_TYPE, "1",
-                   "outcome: ok, invalid_input, invalid_constants, not_converged, collapsed "
-                   "(requested state does not exist; outputs describe the found state), "
-                   "nonfinite, degenerate_geometry, unstable"),
+                   "outcome: ok, invalid_input, invalid_constants, outside_domain (a dome "
+                   "taller than its base radius or its unit; not solved), not_converged, "
+                   "collapsed (requested state does not exist; outputs describe the found "
+                   "state), nonfinite, degenerate_geometry, unstable"),
             column("energy", pa.float64(), "N·mm", "total elastic energy of the state"),
             column("energy_linear", pa.float64(), "N·mm", "energy of posts and limiting layer"),
             column("energy_dome", pa.float64(), "N·mm", "energy of the dome springs"),
@@ -124,7 +133,7 @@ class StaticsEvaluator:
             column("n_iter", pa.int32(), "1", "Hessian evaluations over all search attempts"),
         ]
         if self.compute.reset_times is not None:
-            fields += _dynamics_fields(max_units)
+            fields += _dynamics_fields(max_units, fast=self.compute.reset_times.method == "fast")
         return fields
 
     def __call__(self, batch: DesignBatch) -> dict[str, NDArray]:
@@ -154,7 +163,7 @@ class StaticsEvaluator:
         return rows
 
 
-def _dynamics_fields(max_units: int) -> list[pa.Field]:
+def _dynamics_fields(max_units: int, *, fast: bool = False) -> list[pa.Field]:
     fields = [
         column("dyn_status", pa.int8(), "1",
                "outcome code of the pressure-cycle simulation (per design; invalid designs keep "
@@ -174,6 +183,19 @@ def _dynamics_fields(max_units: int) -> list[pa.Field]:
          "3 no contact (reach d clamped: no inversion in this model), "
          "-1 never inverted or not simulated"),
     )
+    if fast:
+        fields += [
+            column("reset_fallback", pa.bool_(), "1",
+                   "the fast reset model fell back to the full model for this design"),
+            column("reset_fallback_reason", pa.int16(), "1",
+                   "why (bit flags, dpfexplore.solvers.fast_reset.FALLBACK_REASONS; 0: none)"),
+        ]
+        per_unit += (
+            ("reset_time_lo", pa.float64(), "s",
+             "lower end of the fast model's 90 % interval of reset_time_{k}"),
+            ("reset_time_hi", pa.float64(), "s",
+             "upper end of the fast model's 90 % interval of reset_time_{k}"),
+        )
     for name, dtype, unit, text in per_unit:
         fields += [
             column(f"{name}_{k}", dtype, unit, text.format(k=k), per_unit=True)
@@ -194,7 +216,12 @@ def reset_times(batch: DesignBatch, load: PressureLoad) -> dict[str, NDArray]:
     kwargs = {"t_end": load.t_end}
     if load.method is not None:
         kwargs["method"] = load.method
+    if load.max_rel_halfwidth is not None:
+        kwargs["max_rel_halfwidth"] = load.max_rel_halfwidth
     out = reset_times_batch(batch, profile, **kwargs)
     out["dyn_status"] = out.pop("status")
     out["dyn_status_label"] = out["dyn_status"]
+    if "fallback" in out:
+        out["reset_fallback"] = out.pop("fallback")
+        out["reset_fallback_reason"] = out.pop("fallback_reason")
     return out

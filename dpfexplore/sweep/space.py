@@ -42,6 +42,8 @@ Layout of a job file (lengths in mm, ``E`` in MPa, pressure in MPa, times in s):
     P0 = 0.7                      # pressure plateau, MPa
     tau = [0.0, 1.0, 5.0, 5.1]    # tau1..tau4 of the pressure profile (MODEL.md §8), s
     t_end = 10.0                  # simulation horizon, s
+    method = "rodas4"             # optional: "fast" = the fast reset model (its scene only;
+    max_rel_halfwidth = 0.05      # optional, fast only: fall back where an interval is wider)
 
 Only what ``[compute]`` asks for is computed and stored.
 """
@@ -59,7 +61,8 @@ from pathlib import Path
 from typing import Any
 
 from ..model.design import DEFAULTS, MATERIALS
-from ..model.domain import MAX_UNITS
+from ..model.domain import FITTED_RANGES, MAX_UNITS
+from ..model.pressure import PressureProfile
 from . import _jobfile as _v
 from ._jobfile import JobSpecError
 
@@ -183,13 +186,18 @@ class PressureLoad:
         Simulation horizon (absolute time, > ``tau4``); a unit that has not reset by then gets
         a reset time of ``inf``.
     method : str or None
-        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch` (None: its default).
+        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch` (None: its default);
+        ``"fast"`` is the fast reset model (:mod:`dpfexplore.solvers.fast_reset`), which adds
+        each unit's 90 % interval and a per-design fallback flag to the dataset.
+    max_rel_halfwidth : float or None
+        ``"fast"`` only: designs with a wider relative interval run the full model.
     """
 
     P0: float
     tau: tuple[float, float, float, float]
     t_end: float
     method: str | None = None
+    max_rel_halfwidth: float | None = None
 
 
 @dataclass(frozen=True)
@@ -280,6 +288,8 @@ class JobSpec:
             compute["reset_times"] = {"P0": load.P0, "tau": list(load.tau), "t_end": load.t_end}
             if load.method is not None:
                 compute["reset_times"]["method"] = load.method
+            if load.max_rel_halfwidth is not None:
+                compute["reset_times"]["max_rel_halfwidth"] = load.max_rel_halfwidth
         space_dict: dict[str, Any] = {
             "n_units": list(space.n_units),
             "variables": {v.name: v.to_toml() for v in space.variables},
@@ -304,6 +314,23 @@ class JobSpec:
             "space": data["space"],
             "compute": data["compute"],
         }
+
+    def fitted_range_note(self) -> str | None:
+        """One line naming the variables whose range leaves the closed forms' fitted ranges.
+
+        :data:`dpfexplore.model.domain.FITTED_RANGES`; None when the whole space is inside.
+        Which rows are outside is in each row's ``fitted_range`` column.
+        """
+        parts = []
+        for name, (low, high, unit) in FITTED_RANGES.items():
+            variable = self.space.variable(name)
+            if variable.low < low or variable.high > high:
+                span = f"{variable.low:g}" + (
+                    f"-{variable.high:g}" if variable.sampled else ""
+                )
+                fitted = f"{low:g}" if low == high else f"{low:g}-{high:g}"
+                parts.append(f"{name} {span} {unit} (fitted {fitted} {unit})")
+        return "; ".join(parts) if parts else None
 
     def fingerprint(self) -> str:
         """SHA-256 of :meth:`result_defining` in canonical JSON: equal iff the rows are equal."""
@@ -539,20 +566,23 @@ def _parse_compute(compute: Mapping[str, Any]) -> ComputeSpec:
 
 def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
     key = "compute.reset_times"
-    _v.check_keys(table, key, required=("P0", "tau", "t_end"), optional=("method",))
-    P0 = _v.positive(table, key, "P0", "MPa")
+    _v.check_keys(table, key, required=("P0", "tau", "t_end"),
+                  optional=("method", "max_rel_halfwidth"))
+    P0 = table["P0"]
+    if isinstance(P0, bool) or not isinstance(P0, (int, float)):
+        raise JobSpecError(f"{key}.P0 = {P0!r}: must be a number (MPa)")
     tau_value = table["tau"]
     if not isinstance(tau_value, list) or len(tau_value) != 4:
         raise JobSpecError(f"{key}.tau = {tau_value!r}: must be a list of 4 times [tau1..tau4] (s)")
-    tau = []
     for i, item in enumerate(tau_value):
-        if isinstance(item, bool) or not isinstance(item, (int, float)) or not math.isfinite(item):
-            raise JobSpecError(f"{key}.tau[{i}] = {item!r}: must be a finite number (s)")
-        if item < 0:
-            raise JobSpecError(f"{key}.tau[{i}] = {item!r}: must be >= 0 s")
-        if tau and item < tau[-1]:
-            raise JobSpecError(f"{key}.tau = {tau_value!r}: must be non-decreasing")
-        tau.append(float(item))
+        if isinstance(item, bool) or not isinstance(item, (int, float)):
+            raise JobSpecError(f"{key}.tau[{i}] = {item!r}: must be a number (s)")
+    tau = [float(item) for item in tau_value]
+    try:  # the one validation of pressure profiles (physical range: model/pressure.py)
+        PressureProfile.pulse(float(P0), tau)
+    except ValueError as exc:
+        raise JobSpecError(f"{key}.{exc}") from None
+    P0 = float(P0)
     t_end = _v.positive(table, key, "t_end", "s")
     if t_end <= tau[3]:
         raise JobSpecError(f"{key}.t_end = {t_end!r}: must be after tau4 = {tau[3]!r} s")
@@ -562,10 +592,16 @@ def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
 
         batch_methods = [
             name for name, info in METHODS.items()
-            if info.integrator >= 0 or info.model == "release"
+            if info.integrator >= 0 or info.model in ("release", "fast")
         ]
         if method not in batch_methods:
             raise JobSpecError(
                 f"{key}.method = {method!r}: must be one of {', '.join(batch_methods)}"
             )
-    return PressureLoad(P0=P0, tau=(tau[0], tau[1], tau[2], tau[3]), t_end=t_end, method=method)
+    width = None
+    if "max_rel_halfwidth" in table:
+        if method != "fast":
+            raise JobSpecError(f"{key}.max_rel_halfwidth: only with method = \"fast\"")
+        width = _v.positive(table, key, "max_rel_halfwidth", "1")
+    return PressureLoad(P0=P0, tau=(tau[0], tau[1], tau[2], tau[3]), t_end=t_end, method=method,
+                        max_rel_halfwidth=width)

@@ -1,0 +1,127 @@
+"""The physical core of the fast reset-time model: static loading, then the release only.
+
+Per design (:func:`fast_reset_design`): the loaded equilibrium after a long hold and the
+pattern of snapped domes (:func:`.loaded_state.loaded_state`, no loading dynamics), then the
+release ramp and the creep after it (:func:`.release.release_rodas3`, overdamped, loose
+tolerance, stopping as soon as no further crossing can happen). The per-unit summary is the
+one the full model uses (:func:`.dynamics_batch.summarise_units`), so reset time, class and
+final state mean the same; snap-through times are not computed (NaN). Diagnostics per design
+and per unit feed the fitted correction and interval of :mod:`dpfexplore.solvers.fast_reset`.
+
+Assumptions (the fitted interval measures what they cost): a single pulse whose hold is long
+against the finger's slowest relaxation (the finger is in its loaded equilibrium when the
+release starts), quasi-static loading (which domes snap is decided by the static test of
+:mod:`.loaded_state`), and the overdamped model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from ..model import status as st
+from ._jit import batch_kernel, kernel
+from .dynamics_batch import summarise_units
+from .events import N_REC, N_STATS, REC_CROSSINGS, STAT_REJECTED, STAT_STEPS, STAT_STOPPED_EARLY
+from .layout import n_free
+from .loaded_state import loaded_state
+from .newton import workspace
+from .release import N_RELEASE_DIAG, release_rodas3, release_workspace
+
+# Per-design diagnostics (``design_diag`` columns).
+DD_LOAD_STATUS = 0
+DD_LOAD_ITER = 1  # Newton iterations of the loading
+DD_LOAD_MARGIN = 2  # N, smallest |λ| of the snap decisions (how close a dome was to the other side)
+DD_STEPS = 3
+DD_REJECTED = 4
+DD_CHECK_ITER = 5  # Newton iterations of the static checks
+DD_STOP = 6  # release.STOP_*
+DD_T_STOP = 7  # s after the end of the profile
+N_DESIGN_DIAG = 8
+
+# Per-unit diagnostics (``unit_diag`` columns); the release writes its own block at the end.
+UD_U_LOAD = 0  # dome extension x̄/d at the loaded equilibrium
+UD_MARGIN = 1  # N, the snap decision's λ (negative: snapped)
+UD_CROSSINGS = 2  # threshold crossings during the release
+UD_RELEASE = 3  # first column of the release's N_RELEASE_DIAG columns
+N_UNIT_DIAG = UD_RELEASE + N_RELEASE_DIAG
+
+
+@kernel
+def fast_reset_design(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, reset,
+                      snap_back, unit_class, unit_diag, design_diag, newton_ws):  # fmt: skip
+    """Reset times of one design under a single pulse; returns ``(status, final_state)``.
+
+    Parameters
+    ----------
+    unit_params : ndarray of shape (N, N_COLS)
+    h : float, mm
+    knot_t, knot_p : ndarray of shape (4,)
+        The pulse ``(τ1..τ4)``, ``(0, P0, P0, 0)``; the release starts at ``τ3``.
+    eta, eta_iso : float, N·s/mm
+    ctrl : ndarray of shape (N_CTRL,)
+        Release controls (:mod:`.events` layout).
+    t_end : float, s
+    reset, snap_back : ndarray of shape (N,), s
+        As in ``reset_times_batch`` (reset after ``τ4``; inf / NaN).
+    unit_class : ndarray of int8, shape (N,)
+    unit_diag : ndarray of shape (N, N_UNIT_DIAG)
+    design_diag : ndarray of shape (N_DESIGN_DIAG,)
+    newton_ws : tuple
+        :func:`.newton.workspace`.
+    """
+    n_units = unit_params.shape[0]
+    x = np.empty(n_free(n_units))
+    margin = np.empty(n_units)
+    u = np.empty(n_units)
+    code, _, n_iter = loaded_state(unit_params, h, knot_p[1], x, margin, u)
+    design_diag[DD_LOAD_STATUS] = code
+    design_diag[DD_LOAD_ITER] = n_iter
+    if code != st.OK:
+        return code, -1
+    smallest = np.inf
+    for k in range(n_units):
+        unit_diag[k, UD_U_LOAD] = u[k]
+        unit_diag[k, UD_MARGIN] = margin[k]
+        smallest = min(smallest, abs(margin[k]))
+    design_diag[DD_LOAD_MARGIN] = smallest
+    rec = np.empty((n_units, N_REC))
+    stats = np.zeros(N_STATS, dtype=np.int64)
+    counters = np.zeros(2, dtype=np.int64)
+    code = release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, knot_t[2],
+                          t_end, rec, stats, unit_diag[:, UD_RELEASE:], counters,
+                          release_workspace(n_units), newton_ws)  # fmt: skip
+    design_diag[DD_STEPS] = stats[STAT_STEPS]
+    design_diag[DD_REJECTED] = stats[STAT_REJECTED]
+    design_diag[DD_CHECK_ITER] = counters[0]
+    design_diag[DD_STOP] = stats[STAT_STOPPED_EARLY]
+    tau_end = knot_t[knot_t.shape[0] - 1]
+    snap_through = np.empty(n_units)
+    classes = np.empty(n_units, dtype=np.int64)
+    state = summarise_units(rec, tau_end, code, reset, snap_through, snap_back, classes)
+    for k in range(n_units):
+        unit_class[k] = classes[k]
+        unit_diag[k, UD_CROSSINGS] = rec[k, REC_CROSSINGS]
+    return code, state
+
+
+@batch_kernel
+def fast_reset_batch(unit_params, h, n_units, valid, knot_t, knot_p, eta, eta_iso, ctrl, t_end,
+                     status, final_state, reset, snap_back, unit_class, unit_diag,
+                     design_diag):  # fmt: skip
+    """:func:`fast_reset_design` over the valid rows of a batch in parallel (``prange``).
+
+    Arrays are ``(n,)``, ``(n, MAX_UNITS)``, ``(n, MAX_UNITS, N_UNIT_DIAG)`` and
+    ``(n, N_DESIGN_DIAG)``; invalid rows and the padding beyond each ``N`` are left untouched.
+    """
+    for i in prange(unit_params.shape[0]):
+        if not valid[i]:
+            continue
+        nu = n_units[i]
+        code, state = fast_reset_design(
+            unit_params[i, :nu], h[i], knot_t, knot_p, eta, eta_iso, ctrl, t_end, reset[i, :nu],
+            snap_back[i, :nu], unit_class[i, :nu], unit_diag[i, :nu], design_diag[i],
+            workspace(),
+        )  # fmt: skip
+        status[i] = code
+        final_state[i] = state

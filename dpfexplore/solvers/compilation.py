@@ -1,0 +1,63 @@
+"""Which kernels a command needs, whether they are compiled yet, and a notice when they are not.
+
+Numba compiles each kernel on its first call and keeps the machine code in its cache
+(:mod:`dpfexplore._kernels._jit`), so only the first run after an install (or an edit of the
+kernels) compiles. That first run is slow and would otherwise be silent; the CLI prints
+:func:`compile_notice` before it starts.
+
+Compile cost per group, measured in a fresh process with an empty cache on the 2-core AMD EPYC
+VM of the README's benchmarks (CPU seconds; wall time is longer on a loaded machine):
+
+========== ===================================================== ========
+group      first needed by                                        CPU s
+========== ===================================================== ========
+statics    ``states``, every ``sweep``, ``find_state``, ...         ~22
+dynamics   ``simulate``                                             ~20
+reset      ``sweep`` with reset times, ``reset-maps``, batches      ~20
+========== ===================================================== ========
+
+A group shares most of its code with the others (the lattice assembly, the linear algebra), so
+a second group costs less once the first is compiled.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from .._kernels import batch, dynamics_batch, reduced
+from .._kernels import states as kstates
+from .._kernels._jit import is_cached
+
+__all__ = ["COMPILE_CPU_S", "KERNEL_GROUPS", "compile_notice", "uncompiled"]
+
+#: The entry kernels of each group (their callees are compiled with them).
+KERNEL_GROUPS = {
+    "statics": (batch.solve_rows, kstates.nodes_of),
+    "dynamics": (dynamics_batch.integrate,),
+    "reset": (dynamics_batch.reset_times_kernel,),
+    "release": (reduced.release_batch,),
+}
+#: Measured first-compile CPU seconds per group (module docstring).
+COMPILE_CPU_S = {"statics": 22, "dynamics": 20, "reset": 20, "release": 20}
+
+
+def uncompiled(groups: Iterable[str]) -> list[str]:
+    """The groups among ``groups`` some of whose kernels have no cached machine code."""
+    missing = []
+    for group in groups:
+        if any(is_cached(kernel) is False for kernel in KERNEL_GROUPS[group]):
+            missing.append(group)
+    return missing
+
+
+def compile_notice(groups: Iterable[str]) -> str | None:
+    """One line announcing a first compilation of ``groups``, or None if all are cached."""
+    missing = uncompiled(groups)
+    if not missing:
+        return None
+    seconds = sum(COMPILE_CPU_S[group] for group in missing)
+    names = " and ".join(missing)
+    return (
+        f"compiling the {names} kernels for this machine (first run only: about {seconds} s "
+        f"of CPU, a few minutes on a busy machine; later runs load them from the Numba cache)"
+    )

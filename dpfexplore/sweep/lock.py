@@ -1,0 +1,181 @@
+"""One sweep at a time per directory: an exclusive lock file held for the life of a sweep.
+
+Two sweeps writing one directory would both compute everything, and a ``--resume`` started
+beside a running sweep deletes that sweep's uncommitted chunk files. So :func:`sweep_lock`
+creates ``DIR/.dpfexplore-lock`` with ``O_CREAT | O_EXCL`` (atomic on local filesystems and on
+NFS v3 and later) before it looks at the directory, and removes it when the sweep ends, whatever
+the way it ends (return, exception, Ctrl-C). The file holds the holder's host, pid, process
+start time and command line, so a refusal names the holder.
+
+A lock left by a process that died without removing it (``kill -9``, a power cut) is *stale*:
+its host is this host and its pid is not alive, or is alive but started at another time (a
+recycled pid). A stale lock is taken over (with a warning); one held on another host cannot be
+checked from here and is never taken over: the message says to remove the file if that process
+is gone. Taking over is itself atomic: the stale file is renamed away first, and only one of
+several processes that saw it stale can do that.
+
+The lock file starts with a dot, so Parquet readers (``pandas.read_parquet(DIR)``) skip it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import socket
+import sys
+import time
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from .store import StoreError
+
+__all__ = ["LOCK_NAME", "LockHeld", "read_lock", "sweep_lock"]
+
+LOCK_NAME = ".dpfexplore-lock"
+
+logger = logging.getLogger(__name__)
+
+
+class LockHeld(StoreError):
+    """Another live process holds the sweep directory (one-line message naming it)."""
+
+
+def _process_start(pid: int) -> float | None:
+    """Start time of process ``pid`` (s since the epoch), None if it does not exist."""
+    import psutil
+
+    try:
+        return float(psutil.Process(pid).create_time())
+    except (psutil.NoSuchProcess, psutil.ZombieProcess):
+        return None
+    except psutil.Error:  # AccessDenied: it exists, we just may not look
+        return -1.0
+
+
+def _holder() -> dict:
+    return {
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+        "started": _process_start(os.getpid()),
+        "since": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "command": " ".join(sys.argv)[:500],
+    }
+
+
+def read_lock(out: str | Path) -> dict | None:
+    """The holder recorded in ``out``'s lock file, None if there is none ({} if unreadable)."""
+    try:
+        text = (Path(out) / LOCK_NAME).read_text()
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return {}
+    try:
+        data = json.loads(text)
+    except ValueError:
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _is_stale(holder: dict) -> bool:
+    """Whether the recorded holder is certainly gone (only decidable on this host)."""
+    if holder.get("host") != socket.gethostname():
+        return False
+    pid = holder.get("pid")
+    if not isinstance(pid, int):
+        return True  # unreadable or half-written by a process killed while writing it
+    started = _process_start(pid)
+    if started is None:
+        return True
+    recorded = holder.get("started")
+    # A live pid that started at another time is a recycled pid, not the holder.
+    return started > 0 and isinstance(recorded, (int, float)) and abs(started - recorded) > 1.0
+
+
+def describe(holder: dict) -> str:
+    """``pid 123 on host (since ...: command)`` for messages."""
+    if not holder:
+        return "an unreadable lock"
+    text = f"pid {holder.get('pid')} on {holder.get('host')}"
+    if holder.get("since"):
+        text += f" since {holder['since']}"
+    if holder.get("command"):
+        text += f" ({holder['command']})"
+    return text
+
+
+def _try_create(path: Path, content: bytes) -> bool:
+    try:
+        fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+    except FileExistsError:
+        return False
+    try:
+        os.write(fd, content)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    return True
+
+
+def acquire(out: str | Path) -> dict:
+    """Take the lock of sweep directory ``out`` (created if absent); returns our holder record.
+
+    Raises
+    ------
+    LockHeld
+        If a live process (or a process on another host) holds it.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / LOCK_NAME
+    me = _holder()
+    content = json.dumps(me, indent=1).encode()
+    for _ in range(20):
+        if _try_create(path, content):
+            return me
+        holder = read_lock(out)
+        if holder is None:
+            continue  # released between our attempt and our look: try again
+        if not holder:
+            # Unreadable: perhaps being written this instant. Give the writer a moment.
+            time.sleep(0.05)
+            holder = read_lock(out)
+            if holder is None:
+                continue
+        if not _is_stale(holder):
+            where = "" if holder.get("host") == me["host"] else (
+                f"; if that process is gone, remove {path}"
+            )
+            raise LockHeld(
+                f"--out {out}: another sweep is using this directory: {describe(holder)}{where}"
+            )
+        # Stale: rename it away (only one contender succeeds), then create ours.
+        aside = path.with_name(f"{LOCK_NAME}.stale-{uuid.uuid4().hex[:8]}")
+        try:
+            os.rename(path, aside)
+        except FileNotFoundError:
+            continue
+        aside.unlink(missing_ok=True)
+        logger.warning("took over a stale lock of %s (%s)", out, describe(holder))
+    raise LockHeld(f"--out {out}: could not take the lock {path} (contended)")
+
+
+def release(out: str | Path, me: dict) -> None:
+    """Remove ``out``'s lock if it is still ours."""
+    path = Path(out) / LOCK_NAME
+    holder = read_lock(out)
+    if holder and holder.get("pid") == me["pid"] and holder.get("host") == me["host"]:
+        path.unlink(missing_ok=True)
+
+
+@contextmanager
+def sweep_lock(out: str | Path) -> Iterator[dict]:
+    """Hold the lock of sweep directory ``out`` for the ``with`` block (see the module doc)."""
+    me = acquire(out)
+    try:
+        yield me
+    finally:
+        release(out, me)

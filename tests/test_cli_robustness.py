@@ -1,0 +1,185 @@
+"""The CLI never answers with a traceback: interrupts, closed pipes, missing folders, bad paths,
+reruns; and it says when it compiles."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sweep_helpers import job_dict, toml_text
+
+from dpfexplore.cli import main
+from dpfexplore.examples import example_path
+from dpfexplore.model.design import DesignBatch
+from dpfexplore.sweep import store
+
+SMALL = {"job.name": "cli", "job.samples_per_n": 24, "compute.states": "sequential"}
+# The real command with every chunk slowed down, so that a signal lands mid-sweep.
+SLOW_CLI = """
+import sys, time
+from dpfexplore.sweep import evaluation
+call = evaluation.StaticsEvaluator.__call__
+def slow(self, batch):
+    time.sleep(0.2)
+    return call(self, batch)
+evaluation.StaticsEvaluator.__call__ = slow
+from dpfexplore.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def write_job(path: Path, **changes) -> Path:
+    path.write_text(toml_text(job_dict(**{**SMALL, **changes})))
+    return path
+
+
+def committed(out: Path) -> int:
+    try:
+        return len(json.loads((out / store.MANIFEST).read_text())["chunks"])
+    except (FileNotFoundError, ValueError, KeyError):
+        return 0
+
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory):
+    root = tmp_path_factory.mktemp("robust")
+    job = write_job(root / "job.toml")
+    assert main(["sweep", str(job), "--out", str(root / "out"), "--chunk-size", "6"]) == 0
+    return root
+
+
+@pytest.mark.slow
+def test_ctrl_c_ends_a_sweep_with_one_line_and_exit_130(tmp_path):
+    job = write_job(tmp_path / "job.toml", **{"job.samples_per_n": 120})
+    out = tmp_path / "out"
+    command = [sys.executable, "-c", SLOW_CLI, "sweep", str(job), "--out", str(out),
+               "--chunk-size", "10"]  # fmt: skip
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while committed(out) < 2:
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and stdout == ""
+    last = stderr.strip().splitlines()[-1]
+    done = committed(out)
+    assert last == (
+        f"dpfexplore sweep: interrupted; {done} of 24 chunks ({10 * done} of 240 designs) are "
+        f"committed in {out}; continue with: dpfexplore sweep {job} --out {out} --resume"
+    )
+    assert not (out / ".dpfexplore-lock").exists()
+    assert main(["sweep", str(job), "--out", str(out), "--resume"]) == 0
+    assert store.read_manifest(out).complete
+
+
+@pytest.mark.slow
+def test_a_closed_stderr_does_not_stop_a_sweep(tmp_path):
+    job = write_job(tmp_path / "job.toml")
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "dpfexplore", "-v", "sweep", str(job), "--out", str(out),
+               "--chunk-size", "4"]  # fmt: skip
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc.stderr.close()  # every progress and log line now meets a broken pipe
+    stdout = proc.stdout.read()
+    proc.wait(timeout=300)
+    assert proc.returncode == 0, stdout
+    assert "sweep cli: 48 designs (48 computed now" in stdout
+    assert store.read_manifest(out).complete
+
+
+@pytest.mark.slow
+def test_query_json_into_a_closed_pipe_is_quiet(swept):
+    command = [sys.executable, "-m", "dpfexplore", "query", str(swept / "out"), "--json"]
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # like `| head` that has read enough
+    stderr = proc.stderr.read().decode()
+    proc.wait(timeout=300)
+    assert proc.returncode == 0 and stderr == "", stderr
+
+
+def test_simulate_on_a_directory_is_one_line(tmp_path, capsys):
+    assert main(["simulate", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"dpfexplore simulate: error: {tmp_path}: is a directory, not a design file "
+                   "(TOML)"]  # fmt: skip
+
+
+def test_every_output_file_gets_its_folder(swept, tmp_path, capsys):
+    plot = tmp_path / "a" / "states.png"
+    assert main(["states", str(example_path("pickplace")), "--sequential", "--plot",
+                 str(plot)]) == 0  # fmt: skip
+    csv = tmp_path / "b" / "c" / "rows.csv"
+    assert main(["query", str(swept / "out"), "--columns", "design_id", "--csv", str(csv)]) == 0
+    png = tmp_path / "d" / "space.png"
+    assert main(["plot-space", str(swept / "out"), "--out", str(png)]) == 0
+    capsys.readouterr()
+    assert plot.read_bytes()[:4] == b"\x89PNG" and png.read_bytes()[:4] == b"\x89PNG"
+    assert csv.read_text().startswith("design_id\n")
+
+
+def test_messages_print_numbers_as_numbers():
+    batch = DesignBatch(
+        n_units=np.array([2]), H=np.pad([[4.0, 4.0]], ((0, 0), (0, 10)), constant_values=np.nan),
+        U_L=np.pad([[8.0, 8.0]], ((0, 0), (0, 10)), constant_values=np.nan),
+        U_sep=np.pad([[1.0, 1.0]], ((0, 0), (0, 10)), constant_values=np.nan),
+        t=np.array([-0.83]), t_lim=np.array([1.0]), E=26.0, nu=0.35, r_b=5.0, t_ch=1.0,
+    )  # fmt: skip
+    message = batch.problems()[1][0]
+    assert message == "t = -0.83: must be finite and > 0 mm"
+
+
+def test_a_rerun_of_a_complete_sweep_prints_its_summary(swept, capsys):
+    job, out = swept / "job.toml", swept / "out"
+    assert main(["sweep", str(job), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "sweep cli: 48 designs (0 computed now, 8 of 8 chunks reused)" in said
+    assert "statuses:" in said
+
+
+def test_a_rerun_of_an_incomplete_sweep_asks_for_resume(tmp_path, capsys):
+    job = write_job(tmp_path / "job.toml")
+    out = tmp_path / "out"
+    assert main(["sweep", str(job), "--out", str(out), "--chunk-size", "6"]) == 0
+    manifest = store.read_manifest(out)
+    manifest.chunks.pop(sorted(manifest.chunks)[-1])
+    manifest.complete = False
+    store.write_manifest(out, manifest)
+    capsys.readouterr()
+    assert main(["sweep", str(job), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "incomplete (42 of 48 designs committed); pass --resume to continue it" in err
+
+
+@pytest.mark.slow
+def test_verbose_prints_each_progress_line_once(tmp_path):
+    job = write_job(tmp_path / "job.toml")
+    command = [sys.executable, "-m", "dpfexplore", "-v", "sweep", str(job), "--out",
+               str(tmp_path / "out")]  # fmt: skip
+    stderr = subprocess.run(command, capture_output=True, text=True, timeout=300).stderr
+    # progress lines and log records alike: the message after "sweep: ", once each
+    said = [line.split(" sweep: ", 1)[1] for line in stderr.splitlines() if " sweep: " in line]
+    assert len(said) >= 3 and len(said) == len(set(said)), stderr
+
+
+def test_a_first_compilation_is_announced(tmp_path):
+    from dpfexplore.solvers.compilation import compile_notice
+    from dpfexplore.solvers.statics import solve_batch
+
+    solve_batch(DesignBatch.from_designs([]), "all_inverted")  # compiled (or loaded) here
+    assert compile_notice(["statics"]) is None
+    # A fresh process with an empty cache has nothing compiled: it says so before compiling.
+    code = ("from dpfexplore.solvers.compilation import compile_notice; "
+            "print(compile_notice(['statics']))")  # fmt: skip
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty-cache")}
+    said = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=300).stdout  # fmt: skip
+    assert said.startswith("compiling the statics kernels for this machine (first run only")

@@ -132,3 +132,25 @@ def test_z_outside_the_box_is_refused():
     variables = DesignVariables(n_units=2)
     with pytest.raises(ValueError, match=r"\[0, 1\]"):
         variables.designs(np.full((1, variables.n_variables), 1.5))
+
+
+@pytest.mark.parametrize("heights", ["ascending", "descending"])
+@settings(max_examples=40, deadline=None)
+@given(data=hs.data())
+def test_minimum_step_between_ordered_heights_holds_everywhere(heights, data):
+    variables = DesignVariables(n_units=5, heights=heights, ordered_units=(1, 2, 3, 4),
+                                min_step=0.4, H=[(3.0, 5.0)] * 4 + [(2.0, 3.0)])  # fmt: skip
+    z = _z(variables, data)
+    H = np.array(variables.design(z).H)
+    steps = np.diff(H[:4]) * (1 if heights == "ascending" else -1)
+    assert np.all(steps >= 0.4 - 1e-12)
+    assert np.all((H[:4] >= 3.0 - 1e-12) & (H[:4] <= 5.0 + 1e-12))
+    batch = DesignBatch.from_designs([variables.design(z)])
+    back, inside = variables.encode(batch)
+    assert inside[0]
+    np.testing.assert_allclose(variables.design(back[0]).H, H, atol=1e-9)
+
+
+def test_minimum_step_too_large_for_the_bounds_is_rejected():
+    with pytest.raises(ValueError, match="heights"):
+        DesignVariables(n_units=4, heights="ascending", min_step=0.7, H=(3.0, 5.0))

@@ -30,8 +30,8 @@ from ._output import SafeStreamHandler, UsageError, discard, error_line
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
 COMMAND_MODULES = (
-    "states", "sweep", "simulate", "simulate_leg", "resetmaps", "surrogate", "resetmodel",
-    "lookup", "bench",
+    "states", "sweep", "simulate", "simulate_leg", "resetmaps", "resetmodel", "surrogate",
+    "design", "lookup", "bench",
 )
 
 EXIT_OK = 0

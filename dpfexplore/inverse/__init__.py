@@ -1,12 +1,41 @@
 """Inverse design: from what a finger must do to verified designs.
 
-Lookup over sweep datasets, surrogates, scenes and the optimiser that solves them build on the
-solvers and sweeps below this package.
-
-Modules: :mod:`.variables` (design variables as an exact reparametrisation of the unit box),
-:mod:`.datasets` (what a sweep directory holds now, its content checksum), :mod:`.lookup_index`
-(nearest-neighbour index over output columns), :mod:`.lookup_store` (the index saved beside its
-dataset, refused when stale), :mod:`.refine` (polish a design with the exact model until it meets
-a target), :mod:`.lookup` (the lookup itself: query, refine, verify), :mod:`.design_files`
-(designs as TOML files).
+variables
+    :class:`DesignVariables`: bounds and constraints as an exact map of the unit box.
+scene_jobs
+    Scene files (TOML): kinds, targets, variables, objective, budget (:func:`load_scene`).
+evaluation
+    :class:`Evaluator`: every exact model solve of a scene, counted by kind and recorded.
+derivatives
+    Design sensitivities for the optimiser (the one place that computes them).
+scenes
+    The problems of each scene kind: residuals and stiffness of box points.
+optimiser
+    Latin hypercube for every N, trust-region refinement, SLSQP stiffness fronts.
+gripper_design, windows
+    The multi-aperture gripper scene; pressure windows from snap pressures.
+design_report, design
+    Verification of every reported design, the report files, :func:`design_scene`.
+datasets
+    What a sweep directory holds now: committed chunks, content checksum, verified reads.
+lookup_index, lookup_store
+    Nearest-neighbour index over a dataset's output columns; saved beside it, refused stale.
+refine
+    Polish a design with the exact model until its outputs meet a target (lookup's refinement).
+lookup, design_files
+    :func:`~.lookup.lookup`: query, refine, verify; candidates as ``[design]`` TOML files.
 """
+
+from .design import design_scene, run_design
+from .scene_jobs import SceneSpec, SceneSpecError, load_scene, parse_scene
+from .variables import DesignVariables
+
+__all__ = [
+    "DesignVariables",
+    "SceneSpec",
+    "SceneSpecError",
+    "design_scene",
+    "load_scene",
+    "parse_scene",
+    "run_design",
+]

@@ -20,7 +20,11 @@ The map
                                          [a_k, b_k] = [max(lo_k, H_prev), hi_k]   ascending
 
       so ``w_k = 0`` puts ``H_k`` at its own bound and ``w_k = 1`` makes it equal to its
-      predecessor. Every ``w`` in ``[0, 1]`` gives an ordered design inside the bounds, and every
+      predecessor. With a minimum step ``δ`` (``min_step``), ``H_prev`` is replaced by
+      ``H_prev ± δ`` (consecutive ordered heights differ by at least ``δ``), and every bound is
+      the *effective* bound of its place in the chain (e.g. ascending: the first height at most
+      the last one's upper bound less the steps between), so every ``w`` stays feasible.
+      Every ``w`` in ``[0, 1]`` gives an ordered design inside the bounds, and every
       such design has such a ``w`` (:meth:`~DesignVariables.encode`). The derivative of
       ``min``/``max`` where the two arguments are equal is taken one-sided (the branch of the
       predecessor), a measure-zero set.
@@ -119,6 +123,8 @@ class DesignVariables:
         Groups of 1-based units whose heights are equal (one variable each).
     shared_U_L, shared_U_sep : bool
         One value for all units (default) or one per unit.
+    min_step : float, mm
+        Least difference between consecutive ordered heights (default 0: equal allowed).
     E, nu, r_b, t_ch : float
         Fixed material and geometry (MPa, 1, mm, mm).
 
@@ -141,6 +147,7 @@ class DesignVariables:
     tied: Sequence[Sequence[int]] = ()
     shared_U_L: bool = True
     shared_U_sep: bool = True
+    min_step: float = 0.0
     E: float = DEFAULTS["E"]
     nu: float = DEFAULTS["nu"]
     r_b: float = DEFAULTS["r_b"]
@@ -166,7 +173,9 @@ class DesignVariables:
         )
         slots = self._tie_slots(bounds)
         chain = self._ordered_slots(slots)
-        object.__setattr__(self, "_slots", slots)
+        if not (np.isfinite(self.min_step) and self.min_step >= 0):
+            raise ValueError(f"min_step = {self.min_step!r}: must be finite and >= 0 mm")
+        object.__setattr__(self, "_slots", self._effective_slots(slots, chain))
         object.__setattr__(self, "_chain", chain)
         object.__setattr__(self, "_names", self._variable_names())
         if not self._feasible():
@@ -235,20 +244,33 @@ class DesignVariables:
         names += [name for name in _SHARED if self._bounds[name][1] > self._bounds[name][0]]
         return tuple(names)
 
+    def _effective_slots(self, slots: tuple[_Slot, ...], chain: tuple[int, ...]
+                         ) -> tuple[_Slot, ...]:  # fmt: skip
+        """Bounds of the chained slots narrowed to what the order and the steps leave them."""
+        if not chain:
+            return slots
+        step = float(self.min_step)
+        sign = 1.0 if self.heights == "ascending" else -1.0
+        low = [slots[s].low for s in chain]
+        high = [slots[s].high for s in chain]
+        for i in range(1, len(chain)):  # forward: each height beyond its predecessor's bound
+            if sign > 0:
+                low[i] = max(low[i], low[i - 1] + step)
+            else:
+                high[i] = min(high[i], high[i - 1] - step)
+        for i in range(len(chain) - 2, -1, -1):  # backward: room for the heights after it
+            if sign > 0:
+                high[i] = min(high[i], high[i + 1] - step)
+            else:
+                low[i] = max(low[i], low[i + 1] + step)
+        out = list(slots)
+        for i, s in enumerate(chain):
+            out[s] = _Slot(slots[s].units, low[i], high[i])
+        return tuple(out)
+
     def _feasible(self) -> bool:
-        """Whether an ordered design exists: the chain from its extreme end stays in bounds."""
-        if not self._chain:
-            return True
-        descending = self.heights == "descending"
-        previous = np.inf if descending else -np.inf
-        for s in self._chain:
-            slot = self._slots[s]
-            # Descending: the highest each height can be is min(hi, previous).
-            top = min(slot.high, previous) if descending else max(slot.low, previous)
-            if (descending and top < slot.low) or (not descending and top > slot.high):
-                return False
-            previous = top
-        return True
+        """Whether an ordered design exists: every chained slot keeps a non-empty interval."""
+        return all(self._slots[s].low <= self._slots[s].high + 1e-12 for s in self._chain)
 
     # ------------------------------------------------------------------ the map
 
@@ -286,7 +308,8 @@ class DesignVariables:
                     da = db = np.zeros((m, self.n_variables))
                 else:
                     prev = self._chain[i - 1]
-                    hp = slot_values[:, prev]
+                    step = self.min_step if self.heights == "ascending" else -self.min_step
+                    hp = slot_values[:, prev] + step
                     dhp = slot_grad[:, prev]
                     if self.heights == "descending":
                         a = np.full(m, slot.low)
@@ -400,7 +423,8 @@ class DesignVariables:
                 a, b = slot.low, np.full(m, slot.high)
                 a = np.full(m, a)
             else:
-                hp = slot_values[:, self._chain[i - 1]]
+                step = self.min_step if self.heights == "ascending" else -self.min_step
+                hp = slot_values[:, self._chain[i - 1]] + step
                 if self.heights == "descending":
                     a, b = np.full(m, slot.low), np.minimum(slot.high, hp)
                     inside &= value <= hp + tol

@@ -1,0 +1,212 @@
+"""The exact evaluator of inverse design: every model solve of a scene goes through here.
+
+:class:`Evaluator` wraps :func:`dpfexplore.solvers.statics.solve_batch` (and the dynamics and
+snap-pressure checks of final candidates), counts each kind of evaluation so that a user sees
+what was computed, and records every evaluated design with its outputs for the history. It runs
+small batches (a refinement step, a finite-difference stencil) on one Numba thread: waking the
+thread pool costs more than the few designs it would share, and far more on a loaded machine.
+
+Kinds of evaluation (:data:`EVALUATION_KINDS`)
+    ``designs``       designs evaluated by the exact model (any purpose; what the benchmarks
+                      compare)
+    ``state_solves``  (design, state) equilibria solved
+    ``stiffness``     of those, the ones whose tip stiffness was also computed
+    ``derivative``    designs evaluated only for a finite-difference derivative
+    ``snap``          snap-pressure continuations (:mod:`dpfexplore.inverse.snap`)
+    ``simulations``   full-dynamics runs (pressure pulse, Rodas4)
+    ``verifications`` single-design re-solves of reported designs (``find_state``)
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections import Counter
+from collections.abc import Iterator, Sequence
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from ..model.design import DesignBatch
+from ..solvers.statics import solve_batch
+
+__all__ = ["EVALUATION_KINDS", "Evaluator", "few_threads"]
+
+EVALUATION_KINDS = ("designs", "state_solves", "stiffness", "derivative", "snap", "simulations",
+                    "verifications")  # fmt: skip
+#: Batches of at most this many rows run on one thread.
+_SMALL_BATCH = 96
+
+
+@contextlib.contextmanager
+def few_threads(rows: int) -> Iterator[None]:
+    """Run the enclosed Numba calls on one thread when ``rows`` is small."""
+    if rows > _SMALL_BATCH:
+        yield
+        return
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
+class Evaluator:
+    """Exact model solves with counts by kind and a record of every evaluated design.
+
+    Parameters
+    ----------
+    max_units : int
+        Widest design of the scene (columns of the history).
+    """
+
+    def __init__(self, max_units: int) -> None:
+        self.max_units = int(max_units)
+        self.counts: Counter[str] = Counter({kind: 0 for kind in EVALUATION_KINDS})
+        self._records: list[dict[str, NDArray]] = []
+        self.started = time.perf_counter()
+        #: ``(designs evaluated, seconds, best objective so far)`` after each recorded batch.
+        self.trace: list[tuple[int, float, float]] = []
+        self._best = np.inf
+
+    # ------------------------------------------------------------------ solving
+
+    def solve(
+        self,
+        batch: DesignBatch,
+        states: Sequence[int] | NDArray,
+        *,
+        stiffness: Sequence[bool] | NDArray | bool = False,
+        derivative: bool = False,
+    ) -> dict[str, NDArray]:
+        """Solve ``states[j]`` of every design for each ``j``; columns of shape ``(n, S)``.
+
+        Parameters
+        ----------
+        batch : DesignBatch
+            ``n`` designs.
+        states : sequence of int, length ``S``, or ndarray of shape (n, S)
+            State integers (unit 1 = most significant bit) to solve for every design.
+        stiffness : bool or sequence of bool (length S)
+            Which of the states also get their tip stiffness.
+        derivative : bool
+            Count these designs as finite-difference evaluations.
+
+        Returns
+        -------
+        dict of str to ndarray of shape (n, S)
+            ``status``, ``found``, ``tip_x``, ``tip_y`` (mm), ``stiffness`` (N/mm, NaN where
+            not asked), ``min_eig`` (N/mm, where stiffness was asked).
+        """
+        n = len(batch)
+        states = np.asarray(states, dtype=np.int64)
+        if states.ndim == 1:
+            states = np.broadcast_to(states, (n, states.size))
+        n_states = states.shape[1]
+        want = np.broadcast_to(np.asarray(stiffness, dtype=bool), (n_states,))
+        out = {
+            "status": np.empty((n, n_states), np.int8),
+            "found": np.empty((n, n_states), np.int64),
+            **{key: np.full((n, n_states), np.nan) for key in
+               ("tip_x", "tip_y", "stiffness", "min_eig", "bend_angle")},
+        }  # fmt: skip
+        for with_k in (False, True):
+            cols = np.flatnonzero(want == with_k)
+            if cols.size == 0 or n == 0:
+                continue
+            rows = np.repeat(np.arange(n), cols.size)
+            requested = states[:, cols].reshape(-1)
+            with few_threads(rows.size):
+                res = solve_batch(batch.take(rows), requested, stiffness=with_k, min_eig=with_k)
+            for key in ("status", "found", "tip_x", "tip_y", "bend_angle"):
+                out[key][:, cols] = res[key].reshape(n, cols.size)
+            if with_k:
+                out["stiffness"][:, cols] = res["stiffness"].reshape(n, cols.size)
+                out["min_eig"][:, cols] = res["min_eig"].reshape(n, cols.size)
+                self.counts["stiffness"] += rows.size
+            self.counts["state_solves"] += rows.size
+        self.counts["designs"] += n
+        if derivative:
+            self.counts["derivative"] += n
+        return out
+
+    def count(self, kind: str, number: int = 1) -> None:
+        """Count evaluations of another kind (``snap``, ``simulations``, ``verifications``)."""
+        if kind not in EVALUATION_KINDS:
+            raise ValueError(f"kind = {kind!r}: one of {EVALUATION_KINDS}")
+        self.counts[kind] += number
+
+    # ------------------------------------------------------------------ history
+
+    def record(self, batch: DesignBatch, **columns: NDArray | float | str) -> None:
+        """Add evaluated designs to the history with per-row columns (objective parts...)."""
+        n = len(batch)
+        if n == 0:
+            return
+        width = self.max_units
+        row: dict[str, NDArray] = {"n_units": batch.n_units.astype(np.int8)}
+        for name in ("H", "U_L", "U_sep"):
+            values = getattr(batch, name)[:, :width]
+            for k in range(width):
+                row[f"{name}_{k + 1}"] = values[:, k].copy()
+        for name in ("t", "t_lim", "E"):
+            row[name] = getattr(batch, name).copy()
+        for key, value in columns.items():
+            row[key] = np.broadcast_to(np.asarray(value), (n,)).copy()
+        row["evaluation"] = np.arange(self.n_recorded, self.n_recorded + n, dtype=np.int64)
+        self._records.append(row)
+        if "objective" in row:
+            finite = row["objective"][np.isfinite(row["objective"])]
+            if finite.size:
+                self._best = min(self._best, float(np.min(finite)))
+        self.trace.append((self.counts["designs"], self.wall_s, self._best))
+
+    def reached(self, threshold: float) -> tuple[int | None, float | None]:
+        """Designs evaluated and seconds until the best objective was at most ``threshold``."""
+        for count, seconds, best in self.trace:
+            if best <= threshold:
+                return count, seconds
+        return None, None
+
+    def best_at(self, *, evaluations: float = np.inf, seconds: float = np.inf) -> float:
+        """Best objective recorded within an evaluation count and a wall time."""
+        best = np.inf
+        for count, wall, value in self.trace:
+            if count > evaluations or wall > seconds:
+                break
+            best = value
+        return best
+
+    @property
+    def n_recorded(self) -> int:
+        """Designs recorded so far."""
+        return sum(len(r["n_units"]) for r in self._records)
+
+    def history(self):
+        """Every recorded design as a :class:`pandas.DataFrame` (one row per design)."""
+        import pandas as pd
+
+        if not self._records:
+            return pd.DataFrame()
+        keys: list[str] = []
+        for record in self._records:
+            keys += [k for k in record if k not in keys]
+        frames = []
+        for record in self._records:
+            n = len(record["n_units"])
+            frames.append(pd.DataFrame({k: record[k] if k in record else _missing(record, k, n)
+                                        for k in keys}))  # fmt: skip
+        frame = pd.concat(frames, ignore_index=True)
+        return frame[["evaluation", *[k for k in keys if k != "evaluation"]]]
+
+    @property
+    def wall_s(self) -> float:
+        """Seconds since the evaluator was made."""
+        return time.perf_counter() - self.started
+
+
+def _missing(record: dict[str, NDArray], key: str, n: int) -> NDArray:
+    # Columns a record lacks (e.g. stiffness of a position row): NaN for numbers, None else.
+    return np.full(n, np.nan)

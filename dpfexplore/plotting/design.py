@@ -1,0 +1,169 @@
+"""Figures of inverse design: targets met, objective against evaluations, fronts, regions.
+
+Plain arrays and DataFrames in (the history written by ``dpfexplore design``), Axes out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from ..model.gripper import gripper_frame
+from .statics import plot_finger
+
+__all__ = [
+    "plot_front",
+    "plot_gripper",
+    "plot_objective_history",
+    "plot_reachable_region",
+    "plot_target_shapes",
+]
+
+
+def _axes(ax: Axes | None, size=(6, 5)) -> Axes:
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=size)
+    return ax
+
+
+def plot_target_shapes(nodes: Sequence[np.ndarray], targets: Sequence[Sequence[float]],
+                       reachable: Sequence[bool], ax: Axes | None = None) -> Axes:  # fmt: skip
+    """Each target's finger in its targeted state, with the target (x: unreachable).
+
+    Parameters
+    ----------
+    nodes : sequence of ndarray of shape (2N + 2, 2), mm
+    targets : sequence of (x, y), mm
+    reachable : sequence of bool
+    """
+    ax = _axes(ax, (7, 6))
+    import matplotlib as mpl
+
+    colors = mpl.colormaps["tab10"](np.arange(len(nodes)) % 10)
+    for i, (xy, target, ok) in enumerate(zip(nodes, targets, reachable, strict=True)):
+        plot_finger(xy, ax, color=colors[i], label=f"target {i + 1}")
+        ax.plot(*target, "*" if ok else "x", color=colors[i], ms=12, mec="k")
+    ax.legend(fontsize="small")
+    ax.set_title("Designs in their targeted state (star: target met, x: unreachable)")
+    return ax
+
+
+def plot_objective_history(history, ax: Axes | None = None) -> Axes:
+    """Best objective so far (mm²) against exact evaluations, one line per target.
+
+    Parameters
+    ----------
+    history : pandas.DataFrame
+        The scene's history (columns ``evaluation``, ``target``, ``objective``).
+    """
+    ax = _axes(ax)
+    for target, part in history.groupby("target"):
+        objective = part["objective"].to_numpy(dtype=float)
+        best = np.minimum.accumulate(np.where(np.isfinite(objective), objective, np.inf))
+        count = np.arange(1, len(best) + 1)
+        keep = np.isfinite(best)
+        ax.plot(count[keep], np.maximum(best[keep], 1e-16), label=f"target {int(target) + 1}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("exact evaluations (designs solved)")
+    ax.set_ylabel("best objective so far (mm²)")
+    ax.legend(fontsize="small")
+    ax.set_title("Objective against evaluations")
+    return ax
+
+
+def plot_front(points: Sequence[tuple[float, float | None, float | None]], *,
+               reference: tuple[float, float] | None = None, title: str = "",
+               ax: Axes | None = None) -> Axes:  # fmt: skip
+    """Stiffness against tip tolerance (the two-objective scenes' answer).
+
+    Parameters
+    ----------
+    points : sequence of (tolerance, distance, stiffness)
+        mm, mm, N/mm of each rung of the front.
+    reference : (distance, stiffness), optional
+        A design to compare with (e.g. the paper's, evaluated in this model).
+    """
+    ax = _axes(ax)
+    tol = np.array([p[0] for p in points], dtype=float)
+    dist = np.array([np.nan if p[1] is None else p[1] for p in points], dtype=float)
+    stiff = np.array([np.nan if p[2] is None else p[2] for p in points], dtype=float)
+    ax.step(tol, stiff, where="post", label="front: stiffest within the tolerance")
+    ax.plot(np.maximum(dist, 1e-7), stiff, "o", ms=4, label="designs (their distance)")
+    if reference is not None and reference[0] is not None and reference[1] is not None:
+        ax.plot(max(reference[0], 1e-7), reference[1], "s", color="C3", label="reference")
+    ax.set_xscale("log")
+    ax.set_xlabel("tip distance to the target (mm)")
+    ax.set_ylabel("tip stiffness (N/mm)")
+    ax.legend(fontsize="small")
+    ax.set_title(title or "Stiffness against tip tolerance")
+    return ax
+
+
+def plot_reachable_region(history, target: Sequence[float], nearest: Sequence[float],
+                          ax: Axes | None = None) -> Axes:  # fmt: skip
+    """Tips of every evaluated design per N (the sampled reachable region) with the target.
+
+    Parameters
+    ----------
+    history : pandas.DataFrame
+        History rows of one target (columns ``n_units``, ``tip_x``, ``tip_y``, ``status``).
+    target, nearest : (x, y), mm
+    """
+    ax = _axes(ax, (7, 6))
+    ok = history[history["status"] == 0]
+    for n, part in ok.groupby("n_units"):
+        ax.plot(part["tip_x"], part["tip_y"], ".", ms=2, alpha=0.5, label=f"N = {int(n)}")
+    ax.plot(*target, "x", color="k", ms=12, mew=2, label="target")
+    ax.plot(*nearest, "o", mfc="none", mec="r", ms=10, label="nearest tip found")
+    ax.set_aspect("equal")
+    ax.set_xlabel("tip x (mm)")
+    ax.set_ylabel("tip y (mm)")
+    ax.legend(fontsize="small", markerscale=3)
+    ax.set_title("Reachable region sampled per N")
+    return ax
+
+
+def plot_gripper(nodes: Sequence[np.ndarray], h: float, theta_deg: float, base_l: float,
+                 targets: Sequence[float], apertures: Sequence[float], *,
+                 states: Sequence[str] = (), fig: Figure | None = None) -> Figure:  # fmt: skip
+    """The two mirrored fingers of the gripper in each targeted state, with the object.
+
+    Parameters
+    ----------
+    nodes : sequence of ndarray of shape (2N + 2, 2), mm
+        Finger nodes (model frame) per targeted state.
+    h, theta_deg, base_l : float
+        Segment height (mm), base angle (degrees) and base length (mm) (MODEL.md §7).
+    targets, apertures : sequence of float, mm
+    """
+    import matplotlib.pyplot as plt
+
+    n = len(nodes)
+    if fig is None:
+        fig = plt.figure(figsize=(3.2 * n, 4))
+    axes = fig.subplots(1, n, squeeze=False)[0]
+    for ax, xy, target, aperture, label in zip(
+        axes, nodes, targets, apertures, list(states) or [""] * n, strict=False
+    ):
+        finger = gripper_frame(xy, h, theta_deg)
+        mirrored = finger.copy()
+        mirrored[:, 1] = 2.0 * base_l - finger[:, 1]
+        plot_finger(finger, ax, color="C0")
+        plot_finger(mirrored, ax, color="C0")
+        ax.add_patch(plt.Circle((float(np.mean(finger[-1:, 0])), base_l), target / 2.0,
+                                fill=False, ls="--", color="C3"))  # fmt: skip
+        ax.set_title(f"{label}: {aperture:.2f} mm\n(target {target:g})", fontsize="small")
+        ax.autoscale()
+    fig.suptitle("Gripper in its targeted states (dashed: object)")
+    return fig
+
+
+def _finite(value) -> float:
+    return float(value) if value is not None and math.isfinite(float(value)) else math.nan

@@ -116,10 +116,14 @@ def plot_reachable(
         label = f"target ({target[0]:g}, {target[1]:g})"
         handles.append(mpl.lines.Line2D([], [], ls="", marker="*", color="red", ms=10,
                                         label=label))  # fmt: skip
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("tip x (mm)")
     ax.set_ylabel("tip y (mm)")
-    ax.margins(0.06)
+    # Explicit limits: contour sets sticky edges at its grid, which would stop margins from
+    # making room for a target at the edge of the extent.
+    pad = 0.06 * span
+    ax.set_xlim(float(low[0] - pad), float(high[0] + pad))
+    ax.set_ylim(float(low[1] - pad), float(high[1] + pad))
     ax.set_title("Tip region the dataset reaches, per N")
     if handles:
         ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))

@@ -33,6 +33,7 @@ from .model.status import Status
 from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
 from .solvers.lattice import spring_constants
 from .solvers.leg import load_leg, simulate_leg
+from .solvers.sensitivities import Sensitivities
 from .solvers.statics import (
     SolverOptions,
     StateResult,
@@ -56,6 +57,7 @@ __all__ = [
     "DesignBatch",
     "Material",
     "PressureProfile",
+    "Sensitivities",
     "SimulationResult",
     "SolverOptions",
     "StateResult",

@@ -80,3 +80,25 @@ def test_bench_sweep_record(capsys, tmp_path, monkeypatch):
     assert local["designs"] == 9000 and local["wall_s"] > 0 and local["peak_rss_mb"] > 0
     assert record["paper_job"]["one_at_a_time"]["max_abs_difference"] == 0.0
     assert record["overnight_outputs"]["designs_per_s"] > 0
+
+
+@pytest.mark.slow
+def test_bench_sensitivities_record(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    args = ["bench", "sensitivities", "--json", "--units", "2,3", "--designs", "4",
+            "--reference-designs", "2", "--no-compile", "--save"]  # fmt: skip
+    assert main(args) == 0
+    record = json.loads(capsys.readouterr().out)
+    rows = record["by_n_units"]
+    assert [r["n_units"] for r in rows] == [2, 3] and rows[1]["parameters"] == 12
+    for r in rows:
+        assert r["solve_us"] > 0 and r["sensitivities_us"] > 0 and r["fd_api_us"] > 0
+        assert r["reference_designs"] >= 1
+        # ours against the Richardson reference, which is itself good to ~1e-8
+        assert r["ours_rel_err"] < 1e-6 and r["ours_stiffness_rel_err"] < 1e-5
+    api = record["api"]
+    assert [r["batch"] for r in api["solve_batch"]] == [1, 8, 64]
+    assert all(r["ratio"] > 0 and r["ratio_sensitivities"] > 0 for r in api["solve_batch"])
+    assert {r["design"] for r in api["find_state"]} == {"gripper", "pickplace"}
+    saved = json.loads((tmp_path / "results" / "reports" / "bench-sensitivities.json").read_text())
+    assert saved["by_n_units"][0]["n_units"] == 2

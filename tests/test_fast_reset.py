@@ -219,7 +219,7 @@ def test_fallback_outside_the_domain_runs_the_full_model(pickplace):
     common = {"U_L": 6.0, "U_sep": 1.0, "t": 0.83, "t_lim": 1.0}
     designs = [
         Design(H=[4.0, 4.5, 5.0, 5.0, 3.0, 3.0, 3.0], **common),  # N = 7 > 6
-        Design(H=[4.0, 4.5, 5.0, 5.6, 3.0, 3.0], **common),  # a dome above 5 mm
+        Design(H=[4.0, 4.5, 5.0, 5.0, 3.0, 3.0], **{**common, "U_sep": 3.0}),  # U_sep above 2.5 mm
         Design(H=[4.0, 4.5, 5.0, 5.0, 3.0, 3.0], E=12.0, **common),  # another material
         pickplace,
     ]

@@ -201,4 +201,4 @@ def test_exact_and_central_difference_sensitivities_agree_with_wider_differences
     np.testing.assert_allclose(exact, central, rtol=1e-6, atol=1e-9)
     # shapes do not depend on E; stiffness is proportional to it
     np.testing.assert_allclose(central[:2, -1], 0.0, atol=1e-8)
-    assert exact[2, -1] == pytest.approx(values[2] / design.E, rel=1e-6)
+    assert exact[2, -1] == pytest.approx(values[2] / design.E, rel=1e-12)

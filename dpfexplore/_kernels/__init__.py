@@ -12,10 +12,17 @@ linalg
     Small dense Cholesky factorisation and solves used by the Newton solver.
 newton
     Globalised Newton minimisation with a caller-set tolerance and iteration cap.
+tables
+    Status codes, per-unit tables and their derivative tables of a batch of designs, in one
+    compiled pass over the closed forms of ``model.constants``.
 states
     Geometric guess, stable-state search and per-state outputs (MODEL.md §6-§7).
 batch
-    ``prange`` entry points evaluating many designs on the kernels above.
+    ``prange`` entry points evaluating many designs on the kernels above (and their serial
+    twins for small batches).
+sensitivity, sensitivity_batch
+    Design sensitivities of a stable state by the implicit function theorem (forward-mode
+    tangent assembly, third-derivative contraction), and their batch entry points.
 dynamics
     Right-hand side of the damped lattice under pressure (MODEL.md §8) and its Jacobians.
 dense_lu

@@ -31,9 +31,11 @@ _MARKER = "dpfexplore-sources.sha256"
 
 def _kernel_sources_digest() -> str:
     digest = hashlib.sha256()
-    # The kernels also read the status codes and the domain limits as compile-time constants.
+    # The kernels also read the status codes and the domain limits as compile-time constants,
+    # and compile the closed forms of constants.py and the status rules of design.py inline.
     model = _KERNELS_DIR.parent / "model"
-    for path in [*sorted(_KERNELS_DIR.glob("*.py")), model / "status.py", model / "domain.py"]:
+    extra = [model / name for name in ("status.py", "domain.py", "constants.py", "design.py")]
+    for path in [*sorted(_KERNELS_DIR.glob("*.py")), *extra]:
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()

@@ -156,6 +156,55 @@ def solve_rows(
 
 
 @kernel
+def solve_rows_serial(
+    unit_params,
+    h,
+    n_units,
+    design_status,
+    row_design,
+    row_state,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    out,
+    status,
+    found,
+    n_iter,
+    shapes,
+):
+    """:func:`solve_rows` on the calling thread, for small batches.
+
+    Starting a parallel region wakes the worker threads, which costs from tens of microseconds on
+    an idle machine to milliseconds on a loaded one: more than a few designs' solves. Same
+    arguments and results as :func:`solve_rows`.
+    """
+    _solve_rows(
+        unit_params,
+        h,
+        n_units,
+        design_status,
+        row_design,
+        row_state,
+        0,
+        row_design.shape[0],
+        gtol,
+        xtol,
+        max_iter,
+        max_step,
+        want_stiffness,
+        want_min_eig,
+        out,
+        status,
+        found,
+        n_iter,
+        shapes,
+    )
+
+
+@kernel
 def solve_repeatedly(
     unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig,
     repeats,
@@ -177,4 +226,4 @@ def solve_repeatedly(
     return status
 
 
-__all__ = ["N_OUT", "solve_repeatedly", "solve_rows"]
+__all__ = ["N_OUT", "solve_repeatedly", "solve_rows", "solve_rows_serial"]

@@ -225,8 +225,6 @@ def _refine_targets(index, spec, tips, tries: int, sensitivities: str) -> dict:
 
 
 def _refinement(args, index, spec, designs, tips) -> dict:
-    from ..inverse.refine import _MODEL_SENSITIVITIES
-
     ours = _refine_targets(index, spec, tips, args.tries, "exact")
     n_base = min(len(tips), args.baseline_targets)
     baseline = _refine_targets(index, spec, tips[:n_base], args.tries, "central")
@@ -234,10 +232,6 @@ def _refinement(args, index, spec, designs, tips) -> dict:
         "held_out_designs": len(designs),
         "tries": args.tries,
         "exact": ours,
-        "exact_sensitivities": (
-            "the model's implicit-function sensitivities" if _MODEL_SENSITIVITIES
-            else "central differences: the model's sensitivities are not on this branch yet"
-        ),
         "central_differences": baseline,
         "speedup_vs_central": baseline["ms_per_candidate"] / ours["ms_per_candidate"],
         "goal_ms_per_candidate": 5.0,
@@ -298,7 +292,6 @@ def _text(record: dict) -> str:
     )
     lines.append(f"  {'sensitivities':<22} {'targets':>7} {'first':>7} {'any':>7} {'ms/cand':>8} "
                  f"{'p90':>7} {'evals':>5} {'jacs':>4} {'worst mm':>9}")  # fmt: skip
-    lines.append(f"  ours: {r['exact_sensitivities']}")
     rows = (("exact (ours)", r["exact"]), ("central differences", r["central_differences"]))
     for name, row in rows:
         lines.append(

@@ -9,7 +9,10 @@ from __future__ import annotations
 import importlib
 
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
-BENCHMARKS = ("statics", "sweep", "dynamics", "surrogate", "reset_model", "design", "lookup")
+BENCHMARKS = (
+    "statics", "sweep", "dynamics", "sensitivities", "surrogate", "reset_model", "design",
+    "lookup",
+)
 
 
 def register(subparsers) -> None:

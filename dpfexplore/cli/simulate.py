@@ -98,7 +98,10 @@ def run(args) -> int:
     if args.method == "fast":
         if args.plot is not None:
             raise UsageError("--plot: the fast model computes no trajectory; drop --plot")
-        return _run_fast(args, design, profile)
+        try:
+            return _run_fast(args, design, profile)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
     plot = output_path(args.plot) if args.plot is not None else None
     if args.method != "radau":
         from ..solvers.compilation import compile_notice

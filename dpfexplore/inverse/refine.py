@@ -24,11 +24,14 @@ States that vanish
     projection of a dataset design onto them can leave its fold) reports ``"collapsed"`` at once.
 
 Sensitivities
-    :func:`_model_outputs` is the one place that asks the model for outputs and their
+    :func:`_model_outputs` is the one place that asks the model for outputs and their exact
     derivatives with respect to the design parameters ``θ = (H_1..H_N, U_L_1..U_L_N,
-    U_sep_1..U_sep_N, t, t_lim, E)``. Until the model's implicit-function sensitivities are on
-    this branch it takes :func:`_central_differences`: ``2 (3N + 3)`` perturbed solves in one
-    batch call (``sensitivities="central"``, the baseline of ``dpfexplore bench lookup``).
+    U_sep_1..U_sep_N, t, t_lim, E)`` (implicit-function sensitivities,
+    ``solve_batch(..., sensitivities=True)``): one solve gives the residual and the Jacobian.
+    :func:`_central_differences` gives the same from ``2 (3N + 3)`` perturbed solves (one batch
+    call); it is the baseline of ``dpfexplore bench lookup`` (``sensitivities="central"``), and
+    the fallback at a point where the exact derivatives are undefined (Hessian not positive
+    definite at the returned shape).
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from scipy.optimize import least_squares
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..solvers.sensitivities import batch_columns
 from ..solvers.statics import parse_state, solve_batch, state_string
 from ..sweep.space import DesignSpace
 from .variables import HEIGHT_ORDERS, DesignVariables
@@ -233,9 +237,9 @@ def _model_outputs(
 ) -> tuple[NDArray, NDArray | None, int]:
     """Outputs of one design's state and, if asked, their derivatives with respect to ``θ``.
 
-    The one place to switch to the model's implicit-function sensitivities
-    (``solve_batch(..., sensitivities=True)``) once they are on this branch; until then,
-    :func:`_central_differences`.
+    Stiffness is always computed: it needs the Hessian factored at the returned shape, which
+    fails next to a fold; the verification of a reported design asks for it, so a design
+    accepted here passes there.
 
     Returns
     -------
@@ -246,7 +250,16 @@ def _model_outputs(
     status : int
         :mod:`~dpfexplore.model.status` code of the state at the design.
     """
-    return _central_differences(batch, state, columns, derivatives=derivatives)
+    cols = solve_batch(batch, [state], stiffness=True, min_eig=False, sensitivities=derivatives)
+    values = np.array([cols[c][0] for c in columns])
+    status = int(cols["status"][0])
+    if not derivatives or status != st.OK:
+        return values, None, status
+    pick = batch_columns(int(batch.n_units[0]))
+    jac = np.stack([cols[f"d_{c}"][0, pick] for c in columns])
+    if not np.all(np.isfinite(jac)):
+        return _central_differences(batch, state, columns, derivatives=True)
+    return values, jac, status
 
 
 def _central_differences(
@@ -284,8 +297,6 @@ def _central_differences(
     return centre, jac.T, status
 
 
-#: Whether :func:`_model_outputs` has the model's own sensitivities (else central differences).
-_MODEL_SENSITIVITIES = False
 #: How :func:`refine` gets the model's derivatives.
 SENSITIVITIES = {"exact": _model_outputs, "central": _central_differences}
 
@@ -361,9 +372,9 @@ class _Problem:
         self.variables, self.state, self.columns = variables, state, columns
         self.target, self.scales, self.tol = target, scales, tol
         self.model = model
-        # Derivatives with every value when they cost less than a second solve (the model's
-        # own sensitivities), so that an accepted step has its Jacobian already.
-        self.together = model is _model_outputs and _MODEL_SENSITIVITIES
+        # The model's sensitivities cost less than a second solve: take them with every value,
+        # so that an accepted step has its Jacobian already.
+        self.together = model is _model_outputs
         self.evaluations = self.jacobians = self.collapses = 0
         self.best_z: NDArray | None = None
         self.best_error = np.inf

@@ -8,6 +8,13 @@ The closed forms are the paper's regressions (eq. kb_model, alpha_model, d_model
 coefficients of the authors' implementation, which the paper prints rounded. They were fitted for
 5 <= E <= 40 MPa and the paper's unit geometries; :func:`constants_are_valid` flags the results
 that are nonsense outside that domain.
+
+Each closed form is written once, as a ``*_form`` function of plain arithmetic (no NumPy calls),
+so that the same source serves NumPy arrays here and the Numba kernels that build the kernel
+tables (:mod:`dpfexplore._kernels.tables`) on scalars, with bit-identical results. Numba's
+``register_jitable`` leaves each a plain Python function for NumPy callers and lets jitted code
+compile it inline. Their derivatives with respect to the design parameters
+(:func:`constant_derivatives`) are written the same way, for the design sensitivities.
 """
 
 from __future__ import annotations
@@ -15,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba.extending import register_jitable
 from numpy.typing import ArrayLike, NDArray
 
 #: Unit-cell size per dome base radius, ``UC = 3 r_b`` (MODEL.md §2).
@@ -30,8 +38,13 @@ NO_CONTACT_REACH = 0.01
 
 def dome_radius(H: ArrayLike, r_b: ArrayLike) -> NDArray:
     """Radius of curvature of a spherical cap, ``R = (H² + r_b²) / (2 H)`` in mm."""
-    H = np.asarray(H, dtype=float)
-    return (H * H + np.asarray(r_b, dtype=float) ** 2) / (2.0 * H)
+    return radius_form(np.asarray(H, dtype=float), np.asarray(r_b, dtype=float))
+
+
+@register_jitable
+def radius_form(H, r_b):
+    """``R`` of :func:`dome_radius` (plain arithmetic, see the module docstring)."""
+    return (H * H + r_b * r_b) / (2.0 * H)
 
 
 def dome_stiffness(E: ArrayLike, H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
@@ -45,6 +58,12 @@ def dome_stiffness(E: ArrayLike, H: ArrayLike, t: ArrayLike, R: ArrayLike) -> ND
         Dome height, dome thickness and dome radius of curvature.
     """
     E, H, t, R = (np.asarray(a, dtype=float) for a in (E, H, t, R))
+    return kb_form(E, H, t, R)
+
+
+@register_jitable
+def kb_form(E, H, t, R):
+    """``k_b`` of :func:`dome_stiffness` (plain arithmetic)."""
     # Powers by multiplication: ``**`` with float exponents costs a pow() call per entry.
     t2 = t * t
     t3 = t2 * t
@@ -75,6 +94,12 @@ def dome_alpha(H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
     would store at the same extension; the isolated dome is bistable iff ``α < 1/9``.
     """
     H, t, R = (np.asarray(a, dtype=float) for a in (H, t, R))
+    return alpha_form(H, t, R)
+
+
+@register_jitable
+def alpha_form(H, t, R):
+    """``α`` of :func:`dome_alpha` (plain arithmetic)."""
     H2 = H * H
     H3 = H2 * H
     R2 = R * R
@@ -116,10 +141,16 @@ def dome_reach(
         finger.
     """
     H, t, U_sep, t_ch = (np.asarray(a, dtype=float) for a in (H, t, U_sep, t_ch))
-    raw = (0.2565 * t + 2.1425 * H) - H - U_sep - t_ch / 2.0 - t / 2.0
+    raw = reach_raw_form(H, t, U_sep, t_ch)
     # d == 0 exactly would divide by zero in u = x/d, so it is clamped along with d < 0.
     no_contact = raw <= 0.0
     return np.where(no_contact, NO_CONTACT_REACH, raw), no_contact
+
+
+@register_jitable
+def reach_raw_form(H, t, U_sep, t_ch):
+    """The closed form of ``d`` before the clamp (mm)."""
+    return (0.2565 * t + 2.1425 * H) - H - U_sep - t_ch / 2.0 - t / 2.0
 
 
 def limiting_layer_stiffness(
@@ -129,13 +160,14 @@ def limiting_layer_stiffness(
 
     The denominator is the implementation's; the paper's text writes ``U_L`` alone.
     """
-    UC = UNIT_CELL_PER_BASE_RADIUS * np.asarray(r_b, dtype=float)
-    return (
-        np.asarray(E, float)
-        * np.asarray(t_lim, float)
-        * UC
-        / (np.asarray(U_L, float) + np.asarray(t, float) + np.asarray(t_ch, float))
-    )
+    E, t_lim, r_b, U_L, t, t_ch = (np.asarray(a, float) for a in (E, t_lim, r_b, U_L, t, t_ch))
+    return k_lim_form(E, t_lim, r_b, U_L, t, t_ch)
+
+
+@register_jitable
+def k_lim_form(E, t_lim, r_b, U_L, t, t_ch):
+    """``k_lim`` of :func:`limiting_layer_stiffness` (plain arithmetic)."""
+    return E * t_lim * (UNIT_CELL_PER_BASE_RADIUS * r_b) / (U_L + t + t_ch)
 
 
 #: Posts (chamber walls) are this many times stiffer than the limiting layer of their unit.
@@ -156,10 +188,184 @@ def torsion_stiffness(
     ``k_t = E t_lim³ / (12 (1 - ν²)) · UC / (U_sep + t + t_ch)``; the denominator is the
     implementation's (the paper's text writes ``U_sep`` alone).
     """
-    UC = UNIT_CELL_PER_BASE_RADIUS * np.asarray(r_b, dtype=float)
-    t_lim = np.asarray(t_lim, dtype=float)
-    plate = np.asarray(E, float) * t_lim**3 / (12.0 * (1.0 - np.asarray(nu, float) ** 2))
-    return plate * UC / (np.asarray(U_sep, float) + np.asarray(t, float) + np.asarray(t_ch, float))
+    args = (np.asarray(a, float) for a in (E, t_lim, nu, r_b, U_sep, t, t_ch))
+    return k_t_form(*args)
+
+
+@register_jitable
+def k_t_form(E, t_lim, nu, r_b, U_sep, t, t_ch):
+    """``k_t`` of :func:`torsion_stiffness` (plain arithmetic)."""
+    # t_lim³ by multiplication, not ``**``: NumPy's and libm's pow differ in the last bit.
+    plate = E * (t_lim * t_lim * t_lim) / (12.0 * (1.0 - nu * nu))
+    return plate * (UNIT_CELL_PER_BASE_RADIUS * r_b) / (U_sep + t + t_ch)
+
+
+def segment_height(r_b: ArrayLike, t_lim: ArrayLike, t: ArrayLike) -> NDArray:
+    """Segment height ``h = UC/2 + t_lim + t`` (mm), the post rest length (MODEL.md §2)."""
+    return segment_height_form(*(np.asarray(a, dtype=float) for a in (r_b, t_lim, t)))
+
+
+@register_jitable
+def segment_height_form(r_b, t_lim, t):
+    """``h`` of :func:`segment_height` (plain arithmetic)."""
+    return UNIT_CELL_PER_BASE_RADIUS * r_b / 2.0 + t_lim + t
+
+
+# The two regressions as monomials ``c · H^a t^b R^e``, term for term those of ``_kb`` (inside
+# ``E / R²``) and ``_alpha``, for their partial derivatives: ``∂(c H^a t^b R^e)/∂H = a·term/H``.
+_KB_TERMS = (
+    (-1.97, -3, 5, 1),
+    (7.4, 2, 3, -2),
+    (3.5, -2, 4, 1),
+    (0.37, 2, 2, -1),
+    (42.2, -2, 5, 0),
+    (-35.8, 1, 4, -2),
+    (71.8, -1, 5, -1),
+    (-3.4, -1, 3, 1),
+    (-67.7, -1, 4, 0),
+    (4.2, 0, 2, 1),
+    (11.1, 0, 3, 0),
+)
+_ALPHA_TERMS = (
+    (0.3823, 3, 0, -3),
+    (-0.5736, -3, 3, 0),
+    (-2.8677, 2, 1, -3),
+    (-0.9559, 2, 0, -2),
+    (-8.9853, -2, 3, -1),
+    (1.5295, -2, 2, 0),
+    (-4.0147, -1, 3, -2),
+    (9.1764, 1, 1, -2),
+    (17.3971, -1, 2, -1),
+    (0.5736, 1, 0, -1),
+    (17.7795, 0, 3, -3),
+    (-19.5, 0, 2, -2),
+    (-6.1177, 0, 1, -1),
+)
+#: ``∂d/∂H`` and ``∂d/∂t`` of the unclamped reach (``∂d/∂U_sep = -1``).
+REACH_PER_HEIGHT = 2.1425 - 1.0
+REACH_PER_THICKNESS = 0.2565 - 0.5
+
+
+@register_jitable
+def _ipow(x, n):
+    """``x**n`` for a small integer ``n`` by multiplication (identical in NumPy and Numba)."""
+    result = 1.0 + 0.0 * x
+    base = x if n >= 0 else 1.0 / x
+    for _ in range(abs(n)):
+        result = result * base
+    return result
+
+
+@register_jitable
+def _monomial_partials(terms, H, t, R):
+    """Partial derivatives in ``H``, ``t`` and ``R`` of ``Σ c H^a t^b R^e`` over ``terms``."""
+    d_H = 0.0 * H
+    d_t = 0.0 * H
+    d_R = 0.0 * H
+    for c, a, b, e in terms:
+        m = c * _ipow(H, a) * _ipow(t, b) * _ipow(R, e)
+        d_H = d_H + a * m / H
+        d_t = d_t + b * m / t
+        d_R = d_R + e * m / R
+    return d_H, d_t, d_R
+
+
+@register_jitable
+def constant_derivatives_form(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
+    """Derivatives of a unit's constants in its design parameters (the chain of MODEL.md §3).
+
+    Returns the tuple ``(dR_dH, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep,
+    dklim_dUL, dklim_dt, dklim_dtlim, dkt_dUsep, dkt_dt, dkt_dtlim)``; every other derivative
+    of ``p, k_b, α, d, k_lim, k_t`` in ``H, U_L, U_sep, t, t_lim`` is 0 or 1 (``dp/dU_L =
+    dp/dU_sep = 1``) and every stiffness is proportional to ``E``. Where ``d`` is clamped
+    (``no_contact``) it is the constant ``NO_CONTACT_REACH``, so its derivatives are 0 there.
+    """
+    R = radius_form(H, r_b)
+    dR_dH = 0.5 - r_b * r_b / (2.0 * H * H)
+    scale = E / (R * R)
+    kb = kb_form(E, H, t, R)
+    p_H, p_t, p_R = _monomial_partials(_KB_TERMS, H, t, R)
+    dkb_dH = scale * (p_H + p_R * dR_dH) - 2.0 * kb / R * dR_dH
+    dkb_dt = scale * p_t
+    a_H, a_t, a_R = _monomial_partials(_ALPHA_TERMS, H, t, R)
+    dalpha_dH = a_H + a_R * dR_dH
+    dalpha_dt = a_t
+    contact = 1.0 * (reach_raw_form(H, t, U_sep, t_ch) > 0.0)
+    dd_dH = REACH_PER_HEIGHT * contact
+    dd_dt = REACH_PER_THICKNESS * contact
+    dd_dUsep = -1.0 * contact
+    k_lim = k_lim_form(E, t_lim, r_b, U_L, t, t_ch)
+    dklim_dUL = -k_lim / (U_L + t + t_ch)
+    dklim_dtlim = k_lim / t_lim
+    k_t = k_t_form(E, t_lim, nu, r_b, U_sep, t, t_ch)
+    dkt_dUsep = -k_t / (U_sep + t + t_ch)
+    dkt_dtlim = 3.0 * k_t / t_lim
+    return (
+        dR_dH, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep,
+        dklim_dUL, dklim_dUL, dklim_dtlim, dkt_dUsep, dkt_dUsep, dkt_dtlim,
+    )  # fmt: skip
+
+
+#: Parameters of :func:`constant_derivatives`, in the order of the sensitivities.
+DERIVATIVE_PARAMETERS = ("H", "U_L", "U_sep", "t", "t_lim")
+
+
+def constant_derivatives(
+    H: ArrayLike,
+    U_L: ArrayLike,
+    U_sep: ArrayLike,
+    t: ArrayLike,
+    t_lim: ArrayLike,
+    E: ArrayLike,
+    nu: ArrayLike,
+    r_b: ArrayLike,
+    t_ch: ArrayLike,
+) -> dict[str, dict[str, NDArray]]:
+    """Analytic derivatives of a unit's constants in its design parameters (vectorised).
+
+    The chain through the closed forms of MODEL.md §3: ``R(H)``, ``k_b(E, H, t, R)``,
+    ``α(H, t, R)``, ``d(H, t, U_sep)``, ``k_lim(E, t_lim, U_L, t)``, ``k_post = 5 k_lim``,
+    ``k_t(E, t_lim, U_sep, t)``, ``p = U_L + t_ch + U_sep`` and ``h = UC/2 + t_lim + t``.
+    Where the closed form gives ``d <= 0`` the model uses the constant ``d = 0.01`` mm
+    (``no_contact``), so the derivatives of ``d`` are 0 there: one-sided, on the branch in use
+    (at ``d = 0`` exactly, the clamped one). ``E`` is not listed: every stiffness is
+    proportional to it and nothing else depends on it.
+
+    Returns
+    -------
+    dict
+        ``result[constant][parameter]`` for constants ``"R", "k_b", "alpha", "d", "k_lim",
+        "k_post", "k_t", "p", "h"`` and parameters :data:`DERIVATIVE_PARAMETERS`, each an array
+        broadcast over the arguments (units: the constant's per the parameter's, e.g. N/mm²
+        for ``k_b`` per mm of ``H``). Entries that are identically zero are zero arrays.
+    """
+    args = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch))
+    )
+    with np.errstate(all="ignore"):
+        (dR_dH, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep, dklim_dUL, dklim_dt,
+         dklim_dtlim, dkt_dUsep, dkt_dt, dkt_dtlim) = constant_derivatives_form(*args)  # fmt: skip
+    zero = np.zeros(args[0].shape)
+    one = np.ones(args[0].shape)
+    table = {
+        "R": {"H": dR_dH},
+        "k_b": {"H": dkb_dH, "t": dkb_dt},
+        "alpha": {"H": dalpha_dH, "t": dalpha_dt},
+        "d": {"H": dd_dH, "t": dd_dt, "U_sep": dd_dUsep},
+        "k_lim": {"U_L": dklim_dUL, "t": dklim_dt, "t_lim": dklim_dtlim},
+        "k_post": {
+            "U_L": POST_STIFFNESS_FACTOR * dklim_dUL,
+            "t": POST_STIFFNESS_FACTOR * dklim_dt,
+            "t_lim": POST_STIFFNESS_FACTOR * dklim_dtlim,
+        },
+        "k_t": {"U_sep": dkt_dUsep, "t": dkt_dt, "t_lim": dkt_dtlim},
+        "p": {"U_L": one, "U_sep": one},
+        "h": {"t": one, "t_lim": one},
+    }
+    return {
+        name: {param: partials.get(param, zero) for param in DERIVATIVE_PARAMETERS}
+        for name, partials in table.items()
+    }
 
 
 def constants_are_valid(k_b: ArrayLike, alpha: ArrayLike) -> NDArray:

@@ -10,6 +10,7 @@ Lengths in mm, ``E`` in MPa.
 
 from __future__ import annotations
 
+import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -17,11 +18,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba.extending import register_jitable
 from numpy.typing import NDArray
 
 from . import status as st
-from .constants import constants_are_valid, dome_alpha, dome_radius, dome_stiffness
-from .domain import MAX_UNITS, active_units, fitted_range, outside_domain
+from .constants import (
+    alpha_form,
+    constants_are_valid,
+    dome_alpha,
+    dome_radius,
+    dome_stiffness,
+    kb_form,
+    radius_form,
+)
+from .domain import MAX_UNITS, active_units, fitted_range, outside_domain, unit_in_domain
 from .formatting import num as _num
 from .formatting import nums as _nums
 
@@ -169,6 +179,44 @@ def _problems(
     return code, message
 
 
+@register_jitable
+def _positive(v):
+    return math.isfinite(v) and v > 0.0
+
+
+@register_jitable
+def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
+    """Status code of one design under the rules of :func:`_problems` (without the message).
+
+    Plain scalar code (``register_jitable``): the Numba kernel that packs batches
+    (:mod:`dpfexplore._kernels.tables`) compiles it, and :class:`Design` runs it as Python,
+    at a few microseconds per unit where the vectorised :func:`_problems` costs hundreds for
+    any batch size; the tests hold the two to the same codes. ``H``, ``U_L``, ``U_sep`` are
+    sequences of at least ``n_units`` values.
+    """
+    if not 1 <= n_units <= MAX_UNITS:
+        return st.INVALID_INPUT
+    for k in range(n_units):
+        if not (_positive(H[k]) and _positive(U_L[k]) and _positive(U_sep[k])):
+            return st.INVALID_INPUT
+    if not (_positive(t) and _positive(t_lim) and _positive(E)):
+        return st.INVALID_INPUT
+    if not (math.isfinite(nu) and 0.0 <= nu < 0.5):
+        return st.INVALID_INPUT
+    if not (_positive(r_b) and _positive(t_ch)):
+        return st.INVALID_INPUT
+    for k in range(n_units):
+        if not unit_in_domain(H[k], U_L[k], r_b):
+            return st.OUTSIDE_DOMAIN
+    for k in range(n_units):
+        R = radius_form(H[k], r_b)
+        k_b = kb_form(E, H[k], t, R)
+        alpha = alpha_form(H[k], t, R)
+        if not (math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0):
+            return st.INVALID_CONSTANTS
+    return st.OK
+
+
 def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
     if isinstance(value, (str, bytes)):
         raise ValueError(f"{name} = {value!r}: must be a number or a list of numbers")
@@ -253,8 +301,9 @@ class Design:
             object.__setattr__(self, name, _per_unit(name, getattr(self, name), n_units))
         for name in SHARED_FIELDS:
             object.__setattr__(self, name, _number(name, getattr(self, name)))
-        code, message = DesignBatch.from_designs([self]).problems()
-        if code[0] != st.OK:
+        shared = (getattr(self, name) for name in SHARED_FIELDS)
+        if status_code(n_units, self.H, self.U_L, self.U_sep, *shared) != st.OK:
+            _, message = DesignBatch.from_designs([self]).problems()
             raise ValueError(message[0])
 
     @property

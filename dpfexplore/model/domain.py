@@ -41,6 +41,7 @@ Fitted range (flagged, never rejected)
 from __future__ import annotations
 
 import numpy as np
+from numba.extending import register_jitable
 from numpy.typing import NDArray
 
 #: Largest number of units a design may have (MODEL.md §2: ``N`` from 1 to 12).
@@ -63,6 +64,16 @@ def active_units(n_units: NDArray) -> NDArray[np.bool_]:
     """``(n, MAX_UNITS)`` mask of the units each design has (padding False)."""
     n_units = np.clip(np.asarray(n_units), 0, MAX_UNITS)
     return np.arange(MAX_UNITS)[None, :] < n_units[:, None]
+
+
+@register_jitable
+def unit_in_domain(H, U_L, r_b):
+    """Whether one unit lies in the physical domain: ``H <= r_b`` and ``H < U_L`` (mm).
+
+    The scalar form of :func:`outside_domain`, compiled into the kernel that validates and
+    packs batches (:mod:`dpfexplore._kernels.tables`) and run as Python by ``Design``.
+    """
+    return H <= r_b and H < U_L
 
 
 def outside_domain(

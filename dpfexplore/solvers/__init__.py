@@ -7,6 +7,8 @@ lattice
 statics
     :func:`~.statics.find_state`, :func:`~.statics.enumerate_states`,
     :func:`~.statics.solve_batch` (MODEL.md §6-§7).
+sensitivities
+    :class:`~.sensitivities.Sensitivities`: derivatives of a state's outputs in the design.
 follower
     Follower-force stiffness (the paper's quasi-static ramp; a validation path).
 dynamics_common

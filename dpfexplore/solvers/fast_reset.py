@@ -176,7 +176,18 @@ def fast_reset_core(batch: DesignBatch, profile: PressureProfile, *, t_end: floa
     finally:
         numba.set_parallel_chunksize(previous)
     out["status"][valid] = codes[valid].astype(np.int8)
+    # No inversion without dome contact (MODEL.md §3): as in the full model, so that core and
+    # reference agree on what a reset is when the correction is trained.
+    mark_no_contact(_no_contact(batch) & valid[:, None], batch.n_units, out["final_state"],
+                    out["reset_time"], out["snap_through"], out["snap_back"],
+                    out["unit_class"])  # fmt: skip
     return out
+
+
+def _no_contact(batch: DesignBatch) -> NDArray[np.bool_]:
+    """Units whose reach ``d`` is clamped, shape (n, MAX_UNITS) (False on padding)."""
+    with np.errstate(invalid="ignore"):
+        return dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
 
 
 def unit_features(batch: DesignBatch, core: dict[str, NDArray],
@@ -331,9 +342,7 @@ def fast_reset_times_batch(
     _summarise(out, batch, fast)
     # Units with a clamped reach have no inversion in this model (MODEL.md §3): the same class
     # as the full model gives them (fallback rows get it from the full model itself).
-    with np.errstate(invalid="ignore"):
-        no_contact = dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
-    no_contact &= fast[:, None]
+    no_contact = _no_contact(batch) & fast[:, None]
     mark_no_contact(no_contact, batch.n_units, out["final_state"], out["reset_time"],
                     out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
     lo[no_contact] = hi[no_contact] = np.nan

@@ -17,35 +17,39 @@ Decisions the model leaves open
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._kernels import layout as lay
+from .._kernels import tables as ktables
 from ..model.constants import (
     POST_STIFFNESS_FACTOR,
-    UNIT_CELL_PER_BASE_RADIUS,
     DomeAnalysis,
     analyse_domes,
     dome_alpha,
-    dome_extrema,
     dome_radius,
     dome_reach,
     dome_stiffness,
-    inversion_threshold,
     limiting_layer_stiffness,
+    segment_height,
     torsion_stiffness,
 )
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 
 __all__ = [
+    "KernelTables",
     "LatticeParams",
     "SpringConstants",
     "batch_constants",
+    "design_kernel_tables",
     "free_node_names",
+    "kernel_tables",
     "lattice_params",
     "pack_batch",
+    "segment_height",
     "spring_constants",
 ]
 
@@ -136,11 +140,6 @@ def spring_constants(design: Design) -> SpringConstants:
     return SpringConstants(**c)
 
 
-def segment_height(r_b, t_lim, t):
-    """Segment height ``h = UC/2 + t_lim + t`` (mm), the post rest length."""
-    return UNIT_CELL_PER_BASE_RADIUS * np.asarray(r_b) / 2.0 + np.asarray(t_lim) + np.asarray(t)
-
-
 @dataclass(frozen=True)
 class LatticeParams:
     """Kernel inputs of one design.
@@ -168,35 +167,10 @@ class LatticeParams:
         return LatticeParams(table, self.h)
 
 
-def _kernel_table(c: dict, active: NDArray) -> NDArray:
-    """The per-unit kernel table (columns of :mod:`dpfexplore._kernels.layout`).
-
-    Built in one stack of the columns; NaN where not ``active``.
-    """
-    u_barrier, u_second = dome_extrema(c["alpha"])
-    columns = {
-        lay.COL_P: c["p"],
-        lay.COL_KB: c["k_b"],
-        lay.COL_ALPHA: c["alpha"],
-        lay.COL_D: c["d"],
-        lay.COL_KLIM: c["k_lim"],
-        lay.COL_KPOST: c["k_post"],
-        lay.COL_KT: c["k_t"],
-        lay.COL_U_LO: -np.inf,
-        lay.COL_U_HI: np.inf,
-        lay.COL_PEN: 0.0,
-        lay.COL_U_INV: inversion_threshold(u_barrier),
-        lay.COL_U_HELD: np.where(np.isnan(u_second), 1.0, u_second),
-    }
-    shape = active.shape
-    table = np.stack([np.broadcast_to(columns[j], shape) for j in range(lay.N_COLS)], axis=-1)
-    return np.where(active[..., None], table, np.nan)
-
-
 def lattice_params(design: Design) -> LatticeParams:
     """Per-unit kernel table and segment height of one design."""
-    table, h, _ = pack_batch(DesignBatch.from_designs([design]))
-    return LatticeParams(table[0, : design.n_units].copy(), float(h[0]))
+    tables = design_kernel_tables(design)
+    return LatticeParams(tables.unit_params[0, : design.n_units].copy(), float(tables.h[0]))
 
 
 def batch_constants(batch: DesignBatch, *, domes: bool = True) -> dict:
@@ -215,6 +189,73 @@ def batch_constants(batch: DesignBatch, *, domes: bool = True) -> dict:
         )
 
 
+class KernelTables(NamedTuple):
+    """What the state kernels read about a batch of designs (:func:`kernel_tables`).
+
+    Attributes
+    ----------
+    status : ndarray of int8, shape (n,)
+        Status code per design (those of :meth:`DesignBatch.status`).
+    unit_params : ndarray of shape (n, MAX_UNITS, N_COLS)
+        Per-unit tables (:mod:`dpfexplore._kernels.layout`); NaN past a design's ``N``.
+    h : ndarray of shape (n,), mm
+        Segment heights.
+    n_units : ndarray of int64, shape (n,)
+    E : ndarray of shape (n,), MPa
+        Young's moduli (every stiffness is proportional to ``E``).
+    no_contact : ndarray of bool, shape (n, MAX_UNITS)
+        Units whose reach ``d`` is clamped.
+    derivatives : ndarray of shape (n, MAX_UNITS, N_DCONST, N_DPARAM) or (0, 0, 0, 0)
+        Derivatives of the constants in the design parameters (:mod:`dpfexplore._kernels.tables`),
+        when asked for.
+    """
+
+    status: NDArray
+    unit_params: NDArray
+    h: NDArray
+    n_units: NDArray
+    E: NDArray
+    no_contact: NDArray
+    derivatives: NDArray
+
+
+def _tables(n_units, H, U_L, U_sep, shared, derivatives: bool) -> KernelTables:
+    n = n_units.shape[0]
+    status = np.empty(n, dtype=np.int8)
+    table = np.empty((n, MAX_UNITS, lay.N_COLS))
+    h = np.empty(n)
+    no_contact = np.empty((n, MAX_UNITS), dtype=np.bool_)
+    dtab = (
+        np.empty((n, MAX_UNITS, ktables.N_DCONST, ktables.N_DPARAM))
+        if derivatives
+        else ktables.empty_derivative_table()
+    )
+    ktables.design_tables(n_units, H, U_L, U_sep, *shared, status, table, h, no_contact, dtab)
+    return KernelTables(status, table, h, n_units, shared[2], no_contact, dtab)
+
+
+def kernel_tables(batch: DesignBatch, *, derivatives: bool = False) -> KernelTables:
+    """Status codes and kernel tables of a batch in one compiled pass (``_kernels.tables``).
+
+    The numbers equal those of the NumPy closed forms (:func:`batch_constants`) bit for bit, and
+    the codes those of :meth:`DesignBatch.status`.
+    """
+    shared = tuple(getattr(batch, name) for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch"))
+    return _tables(batch.n_units, batch.H, batch.U_L, batch.U_sep, shared, derivatives)
+
+
+def design_kernel_tables(design: Design, *, derivatives: bool = False) -> KernelTables:
+    """:func:`kernel_tables` of one (already validated) design, without building a batch."""
+    n = design.n_units
+    per_unit = np.full((3, 1, MAX_UNITS), np.nan)
+    per_unit[:, 0, :n] = (design.H, design.U_L, design.U_sep)
+    shared = np.array(
+        [[design.t], [design.t_lim], [design.E], [design.nu], [design.r_b], [design.t_ch]]
+    )
+    n_units = np.array([n], dtype=np.int64)
+    return _tables(n_units, *per_unit, tuple(shared), derivatives)
+
+
 def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:
     """Kernel inputs of a batch.
 
@@ -226,10 +267,8 @@ def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:
     h : ndarray of shape (n,), mm
     n_units : ndarray of int64, shape (n,)
     """
-    active = np.arange(MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
-    c = batch_constants(batch, domes=False)
-    table = _kernel_table(c, active)
-    return table, np.ascontiguousarray(c["h"][:, 0]), batch.n_units.copy()
+    tables = kernel_tables(batch)
+    return tables.unit_params, tables.h, batch.n_units.copy()
 
 
 def free_node_names(n_units: int) -> list[str]:

@@ -28,20 +28,26 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .._kernels import states as kstates
-from .._kernels.batch import solve_rows
+from .._kernels.batch import solve_rows, solve_rows_serial
 from .._kernels.layout import n_free, n_nodes
+from .._kernels.sensitivity import N_SENS, n_parameters
+from .._kernels.sensitivity_batch import (
+    solve_rows_sensitivities,
+    solve_rows_sensitivities_serial,
+)
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.formatting import num
 from ..model.status import Status
-from .lattice import batch_constants, lattice_params, pack_batch
+from . import sensitivities as sens
+from .lattice import KernelTables, batch_constants, design_kernel_tables, kernel_tables
 
 __all__ = [
     "SolverOptions",
@@ -100,6 +106,7 @@ class SolverOptions:
 
 
 DEFAULT_OPTIONS = SolverOptions()
+_DEFAULT_CONTROLS = DEFAULT_OPTIONS.kernel_args()
 
 
 def parse_state(state: str | int | Sequence[int], n_units: int) -> int:
@@ -167,6 +174,9 @@ class StateResult:
         Free coordinates (kernel order).
     n_iter : int
         Hessian evaluations over all search attempts.
+    sensitivities : Sensitivities or None
+        Derivatives of the outputs in the design parameters, when asked for
+        (:mod:`dpfexplore.solvers.sensitivities`).
     """
 
     requested: str
@@ -183,6 +193,7 @@ class StateResult:
     nodes: NDArray
     x: NDArray
     n_iter: int
+    sensitivities: sens.Sensitivities | None = None
 
     @property
     def stable(self) -> bool:
@@ -252,6 +263,12 @@ OUTPUT_COLUMNS = {
 }
 
 
+#: Batches of up to this many rows run on the calling thread: waking the worker threads of a
+#: parallel region costs more than a few solves (from ~0.1 ms idle to milliseconds on a loaded
+#: machine), and single designs and small batches are what optimisers and lookup send.
+SERIAL_MAX_ROWS = 64
+
+
 def solve_batch(
     batch: DesignBatch,
     states: StateSet | Sequence[int] = "all_inverted",
@@ -260,6 +277,7 @@ def solve_batch(
     min_eig: bool = True,
     options: SolverOptions | None = None,
     shapes: bool = False,
+    sensitivities: bool = False,
 ) -> dict[str, NDArray]:
     """Find the requested states of many designs in parallel (Numba ``prange``).
 
@@ -275,6 +293,14 @@ def solve_batch(
     options : SolverOptions, optional
     shapes : bool
         Also return the free coordinates of every row (``"x"``, NaN-padded to 46 columns).
+    sensitivities : bool
+        Also return the design sensitivities of every row (:mod:`.sensitivities`): columns
+        ``d_tip_x``, ``d_tip_y``, ``d_bend_angle``, ``d_curvature``, ``d_energy``,
+        ``d_stiffness``, each of shape ``(n_rows, 3·MAX_UNITS + 3)`` with columns
+        ``H_1..H_12, U_L_1..U_L_12, U_sep_1..U_sep_12, t, t_lim, E``
+        (:func:`.sensitivities.parameter_names`); NaN beyond a design's ``N``, on rows that
+        reached no minimum, and where the Hessian is not positive definite. Collapsed rows get
+        the derivatives of the state they collapsed to (``found``).
 
     Returns
     -------
@@ -288,29 +314,74 @@ def solve_batch(
 
     Notes
     -----
-    Thread safety: do not call this from several threads of one process at once (Numba's
-    default threading layer aborts); run one call per process, e.g. Dask worker processes with
-    one thread each.
+    Batches of up to :data:`SERIAL_MAX_ROWS` rows run on the calling thread, larger ones in
+    parallel; the results are the same. Thread safety: do not call this from several threads of
+    one process at once (Numba's default threading layer aborts); run one call per process, e.g.
+    Dask worker processes with one thread each.
     """
-    options = options or DEFAULT_OPTIONS
-    design_status = batch.status()
-    valid = design_status == st.OK
-    row_design, row_state = _row_plan(batch, states, valid)
-    unit_params, h, n_units = pack_batch(batch)
+    tables = kernel_tables(batch, derivatives=sensitivities)
+    row_design, row_state = _row_plan(batch, states, tables.status == st.OK)
+    rows = _solve(
+        tables,
+        row_design,
+        row_state,
+        stiffness=stiffness,
+        min_eig=min_eig,
+        options=options,
+        shapes=shapes,
+        sensitivities=sensitivities,
+    )
+    return _columns(rows, shapes=shapes)
+
+
+class _Rows(NamedTuple):
+    """Raw outputs of the row kernels (see :func:`_solve`)."""
+
+    row_design: NDArray
+    row_state: NDArray
+    out: NDArray
+    status: NDArray
+    found: NDArray
+    n_iter: NDArray
+    x: NDArray
+    sens: NDArray | None
+    dx: NDArray | None
+
+
+def _solve(
+    tables: KernelTables,
+    row_design: NDArray,
+    row_state: NDArray,
+    *,
+    stiffness: bool,
+    min_eig: bool,
+    options: SolverOptions | None,
+    shapes: bool,
+    sensitivities: bool,
+    shape_derivatives: bool = False,
+    serial: bool | None = None,
+) -> _Rows:
+    """Run the row kernels on packed tables (serial for small batches, else in parallel).
+
+    ``shape_derivatives`` also keeps ``dx*/dθ`` of every row, ``(n_rows, 46, 39)``; ``serial``
+    overrides the choice by :data:`SERIAL_MAX_ROWS`.
+    """
+    controls = _DEFAULT_CONTROLS if options is None else options.kernel_args()
     n_rows = row_design.shape[0]
     out = np.empty((n_rows, kstates.N_OUT))
     status = np.empty(n_rows, dtype=np.int8)
     found = np.empty(n_rows, dtype=np.int64)
     n_iter = np.empty(n_rows, dtype=np.int32)
-    x = np.empty((n_rows, n_free(MAX_UNITS) if shapes else 0))
-    solve_rows(
-        unit_params,
-        h,
-        n_units,
-        design_status,
+    # NaN: the row kernel writes no shape for an invalid design
+    x = np.full((n_rows, n_free(MAX_UNITS) if shapes or sensitivities else 0), np.nan)
+    args = (
+        tables.unit_params,
+        tables.h,
+        tables.n_units,
+        tables.status,
         row_design,
         row_state,
-        *options.kernel_args(),
+        *controls,
         stiffness,
         min_eig,
         out,
@@ -319,48 +390,95 @@ def solve_batch(
         n_iter,
         x,
     )
+    if serial is None:
+        serial = n_rows <= SERIAL_MAX_ROWS
+    table = dx = None
+    if sensitivities:
+        n_params = n_parameters(MAX_UNITS)
+        table = np.empty((n_rows, N_SENS, n_params))
+        dx = np.empty((n_rows, n_free(MAX_UNITS), n_params) if shape_derivatives else (0, 0, 0))
+        run = solve_rows_sensitivities_serial if serial else solve_rows_sensitivities
+        run(*args, tables.derivatives, tables.E, table, dx)
+    else:
+        (solve_rows_serial if serial else solve_rows)(*args)
+    return _Rows(row_design, row_state, out, status, found, n_iter, x, table, dx)
+
+
+def warm_up(batch: DesignBatch, *, sensitivities: bool = False) -> None:
+    """Compile (or load from Numba's cache) every row kernel :func:`solve_batch` may run.
+
+    Both the serial kernels (small batches) and the parallel ones, so that processes started
+    afterwards only load them (see :mod:`dpfexplore.sweep.warmup`).
+    """
+    tables = kernel_tables(batch, derivatives=sensitivities)
+    row_design, row_state = _row_plan(batch, "all_inverted", tables.status == st.OK)
+    for serial in (True, False):
+        _solve(tables, row_design, row_state, stiffness=True, min_eig=True, options=None,
+               shapes=False, sensitivities=sensitivities, serial=serial)  # fmt: skip
+
+
+def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:
+    """The column dictionary of :func:`solve_batch`."""
     result = {
-        "design_index": row_design,
-        "requested": row_state,
-        "found": found,
-        "status": status,
-        "n_iter": n_iter,
+        "design_index": rows.row_design,
+        "requested": rows.row_state,
+        "found": rows.found,
+        "status": rows.status,
+        "n_iter": rows.n_iter,
     }
-    result.update({name: np.ascontiguousarray(out[:, col]) for name, col in OUTPUT_COLUMNS.items()})
+    # one copy makes every output column a contiguous row of its own
+    by_column = np.ascontiguousarray(rows.out.T)
+    result.update({name: by_column[col] for name, col in OUTPUT_COLUMNS.items()})
     if shapes:
-        result["x"] = x
+        result["x"] = rows.x
+    if rows.sens is not None:
+        table = rows.sens
+        result.update(
+            {name: np.ascontiguousarray(table[:, row]) for name, row in sens.COLUMNS.items()}
+        )
     return result
 
 
-def _results(design: Design, columns: dict[str, NDArray]) -> list[StateResult]:
-    params = lattice_params(design)
+def _results(design: Design, tables: KernelTables, rows: _Rows) -> list[StateResult]:
+    """One :class:`StateResult` per row of a single design's solve."""
     n = design.n_units
+    nf = n_free(n)
+    unit_params = tables.unit_params[0, :n]
+    h = float(tables.h[0])
     results = []
-    for r in range(columns["status"].shape[0]):
-        x = columns["x"][r, : n_free(n)].copy()
-        found = int(columns["found"][r])
+    for r in range(rows.status.shape[0]):
+        x = rows.x[r, :nf].copy()
+        found = int(rows.found[r])
+        found_bits = state_string(found, n) if found >= 0 else ""
         nodes = np.empty((n_nodes(n), 2))
-        kstates.nodes_of(x, params.unit_params, params.h, nodes)
+        kstates.nodes_of(x, unit_params, h, nodes)
+        derivatives = None
+        if rows.dx is not None and rows.dx.shape[0] > 0:
+            derivatives = sens.from_kernel(
+                rows.sens[r], rows.dx[r], n, tables.no_contact[0], found_bits
+            )
+        out = rows.out[r].tolist()
         results.append(
             StateResult(
-                requested=state_string(columns["requested"][r], n),
-                found=state_string(found, n) if found >= 0 else "",
-                status=Status(int(columns["status"][r])),
-                energy=float(columns["energy"][r]),
+                requested=state_string(rows.row_state[r], n),
+                found=found_bits,
+                status=Status(int(rows.status[r])),
+                energy=out[kstates.OUT_ENERGY],
                 energy_split={
-                    "linear": float(columns["energy_linear"][r]),
-                    "dome": float(columns["energy_dome"][r]),
-                    "torsion": float(columns["energy_torsion"][r]),
+                    "linear": out[kstates.OUT_ENERGY_LINEAR],
+                    "dome": out[kstates.OUT_ENERGY_DOME],
+                    "torsion": out[kstates.OUT_ENERGY_TORSION],
                 },
-                tip=np.array([columns["tip_x"][r], columns["tip_y"][r]]),
-                bend_angle=float(columns["bend_angle"][r]),
-                curvature=float(columns["curvature"][r]),
-                min_eig=float(columns["min_eig"][r]),
-                stiffness=float(columns["stiffness"][r]),
-                grad_norm=float(columns["grad_norm"][r]),
+                tip=rows.out[r, kstates.OUT_TIP_X : kstates.OUT_TIP_Y + 1].copy(),
+                bend_angle=out[kstates.OUT_BEND],
+                curvature=out[kstates.OUT_CURVATURE],
+                min_eig=out[kstates.OUT_MIN_EIG],
+                stiffness=out[kstates.OUT_STIFFNESS],
+                grad_norm=out[kstates.OUT_GRAD_NORM],
                 nodes=nodes,
                 x=x,
-                n_iter=int(columns["n_iter"][r]),
+                n_iter=int(rows.n_iter[r]),
+                sensitivities=derivatives,
             )
         )
     return results
@@ -371,16 +489,32 @@ def find_state(
     state: str | int | Sequence[int],
     *,
     options: SolverOptions | None = None,
+    sensitivities: bool = False,
 ) -> StateResult:
     """Search the stable state ``state`` of one design (see :mod:`dpfexplore._kernels.states`).
 
     Returns the requested minimum when it exists (``status == OK``); otherwise the state it
-    collapses to, with ``status == COLLAPSED``.
+    collapses to, with ``status == COLLAPSED``. With ``sensitivities=True`` the result carries
+    the derivatives of its outputs and shape in every design parameter
+    (:class:`~dpfexplore.solvers.sensitivities.Sensitivities`).
+
+    A :class:`Design` is validated when it is made, so this goes straight to the kernels: the
+    same ones, with the same results, as :func:`solve_batch` on a batch of this one design.
     """
     requested = parse_state(state, design.n_units)
-    batch = DesignBatch.from_designs([design])
-    columns = solve_batch(batch, [requested], options=options, shapes=True)
-    return _results(design, columns)[0]
+    tables = design_kernel_tables(design, derivatives=sensitivities)
+    rows = _solve(
+        tables,
+        np.zeros(1, dtype=np.int64),
+        np.array([requested], dtype=np.int64),
+        stiffness=True,
+        min_eig=True,
+        options=options,
+        shapes=True,
+        sensitivities=sensitivities,
+        shape_derivatives=sensitivities,
+    )
+    return _results(design, tables, rows)[0]
 
 
 def enumerate_states(
@@ -393,5 +527,16 @@ def enumerate_states(
     if which not in ("all", "sequential"):
         raise ValueError(f"which = {which!r}: choose 'all' or 'sequential'")
     batch = DesignBatch.from_designs([design])
-    columns = solve_batch(batch, which, options=options, shapes=True)
-    return _results(design, columns)
+    tables = design_kernel_tables(design)
+    row_design, row_state = _row_plan(batch, which, tables.status == st.OK)
+    rows = _solve(
+        tables,
+        row_design,
+        row_state,
+        stiffness=True,
+        min_eig=True,
+        options=options,
+        shapes=True,
+        sensitivities=False,
+    )
+    return _results(design, tables, rows)

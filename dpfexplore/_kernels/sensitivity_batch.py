@@ -1,0 +1,118 @@
+"""Batch entry points for states with their design sensitivities (:mod:`.sensitivity`).
+
+Each block of rows is solved by the batch solver's own row routine (:func:`.batch._solve_rows`,
+so states and outputs are those of :func:`.batch.solve_rows` exactly), then the sensitivities
+of every row that reached a minimum (``OK``, or ``COLLAPSED``: they describe the state found)
+are filled from its shape. Columns are laid out with ``MAX_UNITS`` columns per per-unit
+parameter kind (:func:`.sensitivity.parameter_column`), NaN past a design's ``N`` and on rows
+without a minimum or without a positive definite Hessian there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from ..model import status as st
+from ..model.domain import MAX_UNITS
+from ._jit import batch_kernel, kernel
+from .batch import BLOCK_ROWS, _solve_rows
+from .layout import n_free
+from .sensitivity import N_SENS, design_sensitivities, n_parameters, workspace
+
+
+@kernel
+def _sensitivity_rows(
+    unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol, xtol,
+    max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes, dtab,
+    E, sens, dxs,
+):  # fmt: skip
+    _solve_rows(
+        unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol, xtol,
+        max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes,
+    )  # fmt: skip
+    ws = workspace()
+    keep_dx = dxs.shape[0] > 0
+    no_dx = np.empty((0, 0))
+    for r in range(first, last):
+        if status[r] != st.OK and status[r] != st.COLLAPSED:
+            sens[r] = np.nan
+            if keep_dx:
+                dxs[r] = np.nan
+            continue
+        i = row_design[r]
+        m = n_units[i]
+        dx_r = dxs[r] if keep_dx else no_dx
+        design_sensitivities(
+            shapes[r, : n_free(m)], unit_params[i, :m], h[i], dtab[i, :m], E[i], MAX_UNITS,
+            sens[r], dx_r, ws,
+        )  # fmt: skip
+
+
+@batch_kernel
+def solve_rows_sensitivities(
+    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter,
+    max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes, dtab, E, sens,
+    dxs,
+):  # fmt: skip
+    """:func:`.batch.solve_rows` plus the sensitivities of every row, in parallel.
+
+    Parameters
+    ----------
+    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter, \
+max_step, want_stiffness, want_min_eig, out, status, found, n_iter
+        As in :func:`.batch.solve_rows`.
+    shapes : ndarray of shape (n_rows, 4·MAX_UNITS - 2)
+        Receives the free coordinates of each row (needed here, so never empty).
+    dtab : ndarray of shape (n_designs, MAX_UNITS, N_DCONST, N_DPARAM)
+        Derivative tables (:func:`.tables.design_tables`).
+    E : ndarray of shape (n_designs,), MPa
+    sens : ndarray of shape (n_rows, N_SENS, 3·MAX_UNITS + 3)
+        Receives the sensitivities (rows ``SENS_*`` of :mod:`.sensitivity`).
+    dxs : ndarray of shape (n_rows, 4·MAX_UNITS - 2, 3·MAX_UNITS + 3) or (0, 0, 0)
+        Receives ``dx*/dθ`` of every row when not empty.
+    """
+    n_rows = row_design.shape[0]
+    n_blocks = (n_rows + BLOCK_ROWS - 1) // BLOCK_ROWS
+    for b in prange(n_blocks):
+        first = b * BLOCK_ROWS
+        last = min(first + BLOCK_ROWS, n_rows)
+        _sensitivity_rows(
+            unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol,
+            xtol, max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter,
+            shapes, dtab, E, sens, dxs,
+        )  # fmt: skip
+
+
+@kernel
+def solve_rows_sensitivities_serial(
+    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter,
+    max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes, dtab, E, sens,
+    dxs,
+):  # fmt: skip
+    """:func:`solve_rows_sensitivities` on the calling thread (small batches)."""
+    _sensitivity_rows(
+        unit_params, h, n_units, design_status, row_design, row_state, 0, row_design.shape[0],
+        gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter,
+        shapes, dtab, E, sens, dxs,
+    )  # fmt: skip
+
+
+@kernel
+def sensitivities_repeatedly(x, unit_params, h, dtab, E, repeats):
+    """Sensitivities of one minimum ``repeats`` times (timing); returns whether they exist."""
+    ws = workspace()
+    n_units = unit_params.shape[0]
+    sens = np.empty((N_SENS, n_parameters(n_units)))
+    no_dx = np.empty((0, 0))
+    ok = False
+    for _ in range(repeats):
+        ok = design_sensitivities(x, unit_params, h, dtab, E, n_units, sens, no_dx, ws)
+    return ok
+
+
+__all__ = [
+    "sensitivities_repeatedly",
+    "solve_rows_sensitivities",
+    "solve_rows_sensitivities_serial",
+]

@@ -1,0 +1,196 @@
+"""Kernel tables of designs: status codes, per-unit tables and their derivative tables.
+
+:func:`design_tables` turns the raw design arrays of a batch (those of
+:class:`dpfexplore.model.design.DesignBatch`) into what the state kernels read: each design's
+status code, its per-unit table (columns of :mod:`.layout`) and segment height, and on request the
+derivatives of the table's constants in the design parameters (for the sensitivities,
+:mod:`.sensitivity`). The closed forms are those of :mod:`dpfexplore.model.constants`, compiled
+inline from the same source as its NumPy functions, so the numbers are bit-identical to theirs.
+
+The status codes are those of :meth:`DesignBatch.status` (``OK``, ``INVALID_INPUT``,
+``INVALID_CONSTANTS``), by :func:`dpfexplore.model.design.status_code` compiled inline; only the
+one-line descriptions of the problems stay with the NumPy validation of the model layer. This
+makes a batch's validation and packing one compiled pass, about a microsecond per design, where
+the NumPy path costs a few hundred microseconds of call overhead for any batch size.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model.constants import (
+    ALPHA_BISTABLE,
+    NO_CONTACT_REACH,
+    POST_STIFFNESS_FACTOR,
+    U_INVERSION_WITHOUT_BARRIER,
+    alpha_form,
+    constant_derivatives_form,
+    k_lim_form,
+    k_t_form,
+    kb_form,
+    radius_form,
+    reach_raw_form,
+    segment_height_form,
+)
+from ..model.design import status_code
+from ..model.domain import MAX_UNITS
+from ._jit import kernel
+from .layout import (
+    COL_ALPHA,
+    COL_D,
+    COL_KB,
+    COL_KLIM,
+    COL_KPOST,
+    COL_KT,
+    COL_P,
+    COL_PEN,
+    COL_U_HELD,
+    COL_U_HI,
+    COL_U_INV,
+    COL_U_LO,
+    N_COLS,
+)
+
+#: Rows of the derivative table: the kernel table's physical columns ``COL_P..COL_KT`` (same
+#: indices), then the segment height ``h``.
+DC_H = 7
+N_DCONST = 8
+#: Columns of the derivative table: the unit's own ``H``, ``U_L``, ``U_sep``, then the shared
+#: ``t`` and ``t_lim``.
+DP_H = 0
+DP_UL = 1
+DP_USEP = 2
+DP_T = 3
+DP_TLIM = 4
+N_DPARAM = 5
+
+
+@kernel
+def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, row):
+    """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact)."""
+    R = radius_form(H, r_b)
+    k_b = kb_form(E, H, t, R)
+    alpha = alpha_form(H, t, R)
+    raw = reach_raw_form(H, t, U_sep, t_ch)
+    no_contact = raw <= 0.0
+    k_lim = k_lim_form(E, t_lim, r_b, U_L, t, t_ch)
+    row[COL_P] = U_L + t_ch + U_sep
+    row[COL_KB] = k_b
+    row[COL_ALPHA] = alpha
+    row[COL_D] = NO_CONTACT_REACH if no_contact else raw
+    row[COL_KLIM] = k_lim
+    row[COL_KPOST] = POST_STIFFNESS_FACTOR * k_lim
+    row[COL_KT] = k_t_form(E, t_lim, nu, r_b, U_sep, t, t_ch)
+    row[COL_U_LO] = -np.inf
+    row[COL_U_HI] = np.inf
+    row[COL_PEN] = 0.0
+    # dome_extrema / inversion_threshold of model.constants: barrier and second minimum where
+    # the isolated dome is bistable, else 3/4 and the reach.
+    u_inv = U_INVERSION_WITHOUT_BARRIER
+    u_held = 1.0
+    if alpha < ALPHA_BISTABLE:
+        root = math.sqrt((1.0 - 9.0 * alpha) / (1.0 - alpha))
+        u_barrier = (3.0 - root) / 4.0
+        u_second = (3.0 + root) / 4.0
+        if u_barrier == u_barrier:
+            u_inv = u_barrier
+        if u_second == u_second:
+            u_held = u_second
+    row[COL_U_INV] = u_inv
+    row[COL_U_HELD] = u_held
+    return no_contact
+
+
+@kernel
+def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, dtab):
+    """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule)."""
+    (_, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep, dklim_dUL, dklim_dt,
+     dklim_dtlim, dkt_dUsep, dkt_dt, dkt_dtlim) = constant_derivatives_form(
+        H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch
+    )  # fmt: skip
+    for c in range(N_DCONST):
+        for j in range(N_DPARAM):
+            dtab[c, j] = 0.0
+    dtab[COL_P, DP_UL] = 1.0
+    dtab[COL_P, DP_USEP] = 1.0
+    dtab[COL_KB, DP_H] = dkb_dH
+    dtab[COL_KB, DP_T] = dkb_dt
+    dtab[COL_ALPHA, DP_H] = dalpha_dH
+    dtab[COL_ALPHA, DP_T] = dalpha_dt
+    dtab[COL_D, DP_H] = dd_dH
+    dtab[COL_D, DP_USEP] = dd_dUsep
+    dtab[COL_D, DP_T] = dd_dt
+    dtab[COL_KLIM, DP_UL] = dklim_dUL
+    dtab[COL_KLIM, DP_T] = dklim_dt
+    dtab[COL_KLIM, DP_TLIM] = dklim_dtlim
+    dtab[COL_KPOST, DP_UL] = POST_STIFFNESS_FACTOR * dklim_dUL
+    dtab[COL_KPOST, DP_T] = POST_STIFFNESS_FACTOR * dklim_dt
+    dtab[COL_KPOST, DP_TLIM] = POST_STIFFNESS_FACTOR * dklim_dtlim
+    dtab[COL_KT, DP_USEP] = dkt_dUsep
+    dtab[COL_KT, DP_T] = dkt_dt
+    dtab[COL_KT, DP_TLIM] = dkt_dtlim
+    # h = UC/2 + t_lim + t (constants.segment_height)
+    dtab[DC_H, DP_T] = 1.0
+    dtab[DC_H, DP_TLIM] = 1.0
+
+
+@kernel
+def design_tables(
+    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, status, table, h, no_contact, dtab
+):
+    """Status, kernel table and (on request) derivative table of every design of a batch.
+
+    Parameters
+    ----------
+    n_units : ndarray of int64, shape (n,)
+    H, U_L, U_sep : ndarray of shape (n, MAX_UNITS), mm
+    t, t_lim, E, nu, r_b, t_ch : ndarray of shape (n,)
+        The arrays of a :class:`DesignBatch`.
+    status : ndarray of int8, shape (n,)
+        Receives each design's status code.
+    table : ndarray of shape (n, MAX_UNITS, N_COLS)
+        Receives the per-unit tables; rows past a design's ``N`` are NaN. Filled for invalid
+        designs too (meaningless there), as :func:`dpfexplore.solvers.lattice.pack_batch` did.
+    h : ndarray of shape (n,), mm
+        Receives the segment heights.
+    no_contact : ndarray of bool, shape (n, MAX_UNITS)
+        Receives True where the unit's ``d`` is clamped.
+    dtab : ndarray of shape (n, MAX_UNITS, N_DCONST, N_DPARAM) or (0, 0, 0, 0)
+        Receives ``∂(constant)/∂(parameter)`` per unit (rows :data:`DC_H` and ``COL_P..COL_KT``,
+        columns ``DP_*``), or is skipped when empty.
+    """
+    want_derivatives = dtab.shape[0] > 0
+    for i in range(n_units.shape[0]):
+        status[i] = status_code(
+            n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i]
+        )
+        h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
+        active = min(max(n_units[i], 0), MAX_UNITS)
+        for k in range(MAX_UNITS):
+            if k >= active:
+                table[i, k, :] = np.nan
+                no_contact[i, k] = False
+                if want_derivatives:
+                    dtab[i, k] = np.nan
+                continue
+            Hk = H[i, k]
+            U_Lk = U_L[i, k]
+            U_sepk = U_sep[i, k]
+            no_contact[i, k] = _unit_row(
+                Hk, U_Lk, U_sepk, t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], table[i, k]
+            )
+            if want_derivatives:
+                _derivative_rows(
+                    Hk, U_Lk, U_sepk, t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], dtab[i, k]
+                )
+
+
+def empty_derivative_table():
+    """The ``dtab`` argument of :func:`design_tables` that skips the derivatives."""
+    return np.empty((0, 0, 0, 0))
+
+
+__all__ = ["DC_H", "DP_H", "DP_T", "DP_TLIM", "DP_UL", "DP_USEP", "N_COLS", "N_DCONST", "N_DPARAM",
+           "design_tables", "empty_derivative_table"]

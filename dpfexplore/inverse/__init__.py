@@ -16,6 +16,14 @@ gripper_design, windows
     The multi-aperture gripper scene; pressure windows from snap pressures.
 design_report, design
     Verification of every reported design, the report files, :func:`design_scene`.
+datasets
+    What a sweep directory holds now: committed chunks, content checksum, verified reads.
+lookup_index, lookup_store
+    Nearest-neighbour index over a dataset's output columns; saved beside it, refused stale.
+refine
+    Polish a design with the exact model until its outputs meet a target (lookup's refinement).
+lookup, design_files
+    :func:`~.lookup.lookup`: query, refine, verify; candidates as ``[design]`` TOML files.
 """
 
 from .design import design_scene, run_design

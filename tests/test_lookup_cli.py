@@ -164,7 +164,8 @@ def test_bench_lookup_record(dataset, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     path = copy_dataset(dataset, tmp_path / "data")
     assert main(["bench", "lookup", "--dataset", str(path), "--builds", "1", "--queries", "8",
-                 "--targets", "3", "--tries", "2", "--json", "--save"]) == 0  # fmt: skip
+                 "--targets", "3", "--tries", "2", "--no-sensitivities", "--json",
+                 "--save"]) == 0  # fmt: skip
     record = json.loads(capsys.readouterr().out)
     assert record["build"]["rows_read"] == 160 and record["build"]["build_s"] > 0
     for case in record["query"]["cases"].values():

@@ -62,6 +62,8 @@ def register(subparsers) -> None:
     parser.add_argument("--baseline-targets", type=int, default=50,
                         help="targets refined with central differences (the baseline)")
     parser.add_argument("--seed", type=int, default=1, help="seed of the held-out designs")
+    parser.add_argument("--no-sensitivities", action="store_true",
+                        help="skip the sensitivity and single-design rows (bench sensitivities)")
     parser.set_defaults(handler=run)
 
 
@@ -263,6 +265,13 @@ def run(args: argparse.Namespace) -> int:
         "query": queries,
         "refinement": refinement,
     }
+    if not args.no_sensitivities:
+        # Issue 10's other goals, measured by `bench sensitivities` (its defaults): the design
+        # sensitivities against the solve and against central differences, and find_state /
+        # small solve_batch calls against the kernel's per-design cost.
+        from .sensitivities import measure
+
+        record["sensitivities"] = measure()
     emit(record, as_json=args.json, text=_text(record),
          save=REPORTS / "bench-lookup.json" if args.save else None)  # fmt: skip
     return 0
@@ -305,6 +314,10 @@ def _text(record: dict) -> str:
         f"{'met' if r['time_goal_met'] else 'NOT met'}, >= 99 % met "
         f"{'met' if r['share_goal_met'] else 'NOT met'}; statuses {r['exact']['statuses']}"
     )
+    if "sensitivities" in record:
+        from .sensitivities import text_rows
+
+        lines += text_rows(record["sensitivities"])
     m = record["machine"]
     lines.append(f"machine: {m['cpu']}, {m['cores']} cores, {m['date']}")
     return "\n".join(lines)

@@ -31,7 +31,7 @@ from ._output import SafeStreamHandler, UsageError, discard, error_line
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
 COMMAND_MODULES = (
     "states", "sweep", "simulate", "simulate_leg", "snap", "resetmaps", "resetmodel",
-    "surrogate", "design", "bench",
+    "surrogate", "lookup", "design", "bench",
 )
 
 EXIT_OK = 0

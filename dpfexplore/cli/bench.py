@@ -11,7 +11,7 @@ import importlib
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
 BENCHMARKS = (
     "statics", "sweep", "dynamics", "sensitivities", "snap", "surrogate", "reset_model",
-    "design",
+    "lookup", "design",
 )
 
 

@@ -21,6 +21,14 @@ timing_jobs, reset_problem, pickplace_screen, pickplace_design, pickplace_front,
 walker_design, walker_legs, walker_report, inversion
     The walker-leg scene: zones that keep time, legs composed from section runs, inversion
     pressures.
+datasets
+    What a sweep directory holds now: committed chunks, content checksum, verified reads.
+lookup_index, lookup_store
+    Nearest-neighbour index over a dataset's output columns; saved beside it, refused stale.
+refine
+    Polish a design with the exact model until its outputs meet a target (lookup's refinement).
+lookup, design_files
+    :func:`~.lookup.lookup`: query, refine, verify; candidates as ``[design]`` TOML files.
 """
 
 from .design import design_scene, run_design

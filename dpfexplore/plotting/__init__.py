@@ -2,5 +2,6 @@
 
 Modules: :mod:`.statics` (finger shapes), :mod:`.dynamics` (time histories, reset-time maps),
 :mod:`.space` (design-space maps of sweep results), :mod:`.leg` (tip paths of legs), :mod:`.snap`
-(extensions and tip against pressure on a slow ramp).
+(extensions and tip against pressure on a slow ramp), :mod:`.lookup` (the tip region a dataset
+reaches, with a lookup's target and designs).
 """

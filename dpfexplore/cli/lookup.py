@@ -1,0 +1,169 @@
+"""``dpfexplore lookup DATASET --target X,Y``: designs of a sweep dataset that reach a target.
+
+Exit codes: 0 candidates reported (with ``--refine``: the target was met); 1 with ``--refine``
+when no candidate meets the target (the nearest design found is reported); 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from . import EXIT_FAILURE, EXIT_OK, UsageError
+
+
+def register(subparsers) -> None:
+    """Add the ``lookup`` subcommand."""
+    parser = subparsers.add_parser(
+        "lookup",
+        help="find designs of a sweep dataset whose tip (or other outputs) reach a target",
+        description="Nearest rows of a sweep dataset to a target (tip position in mm by "
+        "default), optionally refined with the exact model until the target is met; every "
+        "reported design is re-solved by the exact model. The index is kept beside the dataset "
+        "(DATASET/_lookup-<columns>.npz) and rebuilt when the dataset changes.",
+    )
+    parser.add_argument("dataset", type=Path, help="sweep dataset directory")
+    parser.add_argument("--target", required=True,
+                        help="target values, comma-separated, one per column (e.g. 25,40 mm; "
+                        "a negative first value as --target=-5,30)")
+    parser.add_argument("--columns", default="tip_x,tip_y",
+                        help="indexed output columns (default tip_x,tip_y)")
+    parser.add_argument("--scales",
+                        help="scale of each column in its unit (default 1 each): distances are "
+                        "Euclidean in value/scale, e.g. --columns tip_x,tip_y,stiffness "
+                        "--scales 1,1,0.01")
+    parser.add_argument("--state",
+                        help="only this state: a bit string (unit 1 first, e.g. 11110) or "
+                        "all-inverted (default: any state in the dataset)")
+    parser.add_argument("--n-units", metavar="N",
+                        help="only these numbers of units: N, LOW..HIGH or N,N,...")
+    parser.add_argument("--where", help='dataset row filter, e.g. "stiffness > 0.05 and t < 0.8"')
+    parser.add_argument("--k", type=int, default=10, help="number of candidates (default 10)")
+    parser.add_argument("--refine", action="store_true",
+                        help="polish each candidate with the exact model until the target is met")
+    parser.add_argument("--tol", type=float, default=1e-6,
+                        help="refinement tolerance (default 1e-6, mm for the tip)")
+    parser.add_argument("--constraints", nargs="+", metavar="KEY=VALUE", default=[],
+                        help="refinement constraints inside the job's box: "
+                        "heights=free|ascending|descending, ordered_units=1-4, tied=5,6, "
+                        "shared=U_L,U_sep, H|U_L|U_sep|t|t_lim=LOW:HIGH or =VALUE")
+    parser.add_argument("--no-rebuild", action="store_true",
+                        help="refuse a stale index instead of rebuilding it")
+    parser.add_argument("--no-verify", action="store_true",
+                        help="read chunks without checking their SHA-256 against the manifest")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.add_argument("--plot", metavar="FILE.png", type=Path,
+                        help="draw the reachable tip region per N with the target and designs")
+    parser.add_argument("--write", metavar="DIR", type=Path,
+                        help="save each design as DIR/candidate-NN.toml (read by dpfexplore "
+                        "states)")
+    parser.set_defaults(handler=run)
+
+
+def _floats(text: str, option: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise UsageError(f"{option} {text!r}: give comma-separated numbers") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``dpfexplore lookup``."""
+    from ..inverse.design_files import write_designs
+    from ..inverse.lookup import lookup, parse_n_units
+    from ..inverse.lookup_index import StaleIndexError
+    from ..inverse.refine import parse_constraints
+    from ..sweep.store import StoreError
+
+    columns = [c.strip() for c in args.columns.split(",") if c.strip()]
+    target = _floats(args.target, "--target")
+    if len(target) != len(columns):
+        raise UsageError(
+            f"--target {args.target}: {len(target)} values for {len(columns)} columns "
+            f"({', '.join(columns)})"
+        )
+    scales = _floats(args.scales, "--scales") if args.scales else None
+    try:
+        n_units = parse_n_units(args.n_units) if args.n_units else None
+        constraints = parse_constraints(args.constraints)
+        result = lookup(
+            args.dataset, target, columns=columns, scales=scales, state=args.state,
+            n_units=n_units, where=args.where, k=args.k, refine=args.refine,
+            constraints=constraints, tol=args.tol, rebuild=not args.no_rebuild,
+            verify=not args.no_verify,
+        )
+    except (StoreError, StaleIndexError, ValueError) as exc:
+        raise UsageError(str(exc).splitlines()[0]) from None
+    except KeyError as exc:  # read_results names an unknown --where column this way
+        raise UsageError(str(exc.args[0])) from None
+    written = write_designs(result, args.write) if args.write else []
+    if args.json:
+        record = result.to_dict()
+        if written:
+            record["written"] = [str(p) for p in written]
+        json.dump(record, sys.stdout, indent=2)
+        print()
+    else:
+        _print(result, written)
+    if args.plot:
+        _plot(result, args.plot)
+    if result.refined and not result.reachable:
+        return EXIT_FAILURE
+    return EXIT_OK
+
+
+def _print(result, written) -> None:
+    target = ", ".join(f"{c} = {v:g}" for c, v in zip(result.columns, result.target, strict=True))
+    origin = result.index_origin
+    index = (f"index of {result.index_rows} rows {origin.action} in {origin.seconds:.2f} s"
+             if origin else f"index of {result.index_rows} rows")  # fmt: skip
+    print(f"lookup {result.dataset.root}: {target}; {index}; query "
+          f"{result.query_seconds * 1e3:.2f} ms")  # fmt: skip
+    extra = [c for c in result.columns if c not in ("tip_x", "tip_y")]
+    header = (f"{'#':>2}  {'N':>2}  {'state':<12}  {'status':<9}  {'tip x':>9}  {'tip y':>9}  "
+              f"{'error':>9}  {'stiffness':>9}  " + "".join(f"{c:>12}  " for c in extra)
+              + f"{'dataset d':>9}  {'fit':<3}  design_id")  # fmt: skip
+    units = (f"{'':>2}  {'':>2}  {'':<12}  {'':<9}  {'mm':>9}  {'mm':>9}  {'':>9}  {'N/mm':>9}  "
+             + "".join(f"{'':>12}  " for _ in extra) + f"{'':>9}")  # fmt: skip
+    print(header)
+    print(units)
+    for rank, c in enumerate(result.candidates, start=1):
+        values = dict(zip(result.columns, c.values, strict=True))
+        print(
+            f"{rank:>2}  {c.design.n_units:>2}  {c.state:<12}  {c.status:<9}  {c.tip[0]:9.4f}  "
+            f"{c.tip[1]:9.4f}  {c.error:9.2e}  {c.stiffness:9.5f}  "
+            + "".join(f"{values[e]:12.6g}  " for e in extra)
+            + f"{c.source_distance:9.4f}  {'yes' if c.fitted_range else 'NO':<3}  {c.design_id}"
+            + (" (refined)" if c.refined else "")
+        )
+    for note in result.notes:
+        print(f"note: {note}")
+    notes = {c.fitted_range_note for c in result.candidates if c.fitted_range_note}
+    for note in sorted(notes):
+        print(f"note: outside the fitted range of the closed forms: {note}")
+    if written:
+        print(f"{len(written)} designs written to {written[0].parent}")
+
+
+def _plot(result, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..inverse.lookup import reachable_tips
+    from ..plotting.lookup import plot_reachable
+
+    # The region the lookup searched: the same numbers of units and state.
+    tips = reachable_tips(result.index, result.n_units, result.state)
+    target = None
+    if {"tip_x", "tip_y"} <= set(result.columns):
+        target = (result.target[result.columns.index("tip_x")],
+                  result.target[result.columns.index("tip_y")])  # fmt: skip
+    ax = plot_reachable(tips, target, [c.tip for c in result.candidates],
+                        labels=[c.status for c in result.candidates])  # fmt: skip
+    ax.figure.savefig(path, dpi=150, bbox_inches="tight")
+    plt.close(ax.figure)
+    print(f"reachable tip region written to {path}", file=sys.stderr)

@@ -363,3 +363,58 @@ def test_pressure_windows_hold_their_states_in_the_full_model():
         run = simulate(design, PressureProfile.pulse(P0, (0.0, 8.0, 9.0, 10.0)), t_end=11.0,
                        n_samples=0)  # fmt: skip
         assert run.final_state == state, (state, P0)
+
+
+def _seeds_sweep(root: Path) -> Path:
+    """A small seeds dataset of the test scene's constraints (N = 2, 3; descending heights)."""
+    job = root / "seeds.toml"
+    job.write_text(
+        '[job]\nname = "seeds"\nseed = 5\nsamples_per_n = 300\n'
+        '[space]\nn_units = [2, 3]\nmaterial = "cheetah-95a"\n'
+        "[space.variables]\nH = {min = 3.0, max = 5.0}\nU_sep = {min = 1.0, max = 5.0}\n"
+        "U_L = {min = 5.5, max = 10.0}\nt = {min = 0.5, max = 1.0}\n"
+        "t_lim = {min = 1.0, max = 2.0}\n"
+        '[space.constraints]\nheights = "descending"\nequal_U_sep = true\nequal_U_L = true\n'
+        '[compute]\nstates = "all_inverted"\n'
+    )
+    out = root / "seeds"
+    assert main(["sweep", str(job), "--out", str(out)]) == 0
+    return out
+
+
+def test_seeded_candidates_meet_a_target_without_screening(tmp_path, capsys):
+    """Candidates from a sweep dataset: no Latin-hypercube screening, the target still met."""
+    seeds = _seeds_sweep(tmp_path)
+    tip = find_state(known_design(), "111").tip
+    data = position_scene([tuple(tip)])
+    data["objective"]["tolerance"] = 1e-12
+    path = tmp_path / "scene.toml"
+    path.write_text(scene_text(data))
+    capsys.readouterr()
+    out = tmp_path / "out"
+    assert main(["design", str(path), "--out", str(out), "--json", "--seeds", str(seeds)]) == 0
+    row = json.loads(capsys.readouterr().out)["results"][0]
+    assert math.dist(row["tip"], tip) <= 1e-6 and row["verification"]["status"] == "ok"
+    assert row["evaluations"]["seeds"] > 0
+    history = pd.read_parquet(out / "history.parquet")
+    assert "candidate" not in set(history.purpose)  # no screening: the dataset's tips seeded it
+    # every evaluated design still honours the scene's constraints
+    assert np.all(np.diff(history[["H_1", "H_2"]].to_numpy(), axis=1) <= 1e-12)
+    # and the answer is a refinement, not a dataset row that happened to sit on the target
+    from dpfexplore import read_results
+
+    rows = read_results(seeds, columns=["n_units", "tip_x", "tip_y", "status_label"])
+    rows = rows[rows.status_label == "ok"]
+    nearest = np.min(np.hypot(rows.tip_x - tip[0], rows.tip_y - tip[1]))
+    assert nearest > 1e-3  # the target is not simply a dataset row
+
+
+def test_seeds_that_are_not_a_dataset_are_refused(tmp_path, capsys):
+    path = tmp_path / "scene.toml"
+    path.write_text(scene_text(position_scene([(30.0, 30.0)])))
+    capsys.readouterr()
+    code = main(["design", str(path), "--out", str(tmp_path / "out"), "--seeds",
+                 str(tmp_path / "nowhere")])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--seeds" in err[0]
+    assert not (tmp_path / "out").exists()

@@ -5,7 +5,12 @@ design solved, in the same box of design variables, so the constraints are exact
 method):
 
 * ours: :func:`dpfexplore.inverse.optimiser.solve_position_target` (Latin hypercube for every N,
-  gradient refinement) and :func:`dpfexplore.inverse.gripper_design.solve_gripper`;
+  gradient refinement with the model's sensitivities) and
+  :func:`dpfexplore.inverse.gripper_design.solve_gripper`;
+* ours, seeded: the same optimiser with its candidates taken from a sweep dataset of the scene's
+  constraints (:mod:`dpfexplore.inverse.seeds`, ``jobs/design-seeds-*.toml``, swept here if
+  missing); the dataset's own evaluations (a one-off sweep shared by every target and both
+  materials) are reported apart, not counted in the rows;
 * TPE: Optuna's ``TPESampler``, with N as a categorical parameter and the box variables of that
   N conditioned on it (define-by-run);
 * GP-BO: Gaussian-process Bayesian optimisation (the paper's method; the
@@ -72,6 +77,10 @@ def register(subparsers) -> None:
     parser.add_argument("--gripper-budget", type=int, default=600,
                         help="baseline evaluations on the gripper's apertures")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-seeded", action="store_true",
+                        help="position targets: skip our optimiser seeded from a sweep dataset "
+                             "(results/design-seeds-<order>, made by jobs/design-seeds-*.toml "
+                             "when missing; its sweep time is reported apart)")
     parser.add_argument("--skip-position", action="store_true", help="no position targets")
     parser.add_argument("--skip-pickplace", action="store_true", help="no pick-and-place targets")
     parser.add_argument("--skip-walker", action="store_true", help="no walker legs")
@@ -168,6 +177,13 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     solve_position_target(spec, index, ours)
     mine = _summary(ours, paper, np.inf, np.inf)
     methods = {"ours": mine}
+    if not args.no_seeded:
+        from ..inverse.scene_jobs import with_seeds
+
+        seeded = Evaluator(max(spec.n_units))
+        solve_position_target(with_seeds(spec, seed_dataset(spec)), index, seeded)
+        methods["ours_seeded"] = _summary(seeded, paper, np.inf, np.inf)
+        methods["ours_seeded"]["seeds"] = seeded.counts["seeds"]
     for name, runner, budget in (("tpe", run_tpe, args.tpe_budget),
                                  ("gp", run_gp, args.gp_budget)):  # fmt: skip
         try:
@@ -181,10 +197,34 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     return _row("position", spec.targets[index].point, material, paper, methods)
 
 
+#: Seed datasets made (or found) by this run: path -> sweep wall time (s, None if found).
+SEED_DATASETS: dict[str, float | None] = {}
+
+
+def seed_dataset(spec) -> str:
+    """The seeds dataset of a position scene's height order, swept here if it is missing."""
+    order = spec.variables.get("heights", "free")
+    job = JOBS / f"design-seeds-{order}.toml"
+    out = Path("results") / f"design-seeds-{order}"
+    if str(out) not in SEED_DATASETS:
+        wall = None
+        if not (out / "_manifest.json").is_file():
+            from ..sweep.driver import run_sweep
+            from ..sweep.space import load_job
+
+            begin = time.perf_counter()
+            run_sweep(load_job(job), out)
+            wall = time.perf_counter() - begin
+        SEED_DATASETS[str(out)] = wall
+    return str(out)
+
+
 def _row(scene: str, target, material: str, paper: float | None, methods: dict) -> dict:
     ours = methods["ours"]
     key = "paper" if paper is not None else "1e-6"
-    baselines = {k: v for k, v in methods.items() if k != "ours" and "error" not in v}
+    baselines = {k: v for k, v in methods.items()
+                 if not k.startswith("ours") and "error" not in v}  # fmt: skip
+    seeded = methods.get("ours_seeded", {})
 
     def rank(item):
         v = item[1]
@@ -197,6 +237,9 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
         "ours_evals": ours.get(f"evals_to_{key}"), "ours_wall_s": ours.get(f"wall_s_to_{key}"),
         "ours_objective": ours["objective"], "ours_total_evals": ours["evals"],
         "ours_total_wall_s": ours["wall_s"],
+        "ours_seeded_evals": seeded.get(f"evals_to_{key}"),
+        "ours_seeded_wall_s": seeded.get(f"wall_s_to_{key}"),
+        "ours_seeded_objective": seeded.get("objective"),
         "best_baseline": best_name, "baseline_evals": best.get(f"evals_to_{key}"),
         "baseline_wall_s": best.get(f"wall_s_to_{key}"),
         "baseline_objective": best.get("objective"),
@@ -264,7 +307,9 @@ def run(args: argparse.Namespace) -> int:
                 rows.append(row)
                 _progress(row, started)
     record = {"benchmark": "design", "machine": machine_info(), "rows": rows,
-              "wall_s": time.perf_counter() - started, "summary": _goals(rows)}  # fmt: skip
+              "wall_s": time.perf_counter() - started, "summary": _goals(rows),
+              "seed_datasets": {path: {"designs": _designs_in(path), "sweep_wall_s": wall}
+                                for path, wall in SEED_DATASETS.items()}}  # fmt: skip
     save = REPORTS / args.save_as if args.save else None
     emit(record, as_json=args.json, text=_text(record), save=save)
     return 0
@@ -282,6 +327,12 @@ def _ratio(a, b):
     return b / a
 
 
+def _designs_in(path: str) -> int:
+    from ..inverse.datasets import dataset_info
+
+    return int(dataset_info(path).designs_committed)
+
+
 def _goals(rows: list[dict]) -> dict:
     position = [r for r in rows if r["scene"] == "position"]
     out = {"position_targets": len(position),
@@ -295,6 +346,9 @@ def _goals(rows: list[dict]) -> dict:
         ratios.append({"target": r["target"], "material": r["material"],
                        "evals_ratio": _ratio(r["ours_evals"], base_evals),
                        "wall_ratio": _ratio(r["ours_wall_s"], r["baseline_wall_s"]),
+                       "seeded_evals_ratio": _ratio(r.get("ours_seeded_evals"), base_evals),
+                       "seeded_wall_ratio": _ratio(r.get("ours_seeded_wall_s"),
+                                                   r["baseline_wall_s"]),
                        "baseline_reached_paper": r["baseline_evals"] is not None})  # fmt: skip
     out["ratios"] = ratios
     timing = [r for r in rows if r["scene"] == "pickplace" or r["scene"].startswith("walker")]
@@ -320,14 +374,17 @@ def _text(record: dict) -> str:
     lines = ["bench design: evaluations (designs solved) and wall time to reach the paper's "
              "objective; best objective (mm²) within each budget",
              f"{'scene':9} {'target':>14} {'material':>14} {'paper':>6} | {'ours ev':>7} "
-             f"{'ours s':>7} {'ours obj':>9} | {'baseline':>8} {'ev':>6} {'s':>7} {'obj':>9} "
-             f"{'budget':>6}"]  # fmt: skip
+             f"{'ours s':>7} {'ours obj':>9} | {'seeded ev':>9} {'s':>6} | {'baseline':>8} "
+             f"{'ev':>6} {'s':>7} {'obj':>9} {'budget':>6}"]  # fmt: skip
     for r in record["rows"]:
         t = "(" + ", ".join(f"{v:g}" for v in r["target"]) + ")"
         lines.append(
             f"{r['scene']:9} {t:>14} {r['material']:>14} {_fmt(r['paper_objective']):>6} | "
             f"{_fmt(r['ours_evals'], 'd'):>7} {_fmt(r['ours_wall_s'], '.3f'):>7} "
-            f"{_fmt(r['ours_objective'], '.2e'):>9} | {r['best_baseline'] or '-':>8} "
+            f"{_fmt(r['ours_objective'], '.2e'):>9} | "
+            f"{_fmt(r.get('ours_seeded_evals'), 'd'):>9} "
+            f"{_fmt(r.get('ours_seeded_wall_s'), '.3f'):>6} | "
+            f"{r['best_baseline'] or '-':>8} "
             f"{_fmt(r['baseline_evals'], 'd'):>6} {_fmt(r['baseline_wall_s'], '.2f'):>7} "
             f"{_fmt(r['baseline_objective'], '.2e'):>9} {_fmt(r['baseline_budget_evals'], 'd'):>6}"
         )
@@ -343,6 +400,11 @@ def _text(record: dict) -> str:
                      f"s to {t['goal']:g}, TPE {_fmt(t['tpe_wall_s_to_goal'], '.2f')} s; ratio "
                      f"{bound}{_fmt(t['wall_ratio'], '.1f')}; TPE's best at our wall time "
                      f"{_fmt(t['tpe_objective_at_ours_wall'], '.3g')}{tight}")  # fmt: skip
+    for path, facts in record.get("seed_datasets", {}).items():
+        made = ("found" if facts["sweep_wall_s"] is None
+                else f"swept in {facts['sweep_wall_s']:.1f} s")  # fmt: skip
+        lines.append(f"seeded: candidates from {path} ({facts['designs']:,} designs, {made}; "
+                     "their evaluations are not counted above)")  # fmt: skip
     lines.append(f"total {record['wall_s']:.1f} s on {record['machine']['cores']} cores "
                  f"({record['machine']['cpu']})")  # fmt: skip
     return "\n".join(lines)

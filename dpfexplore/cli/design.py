@@ -36,6 +36,9 @@ def register(subparsers) -> None:
     parser.add_argument("--out", type=Path, help="report directory (default results/<name>)")
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument("--plot", action="store_true", help="also write figures (PNG) to --out")
+    parser.add_argument("--seeds", metavar="DATASET", default=None,
+                        help="position scenes: candidates from this sweep dataset's nearest tips "
+                             "(e.g. results/design-seeds-descending) instead of a Latin hypercube")
     parser.add_argument("--target-reset", type=float, default=None, metavar="T",
                         help="pick-and-place scenes: one target reset time T (s) instead of the "
                         "scene's targets")  # fmt: skip
@@ -83,13 +86,15 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore design``."""
     from ..inverse.design import run_design
     from ..inverse.design_report import public
-    from ..inverse.scene_jobs import SceneSpecError, load_scene
+    from ..inverse.scene_jobs import SceneSpecError, load_scene, with_seeds
     from ..inverse.timing_jobs import with_target_reset
 
     try:
         spec = load_scene(args.scene)
         if args.target_reset is not None:
             spec = with_target_reset(spec, args.target_reset)
+        if args.seeds is not None:
+            spec = with_seeds(spec, args.seeds)
     except (SceneSpecError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     out = args.out if args.out is not None else Path("results") / spec.name

@@ -21,6 +21,8 @@ Kinds of evaluation (:data:`EVALUATION_KINDS`)
     ``sections``      leg sections simulated in the full model (:mod:`dpfexplore.solvers.leg`)
     ``verifications`` single-design re-solves of reported designs (``find_state``, or a
                       full-model simulation at a tight tolerance for the timing scenes)
+    ``seeds``         candidates taken from a sweep dataset (:mod:`dpfexplore.inverse.seeds`):
+                      the dataset's exact tips, no model evaluation
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from ..solvers.statics import solve_batch
 __all__ = ["EVALUATION_KINDS", "Evaluator", "few_threads"]
 
 EVALUATION_KINDS = ("designs", "state_solves", "stiffness", "derivative", "snap", "simulations",
-                    "screening", "sections", "verifications")  # fmt: skip
+                    "screening", "sections", "verifications", "seeds")  # fmt: skip
 #: Reduced reset-time models: their evaluations count as ``screening``, the others as
 #: ``simulations``.
 SCREENING_METHODS = ("fast", "release")

@@ -5,7 +5,9 @@ Method
 1. **Candidates for every N at once.** A Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`)
    in the box ``z ∈ [0, 1]^dim`` of each number of units, mapped to designs by
    :class:`~dpfexplore.inverse.variables.DesignVariables` (so every candidate honours the bounds,
-   orders, ties and shared parameters exactly), solved in one batch across all N.
+   orders, ties and shared parameters exactly), solved in one batch across all N; or, when the
+   scene names a sweep dataset (``[optimiser] seeds``), the dataset's designs nearest the target
+   (:mod:`dpfexplore.inverse.seeds`: the lookup index, no model evaluation).
 2. **Gradient refinement on the exact model.** From the best candidates of each N, a bounded
    trust-region least-squares solve (:func:`scipy.optimize.least_squares`, TRF, bounds = the box)
    of the residual (tip minus target, apertures minus targets) with the design sensitivities of
@@ -42,6 +44,7 @@ from scipy.stats import qmc
 from ..model.design import Design, DesignBatch
 from .evaluation import Evaluator
 from .scenes import Evaluation, PositionProblem, Problem
+from .seeds import seed_candidates
 
 __all__ = [
     "FrontPoint",
@@ -140,6 +143,28 @@ def screen(problems: Sequence[Problem], points: Sequence[NDArray], *, stiffness:
         evaluations.append(ev)
         start += len(b)
     return evaluations
+
+
+def _candidates(problems: Sequence[PositionProblem], spec, evaluator: Evaluator
+                ) -> list[Evaluation]:  # fmt: skip
+    """Candidates of every N: the scene's dataset seeds, else a screened Latin hypercube.
+
+    The N a seeds dataset lacks (or a scene without one) get the Latin hypercube, screened in
+    one batch.
+    """
+    settings = spec.optimiser
+    seeded: list[Evaluation | None] = [None] * len(problems)
+    if settings.seeds is not None:
+        seeded = seed_candidates(list(problems), settings.seeds, settings.seeds_per_n, evaluator)
+    missing = [i for i, ev in enumerate(seeded) if ev is None]
+    points = [
+        latin_candidates(problems[i].dim, settings.candidates_per_n,
+                         spec.seed + 7919 * problems[i].n_units)
+        for i in missing
+    ]  # fmt: skip
+    for i, ev in zip(missing, screen([problems[i] for i in missing], points), strict=True):
+        seeded[i] = ev
+    return seeded  # type: ignore[return-value]
 
 
 def _concat(batches: Sequence[DesignBatch]) -> DesignBatch:
@@ -357,9 +382,7 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
     settings = spec.optimiser
     stiff_scene = spec.kind == "position_stiffness"
     goal = GOAL_FRACTION * spec.tolerance
-    points = [latin_candidates(p.dim, settings.candidates_per_n, spec.seed + 7919 * p.n_units)
-              for p in problems]  # fmt: skip
-    candidates = screen(problems, points)
+    candidates = _candidates(problems, spec, evaluator)
     starts = {p.n_units: _distinct_starts(ev, settings.starts_per_n)
               for p, ev in zip(problems, candidates, strict=True)}  # fmt: skip
     best_candidate = {p.n_units: float(np.min(ev.objective))

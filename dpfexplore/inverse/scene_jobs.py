@@ -47,6 +47,10 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     starts_per_n = 3              # gradient refinements per N before a target is declared
                                   # unreachable (the proof of unreachability)
     max_iter = 60                 # iterations per refinement
+    seeds = "results/design-seeds-descending"   # optional (position kinds): candidates from
+                                  # this sweep dataset's nearest tips instead of a Latin
+                                  # hypercube (dpfexplore.inverse.seeds); path from the cwd
+    seeds_per_n = 8               # seeds per N
 
     [gripper]                     # kind = "gripper" (MODEL.md §7, §9)
     states = ["10000", "11000", "11100", "11110"]
@@ -73,7 +77,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
@@ -92,8 +96,10 @@ __all__ = [
     "SceneSpec",
     "SceneSpecError",
     "Target",
+    "check_seeds",
     "load_scene",
     "parse_scene",
+    "with_seeds",
 ]
 
 
@@ -124,6 +130,9 @@ class OptimiserSettings:
     candidates_per_n: int = 64
     starts_per_n: int = 3
     max_iter: int = 60
+    #: Sweep dataset whose nearest designs seed the position kinds (None: a Latin hypercube).
+    seeds: str | None = None
+    seeds_per_n: int = 8
 
 
 @dataclass(frozen=True)
@@ -520,17 +529,39 @@ def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str,
 def _optimiser(value: Any) -> OptimiserSettings:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"optimiser = {value!r}: must be a table")
-    _keys(value, "optimiser", required=(), optional=("candidates_per_n", "starts_per_n",
-                                                     "max_iter"))  # fmt: skip
-    out = {}
+    _keys(value, "optimiser", required=(),
+          optional=("candidates_per_n", "starts_per_n", "max_iter", "seeds", "seeds_per_n"))
+    out: dict[str, Any] = {}
+    if "seeds" in value:
+        out["seeds"] = check_seeds(value["seeds"], "optimiser.seeds")
     for key, (low, high) in (("candidates_per_n", (2, 1 << 20)), ("starts_per_n", (1, 1000)),
-                             ("max_iter", (1, 10000))):  # fmt: skip
+                             ("max_iter", (1, 10000)), ("seeds_per_n", (1, 10000))):  # fmt: skip
         if key in value:
             v = value[key]
             if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
                 raise SceneSpecError(f"optimiser.{key} = {v!r}: an integer in [{low}, {high}]")
             out[key] = v
     return OptimiserSettings(**out)
+
+
+def check_seeds(value: Any, where: str) -> str:
+    """A seeds dataset path: a string naming a sweep directory (its ``_manifest.json``)."""
+    if not isinstance(value, str) or not value:
+        raise SceneSpecError(f"{where} = {value!r}: must be the path of a sweep dataset")
+    if not (Path(value) / "_manifest.json").is_file():
+        raise SceneSpecError(
+            f"{where} = {value!r}: not a sweep dataset (no _manifest.json); make it with "
+            "`dpfexplore sweep JOB --out DIR`, e.g. jobs/design-seeds-descending.toml"
+        )
+    return value
+
+
+def with_seeds(spec: SceneSpec, dataset: str) -> SceneSpec:
+    """The scene with its candidates seeded from ``dataset`` (``dpfexplore design --seeds``)."""
+    if spec.kind not in ("position", "position_stiffness"):
+        raise SceneSpecError(f"--seeds: only position scenes take seeds, not {spec.kind!r}")
+    settings = replace(spec.optimiser, seeds=check_seeds(dataset, "--seeds"))
+    return replace(spec, optimiser=settings)
 
 
 def _numbers(value: Any, where: str, *, length: int | None, unit: str) -> tuple[float, ...]:

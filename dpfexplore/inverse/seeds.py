@@ -1,0 +1,87 @@
+"""Optimiser candidates from a sweep dataset: the lookup index instead of a Latin hypercube.
+
+A position scene may name a sweep dataset (``[optimiser] seeds = "DIR"``, or ``dpfexplore design
+--seeds DIR``). Its candidates are then, for every N, the dataset's designs whose tip lies
+nearest the target (:mod:`dpfexplore.inverse.lookup_index`) and that satisfy the scene's
+variables (:meth:`DesignVariables.encode`): no model evaluation is spent on screening, since
+the dataset's tips are the exact model's own (same model version, checked). Refinement then
+starts from the nearest seeds as it would from the best Latin-hypercube points.
+
+Shapes do not depend on ``E`` (every spring constant is proportional to it, MODEL.md §5), so a
+dataset of one material seeds scenes of another: the seeds take the scene's ``E``. The Poisson
+ratio does change shapes (through ``k_t``), so it must match, as must every other fixed
+parameter. A dataset sampled with the scene's constraints (e.g. ``jobs/design-seeds-*.toml``:
+ordered heights, shared ``U_L`` and ``U_sep``) gives only usable seeds; any sweep works, with
+fewer of its rows usable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ..model.version import MODEL_VERSION
+from .datasets import dataset_info
+from .evaluation import Evaluator
+from .lookup import designs_of
+from .lookup_store import open_index
+from .scenes import Evaluation, PositionProblem
+
+__all__ = ["seed_candidates"]
+
+#: Tip columns the seeds are looked up by.
+_COLUMNS = ("tip_x", "tip_y")
+
+
+def _index(dataset: str | Path, evaluator: Evaluator):
+    """The dataset's tip index, opened once per evaluator (one design run)."""
+    key = ("seed_index", str(Path(dataset).resolve()))
+    if key not in evaluator.cache:
+        info = dataset_info(dataset)
+        if info.model_version != MODEL_VERSION:
+            raise ValueError(
+                f"seeds = {str(dataset)!r}: written by model version {info.model_version!r}, "
+                f"this dpfexplore computes {MODEL_VERSION!r}; rerun its sweep"
+            )
+        evaluator.cache[key] = open_index(dataset, _COLUMNS, info=info)[0]
+    return evaluator.cache[key]
+
+
+def seed_candidates(problems: list[PositionProblem], dataset: str | Path, per_n: int,
+                    evaluator: Evaluator) -> list[Evaluation | None]:  # fmt: skip
+    """Per problem (one per N), up to ``per_n`` dataset designs nearest its target.
+
+    Returns, for each problem, an :class:`Evaluation` of the usable seeds (their ``z``, the
+    dataset's tips as residuals; ``columns["design_id"]`` names the rows), or None when the
+    dataset has none for that N (the caller screens a Latin hypercube instead). The seeds are
+    counted as ``seeds``; no model evaluation is spent.
+    """
+    index = _index(dataset, evaluator)
+    out: list[Evaluation | None] = []
+    for problem in problems:
+        n = problem.n_units
+        if n not in index.n_values:
+            out.append(None)
+            continue
+        # More rows than needed: some may break the scene's constraints.
+        _, rows = index.query(problem.target, 4 * per_n, n_units=[n], state=problem.state)
+        if rows.size == 0:
+            out.append(None)
+            continue
+        batch = designs_of(index, rows)
+        batch = replace(batch, E=np.full(len(batch), problem.variables.E))
+        z, inside = problem.variables.encode(batch)
+        keep = np.flatnonzero(inside)[:per_n]
+        if keep.size == 0:
+            out.append(None)
+            continue
+        tips = index.points[rows[keep]]
+        evaluator.count("seeds", int(keep.size))
+        out.append(Evaluation(
+            z=z[keep], ok=np.ones(keep.size, dtype=bool), residual=tips - problem.target,
+            stiffness=np.full(keep.size, np.nan),
+            columns={"design_id": index.design_id[rows[keep]]},
+        ))  # fmt: skip
+    return out

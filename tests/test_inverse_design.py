@@ -308,7 +308,7 @@ def test_bench_design_record(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     code = main(["bench", "design", "--json", "--targets", "2", "--materials", "cheetah-95a",
                  "--n-units", "2,3", "--tpe-budget", "12", "--gp-budget", "4", "--skip-gripper",
-                 "--skip-pickplace", "--skip-walker", "--save"])  # fmt: skip
+                 "--skip-pickplace", "--skip-walker", "--no-seeded", "--save"])  # fmt: skip
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     (row,) = record["rows"]
@@ -321,6 +321,29 @@ def test_bench_design_record(capsys, tmp_path, monkeypatch):
     for name in ("tpe", "gp"):  # the baselines run if the `baselines` extra is installed
         assert "error" in methods[name] or methods[name]["evals"] == {"tpe": 12, "gp": 4}[name]
     assert (tmp_path / "results" / "reports" / "bench-design.json").is_file()
+
+
+def test_bench_design_seeded_row(capsys, tmp_path, monkeypatch):
+    """The seeded variant sweeps its seeds job when the dataset is missing and reports it."""
+    from dpfexplore.bench import design as bench_design
+
+    jobs = tmp_path / "jobs"
+    jobs.mkdir()
+    for path in JOBS.glob("design-*.toml"):
+        text = path.read_text().replace("samples_per_n = 20000", "samples_per_n = 300")
+        (jobs / path.name).write_text(text)
+    monkeypatch.setattr(bench_design, "JOBS", jobs)
+    monkeypatch.chdir(tmp_path)
+    code = main(["bench", "design", "--json", "--targets", "2", "--materials", "cheetah-95a",
+                 "--n-units", "2,3", "--tpe-budget", "2", "--gp-budget", "2", "--skip-gripper",
+                 "--skip-pickplace", "--skip-walker"])  # fmt: skip
+    assert code == 0
+    record = json.loads(capsys.readouterr().out)
+    (row,) = record["rows"]
+    seeded = row["methods"]["ours_seeded"]
+    assert seeded["seeds"] > 0 and row["ours_seeded_objective"] <= 1e-6
+    (facts,) = record["seed_datasets"].values()
+    assert facts["designs"] == 7 * 300 and facts["sweep_wall_s"] > 0
 
 
 def test_pressure_windows_agree_with_a_slow_ramp_simulation():

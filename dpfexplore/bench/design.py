@@ -181,7 +181,8 @@ def bench_position(spec, index: int, material: str, args) -> dict:
         from ..inverse.scene_jobs import with_seeds
 
         seeded = Evaluator(max(spec.n_units))
-        solve_position_target(with_seeds(spec, seed_dataset(spec)), index, seeded)
+        solve_position_target(with_seeds(spec, seed_dataset(spec, args.seed_datasets)), index,
+                              seeded)  # fmt: skip
         methods["ours_seeded"] = _summary(seeded, paper, np.inf, np.inf)
         methods["ours_seeded"]["seeds"] = seeded.counts["seeds"]
     for name, runner, budget in (("tpe", run_tpe, args.tpe_budget),
@@ -197,16 +198,15 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     return _row("position", spec.targets[index].point, material, paper, methods)
 
 
-#: Seed datasets made (or found) by this run: path -> sweep wall time (s, None if found).
-SEED_DATASETS: dict[str, float | None] = {}
+def seed_dataset(spec, made: dict[str, float | None]) -> str:
+    """The seeds dataset of a position scene's height order, swept here if it is missing.
 
-
-def seed_dataset(spec) -> str:
-    """The seeds dataset of a position scene's height order, swept here if it is missing."""
+    ``made`` records, per dataset of this run, the sweep's wall time (s; None when it existed).
+    """
     order = spec.variables.get("heights", "free")
     job = JOBS / f"design-seeds-{order}.toml"
     out = Path("results") / f"design-seeds-{order}"
-    if str(out) not in SEED_DATASETS:
+    if str(out) not in made:
         wall = None
         if not (out / "_manifest.json").is_file():
             from ..sweep.driver import run_sweep
@@ -215,7 +215,7 @@ def seed_dataset(spec) -> str:
             begin = time.perf_counter()
             run_sweep(load_job(job), out)
             wall = time.perf_counter() - begin
-        SEED_DATASETS[str(out)] = wall
+        made[str(out)] = wall
     return str(out)
 
 
@@ -282,6 +282,7 @@ def run(args: argparse.Namespace) -> int:
     from ..inverse.scene_jobs import load_scene, parse_scene
 
     logging.getLogger("bayes_opt").setLevel(logging.WARNING)
+    args.seed_datasets = {}
     rows = []
     started = time.perf_counter()
     targets = [int(t) - 1 for t in args.targets.split(",") if t]
@@ -309,7 +310,7 @@ def run(args: argparse.Namespace) -> int:
     record = {"benchmark": "design", "machine": machine_info(), "rows": rows,
               "wall_s": time.perf_counter() - started, "summary": _goals(rows),
               "seed_datasets": {path: {"designs": _designs_in(path), "sweep_wall_s": wall}
-                                for path, wall in SEED_DATASETS.items()}}  # fmt: skip
+                                for path, wall in args.seed_datasets.items()}}  # fmt: skip
     save = REPORTS / args.save_as if args.save else None
     emit(record, as_json=args.json, text=_text(record), save=save)
     return 0

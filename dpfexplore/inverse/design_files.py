@@ -2,36 +2,60 @@
 
 :func:`design_toml` writes any :class:`~dpfexplore.model.design.Design` (every value at full
 precision: ``repr`` of a float reads back to the same float, so a written design reproduces its
-outputs exactly); :func:`write_designs` saves the candidates of a lookup, best first, each with
-comments saying where it comes from and what it was verified to do.
+outputs exactly), with comments and an optional ``[result]`` table of what was verified; it is
+the one writer of the lookup's and the design scenes' result files. :func:`write_designs` saves
+the candidates of a lookup, best first, each with comments saying where it comes from and what
+it was verified to do.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import json
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from ..model.design import Design
 from .lookup import LookupResult
 
-__all__ = ["design_toml", "write_designs"]
+__all__ = ["design_toml", "toml_value", "write_designs"]
 
 
-def design_toml(design: Design, comments: Sequence[str] = ()) -> str:
-    """A TOML document with a ``[design]`` table that :func:`~dpfexplore.load_design` reads."""
+def toml_value(value: Any) -> str:
+    """A TOML literal: floats at full precision (``repr`` reads back exactly).
 
-    def number(v: float) -> str:
-        return repr(float(v))
+    ``None`` inside a list is written as the string ``"none"`` (TOML has no null).
+    """
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join('"none"' if v is None else toml_value(v) for v in value) + "]"
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    raise TypeError(f"{type(value).__name__} has no TOML form here")
 
+
+def design_toml(design: Design | Mapping[str, Any], comments: Sequence[str] = (),
+                result: Mapping[str, Any] | None = None) -> str:  # fmt: skip
+    """A TOML document with a ``[design]`` table that :func:`~dpfexplore.load_design` reads.
+
+    ``design`` is a :class:`Design` or its :meth:`~Design.to_dict`; ``comments`` open the file;
+    ``result`` (optional) becomes a ``[result]`` table of what was verified (None values left out).
+    """
+    values = design.to_dict() if isinstance(design, Design) else dict(design)
     lines = [f"# {c}" for c in comments]
     lines.append("[design]")
-    if design.name:
-        lines.append(f'name = "{design.name}"')
-    for name in ("H", "U_L", "U_sep"):
-        values = getattr(design, name)
-        lines.append(f"{name} = [{', '.join(number(v) for v in values)}]")
-    for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch"):
-        lines.append(f"{name} = {number(getattr(design, name))}")
+    lines += [f"{key} = {toml_value(value)}" for key, value in values.items()]
+    if result:
+        lines += ["", "[result]"]
+        lines += [f"{key} = {toml_value(value)}" for key, value in result.items()
+                  if value is not None]  # fmt: skip
     return "\n".join(lines) + "\n"
 
 

@@ -29,9 +29,11 @@ from typing import Any
 import numpy as np
 
 from ..model.design import Design
+from ..model.formatting import json_number
 from ..model.gripper import gripper_aperture
 from ..solvers.lattice import spring_constants
 from ..solvers.statics import find_state
+from .design_files import design_toml as write_design_toml
 from .evaluation import Evaluator
 from .optimiser import TargetResult
 from .windows import pressure_windows
@@ -51,15 +53,6 @@ def fitted_range(design: Design) -> tuple[bool, str | None]:
     return bool(design.in_fitted_range), design.fitted_range_note
 
 
-def _num(value: float) -> float | str | None:
-    value = float(value)
-    if math.isnan(value):
-        return None
-    if math.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return value
-
-
 def _verify(design: Design, state: str, evaluator: Evaluator) -> dict[str, Any]:
     result = find_state(design, state)
     evaluator.count("verifications")
@@ -76,11 +69,12 @@ def _design_entry(design: Design, state: str, target, evaluator: Evaluator) -> d
     objective = float(np.sum((tip - np.asarray(target)) ** 2)) if check["stable"] else math.inf
     inside, note = fitted_range(design)
     return {"design": design.to_dict(), "n_units": design.n_units, "state": state,
-            "tip": check["tip"], "objective": _num(objective),
-            "distance_mm": _num(math.sqrt(objective)), "stiffness": _num(check["stiffness"]),
+            "tip": check["tip"], "objective": json_number(objective),
+            "distance_mm": json_number(math.sqrt(objective)),
+            "stiffness": json_number(check["stiffness"]),
             "fitted_range": inside, "fitted_range_note": note,
             "verification": {"method": _VERIFIED_BY, "status": check["status"],
-                             "stable": check["stable"], "min_eig": _num(check["min_eig"])},
+                             "stable": check["stable"], "min_eig": json_number(check["min_eig"])},
             "_nodes": check["nodes"]}  # fmt: skip
 
 
@@ -95,7 +89,7 @@ def position_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[st
         entry["objective"] <= spec.tolerance  # fmt: skip
     row: dict[str, Any] = {"target": list(target.point), "reachable": bool(reachable), **entry,
                            "evaluations": dict(result.counts), "wall_s": result.wall_s,
-                           "best_objective_per_n": {str(n): _num(v)
+                           "best_objective_per_n": {str(n): json_number(v)
                                                     for n, v in result.per_n.items()}}  # fmt: skip
     if not reachable:
         row["nearest_tip"] = entry["tip"]
@@ -162,7 +156,7 @@ def _gripper_entry(design: Design, g, theta: float, base_l: float, evaluator: Ev
     inside, note = fitted_range(design)
     return {"design": design.to_dict(), "n_units": design.n_units, "theta_B_deg": theta,
             "base_L": base_l, "apertures": apertures, "aperture_errors": errors,
-            "stiffness": _num(stiffness), "state": g.activated,
+            "stiffness": json_number(stiffness), "state": g.activated,
             "objective": float(np.sum(np.square(errors))), "fitted_range": inside,
             "fitted_range_note": note,
             "verification": {"method": _VERIFIED_BY, "status": statuses,
@@ -206,32 +200,13 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
 # ----------------------------------------------------------------------------- files
 
 
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if value is None:
-        return '"nan"'
-    return repr(float(value)) if isinstance(value, float) else str(value)
-
-
 def design_toml(row: dict[str, Any], *, title: str) -> str:
     """A ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table."""
-    lines = [f"# {title}", "# Written by dpfexplore design; [design] is read by dpfexplore states.",
-             "", "[design]"]  # fmt: skip
-    for key, value in row["design"].items():
-        lines.append(f"{key} = {_toml_value(value)}")
-    lines += ["", "[result]"]
-    for key in ("state", "target", "tip", "objective", "stiffness", "apertures", "theta_B_deg",
-                "base_L", "reachable", "fitted_range"):  # fmt: skip
-        if key in row and row[key] is not None:
-            lines.append(f"{key} = {_toml_value(row[key])}")
-    if row.get("fitted_range_note"):
-        lines.append(f"fitted_range_note = {_toml_value(row['fitted_range_note'])}")
-    return "\n".join(lines) + "\n"
+    keys = ("state", "target", "tip", "objective", "stiffness", "apertures", "theta_B_deg",
+            "base_L", "reachable", "fitted_range", "fitted_range_note")  # fmt: skip
+    return write_design_toml(
+        row["design"], [title, "Written by dpfexplore design; [design] is read by dpfexplore "
+                        "states."], {key: row.get(key) for key in keys})  # fmt: skip
 
 
 def public(row: dict[str, Any]) -> dict[str, Any]:
@@ -239,22 +214,31 @@ def public(row: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in row.items() if not k.startswith("_")}
 
 
-def write_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
-                 *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
-    """Write summary, history, design TOMLs and (optionally) figures; returns the paths."""
+def write_summary(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
+                  *, wall_s: float, history=None) -> list[Path]:  # fmt: skip
+    """Write ``summary.json`` and ``history.parquet`` in ``out``; returns their paths.
+
+    The summary holds the scene, the results, the evaluations by kind and the wall time; the
+    history every evaluated design (``history``: :meth:`Evaluator.history`, if the caller has it).
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    written = []
     summary = {"scene": spec.document, "kind": spec.kind, "name": spec.name,
                "results": [public(r) for r in rows], "evaluations": dict(evaluator.counts),
                "wall_s": wall_s}  # fmt: skip
     path = out / "summary.json"
     path.write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
-    written.append(path)
+    history_path = out / "history.parquet"
+    (evaluator.history() if history is None else history).to_parquet(history_path, index=False)
+    return [path, history_path]
+
+
+def write_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
+                 *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
+    """Write summary, history, design TOMLs and (optionally) figures; returns the paths."""
+    out = Path(out)
     history = evaluator.history()
-    path = out / "history.parquet"
-    history.to_parquet(path, index=False)
-    written.append(path)
+    written = write_summary(spec, rows, evaluator, out, wall_s=wall_s, history=history)
     for i, row in enumerate(rows):
         if spec.kind == "gripper":
             path = out / "gripper.toml"

@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..model.formatting import json_number
 from ..model.version import MODEL_VERSION
 from ..solvers.statics import OUTPUT_COLUMNS, solve_batch, state_string
 from ..sweep.space import parse_job
@@ -155,21 +156,22 @@ class Candidate:
             "n_units": self.design.n_units,
             "state": self.state,
             "found": self.found,
-            "tip": [_num(v) for v in self.tip],
-            "error_mm": _num(self.error_mm),
-            "error": _num(self.error),
-            "stiffness": _num(self.stiffness),
+            "tip": [json_number(v) for v in self.tip],
+            "error_mm": json_number(self.error_mm),
+            "error": json_number(self.error),
+            "stiffness": json_number(self.stiffness),
             "status": self.status,
             "met": self.met,
-            "values": {c: _num(v) for c, v in zip(columns, self.values, strict=True)},
+            "values": {c: json_number(v) for c, v in zip(columns, self.values, strict=True)},
             "refined": self.refined,
             "fitted_range": self.fitted_range,
             "fitted_range_note": self.fitted_range_note,
             "verified": True,
             "source": {
                 "design_id": self.design_id,
-                "distance": _num(self.source_distance),
-                "values": {c: _num(v) for c, v in zip(columns, self.source_values, strict=True)},
+                "distance": json_number(self.source_distance),
+                "values": {c: json_number(v)
+                           for c, v in zip(columns, self.source_values, strict=True)},
             },
         }
         if self.refinement is not None:
@@ -179,17 +181,6 @@ class Candidate:
                 "collapses": r.collapses, "seconds": r.seconds, "message": r.message,
             }
         return out
-
-
-def _num(value) -> float | str | None:
-    if value is None:
-        return None
-    value = float(value)
-    if math.isnan(value):
-        return None
-    if math.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return value
 
 
 @dataclass(frozen=True)

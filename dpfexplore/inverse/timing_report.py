@@ -18,7 +18,6 @@ Files (:func:`write_timing_report`; the walker's :func:`.walker_report.write_wal
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -26,12 +25,14 @@ from typing import Any
 import numpy as np
 
 from ..model.design import Design
+from ..model.formatting import json_number
 from ..solvers.statics import find_state
-from .design_report import _json_default, _num, _toml_value, public
+from .design_files import design_toml
+from .design_report import write_summary
 from .evaluation import Evaluator
 from .optimiser import TargetResult
 
-__all__ = ["json_times", "pickplace_report", "write_common", "write_timing_report"]
+__all__ = ["json_times", "pickplace_report", "write_timing_report"]
 
 VERIFIED_BY = ("simulated alone to the horizon (no early stop) by the full model (rodas4) at "
                "atol = {atol:g} mm; the reported reset times and classes are this run's")
@@ -56,14 +57,14 @@ def design_flags(design: Design) -> dict[str, Any]:
 def _grasp(design: Design, state: str, evaluator: Evaluator) -> dict[str, Any]:
     result = find_state(design, state)
     evaluator.count("verifications")
-    return {"stiffness": _num(result.stiffness) if result.stable else None,
+    return {"stiffness": json_number(result.stiffness) if result.stable else None,
             "status": result.status.label, "stable": bool(result.stable)}  # fmt: skip
 
 
 def _check_entry(check: dict) -> dict[str, Any]:
     return {"reset_times": json_times(check["reset_times"]), "classes": check["classes"],
             "final_state": check["final_state"], "objective_unit": check["objective_unit"],
-            "reset_time": _num(check["value"])}  # fmt: skip
+            "reset_time": json_number(check["value"])}  # fmt: skip
 
 
 def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
@@ -99,7 +100,7 @@ def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[s
     reachable = bool(best["error"] <= p.tolerance and check["admissible"])
     row.update({
         "reachable": reachable, **design_flags(design), **_check_entry(check),
-        "relative_error": _num(best["error"]), "objective": _num(best["error"]),
+        "relative_error": json_number(best["error"]), "objective": json_number(best["error"]),
         "stiffness": grasp["stiffness"],
         "verification": {"method": VERIFIED_BY.format(atol=check["atol"]),
                          "atol": check["atol"], "status": check["status"],
@@ -112,15 +113,16 @@ def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[s
                        "its first stage)",
     })  # fmt: skip
     if extra["kind"] == "unit_target":
-        row["unit_errors"] = [_num(e) for e in best["unit_errors"]]
+        row["unit_errors"] = [json_number(e) for e in best["unit_errors"]]
         row["alternatives"] = [
             {"H": list(a["design"].H), "t": a["design"].t,
              "fitted_range": bool(a["design"].in_fitted_range),
              "reset_times": json_times(a["check"]["reset_times"]),
-             "unit_errors": [_num(e) for e in a["unit_errors"]]}
+             "unit_errors": [json_number(e) for e in a["unit_errors"]]}
             for a in extra["attempts"] if a is not best]  # fmt: skip
     if not reachable:
-        row["nearest"] = {"reset_time": _num(check["value"]), "relative_error": _num(best["error"])}
+        row["nearest"] = {"reset_time": json_number(check["value"]),
+                          "relative_error": json_number(best["error"])}
         row["proof"] = (
             f"{extra.get('brackets', 0)} bracket(s) of the target on the screening grid "
             f"({p.grid_t} x {p.grid_H}); {len(extra['attempts'])} closed on the full model, none "
@@ -136,11 +138,12 @@ def _difference_row(spec, extra: dict, evaluator: Evaluator) -> dict[str, Any]:
     def entry(q: dict) -> dict[str, Any]:
         c1, c2 = q["checks"]
         grasp = _grasp(q["design"], p.grasp_state, evaluator)
-        return {**design_flags(q["design"]), "difference": _num(q["difference"]),
+        return {**design_flags(q["design"]), "difference": json_number(q["difference"]),
                 "stiffness": grasp["stiffness"], "reset_times": json_times(c1["reset_times"]),
                 "reset_times_profile_2": json_times(c2["reset_times"]),
                 "classes": c1["classes"], "classes_profile_2": c2["classes"],
-                "reset_time": _num(c1["value"]), "reset_time_profile_2": _num(c2["value"]),
+                "reset_time": json_number(c1["value"]),
+                "reset_time_profile_2": json_number(c2["value"]),
                 "ok": bool(q["ok"])}  # fmt: skip
 
     best = extra["best"]
@@ -158,7 +161,8 @@ def _difference_row(spec, extra: dict, evaluator: Evaluator) -> dict[str, Any]:
                                  "atol": p.verify_atol},
                 "front": [entry(q) for q in extra["front"]],
                 "lines": [{"t": q["design"].t, "H": list(q["design"].H),
-                           "difference": _num(q["difference"]), "stiffness": _num(q["stiffness"]),
+                           "difference": json_number(q["difference"]),
+                           "stiffness": json_number(q["stiffness"]),
                            "ok": bool(q["ok"])} for q in extra["lines"]]})  # fmt: skip
     if extra.get("weighted") is not None:
         row["weighted"] = {"weights": list(d.weights), **entry(extra["weighted"])}
@@ -169,48 +173,20 @@ def _difference_row(spec, extra: dict, evaluator: Evaluator) -> dict[str, Any]:
 
 
 def _result_toml(row: dict[str, Any], title: str) -> str:
-    lines = [f"# {title}", "# Written by dpfexplore design; [design] is read by dpfexplore states "
-             "and dpfexplore simulate.", "", "[design]"]  # fmt: skip
-    for key, value in row["design"].items():
-        lines.append(f"{key} = {_toml_value(value)}")
-    lines += ["", "[result]"]
-    for key in ("objective_kind", "target_reset", "target_units", "reset_unit", "reset_times",
-                "reset_times_profile_2", "classes", "final_state", "reset_time",
-                "relative_error", "difference", "stiffness", "grasp_state", "reachable",
-                "fitted_range", "fitted_range_note"):  # fmt: skip
-        value = row.get(key)
-        if value is None:
-            continue
-        if isinstance(value, list):
-            value = ["none" if v is None else v for v in value]
-        lines.append(f"{key} = {_toml_value(value)}")
-    return "\n".join(lines) + "\n"
-
-
-def write_common(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
-                 *, wall_s: float) -> list[Path]:  # fmt: skip
-    """``summary.json`` and ``history.parquet`` (as :func:`.design_report.write_report`)."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    summary = {"scene": spec.document, "kind": spec.kind, "name": spec.name,
-               "results": [public(r) for r in rows], "evaluations": dict(evaluator.counts),
-               "wall_s": wall_s}  # fmt: skip
-    written = []
-    path = out / "summary.json"
-    path.write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
-    written.append(path)
-    history = evaluator.history()
-    path = out / "history.parquet"
-    history.to_parquet(path, index=False)
-    written.append(path)
-    return written
+    keys = ("objective_kind", "target_reset", "target_units", "reset_unit", "reset_times",
+            "reset_times_profile_2", "classes", "final_state", "reset_time", "relative_error",
+            "difference", "stiffness", "grasp_state", "reachable", "fitted_range",
+            "fitted_range_note")  # fmt: skip
+    comments = [title, "Written by dpfexplore design; [design] is read by dpfexplore states and "
+                "dpfexplore simulate."]  # fmt: skip
+    return design_toml(row["design"], comments, {key: row.get(key) for key in keys})
 
 
 def write_timing_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
                         *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
     """Pick-and-place: summary, history, result TOMLs and (optionally) figures; the paths."""
     out = Path(out)
-    written = write_common(spec, rows, evaluator, out, wall_s=wall_s)
+    written = write_summary(spec, rows, evaluator, out, wall_s=wall_s)
     for i, row in enumerate(rows):
         if row.get("design") is None:
             continue

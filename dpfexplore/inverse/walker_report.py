@@ -14,10 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from .design_report import _num, _toml_value
+from ..model.formatting import json_number
+from .design_files import toml_value
+from .design_report import write_summary
 from .evaluation import Evaluator
 from .optimiser import TargetResult
-from .timing_report import VERIFIED_BY, json_times, write_common
+from .timing_report import VERIFIED_BY, json_times
 from .walker_design import violation
 
 __all__ = ["inverted_intervals", "walker_report", "write_walker_report"]
@@ -29,7 +31,7 @@ def _value(v: Any) -> Any:
     if isinstance(v, (bool, str)) or v is None:
         return v
     if isinstance(v, (int, float, np.floating, np.integer)):
-        return _num(float(v))
+        return json_number(float(v))
     return v
 
 
@@ -65,7 +67,7 @@ def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str,
             units.append({"section": role, "unit": k + 1, "H": d.H[k], "t": d.t,
                           "class": check["classes"][k],
                           "reset_time": json_times([check["reset"][k]])[0],
-                          "inversion_pressure_MPa": _num(p_inv[k]),
+                          "inversion_pressure_MPa": json_number(p_inv[k]),
                           "phase": profiles[role][0], "pressure_MPa": profiles[role][1]})
     walk, mono = extra["walk"], extra["monostable"]
     requirements = [{**r, "value": _value(r["value"]), "bound": _value(r["bound"])}
@@ -80,7 +82,7 @@ def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str,
         "requirements_met": all(r["met"] for r in extra["requirements"]),
         "stride": walk.stride, "extent": walk.extent.tolist(),
         "monostable_stride": mono.stride, "monostable_extent": mono.extent.tolist(),
-        "stride_ratio": _num(extra["stride_ratio"]),
+        "stride_ratio": json_number(extra["stride_ratio"]),
         "monostable_leg": spec.walker.monostable_source,
         "monostable_sections": [{"name": r.section.name, "H": list(r.section.design.H),
                                  "t": r.section.design.t, "classes": list(r.result.unit_class),
@@ -133,12 +135,12 @@ def _leg_toml(row: dict[str, Any], spec, title: str) -> str:
     lines = [f"# {title}", "# Written by dpfexplore design: run it with dpfexplore simulate-leg "
              "(the walking gait, one cycle).", "", "[leg]", 'composition = "dpw"',
              f"t_end = {g.t_end!r}", "n_samples = 501", "",
-             "[phase.1]", f"P0 = {g.walk_pressure!r}", f"tau = {_toml_value(list(g.phase1))}",
+             "[phase.1]", f"P0 = {g.walk_pressure!r}", f"tau = {toml_value(list(g.phase1))}",
              "", "[phase.2]", f"P0 = {g.walk_pressure!r}",
-             f"tau = {_toml_value(list(g.phase2))}"]  # fmt: skip
+             f"tau = {toml_value(list(g.phase2))}"]  # fmt: skip
     for role, phase in (("purple", "1"), ("green", "2"), ("action", "2")):
         d = row["design"][role]
-        body = ", ".join(f"{k} = {_toml_value(v)}" for k, v in d.items() if k != "name")
+        body = ", ".join(f"{k} = {toml_value(v)}" for k, v in d.items() if k != "name")
         lines += ["", "[[section]]", f'name = "{role}"', f'phase = "{phase}"',
                   f"design = {{ {body} }}"]  # fmt: skip
     lines += ["", "# Result (not read by simulate-leg):"]
@@ -152,7 +154,7 @@ def write_walker_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, 
                         *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
     """Summary, history, leg TOMLs and, with ``plot``, tip paths and timing diagrams (paths)."""
     out = Path(out)
-    written = write_common(spec, rows, evaluator, out, wall_s=wall_s)
+    written = write_summary(spec, rows, evaluator, out, wall_s=wall_s)
     for row in rows:
         if row.get("design") is None:
             continue

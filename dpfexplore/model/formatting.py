@@ -1,13 +1,18 @@
-"""Numbers in messages as users write them: ``-0.83``, not ``np.float64(-0.83)``."""
+"""Numbers as users read them.
+
+In messages ``-0.83``, not ``np.float64(-0.83)``; in JSON ``null`` for "no value" and ``"inf"``
+for an unbounded time, not the invalid ``NaN`` / ``Infinity``.
+"""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
-__all__ = ["num", "nums"]
+__all__ = ["json_number", "num", "nums"]
 
 
 def num(value: Any) -> str:
@@ -24,3 +29,15 @@ def num(value: Any) -> str:
 def nums(values: Iterable[Any]) -> str:
     """A sequence of values as a list, ``[0.0, 1.0, 5.0]``."""
     return "[" + ", ".join(num(v) for v in values) + "]"
+
+
+def json_number(value: Any) -> float | str | None:
+    """A number for JSON: ``None`` and NaN as ``None``, ``±inf`` as ``"inf"`` / ``"-inf"``."""
+    if value is None:
+        return None
+    value = float(value)
+    if math.isnan(value):
+        return None
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return value

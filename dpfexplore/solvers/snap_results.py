@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from ..model import status as st
 from ..model.design import Design
+from ..model.formatting import json_number
 
 __all__ = ["SnapEvent", "SnapSequence", "StateVisit"]
 
@@ -89,7 +90,7 @@ class SnapEvent:
             "reverted": list(self.reverted),
             "settle_time_s": self.settle_time,
             "landing_offset_MPa": self.landing_offset,
-            "decay_rate": _json_number(self.decay_rate),
+            "decay_rate": json_number(self.decay_rate),
         }
 
 
@@ -135,11 +136,11 @@ class StateVisit:
             "state": self.state,
             "direction": self.direction,
             "P_enter": self.P_enter,
-            "P_leave": _json_number(self.P_leave),
+            "P_leave": json_number(self.P_leave),
             "entered_by": self.entered_by,
             "left_by": self.left_by,
             "released": self.released,
-            "P_release_leave": _json_number(self.P_release_leave),
+            "P_release_leave": json_number(self.P_release_leave),
         }
 
 
@@ -252,18 +253,9 @@ class SnapSequence:
             "no_contact": list(self.no_contact),
             "events": [e.to_dict() for e in self.events],
             "states": [v.to_dict() for v in self.visits],
-            "inversion_pressures": [_json_number(v) for v in self.inversion_pressures()],
+            "inversion_pressures": [json_number(v) for v in self.inversion_pressures()],
             "release_windows": {
                 k: [list(w) for w in v] for k, v in self.release_windows().items()
             },
             "stats": dict(self.stats),
         }
-
-
-def _json_number(value: float):
-    value = float(value)
-    if math.isnan(value):
-        return None
-    if math.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return value

@@ -250,6 +250,19 @@ def next_knot(t, knot_t, t_end):
 
 
 @kernel
+def clip_to_knot(t, step, knot_t, t_end):
+    """Step from ``t`` shortened to land on the next knot (or ``t_end``) if it would reach it.
+
+    Returns ``(step, t_stop, lands)``: ``lands`` says the step ends exactly at ``t_stop``
+    (the integrators then set ``t = t_stop`` instead of ``t + step``, free of round-off).
+    """
+    t_stop = next_knot(t, knot_t, t_end)
+    if t + step >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
+        return t_stop - t, t_stop, True
+    return step, t_stop, False
+
+
+@kernel
 def pressure_slope(t_mid, knot_t, knot_p):
     """dP/dt (MPa/s) of the profile segment containing ``t_mid``."""
     n = knot_t.shape[0]

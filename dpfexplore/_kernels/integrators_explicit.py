@@ -42,9 +42,9 @@ from .events import (
     STAT_STEPS,
     STAT_STOPPED_EARLY,
     all_reset,
+    clip_to_knot,
     error_norm,
     init_record,
-    next_knot,
     process_step,
     record_initial_samples,
 )
@@ -167,11 +167,7 @@ def dopri5(
         if stop_when_reset and t >= tau_end and all_reset(unit_rec):
             stats[STAT_STOPPED_EARLY] = 1
             return st.OK
-        t_stop = next_knot(t, knot_t, t_end)
-        lands = False
-        if t + step >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
-            step = t_stop - t
-            lands = True
+        step, t_stop, lands = clip_to_knot(t, step, knot_t, t_end)
         if step < h_min:
             return st.NOT_CONVERGED
         ok = True

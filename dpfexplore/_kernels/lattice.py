@@ -123,10 +123,11 @@ def pack_free(pos, n_units, x):
 
 
 @kernel(inline="always")
-def _dome_scalar(x_bar, row):
-    """Dome energy ``f`` and its first two derivatives in the extension ``x̄`` (+ penalty).
+def dome_law(x_bar, row):
+    """Isolated dome's energy ``f`` and its first two derivatives in the extension ``x̄``.
 
-    Returns ``(f, f', f'', penalty_energy)``.
+    MODEL.md §4, with ``k_b``, ``α`` and ``d`` from the unit's ``row`` of the kernel table;
+    no penalty (:func:`_dome_scalar` adds it). Returns ``(f, f', f'')``.
     """
     kb = row[COL_KB]
     one_minus_alpha = 1.0 - row[COL_ALPHA]
@@ -135,6 +136,17 @@ def _dome_scalar(x_bar, row):
     f = 0.5 * kb * x_bar * x_bar * (1.0 + one_minus_alpha * (u * u - 2.0 * u))
     f1 = kb * x_bar * (1.0 + one_minus_alpha * (2.0 * u * u - 3.0 * u))
     f2 = kb * (1.0 + 6.0 * one_minus_alpha * (u * u - u))
+    return f, f1, f2
+
+
+@kernel(inline="always")
+def _dome_scalar(x_bar, row):
+    """:func:`dome_law` plus the steering penalty of :data:`.layout.COL_PEN`, if any.
+
+    Returns ``(f, f', f'', penalty_energy)``.
+    """
+    f, f1, f2 = dome_law(x_bar, row)
+    d = row[COL_D]
     pen_energy = 0.0
     pen = row[COL_PEN]
     if pen > 0.0:
@@ -344,10 +356,10 @@ def assemble(x, unit_params, h, pos, grad, hess, mode, split):
         e_torsion += _torsion(pos, 2 * k - 1, 2 * k + 1, 2 * k, kt, mode, grad, hess)
         if k < n_units:
             e_torsion += _torsion(pos, 2 * k, 2 * k + 1, 2 * k + 3, kt, mode, grad, hess)
-    split[0] = e_linear
-    split[1] = e_dome
-    split[2] = e_torsion
-    split[3] = e_penalty
+    split[SPLIT_LINEAR] = e_linear
+    split[SPLIT_DOME] = e_dome
+    split[SPLIT_TORSION] = e_torsion
+    split[SPLIT_PENALTY] = e_penalty
     return e_linear + e_dome + e_torsion + e_penalty
 
 

@@ -21,9 +21,10 @@ Which domes snap (the pattern)
 Newton without an energy
     The pressure load follows the faces and is not conservative, so the equilibrium is a root
     of the force residual, solved by Newton on the banded LU of ``H - P_J`` with an Armijo
-    search on ``½|R|²`` (:func:`loaded_newton`, the method of
-    :func:`.reduced.loaded_equilibrium`). From the geometric guess with snapped domes extended
-    by ``1.3 d`` (their loaded extension is ``1.05-1.25 d`` at 0.7 MPa) it needs ~6 iterations.
+    search on ``½|R|²`` (:func:`loaded_newton`, also the polish of the release model's
+    :func:`.reduced.loaded_equilibrium` and of the snap landings). From the geometric guess
+    with snapped domes extended by ``1.3 d`` (their loaded extension is ``1.05-1.25 d`` at
+    0.7 MPa) it needs ~6 iterations.
 """
 
 from __future__ import annotations
@@ -133,6 +134,7 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
     ftol : float, N
         Converged when the largest residual force is below it (or a step below 1e-11 mm).
     max_iter : int
+        Cap on Jacobian factorisations; the point the last one leads to is still checked.
     max_move : float, mm
         Largest coordinate change per iteration.
     scratch : tuple
@@ -154,7 +156,7 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
     merit = 0.0
     for i in range(n):
         merit += res[i] * res[i]
-    for it in range(max_iter):
+    for it in range(max_iter + 1):
         if not math.isfinite(merit):
             return st.NONFINITE, it
         worst = 0.0
@@ -162,6 +164,8 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
             worst = max(worst, abs(res[i]))
         if worst < ftol:
             return st.OK, it
+        if it == max_iter:
+            break
         stiffness_jacobian(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
                            jac)  # fmt: skip
         for i in range(n):

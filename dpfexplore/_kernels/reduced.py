@@ -15,25 +15,21 @@ a shorter hold leaves the finger short of equilibrium, up to ~1 % in reset time,
 hold-time map); a unit whose snap-through is decided within the loose tolerance may be
 misclassified; the profile is a single pulse.
 
-Newton on the non-symmetric system uses the Jacobian ``P_J - H`` of
-:func:`.dynamics.stiffness_jacobian` (at zero velocity) and the banded LU, with Armijo
-backtracking on ``½|R|²`` and the step capped so no coordinate moves more than ``max_move`` mm
-per iteration. Converged when the largest residual force is below ``ftol`` N or the Newton
-step below 1e-11 mm.
+Newton on the non-symmetric system is :func:`.loaded_state.loaded_newton`: the Jacobian
+``P_J - H`` of :func:`.dynamics.stiffness_jacobian` (at zero velocity) and the banded LU, with
+Armijo backtracking on ``½|R|²`` and the step capped so no coordinate moves more than
+``max_move`` mm per iteration. Converged when the largest residual force is below ``ftol`` N or
+the Newton step below 1e-11 mm.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numba import prange
 
 from ..model import status as st
 from ._jit import batch_kernel, kernel
-from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
-from .dense_lu import lu_factor, lu_solve
-from .dynamics import N_PHYS, force_residual, stiffness_jacobian
+from .dynamics import N_PHYS
 from .dynamics_batch import rest_state, summarise_units
 from .events import (
     CTRL_ATOL,
@@ -46,7 +42,8 @@ from .events import (
     STAT_STEPS,
 )
 from .integrators_rosenbrock import rodas4
-from .layout import n_free, n_nodes
+from .layout import n_free
+from .loaded_state import loaded_newton, newton_scratch
 
 #: Position tolerance (mm) of the loading phase: loose, because only the inversion pattern and
 #: the snap-through times (to ~1e-3 s) are taken from it; the Newton solve fixes the state.
@@ -54,83 +51,14 @@ LOADING_ATOL = 1e-2
 
 
 @kernel
-def _max_abs(v):
-    m = 0.0
-    for i in range(v.shape[0]):
-        m = max(m, abs(v[i]))
-    return m
-
-
-@kernel
-def _sum_sq(v):
-    s = 0.0
-    for i in range(v.shape[0]):
-        s += v[i] * v[i]
-    return s
-
-
-@kernel
 def loaded_equilibrium(x, unit_params, h, pressure, ftol, max_iter, max_move):
-    """Solve ``F_ext(x, P) = ∇E(x)`` in place from ``x`` by damped Newton; returns a status."""
-    n_units = unit_params.shape[0]
-    n = n_free(n_units)
-    pos = np.empty((n_nodes(n_units), 2))
-    vel = np.empty((n_nodes(n_units), 2))
-    work = np.empty(n)
-    res = np.empty(n)
-    trial_res = np.empty(n)
-    step = np.empty(n)
-    trial = np.empty(n)
-    jac = np.empty((n, n))
-    piv = np.empty(n, dtype=np.int64)
-    zero = np.zeros(n)
-    knot_t = np.zeros(1)
-    knot_p = np.full(1, pressure)
-    phys = np.zeros(N_PHYS)
-    force_residual(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res)
-    norm = _max_abs(res)
-    merit = _sum_sq(res)
-    for _ in range(max_iter):
-        if not math.isfinite(merit):
-            return st.NONFINITE
-        if norm < ftol:
-            return st.OK
-        stiffness_jacobian(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
-                           jac)  # fmt: skip
-        for i in range(n):
-            for j in range(n):
-                jac[i, j] = -jac[i, j]  # H - P_J: solve (H - P_J) dx = R
-        if lu_factor(jac, n, piv, BAND) != 0:
-            return st.DEGENERATE_GEOMETRY
-        for i in range(n):
-            step[i] = res[i]
-        lu_solve(jac, n, piv, step, BAND)
-        scale = 1.0
-        biggest = _max_abs(step)
-        if biggest < 1e-11:
-            return st.OK  # converged to round-off: stiff posts keep |R| above ftol
-        if biggest > max_move:
-            scale = max_move / biggest
-        accepted = False
-        for _ in range(30):
-            for i in range(n):
-                trial[i] = x[i] + scale * step[i]
-            force_residual(trial, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel,
-                           work, trial_res)  # fmt: skip
-            # Armijo on ½|R|²: the Newton step is a descent direction for it
-            trial_merit = _sum_sq(trial_res)
-            if trial_merit <= (1.0 - 2e-4 * scale) * merit:
-                accepted = True
-                break
-            scale *= 0.5
-        if not accepted:
-            return st.NOT_CONVERGED
-        for i in range(n):
-            x[i] = trial[i]
-            res[i] = trial_res[i]
-        merit = trial_merit
-        norm = _max_abs(res)
-    return st.OK if norm < ftol else st.NOT_CONVERGED
+    """Solve ``F_ext(x, P) = ∇E(x)`` in place from ``x`` by damped Newton; returns a status.
+
+    :func:`.loaded_state.loaded_newton` with its own scratch (see the module docstring).
+    """
+    code, _ = loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move,
+                            newton_scratch(unit_params.shape[0]))  # fmt: skip
+    return code
 
 
 @kernel

@@ -14,7 +14,9 @@ Why Rodas3 here
     On random metastable designs at an equal reset-time error it took fewer right-hand sides
     than Rodas4 at the loose tolerances this model runs at (position tolerance ~3e-3 mm).
     The stage algebra is that of :mod:`.integrators_rosenbrock` (stage matrix
-    ``C/(hγ) + H + D - P_J``, block Cholesky without pressure, banded LU with it).
+    ``C/(hγ) + H + D - P_J``, block Cholesky without pressure, banded LU with it), whose
+    consistent start, step-start Jacobian and step-size controller it calls; its stage loop is
+    Rodas4's without the mass terms, written out here for the reason given there.
 When to stop
     Reset times are the units' last downward threshold crossings, so the run must not stop
     while a crossing can still happen. It stops (a) when every inverted unit has reset, as
@@ -41,16 +43,7 @@ from ..model import status as st
 from ._jit import kernel
 from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
 from .dense_lu import lu_factor, lu_solve
-from .dynamics import (
-    N_PHYS,
-    PHYS_ETA,
-    PHYS_ETA_ISO,
-    add_pressure_forces,
-    damping_matrix,
-    force_residual,
-    pressure_at,
-    residual_and_jacobian,
-)
+from .dynamics import N_PHYS, PHYS_ETA, PHYS_ETA_ISO, force_residual, pressure_at
 from .events import (
     CTRL_ATOL,
     CTRL_H_INIT,
@@ -67,11 +60,17 @@ from .events import (
     STAT_STEPS,
     STAT_STOPPED_EARLY,
     all_reset,
+    clip_to_knot,
     error_norm,
     init_record,
-    next_knot,
-    pressure_slope,
     process_step,
+)
+from .integrators_rosenbrock import (
+    FAC_MIN,
+    SAFETY,
+    accepted_step_factor,
+    consistent_velocity,
+    step_start,
 )
 from .layout import n_free, n_nodes
 from .linalg import band_matvec_add, cholesky, cholesky_solve
@@ -101,8 +100,6 @@ CHECK_XTOL = 1e-4
 CHECK_MAX_ITER = 60
 CHECK_MAX_STEP = 0.5
 
-_SAFETY = 0.9
-_FAC_MIN = 0.2
 _FAC_MAX = 5.0
 #: Reduction after a rejected step whose error estimate is beyond this (a snap inside the step).
 _HUGE_ERROR = 1e3
@@ -207,13 +204,10 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
     max_steps = int(ctrl[CTRL_MAX_STEPS])
     tau_end = knot_t[knot_t.shape[0] - 1]
     expo = 1.0 / ERROR_ORDER
-    v = np.zeros(n)
-    # consistent velocities C v = F_ext - ∇E at the start
-    force_residual(x, v, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, v)
-    damping_matrix(pos, unit_params, h, eta, eta_iso, work, cmat)
-    if lu_factor(cmat, n, piv, BAND) != 0:
+    v = np.empty(n)
+    if consistent_velocity(x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv,
+                           v) != 0:  # fmt: skip
         return st.DEGENERATE_GEOMETRY
-    lu_solve(cmat, n, piv, v, BAND)
     init_record(x, t0, unit_params, unit_rec, stats, g0)
     for k in range(n_units):
         unit_diag[k, UD_EVENT_STEP] = np.nan
@@ -243,23 +237,13 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
                 check_due = False
         if stats[STAT_STEPS] + stats[STAT_REJECTED] >= max_steps:
             return st.STEP_LIMIT
-        t_stop = next_knot(t, knot_t, t_end)
-        lands = False
-        if t + step >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
-            step = t_stop - t
-            lands = True
+        step, t_stop, lands = clip_to_knot(t, step, knot_t, t_end)
         if step < h_min:
             return st.NOT_CONVERGED
         if not fresh:
-            residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
-                                  res0, jac)  # fmt: skip
-            damping_matrix(pos, unit_params, h, eta, eta_iso, work, cmat)
+            step_start(x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0,
+                       jac, cmat, ft)  # fmt: skip
             stats[STAT_RHS] += 1
-            slope = pressure_slope(t + 0.5 * step, knot_t, knot_p)
-            for i in range(n):
-                ft[i] = 0.0
-            if slope != 0.0:
-                add_pressure_forces(pos, n_units, slope, ft)
             fresh = True
         inv_hg = 1.0 / (step * RODAS3_GAMMA)
         inv_step = 1.0 / step
@@ -326,7 +310,7 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
         if err > 1.0:
             stats[STAT_REJECTED] += 1
             last_rejected = True
-            step *= max(_FAC_HUGE if err > _HUGE_ERROR else _FAC_MIN, _SAFETY * err**-expo)
+            step *= max(_FAC_HUGE if err > _HUGE_ERROR else FAC_MIN, SAFETY * err**-expo)
             continue
         events = stats[STAT_EVENTS]
         for k in range(n_units):
@@ -347,14 +331,7 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
             v[i] = v_new[i]
         fresh = False
         stats[STAT_STEPS] += 1
-        fac = _SAFETY * err**-expo if err > 0.0 else _FAC_MAX
-        fac = min(_FAC_MAX, max(_FAC_MIN, fac))
-        if h_acc > 0.0 and err > 0.0:
-            # Gustafsson's predictive controller: the more cautious of the two factors
-            fac_gus = _SAFETY * (step / h_acc) * (err_acc / (err * err)) ** expo
-            fac = min(fac, min(_FAC_MAX, max(_FAC_MIN, fac_gus)))
-        if last_rejected:
-            fac = min(fac, 1.0)
+        fac = accepted_step_factor(err, step, h_acc, err_acc, expo, _FAC_MAX, last_rejected)
         h_acc = step
         err_acc = max(1e-2, err)
         last_rejected = False

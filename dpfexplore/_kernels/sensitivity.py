@@ -52,7 +52,15 @@ import numpy as np
 
 from ..model.domain import MAX_UNITS
 from ._jit import kernel
-from .lattice import HESSIAN, N_SPLIT, SPRING_DOME, SPRING_POST, assemble, spring_nodes
+from .lattice import (
+    HESSIAN,
+    N_SPLIT,
+    SPRING_DOME,
+    SPRING_POST,
+    assemble,
+    dome_law,
+    spring_nodes,
+)
 from .layout import (
     COL_ALPHA,
     COL_D,
@@ -68,6 +76,7 @@ from .layout import (
     n_nodes,
 )
 from .linalg import cholesky, cholesky_solve
+from .states import layer_bend, tip_stiffness
 from .tables import DC_H, DP_T, N_DPARAM
 
 # Rows of the sensitivity output.
@@ -149,15 +158,16 @@ def _add(v, node, ax, ay):
 
 @kernel(inline="always")
 def _pair_scalars(spring, x_bar, row):
-    """``f, f', f'', f'''`` of a two-node spring in its extension (penalty-free)."""
+    """``f, f', f'', f'''`` of a two-node spring in its extension (``COL_PEN`` 0).
+
+    The dome's first three are the lattice's own (:func:`.lattice.dome_law`).
+    """
     if spring == SPRING_DOME:
+        f, f1, f2 = dome_law(x_bar, row)
         kb = row[COL_KB]
         oma = 1.0 - row[COL_ALPHA]
         d = row[COL_D]
         u = x_bar / d
-        f = 0.5 * kb * x_bar * x_bar * (1.0 + oma * (u * u - 2.0 * u))
-        f1 = kb * x_bar * (1.0 + oma * (2.0 * u * u - 3.0 * u))
-        f2 = kb * (1.0 + 6.0 * oma * (u * u - u))
         f3 = kb * oma * (12.0 * u - 6.0) / d
         return f, f1, f2, f3
     k = row[COL_KPOST] if spring == SPRING_POST else row[COL_KLIM]
@@ -231,6 +241,27 @@ def _torsion_geometry(pos, a, c, b):
     return vax, vay, vbx, vby, delta, -vay / ra2, vax / ra2, -vby / rb2, vbx / rb2
 
 
+@kernel(inline="always")
+def _torsion_curvature_terms(vax, vay, vbx, vby, gax, gay, gbx, gby, r, a, c, b):
+    """Pieces of ``rᵀ∇²E r = k_t G² + k_t δ S`` of one torsional spring at fixed ``r``.
+
+    Returns ``(ρ_a, ρ_b, G, ∇_{v_a} ρ_aᵀHφ(v_a)ρ_a, ∇_{v_b} ρ_bᵀHφ(v_b)ρ_b, S)``, vectors as
+    two numbers: ``ρ_a = r_a - r_c``, ``ρ_b = r_b - r_c``, ``G = ∇δ·r`` and
+    ``S = ρ_bᵀHφ(v_b)ρ_b - ρ_aᵀHφ(v_a)ρ_a``.
+    """
+    rax, ray = _node_vector(r, a)
+    rbx, rby = _node_vector(r, b)
+    rcx, rcy = _node_vector(r, c)
+    pax = rax - rcx
+    pay = ray - rcy
+    pbx = rbx - rcx
+    pby = rby - rcy
+    G = gbx * pbx + gby * pby - gax * pax - gay * pay
+    qa, qax, qay = _curvature_form(vax, vay, pax, pay)
+    qb, qbx, qby = _curvature_form(vbx, vby, pbx, pby)
+    return pax, pay, pbx, pby, G, qax, qay, qbx, qby, qb - qa
+
+
 @kernel
 def third_derivative_contraction(pos, unit_params, h, r, w):
     """``w = ∇_x (rᵀ H(x) r)`` at fixed ``r`` (N/mm² · mm²/mm): the Hessian's derivative along r.
@@ -279,17 +310,9 @@ def third_derivative_contraction(pos, unit_params, h, r, w):
 @kernel(inline="always")
 def _torsion_contraction(pos, a, c, b, kt, r, w):
     vax, vay, vbx, vby, delta, gax, gay, gbx, gby = _torsion_geometry(pos, a, c, b)
-    rax, ray = _node_vector(r, a)
-    rbx, rby = _node_vector(r, b)
-    rcx, rcy = _node_vector(r, c)
-    pax = rax - rcx
-    pay = ray - rcy
-    pbx = rbx - rcx
-    pby = rby - rcy
-    G = gbx * pbx + gby * pby - gax * pax - gay * pay
-    qa, qax, qay = _curvature_form(vax, vay, pax, pay)
-    qb, qbx, qby = _curvature_form(vbx, vby, pbx, pby)
-    S = qb - qa
+    pax, pay, pbx, pby, G, qax, qay, qbx, qby, S = _torsion_curvature_terms(
+        vax, vay, vbx, vby, gax, gay, gbx, gby, r, a, c, b
+    )
     ha00, ha01 = _phi_hessian(vax, vay)
     hb00, hb01 = _phi_hessian(vbx, vby)
     # ∂/∂v_a = -2 k_t G Hφ(v_a)ρ_a - k_t S ∇φ(v_a) - k_t δ ∇(ρ_aᵀHφρ_a), and for v_b with +.
@@ -332,18 +355,10 @@ def _torsion_tangent(pos, a, c, b, kt, dkt, dp1, dh, r, dg):
     _add(dg, c, -ax - bx, -ay - by)
     d_energy = 0.5 * dkt * delta * delta + kt * delta * ddelta
     # rᵀ∇²E r = k_t G² + k_t δ S at fixed r.
-    rax, ray = _node_vector(r, a)
-    rbx, rby = _node_vector(r, b)
-    rcx, rcy = _node_vector(r, c)
-    pax = rax - rcx
-    pay = ray - rcy
-    pbx = rbx - rcx
-    pby = rby - rcy
-    G = gbx * pbx + gby * pby - gax * pax - gay * pay
+    pax, pay, pbx, pby, G, qax, qay, qbx, qby, S = _torsion_curvature_terms(
+        vax, vay, vbx, vby, gax, gay, gbx, gby, r, a, c, b
+    )
     dG = dgbx * pbx + dgby * pby - dgax * pax - dgay * pay
-    qa, qax, qay = _curvature_form(vax, vay, pax, pay)
-    qb, qbx, qby = _curvature_form(vbx, vby, pbx, pby)
-    S = qb - qa
     dS = qbx * dvbx + qby * dvby - qax * dvax - qay * dvay
     d_phi = dkt * (G * G + delta * S) + kt * (2.0 * G * dG + ddelta * S + delta * dS)
     return d_energy, d_phi
@@ -498,7 +513,8 @@ def design_sensitivities(x, unit_params, h, dtab, E, stride, sens, dx_out, ws):
         return False
     tip = 2 * n_units + 1
     ftip = free_node(tip)
-    # Load n normal to the last layer segment, r = H⁻¹ n, K = 1/(n·r) as in states.tip_stiffness.
+    # The unit load n normal to the last layer segment, r = H⁻¹ n and K = 1/(n·r), by
+    # states.tip_stiffness (r stays zero where the tip is clamped).
     seg_x = pos[tip, 0] - pos[tip - 2, 0]
     seg_y = pos[tip, 1] - pos[tip - 2, 1]
     seg2 = seg_x * seg_x + seg_y * seg_y
@@ -507,27 +523,10 @@ def design_sensitivities(x, unit_params, h, dtab, E, stride, sens, dx_out, ws):
     ny = seg_x / seg
     for i in range(nf):
         r[i] = 0.0
-    stiffness = np.inf
+    stiffness = tip_stiffness(pos, low, True, dg, r, n_units)
     if ftip >= 0:
-        for i in range(nf):
-            dg[i] = 0.0
-        dg[2 * ftip] = nx
-        dg[2 * ftip + 1] = ny
-        cholesky_solve(low, dg, r, nf)
-        stiffness = 1.0 / (nx * r[2 * ftip] + ny * r[2 * ftip + 1])
         third_derivative_contraction(pos, unit_params, h, r, w)
-    # Bend angle and layer length as in states.state_outputs.
-    bend = 0.0
-    length = 0.0
-    px = 1.0
-    py = 0.0
-    for k in range(1, n_units + 1):
-        sx = pos[2 * k + 1, 0] - pos[2 * k - 1, 0]
-        sy = pos[2 * k + 1, 1] - pos[2 * k - 1, 1]
-        bend += math.atan2(px * sy - py * sx, px * sx + py * sy)
-        px = sx
-        py = sy
-        length += math.sqrt(sx * sx + sy * sy)
+    bend, length = layer_bend(pos, n_units)
     for kind in range(N_DPARAM):
         per_unit = kind < DP_T
         n_dir = n_units if per_unit else 1

@@ -38,7 +38,16 @@ import numpy as np
 
 from ..model import status as st
 from ._jit import kernel
-from .lattice import GRADIENT, HESSIAN, assemble, dome_extensions, unpack_nodes
+from .lattice import (
+    GRADIENT,
+    HESSIAN,
+    SPLIT_DOME,
+    SPLIT_LINEAR,
+    SPLIT_TORSION,
+    assemble,
+    dome_extensions,
+    unpack_nodes,
+)
 from .layout import (
     COL_D,
     COL_KB,
@@ -276,26 +285,14 @@ def state_outputs(x, unit_params, h, want_stiffness, want_min_eig, out, ws):
     for i in range(n):
         gnorm = max(gnorm, abs(grad[i]))
     out[OUT_ENERGY] = e
-    out[OUT_ENERGY_LINEAR] = split[0]
-    out[OUT_ENERGY_DOME] = split[1]
-    out[OUT_ENERGY_TORSION] = split[2]
+    out[OUT_ENERGY_LINEAR] = split[SPLIT_LINEAR]
+    out[OUT_ENERGY_DOME] = split[SPLIT_DOME]
+    out[OUT_ENERGY_TORSION] = split[SPLIT_TORSION]
     out[OUT_GRAD_NORM] = gnorm
     tip = 2 * n_units + 1
     out[OUT_TIP_X] = pos[tip, 0]
     out[OUT_TIP_Y] = pos[tip, 1]
-    # Bend: the signed turn from each layer segment to the next, summed (the first segment,
-    # between clamped nodes, lies along +x), so the heading unwraps past ±π.
-    bend = 0.0
-    length = 0.0
-    px = 1.0
-    py = 0.0
-    for k in range(1, n_units + 1):
-        dx = pos[2 * k + 1, 0] - pos[2 * k - 1, 0]
-        dy = pos[2 * k + 1, 1] - pos[2 * k - 1, 1]
-        bend += math.atan2(px * dy - py * dx, px * dx + py * dy)
-        px = dx
-        py = dy
-        length += math.sqrt(dx * dx + dy * dy)
+    bend, length = layer_bend(pos, n_units)
     out[OUT_BEND] = bend
     out[OUT_CURVATURE] = bend / length
     out[OUT_MIN_EIG] = np.nan
@@ -309,6 +306,28 @@ def state_outputs(x, unit_params, h, want_stiffness, want_min_eig, out, ws):
             out[OUT_MIN_EIG] = smallest_eigenvalue(hess, n)
     if want_stiffness:
         out[OUT_STIFFNESS] = tip_stiffness(pos, low, factored, step, trial, n_units)
+
+
+@kernel(inline="always")
+def layer_bend(pos, n_units):
+    """Bend angle (rad) of the limiting layer and its length (mm) at node positions ``pos``.
+
+    The bend is the signed turn from each layer segment to the next, summed (the first
+    segment, between clamped nodes, lies along +x), so the heading unwraps past ±π; the
+    length is the sum of the segments' lengths.
+    """
+    bend = 0.0
+    length = 0.0
+    px = 1.0
+    py = 0.0
+    for k in range(1, n_units + 1):
+        dx = pos[2 * k + 1, 0] - pos[2 * k - 1, 0]
+        dy = pos[2 * k + 1, 1] - pos[2 * k - 1, 1]
+        bend += math.atan2(px * dy - py * dx, px * dx + py * dy)
+        px = dx
+        py = dy
+        length += math.sqrt(dx * dx + dy * dy)
+    return bend, length
 
 
 @kernel

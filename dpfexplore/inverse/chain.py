@@ -200,7 +200,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         :data:`GEOMETRIC_OUTPUTS` are composed; others go to the ``inner`` surrogate.
     params : dict, optional
         Keyword arguments of the per-unit ``MLPRegressor``, over this class's defaults
-        (two hidden layers of 64, Adam, batches of 1024, at most 100 epochs).
+        (two hidden layers of 32, Adam, batches of 1024, at most 100 epochs).
     inner : str
         Kind of the flat :class:`DesignSurrogate` of the other outputs.
     inner_params : dict, optional
@@ -308,7 +308,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
     def _estimator(self, n_rows: int):
         from sklearn.neural_network import MLPRegressor
 
-        defaults = {"hidden_layer_sizes": (64, 64), "batch_size": 1024, "max_iter": 100,
+        defaults = {"hidden_layer_sizes": (32, 32), "batch_size": 1024, "max_iter": 100,
                     "learning_rate_init": 2e-3, "tol": 1e-7, "n_iter_no_change": 20,
                     "random_state": self.random_state}
         merged = {**defaults, **(self.params or {})}

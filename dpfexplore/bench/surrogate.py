@@ -4,9 +4,11 @@ What it runs: the job ``jobs/surrogate-training.toml`` (the paper's design space
 all units inverted; 20,000 designs per N) into a temporary directory, or ``--dataset DIR``;
 :func:`dpfexplore.inverse.surrogate_fit.fit_surrogates` on it (a sixth of the designs held out
 by ``design_id``, at most 100,000 training designs): held-out tip error per N of each surrogate
-(nearest neighbours, gradient-boosted trees, MLP, Gaussian process), the status classifier's
-accuracy, and the time per prediction on one core, batched and single, beside the exact model
-(``solve_batch``) on the same held-out designs. The issue's goals: tip median <= 0.05 mm and
+(nearest neighbours, gradient-boosted trees, MLP, Gaussian process, and the chain surrogate
+that learns per-unit quantities and composes them exactly), the accuracy of the status
+classifiers (gradient-boosted trees; the chain's rigid unit-cell rule), and the time per
+prediction on one core, batched and single, beside the exact model (``solve_batch``) on the
+same held-out designs. The issue's goals: tip median <= 0.05 mm and
 p95 <= 0.3 mm, classifier >= 99 %, <= 100,000 training designs.
 
 The fast reset-time model (issue 12 §2) reports under ``reset_model``; see
@@ -46,7 +48,8 @@ def register(subparsers) -> None:
                         help="use this sweep dataset instead of running the training job")
     parser.add_argument("--samples-per-n", type=int,
                         help="designs per N of the training job (default: the job's 20000)")
-    parser.add_argument("--kinds", default="knn,gbt,mlp,gp", help="regressor kinds")
+    parser.add_argument("--kinds", default="knn,gbt,mlp,gp,chain", help="regressor kinds")
+    parser.add_argument("--classifiers", default="gbt,chain", help="status classifier kinds")
     parser.add_argument("--params", type=json.loads, default=None, metavar="JSON",
                         help="estimator keyword arguments per kind (JSON)")
     parser.set_defaults(handler=run)
@@ -91,7 +94,9 @@ def run(args: argparse.Namespace) -> int:
         root, source = _dataset(args, Path(tmp))
         data = load_training_data(root, OUTPUTS)
         start = time.perf_counter()
-        surrogates = fit_surrogates(data, kinds=kinds, params=args.params,
+        classifiers = [k.strip() for k in args.classifiers.split(",") if k.strip()]
+        surrogates = fit_surrogates(data, kinds=kinds, classifier_kind=classifiers,
+                                    params=args.params,
                                     progress=lambda line: print(f"bench surrogate: {line}",
                                                                 flush=True)
                                     if not args.json else None)

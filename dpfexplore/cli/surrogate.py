@@ -40,10 +40,11 @@ def register(subparsers) -> None:
                      help="comma-separated output columns, e.g. tip_x,tip_y,stiffness")
     fit.add_argument("--out", type=Path, required=True,
                      help="directory to save into, e.g. results/surrogates/NAME")
-    fit.add_argument("--kinds", default="knn,gbt,mlp,gp",
-                     help="regressor kinds to fit and compare (default knn,gbt,mlp,gp)")
-    fit.add_argument("--classifier", default="gbt", choices=("gbt", "mlp"),
-                     help="kind of the status classifier (default gbt)")
+    fit.add_argument("--kinds", default="knn,gbt,mlp,gp,chain",
+                     help="regressor kinds to fit and compare (default knn,gbt,mlp,gp,chain)")
+    fit.add_argument("--classifier", default="gbt,chain",
+                     help="status classifier kinds (gbt, mlp, chain), comma-separated; the "
+                     "most accurate held-out is used (default gbt,chain)")
     fit.add_argument("--n-as-feature", action="store_true",
                      help="one model for all N with N as a feature (default: one per N)")
     fit.add_argument("--test-fraction", type=float, default=1 / 6,
@@ -96,7 +97,8 @@ def _fit(args: argparse.Namespace) -> int:
     try:
         data = load_training_data(args.dataset, outputs)
         surrogates = fit_surrogates(
-            data, kinds=kinds, classifier_kind=args.classifier, per_n=not args.n_as_feature,
+            data, kinds=kinds, per_n=not args.n_as_feature,
+            classifier_kind=[k.strip() for k in args.classifier.split(",") if k.strip()],
             test_fraction=args.test_fraction, max_train_designs=args.max_train_designs,
             seed=args.seed, params=args.params, timing=not args.no_timing,
             progress=lambda line: print(f"surrogate fit: {line}", file=sys.stderr, flush=True),

@@ -228,15 +228,18 @@ def held_out_errors(
 
 
 def designs_from_rows(frame: pd.DataFrame) -> DesignBatch:
-    """The designs of sweep rows (design columns of the sweep schema) as a batch."""
+    """The designs of sweep rows (design columns of the sweep schema) as a batch.
+
+    Per-unit columns missing from ``frame`` (units beyond its largest N) are NaN.
+    """
     n = len(frame)
     n_units = frame["n_units"].to_numpy(dtype=np.int64)
-    per_unit = {}
-    for name in PER_UNIT_FIELDS:
-        values = np.full((n, MAX_UNITS), np.nan)
-        for k in range(1, MAX_UNITS + 1):
-            if f"{name}_{k}" in frame.columns:
-                values[:, k - 1] = frame[f"{name}_{k}"].to_numpy(dtype=float, na_value=np.nan)
-        per_unit[name] = values
-    shared = {name: frame[name].to_numpy(dtype=float) for name in SHARED_FIELDS}
-    return DesignBatch(n_units=n_units, **per_unit, **shared)
+    names = [f"{name}_{k}" for name in PER_UNIT_FIELDS for k in range(1, MAX_UNITS + 1)]
+    # One reindex and one conversion: reading the 36 columns one by one cost ~1 ms per call,
+    # most of a single-design prediction.
+    values = frame.reindex(columns=names).to_numpy(dtype=float, na_value=np.nan)
+    values = values.reshape(n, len(PER_UNIT_FIELDS), MAX_UNITS)
+    per_unit = {name: np.ascontiguousarray(values[:, j]) for j, name in enumerate(PER_UNIT_FIELDS)}
+    shared = frame[list(SHARED_FIELDS)].to_numpy(dtype=float)
+    return DesignBatch(n_units=n_units, **per_unit,
+                       **{name: shared[:, j].copy() for j, name in enumerate(SHARED_FIELDS)})

@@ -4,7 +4,7 @@
 :class:`DesignSurrogate` of each kind and a :class:`StatusClassifier` on the rest, and measures
 
 * the held-out error per output and per N (median, 95th percentile, largest) and the
-  classifier's accuracy;
+  accuracy of each status classifier, overall and per N;
 * the time per prediction on one core (Numba and BLAS/OpenMP limited to one thread), batched
   (all held-out rows in one call, time per row) and single (one row per call), through the
   public API (a DataFrame of rows in, arrays out);
@@ -31,6 +31,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from ..solvers.statics import solve_batch
+from .chain import CHAIN, ChainStatusClassifier, ChainSurrogate
 from .surrogate_data import (
     TIP,
     TrainingData,
@@ -38,9 +39,10 @@ from .surrogate_data import (
     held_out_errors,
     split_by_design,
 )
-from .surrogates import KINDS, DesignSurrogate, StatusClassifier
+from .surrogates import CLASSIFIER_KINDS, KINDS, DesignSurrogate, StatusClassifier
 
-__all__ = ["GOALS", "SurrogateSet", "fit_surrogates", "one_thread", "time_per_row"]
+__all__ = ["ALL_CLASSIFIER_KINDS", "ALL_KINDS", "GOALS", "SurrogateSet", "fit_surrogates",
+           "one_thread", "time_per_row"]
 
 logger = logging.getLogger(__name__)
 
@@ -51,6 +53,10 @@ GOALS = {"tip_median_mm": 0.05, "tip_p95_mm": 0.3, "classifier_accuracy": 0.99,
 #: Largest number of held-out rows timed in one batched call, and rows timed one at a time.
 TIMED_BATCH = 5000
 TIMED_SINGLE = 60
+#: Regressor kinds: the flat ones of :mod:`.surrogates` and the chain (:mod:`.chain`).
+ALL_KINDS = (*KINDS, CHAIN)
+#: Status classifier kinds.
+ALL_CLASSIFIER_KINDS = (*CLASSIFIER_KINDS, CHAIN)
 
 
 @dataclass
@@ -61,9 +67,10 @@ class SurrogateSet:
     ----------
     outputs : tuple of str
     units : dict of str to str
-    regressors : dict of str to DesignSurrogate
+    regressors : dict of str to DesignSurrogate or ChainSurrogate
         By kind.
-    classifier : StatusClassifier
+    classifier : StatusClassifier or ChainStatusClassifier
+        The status classifier with the highest held-out accuracy, used by :meth:`predict`.
     best : str
         Kind with the smallest 95th-percentile headline error (the tip's when both tip
         coordinates are outputs, else the first output's), the default of :meth:`predict`.
@@ -71,15 +78,18 @@ class SurrogateSet:
         JSON-able: dataset, split, errors, classifier accuracy, speed table, goals, verdict.
     fingerprint : dict
         :func:`dpfexplore.inverse.surrogate_data.dataset_fingerprint` of the training dataset.
+    classifiers : dict of str to classifier
+        Every fitted status classifier by kind (``classifier`` among them).
     """
 
     outputs: tuple[str, ...]
     units: dict[str, str]
-    regressors: dict[str, DesignSurrogate]
-    classifier: StatusClassifier
+    regressors: dict[str, DesignSurrogate | ChainSurrogate]
+    classifier: StatusClassifier | ChainStatusClassifier
     best: str
     report: dict[str, Any] = field(default_factory=dict)
     fingerprint: dict[str, Any] = field(default_factory=dict)
+    classifiers: dict[str, StatusClassifier | ChainStatusClassifier] = field(default_factory=dict)
 
     def predict(self, designs: pd.DataFrame, *, kind: str | None = None) -> pd.DataFrame:
         """Predicted outputs with the status probability and the in-range flag.
@@ -175,8 +185,8 @@ def _headline(outputs: Sequence[str]) -> str:
 def fit_surrogates(
     data: TrainingData,
     *,
-    kinds: Sequence[str] = KINDS,
-    classifier_kind: str = "gbt",
+    kinds: Sequence[str] = ALL_KINDS,
+    classifier_kind: str | Sequence[str] = ("gbt", CHAIN),
     per_n: bool = True,
     test_fraction: float = 1 / 6,
     max_train_designs: int | None = GOALS["max_train_designs"],
@@ -192,9 +202,10 @@ def fit_surrogates(
     ----------
     data : TrainingData
     kinds : sequence of str
-        Regressor kinds to fit and compare (:data:`KINDS`).
-    classifier_kind : str
-        Kind of the status classifier.
+        Regressor kinds to fit and compare (:data:`ALL_KINDS`).
+    classifier_kind : str or sequence of str
+        Kind(s) of the status classifier (:data:`ALL_CLASSIFIER_KINDS`); each is fitted and
+        reported, and the one with the highest held-out accuracy is the set's ``classifier``.
     per_n : bool
         One model per N (True) or N as a feature.
     test_fraction : float
@@ -204,8 +215,10 @@ def fit_surrogates(
     seed : int
         Seed of the split and the estimators.
     params : dict of str to dict, optional
-        Estimator keyword arguments per kind (``"classifier"`` for the classifier); the key
-        ``max_train`` sets :class:`DesignSurrogate`'s subsample size instead.
+        Estimator keyword arguments per kind (``"classifier"`` for the flat classifiers,
+        ``"chain_classifier"`` for the chain's); the key ``max_train`` sets the subsample size
+        instead, and for ``chain`` the keys ``inner`` and ``inner_params`` set its flat model of
+        the outputs it does not compose.
     timing : bool
         Measure the speed table (a few seconds per kind); False leaves it empty.
     threads : int or None
@@ -226,15 +239,45 @@ def fit_surrogates(
                                max_train_designs, seed, params, timing, progress)
 
 
+def _make_regressor(kind: str, outputs: Sequence[str], per_n: bool, seed: int,
+                    params: Mapping[str, Any]) -> DesignSurrogate | ChainSurrogate:
+    params = dict(params)
+    max_train = params.pop("max_train", None)
+    if kind == CHAIN:
+        inner = params.pop("inner", "mlp")
+        inner_params = params.pop("inner_params", None)
+        return ChainSurrogate(outputs=tuple(outputs), params=params, inner=inner,
+                              inner_params=inner_params, max_train=max_train,
+                              random_state=seed)
+    return DesignSurrogate(kind=kind, per_n=per_n, random_state=seed, max_train=max_train,
+                           params=params)
+
+
+def _make_classifier(kind: str, per_n: bool, seed: int, params: Mapping[str, Any]):
+    if kind == CHAIN:
+        return ChainStatusClassifier(random_state=seed, **dict(params.get("chain_classifier")
+                                                               or {}))
+    return StatusClassifier(kind=kind, per_n=per_n, random_state=seed,
+                            params=params.get("classifier"))
+
+
 def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_train_designs, seed,
                     params, timing, progress) -> SurrogateSet:
     say = progress or logger.info
     kinds = list(dict.fromkeys(kinds))
     for kind in kinds:
-        if kind not in KINDS:
-            raise ValueError(f"kind {kind!r}: choose from {', '.join(KINDS)}")
+        if kind not in ALL_KINDS:
+            raise ValueError(f"kind {kind!r}: choose from {', '.join(ALL_KINDS)}")
     if not kinds:
         raise ValueError("kinds: none given")
+    classifier_kinds = list(dict.fromkeys(
+        [classifier_kind] if isinstance(classifier_kind, str) else classifier_kind))
+    for kind in classifier_kinds:
+        if kind not in ALL_CLASSIFIER_KINDS:
+            raise ValueError(f"classifier kind {kind!r}: choose from "
+                             f"{', '.join(ALL_CLASSIFIER_KINDS)}")
+    if not classifier_kinds:
+        raise ValueError("classifier kinds: none given")
     params = dict(params or {})
     frame, outputs = data.frame, list(data.outputs)
     train, test = split_by_design(frame["design_id"].to_numpy(), test_fraction=test_fraction,
@@ -252,29 +295,37 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
     say(f"split by design: {n_designs['train']} training designs ({int(train.sum())} rows, "
         f"{len(train_ok)} ok), {n_designs['test']} held out ({int(test.sum())} rows)")
 
-    start = time.perf_counter()
-    classifier = StatusClassifier(kind=classifier_kind, per_n=per_n, random_state=seed,
-                                  params=params.get("classifier")).fit(frame[train], ok[train])
-    classifier_s = time.perf_counter() - start
-    predicted_ok = classifier.predict(test_all)
     truth_ok = ok[test]
-    per_n_accuracy = {
-        int(n): float(np.mean(predicted_ok[rows] == truth_ok[rows]))
-        for n in np.unique(test_all["n_units"])
-        for rows in [test_all["n_units"].to_numpy() == n]
-    }
-    accuracy = float(np.mean(predicted_ok == truth_ok))
-    say(f"classifier ({classifier_kind}): held-out accuracy {accuracy:.4f} "
-        f"({classifier_s:.1f} s)")
+    test_n = test_all["n_units"].to_numpy()
+    classifiers, classifier_records, classifier_seconds = {}, {}, {}
+    for kind in classifier_kinds:
+        start = time.perf_counter()
+        classifier = _make_classifier(kind, per_n, seed, params).fit(frame[train], ok[train])
+        classifier_seconds[kind] = time.perf_counter() - start
+        predicted_ok = classifier.predict(test_all)
+        right = predicted_ok == truth_ok
+        classifiers[kind] = classifier
+        classifier_records[kind] = {
+            "kind": kind, "accuracy": float(np.mean(right)),
+            "accuracy_per_n": {int(n): float(np.mean(right[test_n == n]))
+                               for n in np.unique(test_n)},
+            "missed": int(np.sum(truth_ok & ~predicted_ok)),
+            "false_alarms": int(np.sum(~truth_ok & predicted_ok)),
+            "test_rows": int(test.sum()),
+        }
+        say(f"classifier ({kind}): held-out accuracy {classifier_records[kind]['accuracy']:.4f}"
+            f" ({classifier_seconds[kind]:.1f} s)")
+    # Ties go to the first kind given.
+    best_classifier = max(classifier_kinds, key=lambda k: classifier_records[k]["accuracy"])
+    classifier = classifiers[best_classifier]
+    classifier_s = classifier_seconds[best_classifier]
 
     regressors, fit_seconds, error_tables = {}, {}, []
     y_train = train_ok[outputs].to_numpy(dtype=float)
     for kind in kinds:
         start = time.perf_counter()
-        kind_params = dict(params.get(kind) or {})
-        max_train = kind_params.pop("max_train", None)
-        model = DesignSurrogate(kind=kind, per_n=per_n, random_state=seed, max_train=max_train,
-                                params=kind_params).fit(train_ok, y_train)
+        model = _make_regressor(kind, outputs, per_n, seed,
+                                params.get(kind) or {}).fit(train_ok, y_train)
         fit_seconds[kind] = time.perf_counter() - start
         table = held_out_errors(test_ok, model.predict(test_ok), outputs)
         table.insert(0, "model", kind)
@@ -306,17 +357,18 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
             for kind in kinds:
                 batched, single = time_per_row(regressors[kind].predict, timed)
                 speed.append({"model": kind, "us_batched": batched, "us_single": single})
-            batched, single = time_per_row(classifier.predict, timed)
-            speed.append({"model": f"classifier ({classifier_kind})", "us_batched": batched,
-                          "us_single": single})
+            for kind, model in classifiers.items():
+                batched, single = time_per_row(model.predict, timed)
+                speed.append({"model": f"classifier ({kind})", "us_batched": batched,
+                              "us_single": single,
+                              "fit_s": classifier_seconds[kind]})
             batched, single = time_per_row(exact, timed)
             speed.append({"model": "exact", "us_batched": batched, "us_single": single})
         for row in speed:
             if row["model"] in pooled.index:
                 for stat in ("median", "p95", "max"):
                     row[f"{headline}_{stat}"] = float(pooled.loc[row["model"], stat])
-            row["fit_s"] = fit_seconds.get(row["model"], classifier_s
-                                           if row["model"].startswith("classifier") else 0.0)
+            row.setdefault("fit_s", fit_seconds.get(row["model"], 0.0))
 
     report = {
         "outputs": outputs,
@@ -332,30 +384,47 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
         "kinds": kinds,
         "best": best,
         "errors": errors.to_dict(orient="records"),
-        "classifier": {"kind": classifier_kind, "accuracy": accuracy,
-                       "accuracy_per_n": per_n_accuracy, "test_rows": int(test.sum()),
+        "classifier": {**classifier_records[best_classifier],
                        "exact_model_agreement": exact_status_agreement},
-        "fit_seconds": {**fit_seconds, "classifier": classifier_s},
+        "classifiers": [classifier_records[k] for k in classifier_kinds],
+        "fit_seconds": {**fit_seconds, "classifier": classifier_s,
+                        **{f"classifier ({k})": v for k, v in classifier_seconds.items()}},
         "fit_notes": {**{k: m.fit_notes_ for k, m in regressors.items()},
-                      "classifier": classifier.fit_notes_},
+                      "classifier": classifier.fit_notes_,
+                      **{f"classifier ({k})": m.fit_notes_ for k, m in classifiers.items()}},
         "speed": speed,
     }
-    report["goals"] = _goals(report, pooled.loc[best], headline)
+    by_n = errors[(errors["model"] == best) & (errors["output"] == headline)
+                  & (errors["n_units"] != "all")]
+    report["goals"] = _goals(report, pooled.loc[best], by_n, headline)
     report["verdict"] = _verdict(report)
     return SurrogateSet(tuple(outputs), dict(data.units), regressors, classifier, best,
-                        report, dict(data.fingerprint))
+                        report, dict(data.fingerprint), classifiers)
 
 
-def _goals(report: Mapping[str, Any], best: pd.Series, headline: str) -> dict[str, Any]:
+def _goals(report: Mapping[str, Any], best: pd.Series, by_n: pd.DataFrame,
+           headline: str) -> dict[str, Any]:
+    """The issue's goals on all held-out designs, and on the worst N (``n_units`` says which)."""
     goals: dict[str, Any] = {}
     if headline == TIP:
-        goals["tip_median_mm"] = {"goal": GOALS["tip_median_mm"], "value": float(best["median"]),
-                                  "met": bool(best["median"] <= GOALS["tip_median_mm"])}
-        goals["tip_p95_mm"] = {"goal": GOALS["tip_p95_mm"], "value": float(best["p95"]),
-                               "met": bool(best["p95"] <= GOALS["tip_p95_mm"])}
+        for stat in ("median", "p95"):
+            goal = GOALS[f"tip_{stat}_mm"]
+            goals[f"tip_{stat}_mm"] = {"goal": goal, "value": float(best[stat]),
+                                       "met": bool(best[stat] <= goal)}
+            if len(by_n):
+                worst = by_n.loc[by_n[stat].astype(float).idxmax()]
+                goals[f"tip_{stat}_mm_worst_n"] = {
+                    "goal": goal, "value": float(worst[stat]), "n_units": int(worst["n_units"]),
+                    "met": bool(worst[stat] <= goal)}
     accuracy = report["classifier"]["accuracy"]
     goals["classifier_accuracy"] = {"goal": GOALS["classifier_accuracy"], "value": accuracy,
                                     "met": bool(accuracy >= GOALS["classifier_accuracy"])}
+    per_n = report["classifier"]["accuracy_per_n"]
+    if per_n:
+        n, value = min(per_n.items(), key=lambda item: item[1])
+        goals["classifier_accuracy_worst_n"] = {
+            "goal": GOALS["classifier_accuracy"], "value": value, "n_units": int(n),
+            "met": bool(value >= GOALS["classifier_accuracy"])}
     train = report["split"]["train_designs"]
     goals["train_designs"] = {"goal": GOALS["max_train_designs"], "value": train,
                               "met": bool(train <= GOALS["max_train_designs"])}

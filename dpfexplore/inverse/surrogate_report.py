@@ -45,10 +45,18 @@ def format_report(report: dict[str, Any]) -> str:
                                      ("max", "max", ".4g"), ("median rel", "median_rel", ".3g"),
                                      ("p95 rel", "p95_rel", ".3g")]))
     clf = report["classifier"]
-    per_n = ", ".join(f"N={n}: {a:.4f}" for n, a in clf["accuracy_per_n"].items())
-    lines += ["", f"status classifier ({clf['kind']}): held-out accuracy {clf['accuracy']:.4f} "
-              f"({per_n}); exact model agrees with the dataset on "
-              f"{clf['exact_model_agreement']:.4f}"]
+    lines += [""]
+    # Reports written before several classifiers were compared hold only the one.
+    for record in report.get("classifiers", [clf]):
+        per_n = ", ".join(f"N={n}: {a:.4f}" for n, a in record["accuracy_per_n"].items())
+        used = " (used)" if record["kind"] == clf["kind"] else ""
+        errors = (f"; {record['missed']} existing states called collapsed, "
+                  f"{record['false_alarms']} collapsed called existing"
+                  if "missed" in record else "")
+        lines.append(f"status classifier ({record['kind']}){used}: held-out accuracy "
+                     f"{record['accuracy']:.4f} ({per_n}){errors}")
+    lines.append(f"exact model agrees with the dataset's status on "
+                 f"{clf['exact_model_agreement']:.4f}")
     if report["speed"]:
         lines += ["", "speed on one core (µs per prediction) and held-out error:"]
         lines.append(_table(report["speed"], [
@@ -58,7 +66,8 @@ def format_report(report: dict[str, Any]) -> str:
     lines += ["", "goals:"]
     for name, goal in report["goals"].items():
         value = f"{goal['value']:,}" if isinstance(goal["value"], int) else f"{goal['value']:.4g}"
-        lines.append(f"  {name}: {value} (goal {goal['goal']:,}): "
+        where = f" at N = {goal['n_units']}" if "n_units" in goal else ""
+        lines.append(f"  {name}: {value}{where} (goal {goal['goal']:,}): "
                      f"{'met' if goal['met'] else 'NOT met'}")
     lines += ["", report["verdict"]]
     return "\n".join(lines)

@@ -57,6 +57,8 @@ SPEED_CSV, SPEED_PNG = "speed_error.csv", "speed_error.png"
 TRUSTED_TYPES = (
     "dpfexplore.inverse.surrogates.DesignSurrogate",
     "dpfexplore.inverse.surrogates.StatusClassifier",
+    "dpfexplore.inverse.chain.ChainSurrogate",
+    "dpfexplore.inverse.chain.ChainStatusClassifier",
     "sklearn.ensemble._hist_gradient_boosting.predictor.TreePredictor",
     "sklearn.ensemble._hist_gradient_boosting.binning._BinMapper",
     "sklearn._loss.loss.HalfSquaredError",
@@ -123,7 +125,8 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
 
     path = Path(path)
     path.mkdir(parents=True, exist_ok=True)
-    payload = {"regressors": surrogates.regressors, "classifier": surrogates.classifier}
+    payload = {"regressors": surrogates.regressors, "classifier": surrogates.classifier,
+               "classifiers": surrogates.classifiers}
     data = sio.dumps(payload)
     untrusted = sorted(set(sio.get_untrusted_types(data=data)) - set(TRUSTED_TYPES))
     if untrusted:  # would be refused on load: fail now rather than write it
@@ -142,6 +145,7 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
         "kinds": list(surrogates.regressors),
         "best": surrogates.best,
         "classifier": surrogates.classifier.kind,
+        "classifiers": list(surrogates.classifiers),
         "per_n": surrogates.classifier.per_n,
         "models_sha256": _sha256(path / MODELS),
     }
@@ -256,4 +260,5 @@ def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> S
         outputs=tuple(meta["outputs"]), units=dict(meta.get("units", {})),
         regressors=payload["regressors"], classifier=payload["classifier"], best=meta["best"],
         report=report, fingerprint=meta["dataset"]["fingerprint"],
+        classifiers=payload.get("classifiers") or {meta["classifier"]: payload["classifier"]},
     )

@@ -166,7 +166,21 @@ def _fit_quietly(model: Any, Z: NDArray, T: NDArray, notes: list[str], n: int) -
         else:
             warnings.warn_explicit(warning.message, warning.category, warning.filename,
                                    warning.lineno)
+    _flush_subnormals(model)
     return model
+
+
+def _flush_subnormals(model: Any) -> None:
+    """Set subnormal weights of a fitted MLP to zero (in place).
+
+    The L2 penalty decays the weights of dead units toward zero, and after ~100 epochs hundreds
+    of them are subnormal (< 2.2e-308): products with them run ~10x slower on x86, which made a
+    chain surrogate's batched prediction 20 µs per design instead of 3. Values that small
+    change no prediction.
+    """
+    for name in ("coefs_", "intercepts_"):
+        for weights in getattr(model, name, ()):
+            weights[np.abs(weights) < np.finfo(weights.dtype).tiny] = 0.0
 
 
 class _DesignModel(BaseEstimator):

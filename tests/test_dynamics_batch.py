@@ -126,3 +126,19 @@ def test_release_model_error_within_its_claim():
     with pytest.raises(ValueError, match="one pulse"):
         release_reset_times(SMALL, PressureProfile.pulses([(0.7, 0, 1, 2, 3), (0.7, 4, 5, 6, 7)]),
                             t_end=15.0)  # fmt: skip
+
+
+@pytest.mark.parametrize("method", ["rodas4", "rodas4-overdamped", "fast"])
+def test_early_stop_waits_for_a_unit_pushed_back_over_its_threshold(method):
+    """A designed walker purple zone: unit 2 crosses down just before unit 1 snaps back, is
+    pushed back over its threshold and resets ~1 s later. A run stopped at the first moment
+    both units are down reports the first crossing; the batch must equal the full-horizon run.
+    """
+    design = Design(H=[2.6044, 2.4733], U_L=6.5, U_sep=1.0, t=0.65, t_lim=1.0, E=26.0)
+    profile = PressureProfile.pulse(0.2, [0.0, 0.1, 1.1, 1.2])
+    full = simulate(design, profile, t_end=6.0)
+    down_up_down = [int(sign) for _, unit, sign in full.events if unit == 2]
+    assert down_up_down[-3:] == [-1, 1, -1]  # the hard case is still what it was built to be
+    batch = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=6.0,
+                              method=method)
+    np.testing.assert_allclose(batch["reset_time"][0, :2], full.reset_time, rtol=2e-3)

@@ -231,6 +231,13 @@ def process_step(
         g0[k] = g1[k]
 
 
+#: Time without a threshold crossing (s) before a run whose inverted units are all back below
+#: their thresholds may stop. A neighbour's snap can push a dome that has just crossed its
+#: threshold back over it (a crossing inside the ghost of a metastable dome's fold is not yet a
+#: snap), so the first moment every unit is down is not proof that the last crossing happened.
+SETTLE_TIME = 1.0
+
+
 @kernel
 def all_reset(unit_rec):
     """True when every unit that was ever inverted is back below its threshold."""
@@ -238,6 +245,28 @@ def all_reset(unit_rec):
         if unit_rec[k, REC_EVER] > 0.0 and unit_rec[k, REC_INVERTED] > 0.0:
             return False
     return True
+
+
+@kernel
+def last_crossing(unit_rec, since):
+    """Latest threshold crossing of any unit, or ``since`` if none is later (s)."""
+    latest = since
+    for k in range(unit_rec.shape[0]):
+        for col in (REC_LAST_DOWN, REC_LAST_UP):
+            t_cross = unit_rec[k, col]
+            if t_cross == t_cross and t_cross > latest:
+                latest = t_cross
+    return latest
+
+
+@kernel
+def settled_reset(unit_rec, t, tau_end):
+    """True when every inverted unit has reset and nothing has crossed for :data:`SETTLE_TIME`.
+
+    The quiet time counts from the later of the last crossing and ``tau_end`` (the end of the
+    pressure profile, s); a run may stop early only when this holds.
+    """
+    return all_reset(unit_rec) and t - last_crossing(unit_rec, tau_end) >= SETTLE_TIME
 
 
 @kernel

@@ -41,12 +41,12 @@ from .events import (
     STAT_RHS,
     STAT_STEPS,
     STAT_STOPPED_EARLY,
-    all_reset,
     clip_to_knot,
     error_norm,
     init_record,
     process_step,
     record_initial_samples,
+    settled_reset,
 )
 from .layout import n_free, n_nodes
 
@@ -164,7 +164,7 @@ def dopri5(
     while t < t_end:
         if stats[STAT_STEPS] + stats[STAT_REJECTED] >= max_steps:
             return st.STEP_LIMIT
-        if stop_when_reset and t >= tau_end and all_reset(unit_rec):
+        if stop_when_reset and t >= tau_end and settled_reset(unit_rec, t, tau_end):
             stats[STAT_STOPPED_EARLY] = 1
             return st.OK
         step, t_stop, lands = clip_to_knot(t, step, knot_t, t_end)

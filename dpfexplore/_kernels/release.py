@@ -19,9 +19,10 @@ Why Rodas3 here
     Rodas4's without the mass terms, written out here for the reason given there.
 When to stop
     Reset times are the units' last downward threshold crossings, so the run must not stop
-    while a crossing can still happen. It stops (a) when every inverted unit has reset, as
-    ``reset_times_batch`` does, or (b) once nothing has crossed for :data:`SETTLE_TIME` and a
-    static check agrees that the current pattern is final: Newton from the current state
+    while a crossing can still happen. It stops (a) when every inverted unit has reset and
+    nothing has crossed for :data:`.events.SETTLE_TIME`, as ``reset_times_batch`` does, or
+    (b) once nothing has crossed for that time and a static check agrees that the current
+    pattern is final: Newton from the current state
     (:func:`.newton.minimize`, no pressure) reaches a minimum with the same inverted units.
     A neighbour's snap can push a dome that crossed its threshold back over it (a crossing at
     ``u = 3/4`` inside the ghost of a metastable dome is not yet a snap), which is why the check
@@ -53,17 +54,18 @@ from .events import (
     CTRL_RTOL,
     REC_INVERTED,
     REC_LAST_DOWN,
+    SETTLE_TIME,
     STAT_EVENTS,
     STAT_FACTOR,
     STAT_REJECTED,
     STAT_RHS,
     STAT_STEPS,
     STAT_STOPPED_EARLY,
-    all_reset,
     clip_to_knot,
     error_norm,
     init_record,
     process_step,
+    settled_reset,
 )
 from .integrators_rosenbrock import (
     FAC_MIN,
@@ -91,8 +93,6 @@ N_STAGES = 4
 #: Order of the embedded solution + 1: the step-size exponent.
 ERROR_ORDER = 3.0
 
-#: Time without a crossing (s) before the static check may end the run.
-SETTLE_TIME = 1.0
 #: Controls of the static check's Newton (N, mm, iterations, mm): only the pattern of the
 #: minimum matters, not its last digits.
 CHECK_GTOL = 1e-4
@@ -226,7 +226,7 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
     last_rejected = False
     while t < t_end:
         if t >= tau_end:
-            if all_reset(unit_rec):
+            if settled_reset(unit_rec, t, tau_end):
                 stats[STAT_STOPPED_EARLY] = STOP_ALL_RESET
                 return st.OK
             if check_due and t - t_event >= SETTLE_TIME:

@@ -139,8 +139,10 @@ def simulate(
     max_steps : int, optional
         Cap on step attempts; past it the run stops with ``Status.STEP_LIMIT``.
     stop_when_reset : bool
-        Stop once past the profile with every inverted unit reset (the samples after that
-        are NaN). Speeds up reset-time evaluation.
+        Stop once past the profile with every inverted unit reset and no threshold crossing
+        for ``SETTLE_TIME`` (1 s, :mod:`dpfexplore._kernels.events`: a dome pushed back over
+        its threshold by a neighbour's snap is still followed); the samples after that are
+        NaN. Speeds up reset-time evaluation.
     event_capacity : int
         Crossings kept in ``events`` (all are counted).
     x0, v0 : ndarray of shape (4N - 2,), optional

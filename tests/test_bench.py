@@ -102,3 +102,20 @@ def test_bench_sensitivities_record(capsys, tmp_path, monkeypatch):
     assert {r["design"] for r in api["find_state"]} == {"gripper", "pickplace"}
     saved = json.loads((tmp_path / "results" / "reports" / "bench-sensitivities.json").read_text())
     assert saved["by_n_units"][0]["n_units"] == 2
+
+
+@pytest.mark.slow
+def test_bench_surrogate_record_has_both_halves(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    argv = ["bench", "surrogate", "--json", "--samples-per-n", "120", "--kinds", "knn",
+            "--classifiers", "chain", "--reset-designs", "12"]
+    assert main(argv) == 0
+    record = json.loads(capsys.readouterr().out)
+    surrogates, reset = record["surrogates"], record["reset_model"]
+    assert surrogates["kinds"] == ["knn"]
+    exact = next(row for row in surrogates["speed"] if row["model"] == "exact")
+    assert exact["tip_median"] == 0.0 and exact["us_batched"] > 0
+    # the reset section is measured on the requested held-out designs, fallbacks included
+    assert 0.0 <= reset["fallback_rate"] <= 1.0
+    assert reset["us_per_design"] > 0 and reset["full_model_us_per_design"] > 0
+    assert 0.0 <= reset["median_rel_err"] <= reset["p95_rel_err"] <= reset["max_rel_err"]

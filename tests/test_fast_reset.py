@@ -203,13 +203,24 @@ def test_fast_agrees_with_the_full_model_on_a_seeded_sample():
     from dpfexplore.bench.dynamics import sample_metastable_designs
     from dpfexplore.bench.reset_model import compare
 
-    batch, ref = sample_metastable_designs(16, seed=11)
+    from scipy.stats import binom
+
+    batch, ref = sample_metastable_designs(48, seed=11)
     out = reset_times_batch(batch, PULSE, t_end=T_END, method="fast")
     figures = compare(out, ref, batch.n_units)
-    assert figures["metastable_units"] >= 20
+    units = figures["metastable_units"]
+    assert units >= 60
     assert figures["class_agreement"] == 1.0
-    assert figures["coverage_90"] >= 0.8  # 90 % intervals; a sample of ~25 units
+    # 90 % intervals: the covered count of a model with the goal's 88 % coverage falls below
+    # this bound with probability 0.1 % (binomial), so a failure means undercoverage
+    claimed = figures["coverage_units"]  # units of the rows that did not fall back
+    assert figures["coverage_90"] * claimed >= binom.ppf(0.001, claimed, 0.88)
     assert figures["max_rel_err"] < 0.05
+    # the sample holds a race of resets (row 31: the core, at its tolerance, resets unit 2 after
+    # unit 1, 86 % late): such rows run the full model
+    raced = (out["fallback_reason"] & fr.FALLBACK_RACE) != 0
+    assert raced.any() and out["fallback"][raced].all()
+    np.testing.assert_allclose(out["reset_time"][raced], ref["reset_time"][raced], rtol=1e-3)
     lo, hi, t = out["reset_time_lo"], out["reset_time_hi"], out["reset_time"]
     finite = np.isfinite(t)
     assert (lo[finite] <= t[finite]).all() and (t[finite] <= hi[finite]).all()

@@ -16,7 +16,7 @@ def register(subparsers) -> None:
         "reset-model",
         help="train (fit) or describe (report) the fast reset-time model",
         description="The fast reset-time model (reset_times_batch(..., method='fast')): a "
-        "physical core with a fitted correction, a 90 %% interval and a fallback. 'fit' trains "
+        "physical core with a fitted correction, a 90 % interval and a fallback. 'fit' trains "
         "one by active learning on designs simulated by the full model; 'report' describes one.",
     )
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)

@@ -75,8 +75,7 @@ def _print_table(seq, design, name) -> None:
           f"{seq.P_start:g} -> {seq.P_max if seq.direction != 'down' else seq.P_min:g} MPa; "
           f"landings: {seq.model}; status {seq.status.label}")  # fmt: skip
     if not seq.fitted_range:
-        print("warning: the design is outside the fitted range of the closed forms "
-              "(H in [3, 5] mm, t in [0.5, 1] mm): the constants are extrapolated")  # fmt: skip
+        print(f"warning: {design.fitted_range_note}: the closed forms are extrapolated")
     loose = [str(k + 1) for k, flag in enumerate(seq.no_contact) if flag]
     if loose:
         print(f"note: unit(s) {', '.join(loose)} have no dome contact (reach clamped to 0.01 mm): "

@@ -7,7 +7,7 @@ scene_jobs
 evaluation
     :class:`Evaluator`: every exact model solve of a scene, counted by kind and recorded.
 derivatives
-    Design sensitivities for the optimiser (the one place that computes them).
+    Central differences in the box: the fallback where the exact sensitivities are undefined.
 scenes
     The problems of each scene kind: residuals and stiffness of box points.
 optimiser

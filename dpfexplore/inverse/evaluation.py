@@ -14,7 +14,7 @@ Kinds of evaluation (:data:`EVALUATION_KINDS`)
     ``derivative``    designs evaluated for a derivative (one solve with the model's
                       sensitivities per Jacobian; a central-difference stencil where the
                       sensitivities are not defined)
-    ``snap``          snap-pressure continuations (:mod:`dpfexplore.inverse.snap`)
+    ``snap``          snap-pressure continuations (:mod:`dpfexplore.solvers.snap`)
     ``simulations``   full-dynamics runs (pressure pulse, Rodas4)
     ``screening``     reduced-model reset times (``method="fast"`` or ``"release"``): screening
                       only, never reported

@@ -13,8 +13,8 @@ Method
 3. **Stiffness maximised.** SLSQP maximises the tip stiffness of the activated state subject to
    the apertures staying within half their tolerance and the tip unit staying in a band of its
    isolated-dome ``α`` (above the bistable limit ``1/9``, below a cap): the cheap, analytic proxy
-   of metastability that keeps the search where the dynamics can hold. Where the snap-pressure
-   continuation is available, every state's pressure window is at least ``min_window_kPa``
+   of metastability that keeps the search where the dynamics can hold. Every state's
+   pressure window (snap-pressure continuation) is at least ``min_window_kPa``
    (finite-difference gradients of the windows). Consecutive ordered heights differ by the
    scene's ``variables.min_step`` exactly (the box map), since equal domes would snap
    together and leave no window between their states.

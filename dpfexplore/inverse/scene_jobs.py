@@ -10,6 +10,7 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
 
     [scene]
     kind = "position"             # "position", "position_stiffness" or "gripper"
+                                  # ("pickplace", "walker_leg": dpfexplore.inverse.timing_jobs)
     name = "design-position-cheetah"   # default output directory results/<name>
     description = "..."           # free text
     material = "cheetah-95a"      # or "ninjaflex-85a"; or give E (and nu) instead

@@ -40,7 +40,7 @@ from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
 from ..model.version import package_versions
 from .dynamics import reset_times_batch
-from .fast_reset import fast_reset_core, unit_features
+from .fast_reset import fast_reset_core, raced_release, unit_features
 from .fast_reset_model import FEATURES, ResetModel, TreeEnsemble
 
 __all__ = ["DEFAULT_DOMAIN", "TrainingOptions", "fit_reset_model", "training_designs"]
@@ -183,13 +183,14 @@ def _label(batch: DesignBatch, profile: PressureProfile, t_end: float, atol: flo
 def _units(data: _Labelled, small_t: float) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Features, target ``log(T_ref/T_core)``, design index and the unit mask of the slow units.
 
-    Rows: units of designs whose core and full model both ran, with a core time >= ``small_t``
+    Rows: units of designs whose core and full model both ran (and whose release was no race,
+    :func:`.fast_reset.raced_release`), with a core time >= ``small_t``
     and a finite reference time (units whose class the core gets wrong are left to the scale
     and the conformal factor).
     """
     core_t = data.core["reset_time"]
     ref_t = data.ref["reset_time"]
-    ok = (data.core["status"] == 0) & (data.ref["status"] == 0)
+    ok = (data.core["status"] == 0) & (data.ref["status"] == 0) & ~raced_release(data.core)
     with np.errstate(invalid="ignore"):
         mask = ok[:, None] & np.isfinite(core_t) & (core_t >= small_t) & np.isfinite(ref_t) & (
             ref_t > 0.0)  # fmt: skip
@@ -239,7 +240,7 @@ def _conformal(model: ResetModel, data: _Labelled, horizon: float) -> tuple[floa
     core_t = data.core["reset_time"]
     ref_t = data.ref["reset_time"]
     run = (data.core["status"] == 0) & (data.ref["status"] == 0) & (
-        data.core["design_diag"][:, 2] >= model.margin_min)  # fmt: skip
+        data.core["design_diag"][:, 2] >= model.margin_min) & ~raced_release(data.core)  # fmt: skip
     with np.errstate(invalid="ignore"):
         slow = run[:, None] & np.isfinite(core_t) & (core_t >= model.small_T)
         quick = run[:, None] & np.isfinite(core_t) & (core_t < model.small_T)

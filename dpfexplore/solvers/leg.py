@@ -41,7 +41,7 @@ Leg files (TOML)
 
 Reset times of a section are measured from the end of its own phase's profile. Every output
 carries ``fitted_range``: False when any section leaves the box the closed forms were fitted
-on (:mod:`dpfexplore.solvers.fitted_range`), as the walker's low domes do.
+on (:meth:`dpfexplore.model.design.Design.in_fitted_range`), as the walker's low domes do.
 """
 
 from __future__ import annotations

@@ -169,9 +169,9 @@ class SnapSequence:
     model : str
         Landing model.
     fitted_range : bool
-        Whether the design is inside the fitted domain of the closed forms (MODEL.md §3:
-        ``H`` in [3, 5] mm, ``t`` in [0.5, 1] mm); results outside it are the model's, not
-        trusted physics.
+        Whether the design is inside the fitted domain of the closed forms (MODEL.md §3,
+        :data:`dpfexplore.model.domain.FITTED_RANGES`); results outside it are the model's,
+        not trusted physics.
     no_contact : tuple of bool
         Per unit: the closed form of the dome's reach was not positive (MODEL.md §3, ``d``
         clamped to 0.01 mm). Such a dome cannot bend the finger, and its "inversion" over a

@@ -223,28 +223,39 @@ def _sequential_states(batch: DesignBatch) -> NDArray:
 def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], valid: NDArray):
     """Rows (design index, requested state) for a state set; invalid designs get one row (-1)."""
     n_designs = len(batch)
+    if not isinstance(states, str):
+        return _given_states(states, n_designs, batch.n_units, valid)
     n_units = np.where(valid, batch.n_units, 0)
-    if isinstance(states, str):
-        if states not in ("all_inverted", "sequential", "all"):
-            raise ValueError(f"states = {states!r}: choose 'all_inverted', 'sequential' or 'all'")
-        if states == "all_inverted":
-            return np.arange(n_designs, dtype=np.int64), np.where(valid, 2**n_units - 1, -1)
-        counts = np.where(valid, 2**n_units if states == "all" else n_units + 1, 1)
-        row_design = np.repeat(np.arange(n_designs, dtype=np.int64), counts)
-        position = np.arange(row_design.size) - np.repeat(np.cumsum(counts) - counts, counts)
-        if states == "all":
-            requested = position
-        else:
-            requested = _sequential_states(batch)[row_design, position]
-        return row_design, np.where(valid[row_design], requested, -1).astype(np.int64)
-    requested = np.asarray(states, dtype=np.int64)
+    if states not in ("all_inverted", "sequential", "all"):
+        raise ValueError(f"states = {states!r}: choose 'all_inverted', 'sequential' or 'all'")
+    if states == "all_inverted":
+        return np.arange(n_designs, dtype=np.int64), np.where(valid, 2**n_units - 1, -1)
+    counts = np.where(valid, 2**n_units if states == "all" else n_units + 1, 1)
+    row_design = np.repeat(np.arange(n_designs, dtype=np.int64), counts)
+    position = np.arange(row_design.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    if states == "all":
+        requested = position
+    else:
+        requested = _sequential_states(batch)[row_design, position]
+    return row_design, np.where(valid[row_design], requested, -1).astype(np.int64)
+
+
+def _given_states(states: Sequence[int], n_designs: int, n_units: NDArray, valid: NDArray):
+    """Rows of one given state per design (invalid designs: -1).
+
+    Few NumPy calls: single designs and small batches are what optimisers send, and each call
+    costs about a microsecond.
+    """
+    requested = np.array(states, dtype=np.int64)
     if requested.shape != (n_designs,):
         raise ValueError(
             f"states: need one requested state per design, got shape {requested.shape}"
         )
-    if np.any(valid & ((requested < 0) | (requested >= 2**n_units))):
+    # negative, or a bit beyond the design's units (invalid designs shift by 0 and are masked)
+    if (valid & ((requested >> np.where(valid, n_units, 0)) != 0)).any():
         raise ValueError("states: a requested state does not fit its design's units")
-    return np.arange(n_designs, dtype=np.int64), np.where(valid, requested, -1)
+    requested[~valid] = -1
+    return np.arange(n_designs, dtype=np.int64), requested
 
 
 #: Output columns of :func:`solve_batch` (besides the index and status columns).

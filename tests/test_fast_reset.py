@@ -200,10 +200,10 @@ def test_pickplace_within_its_interval_and_2_percent(pickplace):
 
 
 def test_fast_agrees_with_the_full_model_on_a_seeded_sample():
+    from scipy.stats import binom
+
     from dpfexplore.bench.dynamics import sample_metastable_designs
     from dpfexplore.bench.reset_model import compare
-
-    from scipy.stats import binom
 
     batch, ref = sample_metastable_designs(48, seed=11)
     out = reset_times_batch(batch, PULSE, t_end=T_END, method="fast")

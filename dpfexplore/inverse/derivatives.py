@@ -4,8 +4,9 @@ The optimiser's fallback Jacobian: scenes take their Jacobians from the model's 
 sensitivities (``solve_batch(..., sensitivities=True)`` chained with
 :meth:`DesignVariables.jacobian`, :meth:`.scenes.Problem.jacobian`) and use these central
 differences of the exact model only where those are undefined (a row whose Hessian is not
-positive definite, an output without sensitivities): the ``2m`` displaced designs of a stencil are solved in one batch, and a displacement that
-would leave ``[0, 1]`` is clipped to the box, so every design evaluated for a derivative honours
+positive definite, an output without sensitivities). The ``2m`` displaced designs of a
+stencil are solved in one batch, and a displacement that would leave ``[0, 1]`` is clipped to
+the box, so every design evaluated for a derivative honours
 the scene's bounds and constraints (the box map is exact). A displaced design whose targeted
 state does not exist (it collapses) is dropped from its pair and the difference is taken
 one-sided from the centre; a variable with both sides collapsed gets a zero derivative, so the

@@ -137,7 +137,10 @@ def _ramp_agreement(designs, p_max: float) -> dict:
             lag = sim[both] - inv[both]
             per_t[T] = lag
             lags[T].extend(lag.tolist())
-            state_mismatch[T] += run.final_state != seq.visits[-1].state
+            # no-contact units: the continuation reports their micro-snap and flags it, the
+            # simulation classes them no_contact with a 0 bit (MODEL.md §3): not compared
+            state_mismatch[T] += any(a != b for a, b, loose in zip(
+                run.final_state, seq.visits[-1].state, seq.no_contact, strict=True) if not loose)
         slow, slower = per_t[DURATIONS[-2]], per_t[DURATIONS[-1]]
         good = (slow > 0) & (slower > 0)
         exponents.extend(np.log10(slow[good] / slower[good]).tolist())
@@ -222,7 +225,7 @@ def _text(record: dict) -> str:
                          zip(r["durations_s"], r["max_lag_MPa"], strict=True))  # fmt: skip
         lines.append(f"{name} ({r['designs']} designs): largest lag (MPa) {lags}; exponent "
                      f"{r['lag_exponent_median']:.2f}; final states differing "
-                     f"{r['final_state_mismatches']}")  # fmt: skip
+                     f"(no-contact units aside) {r['final_state_mismatches']}")  # fmt: skip
     if "compile_s" in record:
         lines.append(f"compile {record['compile_s']:.0f} s cold, first call "
                      f"{record['cached_first_call_s']:.2f} s from the cache")  # fmt: skip

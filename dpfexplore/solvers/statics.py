@@ -225,11 +225,13 @@ def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], valid: NDArr
     n_designs = len(batch)
     if not isinstance(states, str):
         return _given_states(states, n_designs, batch.n_units, valid)
-    n_units = np.where(valid, batch.n_units, 0)
     if states not in ("all_inverted", "sequential", "all"):
         raise ValueError(f"states = {states!r}: choose 'all_inverted', 'sequential' or 'all'")
+    n_units = np.where(valid, batch.n_units, 0)
     if states == "all_inverted":
-        return np.arange(n_designs, dtype=np.int64), np.where(valid, 2**n_units - 1, -1)
+        requested = np.left_shift(1, n_units) - 1
+        requested[~valid] = -1
+        return np.arange(n_designs, dtype=np.int64), requested
     counts = np.where(valid, 2**n_units if states == "all" else n_units + 1, 1)
     row_design = np.repeat(np.arange(n_designs, dtype=np.int64), counts)
     position = np.arange(row_design.size) - np.repeat(np.cumsum(counts) - counts, counts)
@@ -437,8 +439,10 @@ def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:
         "status": rows.status,
         "n_iter": rows.n_iter,
     }
-    # one copy makes every output column a contiguous row of its own
-    by_column = np.ascontiguousarray(rows.out.T)
+    # one copy makes every output column a contiguous row of its own (small batches keep
+    # strided views: the copy would cost more than it saves)
+    by_column = rows.out.T if rows.out.shape[0] <= SERIAL_MAX_ROWS else np.ascontiguousarray(
+        rows.out.T)  # fmt: skip
     result.update({name: by_column[col] for name, col in OUTPUT_COLUMNS.items()})
     if shapes:
         result["x"] = rows.x

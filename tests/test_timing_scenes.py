@@ -328,7 +328,6 @@ def test_shipped_timing_scenes_validate():
 
 @pytest.mark.slow
 def test_bench_design_timing_rows(capsys, tmp_path, monkeypatch):
-    pytest.importorskip("optuna")
     monkeypatch.chdir(tmp_path)
     code = main(["bench", "design", "--json", "--skip-position", "--skip-gripper",
                  "--pickplace-targets", "1", "--timing-tpe-factor", "1",

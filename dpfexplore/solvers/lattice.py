@@ -240,7 +240,7 @@ def kernel_tables(batch: DesignBatch, *, derivatives: bool = False) -> KernelTab
     The numbers equal those of the NumPy closed forms (:func:`batch_constants`) bit for bit, and
     the codes those of :meth:`DesignBatch.status`.
     """
-    shared = tuple(getattr(batch, name) for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch"))
+    shared = (batch.t, batch.t_lim, batch.E, batch.nu, batch.r_b, batch.t_ch)
     return _tables(batch.n_units, batch.H, batch.U_L, batch.U_sep, shared, derivatives)
 
 

@@ -386,7 +386,8 @@ def _solve(
     found = np.empty(n_rows, dtype=np.int64)
     n_iter = np.empty(n_rows, dtype=np.int32)
     # NaN: the row kernel writes no shape for an invalid design
-    x = np.full((n_rows, n_free(MAX_UNITS) if shapes or sensitivities else 0), np.nan)
+    x = (np.full((n_rows, n_free(MAX_UNITS)), np.nan) if shapes or sensitivities
+         else np.empty((n_rows, 0)))  # fmt: skip
     args = (
         tables.unit_params,
         tables.h,

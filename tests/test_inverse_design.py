@@ -343,7 +343,7 @@ def test_bench_design_seeded_row(capsys, tmp_path, monkeypatch):
     seeded = row["methods"]["ours_seeded"]
     assert seeded["seeds"] > 0 and row["ours_seeded_objective"] <= 1e-6
     (facts,) = record["seed_datasets"].values()
-    assert facts["designs"] == 7 * 300 and facts["sweep_wall_s"] > 0
+    assert facts["designs"] == 7 * 300 and facts["sweep_wall_s"] > 0 and facts["open_s"] > 0
 
 
 def test_pressure_windows_agree_with_a_slow_ramp_simulation():
@@ -441,3 +441,16 @@ def test_seeds_that_are_not_a_dataset_are_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "--seeds" in err[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_seed_set_reads_each_n_once_and_gives_the_rows_designs(tmp_path):
+    """Opened once per process; the designs of any rows equal a direct read of those rows."""
+    from dpfexplore.inverse.lookup import designs_of
+    from dpfexplore.inverse.seeds import open_seeds
+
+    seeds = open_seeds(_seeds_sweep(tmp_path), (3,))
+    assert open_seeds(tmp_path / "seeds") is seeds
+    rows = np.flatnonzero(seeds.index.n_units == 3)[[7, 0, 41, 3]]
+    got, want = seeds.designs(rows, 3), designs_of(seeds.index, rows)
+    for name in ("n_units", "H", "U_L", "U_sep", "t", "t_lim", "E"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))

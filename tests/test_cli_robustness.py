@@ -23,7 +23,10 @@ from dpfexplore.sweep import store
 SMALL = {"job.name": "cli", "job.samples_per_n": 24, "compute.states": "sequential"}
 # The real command with every chunk slowed down, so that a signal lands mid-sweep.
 SLOW_CLI = """
-import sys, time
+import signal, sys, time
+# A shell starts background jobs with SIGINT ignored, and Python then installs no handler: a
+# test run in the background would see the sweep ignore Ctrl-C. Restore what a terminal gives.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from dpfexplore.sweep import evaluation
 call = evaluation.StaticsEvaluator.__call__
 def slow(self, batch):

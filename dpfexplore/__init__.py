@@ -11,12 +11,18 @@ _kernels
 solvers
     :func:`find_state`, :func:`solve_batch`, :func:`simulate`, :func:`reset_times_batch`: the
     Python API over the kernels (MODEL.md §6-§8).
-sweep
-    Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines.
 plotting
-    ``plot_*(..., ax=None) -> Axes``.
+    ``plot_*(..., ax=None) -> Axes``; imports only model and solvers.
+sweep
+    Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines;
+    what a dataset holds; design variables as a map of the unit box.
+lookup
+    Nearest designs of a dataset for target outputs, polished and verified by the exact model.
+surrogates
+    Learned models of the exact model with their measured errors; the fast reset model's training.
 inverse
-    Lookup, surrogates, scenes and the optimiser (inverse design).
+    Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
+    scene kind.
 cli, bench
     The ``dpfexplore`` command and its benchmarks.
 
@@ -30,11 +36,21 @@ from importlib.metadata import version as _distribution_version
 
 from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
 from .model.status import Status
-from .solvers.dynamics import PressureProfile, SimulationResult, reset_times_batch, simulate
+from .solvers.dynamics.simulate import (
+    PressureProfile,
+    SimulationResult,
+    reset_times_batch,
+    simulate,
+)
 from .solvers.lattice import spring_constants
-from .solvers.leg import load_leg, simulate_leg
+from .solvers.legs.leg import load_leg, simulate_leg
 from .solvers.sensitivities import Sensitivities
-from .solvers.snap import SnapSequence, inversion_pressure, snap_pressures, snap_pressures_batch
+from .solvers.snap.continuation import (
+    SnapSequence,
+    inversion_pressure,
+    snap_pressures,
+    snap_pressures_batch,
+)
 from .solvers.statics import (
     SolverOptions,
     StateResult,

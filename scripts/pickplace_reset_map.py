@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 
 from dpfexplore import Design, DesignBatch, PressureProfile, reset_times_batch, simulate
 from dpfexplore.bench._common import machine_info
-from dpfexplore.solvers.dynamics import CLASS_NAMES
+from dpfexplore.solvers.dynamics.simulate import CLASS_NAMES
 from dpfexplore.solvers.fitted_range import fitted_range
 
 CODES = {name: code for code, name in CLASS_NAMES.items()}

@@ -6,7 +6,7 @@ U_sep = 1, t_lim = 1, E = 26; phase 1 (purple zone) P0 at tau = 0, 0.1, 1.1, 1.2
 own dome thickness t here (each is its own finger). Three maps over (H, t):
 
 * purple zone (section 1: two units of height H) under phase 1: each unit's class and reset
-  time, and its inversion pressure (slow ramps, :mod:`dpfexplore.solvers.ramp`); and, since
+  time, and its inversion pressure (slow ramps, :mod:`dpfexplore.solvers.dynamics.ramp`); and, since
   equal heights cannot keep both units inverted long, the two heights apart at a few t;
 * action section (section 3: the action unit H then three units of 4.5 mm) under phase 2 at the
   walking pressure: the action unit's class and reset time, its inversion
@@ -38,8 +38,8 @@ from dpfexplore import Design, DesignBatch, PressureProfile, reset_times_batch
 from dpfexplore.bench._common import machine_info
 from dpfexplore.examples import example_path
 from dpfexplore.plotting.leg import plot_tip_paths
-from dpfexplore.solvers.leg import load_leg, simulate_leg
-from dpfexplore.solvers.ramp import inversion_pressures
+from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
+from dpfexplore.solvers.dynamics.ramp import inversion_pressures
 
 OUT = Path("results") / "reports"
 NAME = "walker-leg-map"
@@ -262,7 +262,7 @@ def report(purple, apart, action, windows, picks, legs) -> str:
         f"thickness t here; walking pressure {P_WALK} MPa, phase 1 tau = {PHASE1} s, phase 2 "
         f"tau = {PHASE2} s; reset horizon {HORIZON:g} s after each phase. Inversion pressures "
         "from two slow ramps extrapolated to the quasi-static fold "
-        "(`dpfexplore.solvers.ramp.inversion_pressures`, within about 1 %). "
+        "(`dpfexplore.solvers.dynamics.ramp.inversion_pressures`, within about 1 %). "
         f"Grids: purple H = {H_PURPLE[0]}..{H_PURPLE[-1]} step 0.02 (and H_1, H_2 apart on "
         f"{len(H1_GRID)} x {len(H2_GRID)} at t = {', '.join(f'{t:g}' for t in T_APART)}), "
         f"action H = {H_ACTION[0]}..{H_ACTION[-1]} step 0.025, t = {T_GRID[0]}..{T_GRID[-1]} "

@@ -1,8 +1,8 @@
 """One simulation from rest, its per-unit summary, and the ``prange`` batch over designs.
 
 The per-unit summary (reset time, class, final state) is defined once here and used by both
-:func:`dpfexplore.solvers.dynamics.simulate` and the batch, so a single design and a sweep row
-cannot disagree.
+:func:`dpfexplore.solvers.dynamics.simulate.simulate` and the batch, so a single design and a sweep
+row cannot disagree.
 
 Reset time (MODEL.md §8)
     Time of the unit's last downward crossing of its threshold minus ``τ_end`` (the last knot
@@ -19,7 +19,7 @@ No contact
     A unit whose reach ``d`` was clamped (MODEL.md §3: the closed form gave ``d <= 0``) has no
     inversion in this model's sense: its threshold sits a few µm from flat. Its class is set to
     ``CLASS_NO_CONTACT`` after the run, outside the kernels
-    (:func:`dpfexplore.solvers.dynamics_common.mark_no_contact`), which only know ``d``.
+    (:func:`dpfexplore.solvers.dynamics.common.mark_no_contact`), which only know ``d``.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ release ramp and the creep after it (:func:`.release.release_rodas3`, overdamped
 tolerance, stopping as soon as no further crossing can happen). The per-unit summary is the
 one the full model uses (:func:`.dynamics_batch.summarise_units`), so reset time, class and
 final state mean the same; snap-through times are not computed (NaN). Diagnostics per design
-and per unit feed the fitted correction and interval of :mod:`dpfexplore.solvers.fast_reset`.
+and per unit feed the fitted correction and interval of
+:mod:`dpfexplore.solvers.dynamics.fast_reset`.
 
 Assumptions (the fitted interval measures what they cost): a single pulse whose hold is long
 against the finger's slowest relaxation (the finger is in its loaded equilibrium when the

@@ -31,7 +31,8 @@ When to stop
 Per-unit diagnostics
     The step size and error estimate of the step that held each unit's last downward crossing:
     the event time comes from a cubic Hermite interpolant on that step, so a long step is a
-    less certain time (the fitted interval of :mod:`dpfexplore.solvers.fast_reset` uses them).
+    less certain time (the fitted interval of :mod:`dpfexplore.solvers.dynamics.fast_reset` uses
+    them).
 """
 
 from __future__ import annotations

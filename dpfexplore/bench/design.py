@@ -4,11 +4,11 @@ All on the same exact evaluator (:class:`dpfexplore.inverse.evaluation.Evaluator
 design solved, in the same box of design variables, so the constraints are exact for every
 method):
 
-* ours: :func:`dpfexplore.inverse.optimiser.solve_position_target` (Latin hypercube for every N,
-  gradient refinement with the model's sensitivities) and
-  :func:`dpfexplore.inverse.gripper_design.solve_gripper`;
+* ours: :func:`dpfexplore.inverse.engine.optimiser.solve_position_target` (Latin hypercube for
+  every N, gradient refinement with the model's sensitivities) and
+  :func:`dpfexplore.inverse.scenes.gripper.solve.solve_gripper`;
 * ours, seeded: the same optimiser with its candidates taken from a sweep dataset of the scene's
-  constraints (:mod:`dpfexplore.inverse.seeds`, ``jobs/design-seeds-*.toml``, swept here if
+  constraints (:mod:`dpfexplore.inverse.engine.seeds`, ``jobs/design-seeds-*.toml``, swept here if
   missing); the dataset's own evaluations (a one-off sweep shared by every target and both
   materials) and the time to open it for the process (its tip index and design columns, shared
   by every target) are reported apart, not counted in the rows;
@@ -170,8 +170,8 @@ def _summary(evaluator, paper: float, ours_evals: float, ours_wall: float) -> di
 
 def bench_position(spec, index: int, material: str, args) -> dict:
     """One position target: ours, TPE and GP-BO."""
+    from ..inverse.engine.optimiser import position_problems, solve_position_target
     from ..inverse.evaluation import Evaluator
-    from ..inverse.optimiser import position_problems, solve_position_target
 
     paper = PAPER_OBJECTIVES[material][index]
     ours = Evaluator(max(spec.n_units))
@@ -179,7 +179,7 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     mine = _summary(ours, paper, np.inf, np.inf)
     methods = {"ours": mine}
     if not args.no_seeded:
-        from ..inverse.scene_jobs import with_seeds
+        from ..inverse.spec import with_seeds
 
         seeded_spec = with_seeds(spec, seed_dataset(spec, args.seed_datasets))
         seeded = Evaluator(max(spec.n_units))  # its clock starts here: after the one-off open
@@ -203,11 +203,11 @@ def seed_dataset(spec, made: dict[str, dict]) -> str:
     """The seeds dataset of a position scene's height order, swept here if it is missing.
 
     ``made`` records, per dataset of this run, ``sweep_wall_s`` (None when it existed) and
-    ``open_s``: opening it for the process (:func:`dpfexplore.inverse.seeds.open_seeds`: the tip
-    index and the design columns of the scene's N), which every later target shares. Both are
+    ``open_s``: opening it for the process (:func:`dpfexplore.inverse.engine.seeds.open_seeds`: the
+    tip index and the design columns of the scene's N), which every later target shares. Both are
     one-off costs of the dataset, reported apart from the per-target rows as the sweep is.
     """
-    from ..inverse.seeds import open_seeds
+    from ..inverse.engine.seeds import open_seeds
 
     order = spec.variables.get("heights", "free")
     job = JOBS / f"design-seeds-{order}.toml"
@@ -258,8 +258,8 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
 def bench_gripper(args) -> dict:
     """The gripper: ours against the baselines on the apertures' squared error (mm²)."""
     from ..inverse.evaluation import Evaluator
-    from ..inverse.gripper_design import gripper_problem, solve_gripper
-    from ..inverse.scene_jobs import load_scene
+    from ..inverse.scenes.gripper.solve import gripper_problem, solve_gripper
+    from ..inverse.spec import load_scene
 
     spec = load_scene(JOBS / "design-gripper.toml")
     ours = Evaluator(5)
@@ -287,7 +287,7 @@ def bench_gripper(args) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``bench design``."""
-    from ..inverse.scene_jobs import load_scene, parse_scene
+    from ..inverse.spec import load_scene, parse_scene
 
     logging.getLogger("bayes_opt").setLevel(logging.WARNING)
     args.seed_datasets = {}
@@ -337,7 +337,7 @@ def _ratio(a, b):
 
 
 def _designs_in(path: str) -> int:
-    from ..inverse.datasets import dataset_info
+    from ..sweep.datasets import dataset_info
 
     return int(dataset_info(path).designs_committed)
 

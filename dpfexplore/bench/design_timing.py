@@ -9,8 +9,8 @@ and are measured by the same objective on the full model:
   invert) gets :data:`PENALTY`. Goals: the scene's tolerance (1 %) and the tenth of it our search
   stops at (TPE runs until it reaches that, or out of time).
 * **walker leg** (``jobs/design-walker-leg.toml``, front and middle leg): the total violation
-  of every requirement of the scene (:func:`dpfexplore.inverse.walker_design.violation`: 0 when
-  all are met), each TPE trial a whole leg (three sections simulated, inversion pressures, the
+  of every requirement of the scene (:func:`dpfexplore.inverse.scenes.walker.solve.violation`: 0
+  when all are met), each TPE trial a whole leg (three sections simulated, inversion pressures, the
   walking stride against the monostable leg). Goal: 0.
 
 Ours starts from nothing for each row (its screening included). TPE gets ``tpe_factor`` times our
@@ -95,10 +95,10 @@ def _row(scene: str, target: list, goal: float, ours: dict, tpe: dict, seconds: 
 def bench_pickplace(args, jobs) -> list[dict]:
     """Each target reset time: ours (screening + bracket + Brent) against TPE."""
     from ..inverse.evaluation import Evaluator
-    from ..inverse.pickplace_design import SEARCH_FRACTION, solve_pickplace
-    from ..inverse.reset_problem import ResetProblem
-    from ..inverse.scene_jobs import load_scene
-    from ..inverse.timing_jobs import with_target_reset
+    from ..inverse.scenes.pickplace.problem import ResetProblem
+    from ..inverse.scenes.pickplace.solve import SEARCH_FRACTION, solve_pickplace
+    from ..inverse.scenes.timing_spec import with_target_reset
+    from ..inverse.spec import load_scene
 
     base = load_scene(jobs / "design-pickplace.toml")
     rows = []
@@ -134,8 +134,8 @@ def bench_pickplace(args, jobs) -> list[dict]:
 def bench_walker(args, jobs) -> list[dict]:
     """Each leg of the walker scene: ours (section by section, roots) against TPE on the leg."""
     from ..inverse.evaluation import Evaluator
-    from ..inverse.scene_jobs import load_scene
-    from ..inverse.walker_design import WalkerSearch, solve_walker, violation
+    from ..inverse.scenes.walker.solve import WalkerSearch, solve_walker, violation
+    from ..inverse.spec import load_scene
 
     base = load_scene(jobs / "design-walker-leg.toml")
     rows = []

@@ -3,10 +3,10 @@
 Two cases: the paper's pick-and-place finger (0.7 MPa, τ = 0, 1, 5, 5.1 s, 15 s horizon) and
 random metastable designs (2-6 units, the paper's box with one or two low domes; kept when the
 reference run has at least one unit that resets). For every integrator, tolerance and reduced
-model it times :func:`dpfexplore.solvers.dynamics.reset_times_batch` on one core (per design: the
-median over three rounds through all rows of the median of five calls; the SciPy baseline on
-the pick-and-place finger: the median of three runs) and measures the reset times' largest
-relative error against the reference, the number of units whose class (resets / never
+model it times :func:`dpfexplore.solvers.dynamics.simulate.reset_times_batch` on one core (per
+design: the median over three rounds through all rows of the median of five calls; the SciPy
+baseline on the pick-and-place finger: the median of three runs) and measures the reset times'
+largest relative error against the reference, the number of units whose class (resets / never
 resets) differs, and the final states that differ.
 
 References: SciPy ``solve_ivp(method="Radau")`` at rtol 1e-7, atol 1e-10 for the
@@ -91,7 +91,7 @@ def sample_metastable_designs(n_designs: int, seed: int):
     reference outputs (Rodas4 at atol 1e-8 mm).
     """
     from ..model.design import MAX_UNITS, DesignBatch
-    from ..solvers.dynamics import PressureProfile, reset_times_batch
+    from ..solvers.dynamics.simulate import PressureProfile, reset_times_batch
 
     rng = np.random.default_rng(seed)
     profile = PressureProfile.pulse(*PULSE)
@@ -157,7 +157,7 @@ def _errors(out, ref) -> dict:
 
 
 def _outputs(batch, profile, method, atol) -> dict:
-    from ..solvers.dynamics import reset_times_batch
+    from ..solvers.dynamics.simulate import reset_times_batch
 
     return reset_times_batch(batch, profile, t_end=T_END, method=method, atol=atol)
 
@@ -177,7 +177,7 @@ def _time_method(batch, profile, method, atol, *, repeats) -> float:
 
 
 def _radau(designs, profile, *, rtol, atol) -> tuple[list[float], list]:
-    from ..solvers.dynamics_scipy import simulate_scipy
+    from ..solvers.dynamics.scipy_baseline import simulate_scipy
 
     seconds, results = [], []
     for design in designs:
@@ -208,7 +208,7 @@ def _compile_seconds() -> dict[str, float]:
         import time
         t0 = time.perf_counter()
         from dpfexplore.model.design import Design, DesignBatch
-        from dpfexplore.solvers.dynamics import PressureProfile, reset_times_batch
+        from dpfexplore.solvers.dynamics.simulate import PressureProfile, reset_times_batch
         batch = DesignBatch.from_designs([Design(H=[4.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83,
                                                  t_lim=1.0)])
         profile = PressureProfile.pulse(0.7, (0.0, 0.01, 0.02, 0.03))
@@ -230,7 +230,7 @@ def _case(name, batch, ref, profile, radau, *, explicit_rows) -> list[dict]:
     explicit rows: one round), so that a burst of load from other tenants of a shared machine
     moves a sample of every row instead of all the samples of one.
     """
-    from ..solvers.dynamics import METHODS
+    from ..solvers.dynamics.simulate import METHODS
 
     radau_seconds = radau["scipy-radau"][2]
     rows = []
@@ -280,7 +280,7 @@ def _case(name, batch, ref, profile, radau, *, explicit_rows) -> list[dict]:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench dynamics``."""
     from ..model.design import Design, DesignBatch
-    from ..solvers.dynamics import PressureProfile
+    from ..solvers.dynamics.simulate import PressureProfile
 
     profile = PressureProfile.pulse(*PULSE)
     compile_times = {} if args.no_compile else _compile_seconds()

@@ -78,8 +78,8 @@ def _ensure_dataset(args) -> None:
 
 
 def _build(args, info) -> dict:
-    from ..inverse.lookup_index import LookupIndex, build_index
-    from ..inverse.lookup_store import load_index, save_index
+    from ..lookup.index import LookupIndex, build_index
+    from ..lookup.store import load_index, save_index
 
     builds = []
     for _ in range(args.builds):
@@ -185,8 +185,8 @@ def _queries(args, index, tips) -> dict:
 
 def _refine_targets(index, spec, tips, tries: int, sensitivities: str) -> dict:
     """Refine the nearest candidates of each target in order until one meets 1e-6 mm."""
-    from ..inverse.lookup import designs_of
-    from ..inverse.refine import refine, variables_for
+    from ..lookup.polish import refine, variables_for
+    from ..lookup.query import designs_of
     from ..solvers.statics import find_state
 
     times, evaluations, jacobians = [], [], []
@@ -245,7 +245,7 @@ def _refinement(args, index, spec, designs, tips) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and print (and optionally save) its record."""
-    from ..inverse.datasets import dataset_info
+    from ..sweep.datasets import dataset_info
     from ..sweep.space import parse_job
 
     _ensure_dataset(args)

@@ -95,7 +95,7 @@ def _time(batch, profile, **kwargs) -> float:
     """Median seconds per design of one ``reset_times_batch`` call on one core."""
     import numba
 
-    from ..solvers.dynamics import reset_times_batch
+    from ..solvers.dynamics.simulate import reset_times_batch
 
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
@@ -120,8 +120,8 @@ def reset_model_record(designs: int = 500, seed: int = 7, model=None,
         times and errors, the fallback reasons and the sizes.
     """
     from ..model.design import Design, DesignBatch
-    from ..solvers.dynamics import PressureProfile, reset_times_batch
-    from ..solvers.fast_reset import FALLBACK_REASONS
+    from ..solvers.dynamics.fast_reset import FALLBACK_REASONS
+    from ..solvers.dynamics.simulate import PressureProfile, reset_times_batch
 
     profile = PressureProfile.pulse(*PULSE)
     fast = {"method": "fast", "model": model, "max_rel_halfwidth": max_rel_halfwidth}

@@ -1,13 +1,13 @@
 """``dpfexplore bench snap``: snap pressures by continuation, their cost and the slow-ramp limit.
 
 Cost: per design, the median over ``--rounds`` rounds through all designs of one
-:func:`~dpfexplore.solvers.snap.snap_pressures` call on one core (rising ramp to ``--P-max`` from
-the flat finger, no dense re-check), without and with the release of every visited state, for
-the gripper finger and random designs of the paper's box for each N; and the mean per design
-of one :func:`~dpfexplore.solvers.snap.snap_pressures_batch` call on all cores. Baseline: one
-slow-ramp simulation of the same design (Rodas4, a linear ramp to ``--P-max`` over the longest
-duration below), which is what a user would run without the continuation, and which still lags
-the quasi-static pressures.
+:func:`~dpfexplore.solvers.snap.continuation.snap_pressures` call on one core (rising ramp to
+``--P-max`` from the flat finger, no dense re-check), without and with the release of every visited
+state, for the gripper finger and random designs of the paper's box for each N; and the mean per
+design of one :func:`~dpfexplore.solvers.snap.continuation.snap_pressures_batch` call on all cores.
+Baseline: one slow-ramp simulation of the same design (Rodas4, a linear ramp to ``--P-max`` over
+the longest duration below), which is what a user would run without the continuation, and which
+still lags the quasi-static pressures.
 
 Agreement: for the gripper and ``--ramp-designs`` random designs, each unit's first-inversion
 pressure in slow-ramp simulations of durations 20, 200 and 2000 s against the continuation's:
@@ -79,7 +79,7 @@ def random_designs(rng: np.random.Generator, n_units: int, count: int):
 
 def _per_design_times(designs, p_max: float, rounds: int, release: bool) -> list[float]:
     """Per design, the median over ``rounds`` passes through all designs (s)."""
-    from ..solvers.snap import snap_pressures
+    from ..solvers.snap.continuation import snap_pressures
 
     samples: list[list[float]] = [[] for _ in designs]
     for _ in range(rounds):
@@ -92,7 +92,7 @@ def _per_design_times(designs, p_max: float, rounds: int, release: bool) -> list
 
 def _cost(designs, p_max: float, rounds: int) -> dict:
     from ..model.design import DesignBatch
-    from ..solvers.snap import snap_pressures, snap_pressures_batch
+    from ..solvers.snap.continuation import snap_pressures, snap_pressures_batch
 
     up = _per_design_times(designs, p_max, rounds, release=False)
     both = _per_design_times(designs, p_max, rounds, release=True)
@@ -114,8 +114,8 @@ def _cost(designs, p_max: float, rounds: int) -> dict:
 
 def _ramp_agreement(designs, p_max: float) -> dict:
     """Lags of slow-ramp simulations behind the continuation, per duration."""
-    from ..solvers.dynamics import PressureProfile, simulate
-    from ..solvers.snap import snap_pressures
+    from ..solvers.dynamics.simulate import PressureProfile, simulate
+    from ..solvers.snap.continuation import snap_pressures
 
     lags = {T: [] for T in DURATIONS}
     state_mismatch = {T: 0 for T in DURATIONS}
@@ -165,7 +165,7 @@ import time
 t0 = time.perf_counter()
 from dpfexplore.examples import example_path
 from dpfexplore.model.design import load_design
-from dpfexplore.solvers.snap import snap_pressures
+from dpfexplore.solvers.snap.continuation import snap_pressures
 d = load_design(example_path("gripper"))
 t1 = time.perf_counter()
 snap_pressures(d, P_max=0.7)

@@ -2,7 +2,7 @@
 
 What it runs: the job ``jobs/surrogate-training.toml`` (the paper's design space, N = 2..7,
 all units inverted; 20,000 designs per N) into a temporary directory, or ``--dataset DIR``;
-:func:`dpfexplore.inverse.surrogate_fit.fit_surrogates` on it (a sixth of the designs held out
+:func:`dpfexplore.surrogates.fit.fit_surrogates` on it (a sixth of the designs held out
 by ``design_id``, at most 100,000 training designs): held-out tip error per N of each surrogate
 (nearest neighbours, gradient-boosted trees, MLP, Gaussian process, and the chain surrogate
 that learns per-unit quantities and composes them exactly), the accuracy of the status
@@ -90,9 +90,9 @@ def _dataset(args: argparse.Namespace, tmp: Path) -> tuple[Path, dict[str, Any]]
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark; exit code 0."""
-    from ..inverse.surrogate_data import load_training_data
-    from ..inverse.surrogate_fit import fit_surrogates
-    from ..inverse.surrogate_report import format_report
+    from ..surrogates.data import load_training_data
+    from ..surrogates.fit import fit_surrogates
+    from ..surrogates.report import format_report
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     with tempfile.TemporaryDirectory() as tmp:
@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
                                     if not args.json else None)
         wall = time.perf_counter() - start
         if args.save:
-            from ..inverse.surrogate_store import save_surrogates
+            from ..surrogates.store import save_surrogates
 
             save_surrogates(surrogates, SAVED_MODEL)
     report = surrogates.report
@@ -135,6 +135,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _json_ready(record: dict[str, Any]) -> dict[str, Any]:
-    from ..inverse.surrogate_store import json_safe
+    from ..surrogates.store import json_safe
 
     return json_safe(record)

@@ -1,6 +1,6 @@
 """``dpfexplore design SCENE.toml [--out DIR] [--json] [--plot]``: inverse design of a scene.
 
-Solves every target of a scene file (format in :mod:`dpfexplore.inverse.scene_jobs`), verifies
+Solves every target of a scene file (format in :mod:`dpfexplore.inverse.spec`), verifies
 each reported design by the exact model, prints a summary (or ``--json``) and writes the report
 to ``DIR`` (default ``results/<scene name>``): ``summary.json``, ``history.parquet``, one design
 TOML per target (``dpfexplore states`` reads it back) and, with ``--plot``, figures.
@@ -85,9 +85,9 @@ class _LineProgress:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore design``."""
     from ..inverse.design import run_design
-    from ..inverse.design_report import public
-    from ..inverse.scene_jobs import SceneSpecError, load_scene, with_seeds
-    from ..inverse.timing_jobs import with_target_reset
+    from ..inverse.report import public
+    from ..inverse.scenes.timing_spec import with_target_reset
+    from ..inverse.spec import SceneSpecError, load_scene, with_seeds
 
     try:
         spec = load_scene(args.scene)

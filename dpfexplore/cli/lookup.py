@@ -71,10 +71,10 @@ def _floats(text: str, option: str) -> list[float]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore lookup``."""
-    from ..inverse.design_files import write_designs
-    from ..inverse.lookup import lookup, parse_n_units
-    from ..inverse.lookup_index import StaleIndexError
-    from ..inverse.refine import parse_constraints
+    from ..lookup.files import write_designs
+    from ..lookup.index import StaleIndexError
+    from ..lookup.polish import parse_constraints
+    from ..lookup.query import lookup, parse_n_units
     from ..sweep.store import StoreError
 
     columns = [c.strip() for c in args.columns.split(",") if c.strip()]
@@ -153,7 +153,7 @@ def _plot(result, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..inverse.lookup import reachable_tips
+    from ..lookup.query import reachable_tips
     from ..plotting.lookup import plot_reachable
 
     # The region the lookup searched: the same numbers of units and state.

@@ -10,7 +10,7 @@ from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
 
 def register(subparsers) -> None:
     """Add the ``reset-maps`` subcommand."""
-    from ..solvers.dynamics import DEFAULT_METHOD, METHODS
+    from ..solvers.dynamics.simulate import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "reset-maps",
@@ -36,7 +36,7 @@ def run(args) -> int:
     """Run the command; returns the exit code."""
     import numpy as np
 
-    from ..solvers.resetmaps import ResetMapSpec, reset_time_maps
+    from ..solvers.dynamics.resetmaps import ResetMapSpec, reset_time_maps
 
     if not 1 <= args.units <= 12:
         raise UsageError(f"--units {args.units}: must be between 1 and 12")

@@ -60,7 +60,7 @@ def _tau(text: str) -> tuple[float, float, float, float]:
 
 def run_fit(args) -> int:
     """Handler of ``reset-model fit``."""
-    from ..solvers.fast_reset_train import TrainingOptions, fit_reset_model
+    from ..surrogates.reset_training import TrainingOptions, fit_reset_model
 
     counts = {"--initial": args.initial, "--per-round": args.per_round, "--rounds": args.rounds,
               "--pool": args.pool, "--calibration": args.calibration,
@@ -97,7 +97,7 @@ def run_fit(args) -> int:
 
 def run_report(args) -> int:
     """Handler of ``reset-model report``."""
-    from ..solvers.fast_reset_model import DEFAULT_MODEL_PATH, load_reset_model
+    from ..solvers.dynamics.reset_model import DEFAULT_MODEL_PATH, load_reset_model
 
     path = Path(args.model) if args.model else DEFAULT_MODEL_PATH
     try:

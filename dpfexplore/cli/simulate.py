@@ -12,7 +12,7 @@ from ._output import fitted_range_line, output_path
 
 def register(subparsers) -> None:
     """Add the ``simulate`` subcommand."""
-    from ..solvers.dynamics import DEFAULT_METHOD, METHODS
+    from ..solvers.dynamics.simulate import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "simulate",
@@ -63,7 +63,7 @@ def _design(text: str):
 
 
 def _profile(args):
-    from ..solvers.dynamics import PressureProfile
+    from ..solvers.dynamics.simulate import PressureProfile
 
     if args.profile:
         try:
@@ -86,7 +86,7 @@ def _profile(args):
 def run(args) -> int:
     """Run the command; returns the exit code."""
     from ..model.status import Status
-    from ..solvers.dynamics import simulate
+    from ..solvers.dynamics.simulate import simulate
 
     if args.method != "fast" and (args.max_rel_halfwidth is not None or args.reset_model):
         raise UsageError("--max-rel-halfwidth and --reset-model need --method fast")
@@ -141,8 +141,8 @@ def _run_fast(args, design, profile) -> int:
     """``--method fast``: one row of ``reset_times_batch(method="fast")``, printed like a run."""
     from ..model.design import DesignBatch
     from ..model.status import Status
-    from ..solvers.dynamics import CLASS_NAMES, reset_times_batch
-    from ..solvers.fast_reset import FALLBACK_REASONS
+    from ..solvers.dynamics.fast_reset import FALLBACK_REASONS
+    from ..solvers.dynamics.simulate import CLASS_NAMES, reset_times_batch
 
     out = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=args.t_end,
                             method="fast", atol=args.atol,

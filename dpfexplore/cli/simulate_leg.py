@@ -36,7 +36,7 @@ def register(subparsers) -> None:
 
 def _leg(text: str, assignments):
     from ..examples import NAMES, example_path
-    from ..solvers.leg import apply_assignments, load_leg
+    from ..solvers.legs.leg import apply_assignments, load_leg
 
     path = Path(text)
     if not path.exists() and text in NAMES:
@@ -49,7 +49,7 @@ def _leg(text: str, assignments):
 def run(args) -> int:
     """Run the command; returns the exit code."""
     from ..model.status import Status
-    from ..solvers.leg import simulate_leg
+    from ..solvers.legs.leg import simulate_leg
 
     try:
         leg = _leg(args.leg, args.assignments)

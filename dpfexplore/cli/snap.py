@@ -43,7 +43,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     """Handler of ``dpfexplore snap``."""
     from ..model.status import Status
-    from ..solvers.snap import snap_pressures
+    from ..solvers.snap.continuation import snap_pressures
     from .simulate import _design
 
     try:

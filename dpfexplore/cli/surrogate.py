@@ -85,10 +85,10 @@ def _resolve(name: str) -> Path:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from ..inverse.surrogate_data import load_training_data
-    from ..inverse.surrogate_fit import fit_surrogates
-    from ..inverse.surrogate_report import format_report
-    from ..inverse.surrogate_store import save_surrogates
+    from ..surrogates.data import load_training_data
+    from ..surrogates.fit import fit_surrogates
+    from ..surrogates.report import format_report
+    from ..surrogates.store import save_surrogates
 
     outputs = [o.strip() for o in args.outputs.split(",") if o.strip()]
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
@@ -112,8 +112,8 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from ..inverse.surrogate_report import format_report
-    from ..inverse.surrogate_store import SurrogateLoadError, read_report
+    from ..surrogates.report import format_report
+    from ..surrogates.store import SurrogateLoadError, read_report
 
     try:
         report = read_report(_resolve(args.name))
@@ -146,7 +146,7 @@ def _read_designs(path: Path):
 
 
 def _predict(args: argparse.Namespace) -> int:
-    from ..inverse.surrogate_store import SurrogateLoadError, load_surrogates
+    from ..surrogates.store import SurrogateLoadError, load_surrogates
 
     try:
         surrogates = load_surrogates(_resolve(args.name), dataset=args.dataset)

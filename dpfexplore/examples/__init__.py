@@ -1,7 +1,7 @@
 """Shipped examples (TOML), found with :func:`example_path`.
 
 Designs (a ``[design]`` table): ``gripper``, ``pickplace``. Legs (MODEL.md §10, read by
-:func:`dpfexplore.solvers.leg.load_leg`): ``walker-leg`` (the implementation's leg with
+:func:`dpfexplore.solvers.legs.leg.load_leg`): ``walker-leg`` (the implementation's leg with
 ``H_p = 1.1``) and ``walker-leg-2.5`` (``H_p = 2.5``).
 """
 

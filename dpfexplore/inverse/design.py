@@ -7,13 +7,13 @@
     >>> outcome.rows[1]["tip"], outcome.rows[1]["objective"]                   # doctest: +SKIP
 
 :data:`SOLVERS` maps each scene kind to the solver of one target
-(:func:`dpfexplore.inverse.optimiser.solve_position_target`,
-:func:`dpfexplore.inverse.gripper_design.solve_gripper`,
-:func:`dpfexplore.inverse.pickplace_design.solve_pickplace`,
-:func:`dpfexplore.inverse.walker_design.solve_walker`); :data:`REPORTS` to the function that
-verifies and reports its result (:mod:`dpfexplore.inverse.design_report`,
-:mod:`dpfexplore.inverse.timing_report`, :mod:`dpfexplore.inverse.walker_report`), and
-:data:`WRITERS` to the writer of its files where it is not the default.
+(:func:`dpfexplore.inverse.engine.optimiser.solve_position_target`,
+:func:`dpfexplore.inverse.scenes.gripper.solve.solve_gripper`,
+:func:`dpfexplore.inverse.scenes.pickplace.solve.solve_pickplace`,
+:func:`dpfexplore.inverse.scenes.walker.solve.solve_walker`); :data:`REPORTS` to the function that
+verifies and reports its result (:mod:`dpfexplore.inverse.report`,
+:mod:`dpfexplore.inverse.scenes.pickplace.report`, :mod:`dpfexplore.inverse.scenes.walker.report`),
+and :data:`WRITERS` to the writer of its files where it is not the default.
 """
 
 from __future__ import annotations
@@ -24,15 +24,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
-from .design_report import gripper_report, position_report, write_report
+from .engine.optimiser import TargetResult, solve_position_target
 from .evaluation import Evaluator
-from .gripper_design import solve_gripper
-from .optimiser import TargetResult, solve_position_target
-from .pickplace_design import solve_pickplace
-from .scene_jobs import SceneSpec
-from .timing_report import pickplace_report, write_timing_report
-from .walker_design import solve_walker
-from .walker_report import walker_report, write_walker_report
+from .report import gripper_report, position_report, write_report
+from .scenes.gripper.solve import solve_gripper
+from .scenes.pickplace.report import pickplace_report, write_timing_report
+from .scenes.pickplace.solve import solve_pickplace
+from .scenes.walker.report import walker_report, write_walker_report
+from .scenes.walker.solve import solve_walker
+from .spec import SceneSpec
 
 __all__ = ["REPORTS", "SOLVERS", "WRITERS", "DesignOutcome", "Progress", "design_scene",
            "run_design"]

@@ -14,14 +14,14 @@ Kinds of evaluation (:data:`EVALUATION_KINDS`)
     ``derivative``    designs evaluated for a derivative (one solve with the model's
                       sensitivities per Jacobian; a central-difference stencil where the
                       sensitivities are not defined)
-    ``snap``          snap-pressure continuations (:mod:`dpfexplore.solvers.snap`)
+    ``snap``          snap-pressure continuations (:mod:`dpfexplore.solvers.snap.continuation`)
     ``simulations``   full-dynamics runs (pressure pulse, Rodas4)
     ``screening``     reduced-model reset times (``method="fast"`` or ``"release"``): screening
                       only, never reported
-    ``sections``      leg sections simulated in the full model (:mod:`dpfexplore.solvers.leg`)
+    ``sections``      leg sections simulated in the full model (:mod:`dpfexplore.solvers.legs.leg`)
     ``verifications`` single-design re-solves of reported designs (``find_state``, or a
                       full-model simulation at a tight tolerance for the timing scenes)
-    ``seeds``         candidates taken from a sweep dataset (:mod:`dpfexplore.inverse.seeds`):
+    ``seeds``         candidates taken from a sweep dataset (:mod:`~.engine.seeds`):
                       the dataset's exact tips, no model evaluation
 """
 
@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
-from ..solvers.dynamics import SimulationResult, reset_times_batch, simulate
+from ..solvers.dynamics.simulate import SimulationResult, reset_times_batch, simulate
 from ..solvers.statics import solve_batch
 
 __all__ = ["EVALUATION_KINDS", "Evaluator", "few_threads"]
@@ -188,7 +188,7 @@ class Evaluator:
 
     def simulate(self, design: Design, profile: PressureProfile, *, t_end: float,
                  kind: str = "simulations", **options) -> SimulationResult:  # fmt: skip
-        """One full-model run (:func:`dpfexplore.solvers.dynamics.simulate`), counted as ``kind``.
+        """One full-model run (:func:`~dpfexplore.solvers.dynamics.simulate.simulate`), as ``kind``.
 
         Runs to ``t_end`` (no early stop unless asked), so a reset time is the last downward
         crossing of the whole horizon.

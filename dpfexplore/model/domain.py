@@ -21,7 +21,7 @@ Physical domain (rejected outside)
       has 0, and tips at ``x < 0``. Random designs with ``r_b < H <= 2.5 r_b`` still give
       such rows (9 of 17,498 collapsed rows); with ``H <= r_b`` none were found in about
       250,000 collapsed rows of 2-6 unit fingers over wide ranges of every other parameter
-      (``tests/test_domain.py`` keeps checking it with hypothesis).
+      (``tests/model/test_domain.py`` keeps checking it with hypothesis).
     * ``H_k < U_L_k``: a dome at least as tall as its unit is long fills the unit; there is no
       room for it. (The model itself does not fail there, but no finger looks like that.)
 

@@ -124,7 +124,7 @@ def plot_time_vs_error(records: Sequence[dict], ax=None, *, case: str | None = N
 
 
 def plot_reset_maps(maps, fig=None):
-    """The three maps of :func:`dpfexplore.solvers.resetmaps.reset_time_maps` side by side.
+    """The three maps of :func:`dpfexplore.solvers.dynamics.resetmaps.reset_time_maps` side by side.
 
     ``maps`` holds the ``"H"``, ``"t"`` and ``"hold"`` frames. Draws on ``fig`` (a new
     :class:`matplotlib.figure.Figure` by default) and returns it.

@@ -24,7 +24,7 @@ def plot_tip_paths(results: Any, axes: Sequence[Any] | None = None,
     Parameters
     ----------
     results : LegResult or sequence of LegResult
-        :func:`dpfexplore.solvers.leg.simulate_leg` outputs, drawn over each other.
+        :func:`dpfexplore.solvers.legs.leg.simulate_leg` outputs, drawn over each other.
     axes : sequence of two Axes, optional
     labels : sequence of str, optional
         One per result (default: the leg names).

@@ -4,7 +4,7 @@
 boundary of the occupied cells of a 2-D histogram, gaps of one cell closed, so a sparse cloud
 stays one region and a real hole in a dense one stays a hole), the points themselves faintly, the
 target and the candidates' tips. Input is plain arrays (see
-:func:`dpfexplore.inverse.lookup.reachable_tips`); no file I/O.
+:func:`dpfexplore.lookup.query.reachable_tips`); no file I/O.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.axes import Axes
 
-from ..solvers.snap import SnapSequence
+from ..solvers.snap.continuation import SnapSequence
 
 __all__ = ["plot_snap"]
 

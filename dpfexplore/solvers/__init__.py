@@ -1,7 +1,7 @@
 """Solvers: the Python API that validates designs, packs them for the kernels and wraps results.
 
-Modules
--------
+Modules and packages
+--------------------
 lattice
     From designs to kernel arrays; :func:`~.lattice.spring_constants`.
 statics
@@ -11,25 +11,16 @@ sensitivities
     :class:`~.sensitivities.Sensitivities`: derivatives of a state's outputs in the design.
 follower
     Follower-force stiffness (the paper's quasi-static ramp; a validation path).
-dynamics_common
-    Methods, controls, results and the batch runner shared by the dynamics front ends.
-dynamics_scipy
-    The trusted baseline: the same equations through ``scipy.integrate.solve_ivp``.
-reduced
-    The release model, a reduced reset-time model with its error measured.
-fast_reset, fast_reset_model, fast_reset_train
-    The fast reset-time model (``reset_times_batch(..., method="fast")``): physical core,
-    fitted correction and interval, fallback; its JSON model file; its training.
+compilation
+    Which kernels are compiled already (the compile notices).
 dynamics
-    :func:`~.dynamics.simulate` and :func:`~.dynamics.reset_times_batch` (MODEL.md §8).
-resetmaps
-    The paper's metastable-dome maps (reset time against H, t and hold time).
-ramp
-    Inversion pressures from slow pressure ramps (extrapolated to the quasi-static fold).
-snap, snap_results
-    :func:`~.snap.snap_pressures`: the states a slow pressure ramp visits, its snap pressures
-    and each state's pressure window (quasi-static continuation, landings by the dynamics).
-leg_kinematics, leg
+    Simulation and reset times (MODEL.md §8): :func:`~.dynamics.simulate.simulate`,
+    :func:`~.dynamics.simulate.reset_times_batch`, the SciPy baseline, the release and fast
+    reset models, reset maps and inversion pressures from ramps.
+snap
+    :func:`~.snap.continuation.snap_pressures`: the states a slow pressure ramp visits, its snap
+    pressures and each state's pressure window.
+legs
     Legs (MODEL.md §10): sections simulated alone under their phases, composed into a 3D tip
-    path; :func:`~.leg.simulate_leg`, :func:`~.leg.load_leg`.
+    path; :func:`~.legs.leg.simulate_leg`, :func:`~.legs.leg.load_leg`.
 """

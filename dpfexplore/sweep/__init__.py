@@ -18,4 +18,9 @@ engines
     Where chunks run: this process or Dask workers.
 driver
     :func:`~.driver.run_sweep`: the whole job, resumable.
+datasets
+    What a sweep directory holds now: committed chunks, content checksum, verified reads.
+variables
+    :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
+    box (shared by lookup's polish and inverse design).
 """

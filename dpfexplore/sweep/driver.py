@@ -8,7 +8,7 @@ number of units ``N``; the chunk evaluates its designs through the batch kernels
 (:func:`run_chunk`), writes one Parquet file, and returns its
 :class:`~dpfexplore.sweep.store.ChunkRecord`.
 
-Invariants (tested in ``tests/test_sweep*.py``)
+Invariants (tested in ``tests/sweep/test_sweep*.py``)
     * Every design of the plan has at least one row, whatever its fate: an invalid design keeps
       one row with its status (``invalid_input``, ``invalid_constants``) and the reason in
       ``problem``; a state that does not exist keeps its row as ``collapsed``.

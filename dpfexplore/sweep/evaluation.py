@@ -7,7 +7,7 @@ evaluated. Evaluators are plain picklable objects so that Dask workers can run t
 
 :class:`StaticsEvaluator` is the evaluator of every job: it calls
 :func:`dpfexplore.solvers.statics.solve_batch` for the states the job asks for and, when the job
-asks for reset times, :func:`dpfexplore.solvers.dynamics.reset_times_batch` for every valid
+asks for reset times, :func:`dpfexplore.solvers.dynamics.simulate.reset_times_batch` for every valid
 design. A static screen would be cheaper but is not safe: a dome that is bistable in isolation
 (``alpha < 1/9``, MODEL.md §4) can reset inside its finger, whose bending stiffness adds to its
 restoring force (a 5-unit finger of H = 3.0 mm domes at t = 0.83 mm, alpha = 0.104, resets
@@ -188,7 +188,8 @@ def _dynamics_fields(max_units: int, *, fast: bool = False) -> list[pa.Field]:
             column("reset_fallback", pa.bool_(), "1",
                    "the fast reset model fell back to the full model for this design"),
             column("reset_fallback_reason", pa.int16(), "1",
-                   "why (bit flags, dpfexplore.solvers.fast_reset.FALLBACK_REASONS; 0: none)"),
+                   "why (bit flags, dpfexplore.solvers.dynamics.fast_reset.FALLBACK_REASONS;"
+                   " 0: none)"),
         ]
         per_unit += (
             ("reset_time_lo", pa.float64(), "s",
@@ -208,9 +209,9 @@ def reset_times(batch: DesignBatch, load: PressureLoad) -> dict[str, NDArray]:
     """Per-design dynamics columns; every valid design is simulated (see the module docstring).
 
     Invalid designs keep their input status as ``dyn_status`` and empty outputs, as
-    :func:`dpfexplore.solvers.dynamics.reset_times_batch` returns them.
+    :func:`dpfexplore.solvers.dynamics.simulate.reset_times_batch` returns them.
     """
-    from ..solvers.dynamics import PressureProfile, reset_times_batch
+    from ..solvers.dynamics.simulate import PressureProfile, reset_times_batch
 
     profile = PressureProfile(P0=load.P0, tau=load.tau)
     kwargs = {"t_end": load.t_end}

@@ -52,7 +52,7 @@ Constraints without destroying stratification
       uniform on the constrained region (each ``H_k`` follows the order-statistic law
       ``Beta(k, N+1-k)`` on its range, as it must), every ``u_k`` keeps its Latin-hypercube
       strata, and the height of unit 1 is stratified in the quantiles of its own marginal law
-      (exactly one point per ``1/n`` quantile stratum; ``tests/test_sampling.py`` checks
+      (exactly one point per ``1/n`` quantile stratum; ``tests/sweep/test_sampling.py`` checks
       this). For ``"descending"`` the heights are mirrored, ``1 - y``, so unit 1 (the base) is
       the tallest.
 """

@@ -186,9 +186,10 @@ class PressureLoad:
         Simulation horizon (absolute time, > ``tau4``); a unit that has not reset by then gets
         a reset time of ``inf``.
     method : str or None
-        Integrator of :func:`dpfexplore.solvers.dynamics.reset_times_batch` (None: its default);
-        ``"fast"`` is the fast reset model (:mod:`dpfexplore.solvers.fast_reset`), which adds
-        each unit's 90 % interval and a per-design fallback flag to the dataset.
+        Integrator of :func:`dpfexplore.solvers.dynamics.simulate.reset_times_batch` (None: its
+        default); ``"fast"`` is the fast reset model
+        (:mod:`dpfexplore.solvers.dynamics.fast_reset`), which adds each unit's 90 % interval
+        and a per-design fallback flag to the dataset.
     max_rel_halfwidth : float or None
         ``"fast"`` only: designs with a wider relative interval run the full model.
     """
@@ -588,7 +589,7 @@ def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
         raise JobSpecError(f"{key}.t_end = {t_end!r}: must be after tau4 = {tau[3]!r} s")
     method = _v.string(table, key, "method") if "method" in table else None
     if method is not None:
-        from ..solvers.dynamics import METHODS
+        from ..solvers.dynamics.simulate import METHODS
 
         batch_methods = [
             name for name, info in METHODS.items()

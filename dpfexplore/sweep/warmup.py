@@ -53,13 +53,13 @@ def compile_kernels(compute: ComputeSpec | None = None) -> float:
     # parallel, which warm_up both runs).
     warm_up(batch)
     if compute is None or compute.reset_times is not None:
-        from ..solvers.dynamics import PressureProfile, reset_times_batch
+        from ..solvers.dynamics.simulate import PressureProfile, reset_times_batch
 
         profile = PressureProfile(P0=0.7, tau=(0.0, 0.01, 0.02, 0.03))
         reset_times_batch(batch.take(np.array([1])), profile, t_end=0.04)
     if compute is None or (compute.reset_times is not None
                            and compute.reset_times.method == "fast"):  # fmt: skip
-        from ..solvers.fast_reset import compile_fast_reset
+        from ..solvers.dynamics.fast_reset import compile_fast_reset
 
         compile_fast_reset()
     elapsed = time.perf_counter() - start

@@ -1,0 +1,11 @@
+"""Scene-agnostic numerics of inverse design; imports no scene.
+
+Modules
+-------
+derivatives
+    Central differences in the unit box: the fallback where exact sensitivities are undefined.
+optimiser
+    Latin-hypercube candidates, trust-region refinement on exact sensitivities, SLSQP fronts.
+seeds
+    Candidates from a sweep dataset's lookup index instead of a Latin hypercube.
+"""

@@ -1,0 +1,517 @@
+"""The multi-target optimiser of inverse design, built for this model.
+
+Method
+------
+1. **Candidates for every N at once.** A Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`)
+   in the box ``z ∈ [0, 1]^dim`` of each number of units, mapped to designs by
+   :class:`~dpfexplore.sweep.variables.DesignVariables` (so every candidate honours the bounds,
+   orders, ties and shared parameters exactly), solved in one batch across all N; or, when the
+   scene names a sweep dataset (``[optimiser] seeds``), the dataset's designs nearest the target
+   (:mod:`dpfexplore.inverse.engine.seeds`: the lookup index, no model evaluation).
+2. **Gradient refinement on the exact model.** From the best candidates of each N, a bounded
+   trust-region least-squares solve (:func:`scipy.optimize.least_squares`, TRF, bounds = the box)
+   of the residual (tip minus target, apertures minus targets) with the design sensitivities of
+   :mod:`dpfexplore.inverse.engine.derivatives`. The constraints are never penalised: they are the
+   box. A trial point whose targeted state does not exist (the design collapses to another state)
+   has no residual; the trust region shrinks and the step is retried.
+3. **Two objectives as a front.** Stiffness against tip tolerance: for each tolerance of a
+   ladder, maximise ``log K`` subject to ``|tip - target| <= tol`` by SLSQP on the exact
+   gradients, warm-started from the previous (tighter) rung, from every N where the target is
+   reachable. The answer at each rung is the stiffest exactly evaluated design that meets it.
+   The paper's weighted sum ``w1 |r|² + w2 (1/K)²`` is a least-squares problem too
+   (residual ``[√w1 r, √w2 / K]``) and is solved by step 2.
+4. **Unreachable targets are proven, not guessed.** A target is declared unreachable only when
+   ``starts_per_n`` refinements from the best distinct candidates of every N all stop above the
+   tolerance; the report gives the nearest tip found and the tips of every evaluated design
+   (the sampled reachable region) per N.
+
+Each scene kind has a solver in :data:`dpfexplore.inverse.design.SOLVERS` (the gripper's is in
+:mod:`dpfexplore.inverse.scenes.gripper.solve`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares, minimize
+from scipy.stats import qmc
+
+from ...model.design import Design, DesignBatch
+from ..evaluation import Evaluator
+from ..problem import Evaluation, PositionProblem, Problem
+from .seeds import seed_candidates
+
+__all__ = [
+    "FrontPoint",
+    "Refinement",
+    "TargetResult",
+    "latin_candidates",
+    "maximise_stiffness",
+    "refine",
+    "screen",
+    "solve_position_target",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Refinements stop once the objective is this fraction of the tolerance (a margin for the
+#: verification re-solve).
+GOAL_FRACTION = 1e-3
+#: A refinement whose squared residual falls by less than this fraction in an iteration has
+#: settled in a local minimum above the goal (a zero-residual solve converges quadratically, so
+#: this never stops one that is reaching its target).
+FTOL = 1e-4
+#: A short first refinement that ends within this squared distance (mm²) is continued at once.
+PROMISING = 1e-2
+#: Exact position solutions (the stiffest ones) that a stiffness front is grown from.
+FRONT_STARTS = 3
+
+
+@dataclass(eq=False)
+class Refinement:
+    """Outcome of one gradient refinement."""
+
+    problem: Problem
+    z: NDArray
+    evaluation: Evaluation
+    objective: float
+    iterations: int
+    reached: bool
+
+
+@dataclass
+class FrontPoint:
+    """The stiffest design found within one tip tolerance (mm)."""
+
+    tolerance: float
+    z: NDArray | None
+    problem: Problem | None
+    distance: float
+    stiffness: float
+
+
+@dataclass
+class TargetResult:
+    """Everything the optimiser found for one target (before verification and reporting)."""
+
+    target_index: int
+    target: tuple[float, ...]
+    best: Refinement | None
+    reachable: bool
+    per_n: dict[int, float] = field(default_factory=dict)
+    starts: list[Refinement] = field(default_factory=list)
+    front: list[FrontPoint] = field(default_factory=list)
+    weighted: Refinement | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+    wall_s: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- candidates
+
+
+def latin_candidates(dim: int, n: int, seed: int) -> NDArray:
+    """``n`` Latin-hypercube points in ``[0, 1]^dim`` (an empty row for ``dim = 0``)."""
+    if dim == 0:
+        return np.zeros((1, 0))
+    return qmc.LatinHypercube(d=dim, rng=np.random.default_rng(seed)).random(n)
+
+
+def screen(problems: Sequence[Problem], points: Sequence[NDArray], *, stiffness: bool = False
+           ) -> list[Evaluation]:  # fmt: skip
+    """Evaluate points of several problems (e.g. every N) in one batch of the exact model."""
+    requests = [p.requests(z, stiffness=stiffness) for p, z in zip(problems, points, strict=True)]
+    n_states = {r[1].size for r in requests}
+    if len(n_states) != 1:  # different state counts: one call per problem
+        return [p.evaluate(z, purpose="candidate", stiffness=stiffness)
+                for p, z in zip(problems, points, strict=True)]  # fmt: skip
+    batch = _concat([r[0] for r in requests])
+    states = np.vstack([np.broadcast_to(r[1], (len(r[0]), r[1].size)) for r in requests])
+    want = requests[0][2]
+    evaluator = problems[0].evaluator
+    out = evaluator.solve(batch, states, stiffness=want)
+    evaluations, start = [], 0
+    for p, z, (b, _, _) in zip(problems, points, requests, strict=True):
+        part = {k: v[start:start + len(b)] for k, v in out.items()}
+        ev = p.finish(z, b, part)
+        p.record(b, ev, "candidate")
+        evaluations.append(ev)
+        start += len(b)
+    return evaluations
+
+
+def _candidates(problems: Sequence[PositionProblem], spec, evaluator: Evaluator
+                ) -> list[Evaluation]:  # fmt: skip
+    """Candidates of every N: the scene's dataset seeds, else a screened Latin hypercube.
+
+    The N a seeds dataset lacks (or a scene without one) get the Latin hypercube, screened in
+    one batch.
+    """
+    settings = spec.optimiser
+    seeded: list[Evaluation | None] = [None] * len(problems)
+    if settings.seeds is not None:
+        seeded = seed_candidates(list(problems), settings.seeds, settings.seeds_per_n, evaluator)
+    missing = [i for i, ev in enumerate(seeded) if ev is None]
+    points = [
+        latin_candidates(problems[i].dim, settings.candidates_per_n,
+                         spec.seed + 7919 * problems[i].n_units)
+        for i in missing
+    ]  # fmt: skip
+    for i, ev in zip(missing, screen([problems[i] for i in missing], points), strict=True):
+        seeded[i] = ev
+    return seeded  # type: ignore[return-value]
+
+
+def _concat(batches: Sequence[DesignBatch]) -> DesignBatch:
+    return DesignBatch(**{name: np.concatenate([getattr(b, name) for b in batches])
+                          for name in DesignBatch.__dataclass_fields__})  # fmt: skip
+
+
+def _distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> list[int]:
+    """Indices of up to ``count`` best feasible candidates, at least ``min_gap`` apart in z."""
+    order = np.argsort(ev.objective)
+    chosen: list[int] = []
+    for i in order:
+        if not np.isfinite(ev.objective[i]):
+            break
+        if all(np.max(np.abs(ev.z[i] - ev.z[j])) >= min_gap for j in chosen):
+            chosen.append(int(i))
+        if len(chosen) == count:
+            break
+    return chosen
+
+
+# ----------------------------------------------------------------------------- refinement
+
+
+class _Reached(Exception):
+    def __init__(self, z: NDArray, ev: Evaluation) -> None:
+        self.z, self.ev = z, ev
+
+
+def refine(
+    problem: Problem,
+    z0: NDArray,
+    *,
+    goal: float,
+    max_iter: int,
+    weights: tuple[float, float] | None = None,
+) -> Refinement:
+    """Least-squares refinement (TRF in the box) of a problem's residual from ``z0``.
+
+    Parameters
+    ----------
+    problem : Problem
+    z0 : ndarray of shape (dim,)
+        A point whose targeted states exist.
+    goal : float, mm²
+        Stop as soon as the squared residual is at most this.
+    max_iter : int
+        Residual evaluations allowed (each with its derivative stencil).
+    weights : (w1, w2), optional
+        Solve the paper's weighted sum ``w1 |r|² + w2 (1/K)²`` instead (no early stop).
+
+    Returns
+    -------
+    Refinement
+        The best exactly evaluated point of the run.
+    """
+    stiffness = weights is not None
+    best: dict = {"value": np.inf, "z": None, "ev": None}
+    last: dict = {}
+    n_res = problem.n_residuals + (1 if stiffness else 0)
+
+    def value(ev: Evaluation) -> NDArray:
+        r = ev.residual[0]
+        if stiffness:
+            w1, w2 = weights
+            return np.append(math.sqrt(w1) * r, math.sqrt(w2) / ev.stiffness[0])
+        return r
+
+    def fun(z: NDArray) -> NDArray:
+        z = np.clip(z, 0.0, 1.0)
+        ev = problem.evaluate(z[None, :], purpose="refine", stiffness=stiffness)
+        last["z"], last["ev"] = z.copy(), ev
+        if not ev.ok[0]:
+            return np.full(n_res, np.inf)
+        f = value(ev)
+        total = float(f @ f)
+        if total < best["value"]:
+            best.update(value=total, z=z.copy(), ev=ev)
+        if not stiffness and total <= goal:
+            raise _Reached(z.copy(), ev)
+        return f
+
+    def jac(z: NDArray) -> NDArray:
+        z = np.clip(z, 0.0, 1.0)
+        ev = last["ev"] if last.get("z") is not None and np.array_equal(last["z"], z) else None
+        if ev is None or not ev.ok[0]:
+            ev = problem.evaluate(z[None, :], purpose="refine", stiffness=stiffness)
+        d_res, d_logk = problem.jacobian(ev, stiffness=stiffness)
+        if not stiffness:
+            return d_res
+        w1, w2 = weights
+        return np.vstack([math.sqrt(w1) * d_res, -math.sqrt(w2) / ev.stiffness[0] * d_logk])
+
+    iterations = 0
+    try:
+        if problem.dim == 0:
+            fun(np.zeros(0))
+        else:
+            result = least_squares(fun, np.clip(z0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0),
+                                   method="trf", x_scale=1.0, ftol=FTOL, xtol=1e-12,
+                                   gtol=1e-15, max_nfev=max_iter)  # fmt: skip
+            iterations = int(result.nfev)
+    except _Reached as hit:
+        best.update(value=float(hit.ev.objective[0]), z=hit.z, ev=hit.ev)
+    except ValueError as exc:  # least_squares refuses a start without a residual
+        logger.debug("refinement start rejected: %s", exc)
+    if best["z"] is None:
+        ev = problem.evaluate(np.clip(z0, 0, 1)[None, :], purpose="refine", stiffness=stiffness)
+        best.update(z=np.clip(z0, 0, 1), ev=ev)
+    ev = best["ev"]
+    objective = float(ev.objective[0])
+    return Refinement(problem=problem, z=best["z"], evaluation=ev, objective=objective,
+                      iterations=iterations, reached=objective <= goal)  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- front
+
+
+def maximise_stiffness(
+    problem: Problem,
+    z0: NDArray,
+    tolerance: float,
+    *,
+    max_iter: int,
+    extra_constraints: Sequence[dict] = (),
+) -> tuple[NDArray | None, Evaluation | None]:
+    """Stiffest design with ``|residual| <= tolerance`` (mm) near ``z0``, by SLSQP.
+
+    The residual constraint is ``1 - |r|²/tol² >= 0`` (scaled so every rung of a front is
+    conditioned alike), the objective ``-log K``; both with exact-model derivatives. Returns the
+    stiffest exactly evaluated point that meets the tolerance (it may be ``z0`` itself), or
+    ``None`` when no evaluated point met it.
+    """
+    tol2 = tolerance**2
+    best: dict = {"k": -np.inf, "z": None, "ev": None}
+    cache: dict = {}
+
+    def at(z: NDArray) -> Evaluation:
+        z = np.clip(z, 0.0, 1.0)
+        key = z.tobytes()
+        if key not in cache:
+            ev = problem.evaluate(z[None, :], purpose="front", stiffness=True)
+            cache.clear()
+            cache[key] = ev
+            # SLSQP meets active constraints to rounding: a relative slack of 1e-9 accepts its
+            # end point without moving a reported design measurably.
+            if ev.ok[0] and ev.objective[0] <= tol2 * (1 + 1e-9) and \
+                    ev.stiffness[0] > best["k"] and \
+                    all(c["fun"](z) >= -1e-9 for c in extra_constraints):  # fmt: skip
+                best.update(k=float(ev.stiffness[0]), z=z.copy(), ev=ev)
+        return cache[key]
+
+    def grads(z: NDArray) -> tuple[NDArray, NDArray]:
+        ev = at(z)
+        key = ("jac", np.clip(z, 0.0, 1.0).tobytes())
+        if key not in cache:
+            cache[key] = problem.jacobian(ev, stiffness=True) if ev.ok[0] else (
+                np.zeros((problem.n_residuals, problem.dim)), np.zeros(problem.dim))
+        return cache[key]
+
+    def objective(z: NDArray) -> float:
+        ev = at(z)
+        return -math.log(ev.stiffness[0]) if ev.ok[0] else 50.0
+
+    def objective_grad(z: NDArray) -> NDArray:
+        return -grads(z)[1]
+
+    def constraint(z: NDArray) -> float:
+        ev = at(z)
+        return 1.0 - float(ev.objective[0]) / tol2 if ev.ok[0] else -1.0
+
+    def constraint_grad(z: NDArray) -> NDArray:
+        ev = at(z)
+        if not ev.ok[0]:
+            return np.zeros(problem.dim)
+        return -2.0 * ev.residual[0] @ grads(z)[0] / tol2
+
+    at(z0)
+    if problem.dim:
+        out = minimize(objective, np.clip(z0, 0.0, 1.0), jac=objective_grad, method="SLSQP",
+                       bounds=[(0.0, 1.0)] * problem.dim,
+                       constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_grad},
+                                    *extra_constraints],
+                       options={"maxiter": max_iter, "ftol": 1e-10})  # fmt: skip
+        logger.debug("SLSQP: %s after %d iterations", out.message, out.nit)
+    return best["z"], best["ev"]
+
+
+# ----------------------------------------------------------------------------- position
+
+
+def position_problems(spec, target_index: int, evaluator: Evaluator) -> list[PositionProblem]:
+    """One problem per N of the scene for one target."""
+    target = spec.targets[target_index].point
+    return [PositionProblem(spec.design_variables(n), target, spec.state, evaluator, target_index)
+            for n in spec.n_units]  # fmt: skip
+
+
+def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
+                          exhaustive: bool = False) -> TargetResult:  # fmt: skip
+    """Meet one target of a position scene (and its front or weighted sum when asked).
+
+    Parameters
+    ----------
+    spec : SceneSpec
+    target_index : int
+    evaluator : Evaluator
+    exhaustive : bool
+        Refine from every N even after the target is met (the front needs every N where the
+        target is reachable).
+    """
+    counts0 = dict(evaluator.counts)
+    wall0 = evaluator.wall_s
+    problems = position_problems(spec, target_index, evaluator)
+    settings = spec.optimiser
+    stiff_scene = spec.kind == "position_stiffness"
+    goal = GOAL_FRACTION * spec.tolerance
+    candidates = _candidates(problems, spec, evaluator)
+    starts = {p.n_units: _distinct_starts(ev, settings.starts_per_n)
+              for p, ev in zip(problems, candidates, strict=True)}  # fmt: skip
+    best_candidate = {p.n_units: float(np.min(ev.objective))
+                      for p, ev in zip(problems, candidates, strict=True)}  # fmt: skip
+    order = sorted(range(len(problems)), key=lambda i: best_candidate[problems[i].n_units])
+    result = TargetResult(target_index=target_index, target=spec.targets[target_index].point,
+                          best=None, reachable=False,
+                          per_n={n: v for n, v in best_candidate.items()})  # fmt: skip
+    reached_n: set[int] = set()
+    # Rounds: first a short refinement from the best start of every N (most reachable targets
+    # are met there), then that refinement continued with the full budget from the N nearest
+    # the target first, then the further starts.
+    quick = max(8, settings.max_iter // 5)
+    plan = [(0, quick, False), (0, settings.max_iter, True)]
+    plan += [(k, settings.max_iter, False) for k in range(1, settings.starts_per_n)]
+    last: dict[int, Refinement] = {}
+    for start, budget, resume in plan:
+        if resume:
+            order = sorted(order, key=lambda i: result.per_n[problems[i].n_units])
+        for i in order:
+            problem, ev = problems[i], candidates[i]
+            n = problem.n_units
+            if n in reached_n or start >= len(starts[n]):
+                continue
+            z0 = last[n].z if resume and n in last else ev.z[starts[n][start]]
+            run = refine(problem, z0, goal=goal, max_iter=budget)
+            if not resume and budget < settings.max_iter and goal < run.objective <= PROMISING:
+                # Converging on this N: finish here rather than after the other N.
+                run = refine(problem, run.z, goal=goal, max_iter=settings.max_iter)
+            if resume and n in last:  # the continued run replaces the short one
+                slot = next(j for j, r in enumerate(result.starts) if r is last[n])
+                result.starts[slot] = run
+            else:
+                result.starts.append(run)
+            last[n] = run
+            result.per_n[n] = min(result.per_n[n], run.objective)
+            if result.best is None or run.objective < result.best.objective:
+                result.best = run
+            if run.objective <= spec.tolerance:
+                reached_n.add(n)
+                if not exhaustive:
+                    break
+        if reached_n and not exhaustive:
+            break
+    result.reachable = result.best is not None and result.best.objective <= spec.tolerance
+    if not result.reachable:
+        # The nearest tip of any evaluated design (derivative stencils included).
+        problem = min(problems, key=lambda p: p.best_seen[0])
+        objective, z = problem.best_seen
+        if z is not None and (result.best is None or objective < result.best.objective):
+            ev = problem.evaluate(z[None, :], purpose="nearest")
+            result.best = Refinement(problem, z, ev, float(ev.objective[0]), 0, False)
+        for p in problems:
+            result.per_n[p.n_units] = min(result.per_n[p.n_units], p.best_seen[0])
+    if result.best is None:  # no design had the targeted state: report the best candidate
+        i = order[0]
+        j = int(np.argmin(candidates[i].objective))
+        result.best = Refinement(problems[i], candidates[i].z[j], candidates[i],
+                                 float(candidates[i].objective[j]), 0, False)  # fmt: skip
+    if stiff_scene and result.reachable:
+        result.front = _front(spec, result, reached_n)
+    if stiff_scene and spec.weights is not None and result.best is not None:
+        # From the best design of every N and from every rung of the front: the weighted
+        # optimum lies on the front's side of the trade-off.
+        seeds = [(r.problem, r.z) for r in _best_per_n(result.starts)]
+        seeds += [(p.problem, p.z) for p in result.front if p.z is not None]
+        runs = [refine(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
+                for problem, z in seeds]  # fmt: skip
+        result.weighted = min(runs, key=lambda r: _weighted(r, spec.weights))
+    result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
+    result.wall_s = evaluator.wall_s - wall0
+    return result
+
+
+def _weighted(run: Refinement, weights: tuple[float, float]) -> float:
+    k = run.evaluation.stiffness[0]
+    return weights[0] * run.objective + weights[1] / k**2 if np.isfinite(k) else np.inf
+
+
+def _best_per_n(runs: Sequence[Refinement]) -> list[Refinement]:
+    best: dict[int, Refinement] = {}
+    for r in runs:
+        n = r.problem.n_units
+        if n not in best or r.objective < best[n].objective:
+            best[n] = r
+    return list(best.values())
+
+
+def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
+    """Stiffness against tip tolerance, from every N where the target was met.
+
+    Each rung is answered by the stiffest of *all* designs evaluated with their stiffness on
+    the way (every SLSQP iterate, line-search point and derivative stencil point is an exact
+    evaluation), not only by the end point of its own SLSQP run; so a looser rung is never less
+    stiff than a tighter one.
+    """
+    met = [run for run in result.starts if run.objective <= spec.tolerance]
+    # The front grows from the stiffest exact solutions (one stiffness solve each).
+    stiffness = [float(r.problem.evaluate(r.z[None, :], purpose="front", stiffness=True)
+                       .stiffness[0]) for r in met]  # fmt: skip
+    order = np.argsort(-np.nan_to_num(np.array(stiffness), nan=-np.inf))
+    met = [met[i] for i in order[:FRONT_STARTS]]
+    problems = {id(run.problem): run.problem for run in met}
+    for problem in problems.values():
+        problem.archive = []
+    for run in met:
+        z = run.z
+        for tol in spec.front:
+            z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=spec.optimiser.max_iter)
+            if z_new is not None:
+                z = z_new
+    front = [FrontPoint(tol, None, None, np.inf, -np.inf) for tol in spec.front]
+    for problem in problems.values():
+        for objective, stiffness, z in problem.archive:
+            ok = np.isfinite(objective) & np.isfinite(stiffness)
+            for point in front:
+                inside = ok & (objective <= point.tolerance**2)
+                if not np.any(inside):
+                    continue
+                i = int(np.argmax(np.where(inside, stiffness, -np.inf)))
+                if stiffness[i] > point.stiffness:
+                    point.z, point.problem = z[i].copy(), problem
+                    point.stiffness = float(stiffness[i])
+                    point.distance = math.sqrt(float(objective[i]))
+        problem.archive = None
+    return front
+
+
+def designs_of(problem: Problem, z: NDArray) -> Design:
+    """The finger design of one box point."""
+    return problem.designs(np.atleast_2d(z)).design(0)
+

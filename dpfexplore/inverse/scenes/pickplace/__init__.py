@@ -1,0 +1,15 @@
+"""The pick-and-place scene (MODEL.md §9, paper opti_pick_and_place): reset times by design.
+
+Modules
+-------
+problem
+    :class:`~.problem.ResetProblem`: reset times of box points; brackets and roots on lines.
+screen
+    Screening the box for reachable reset times, and checks of a design.
+front
+    The two-profile difference front.
+solve
+    :func:`~.solve.solve_pickplace`: targets and fronts.
+report
+    The timing scenes' reports and figures.
+"""

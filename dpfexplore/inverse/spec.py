@@ -1,0 +1,617 @@
+"""Scene jobs: what a finger must do, as a TOML file that :func:`load_scene` validates.
+
+A scene names its kind (:data:`SCENE_KINDS`), its targets, the design variables with their
+bounds and constraints, the material and the objective's weights or tolerances. Every problem in
+a scene file is one :class:`SceneSpecError` (a ``ValueError``) whose one-line message starts with
+the dotted key, e.g. ``variables.H.min = 6.0: greater than max = 5.0``; nothing is computed or
+written for a scene that does not validate.
+
+Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of MODEL.md §5)::
+
+    [scene]
+    kind = "position"             # "position", "position_stiffness" or "gripper"
+                                  # ("pickplace", "walker_leg": inverse.scenes.timing_spec)
+    name = "design-position-cheetah"   # default output directory results/<name>
+    description = "..."           # free text
+    material = "cheetah-95a"      # or "ninjaflex-85a"; or give E (and nu) instead
+    seed = 0                      # Latin hypercube seed (any integer >= 0)
+
+    [variables]                   # -> dpfexplore.sweep.variables.DesignVariables, per N
+    n_units = {min = 2, max = 8}  # or a list [3, 4], or one number
+    H = {min = 3.0, max = 5.0}    # a number (fixed), {min, max}, or one of those per unit
+    U_L = {min = 5.5, max = 10.0} # a number or {min, max}
+    U_sep = {min = 1.0, max = 5.0}
+    t = {min = 0.5, max = 1.0}
+    t_lim = {min = 1.0, max = 2.0}
+    heights = "descending"        # "free", "ascending" (H_{k+1} >= H_k) or "descending"
+    ordered_units = [1, 2, 3, 4]  # optional: the units the order covers (default all)
+    tied = [[5, 6]]               # optional: groups of units with one shared height
+    min_step = 0.0                # optional: least difference of consecutive ordered heights
+    shared_U_L = true             # one U_L for all units (default) or one per unit
+    shared_U_sep = true
+
+    [[targets]]                   # position, position_stiffness: one table per target
+    point = [46.0, 32.0]          # tip (x, y) of the targeted state, mm
+    reference = {H = [...], U_L = 9.98, U_sep = 2.26, t = 0.9, t_lim = 1.89}  # optional:
+                                  # a design to compare with (e.g. the paper's), material's E
+
+    [objective]
+    state = "all_inverted"        # position kinds: the targeted state ("all_inverted" or bits
+                                  # when N is fixed)
+    tolerance = 1e-6              # mm²: a target is met when |tip - target|² <= tolerance
+    # position_stiffness only:
+    front = [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0]   # tip tolerances of the front, mm
+    weights = [1.0, 1.0]          # optional: also solve the paper's w1 |r|² + w2 (1/K)²
+
+    [optimiser]                   # all optional
+    candidates_per_n = 64         # Latin-hypercube candidates per N
+    starts_per_n = 3              # gradient refinements per N before a target is declared
+                                  # unreachable (the proof of unreachability)
+    max_iter = 60                 # iterations per refinement
+    seeds = "results/design-seeds-descending"   # optional (position kinds): candidates from
+                                  # this sweep dataset's nearest tips instead of a Latin
+                                  # hypercube (dpfexplore.inverse.engine.seeds); path from the cwd
+    seeds_per_n = 8               # seeds per N
+
+    [gripper]                     # kind = "gripper" (MODEL.md §7, §9)
+    states = ["10000", "11000", "11100", "11110"]
+    apertures = [70.0, 60.0, 45.0, 35.0]   # mm, one per state
+    aperture_tol = 0.05           # mm
+    activated = "11110"           # the state whose tip stiffness is maximised
+    theta_B_deg = {min = -60.0, max = 0.0}
+    base_L = {min = 5.0, max = 40.0}
+    min_window_kPa = 10.0         # each state's pressure window under a slow ramp
+    metastable_unit = 5           # must reset, after >= min_reset_s, under the pulse
+    min_reset_s = 0.05
+    pulse = {P0 = 0.7, tau = [0.0, 0.5, 1.0, 1.1], t_end = 2.0}
+    reference = {H = [...], ..., theta_B_deg = -27.065, base_L = 20.081}   # optional
+
+New kinds register a parser in :data:`SCENE_KINDS` (and a solver in
+:data:`dpfexplore.inverse.design.SOLVERS`); a kind's own top-level tables go in
+:data:`SCENE_TABLES`, and a kind that describes its variables itself (the walker leg: one set per
+section) in :data:`OWN_VARIABLES`. The timing scenes (``pickplace``, ``walker_leg``) register
+from :mod:`dpfexplore.inverse.scenes.timing_spec`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from itertools import pairwise
+from pathlib import Path
+from typing import Any
+
+from ..model.design import MATERIALS, Design
+from ..model.domain import MAX_UNITS
+from ..sweep._jobfile import JobSpecError, check_keys
+from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
+
+__all__ = [
+    "OWN_VARIABLES",
+    "SCENE_KINDS",
+    "SCENE_TABLES",
+    "GripperSpec",
+    "OptimiserSettings",
+    "SceneSpec",
+    "SceneSpecError",
+    "Target",
+    "check_seeds",
+    "load_scene",
+    "parse_scene",
+    "with_seeds",
+]
+
+
+class SceneSpecError(JobSpecError):
+    """A scene file that does not validate; the message is one line naming the key."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """One target of a position scene.
+
+    Attributes
+    ----------
+    point : tuple of float
+        Tip ``(x, y)`` of the targeted state, mm (model frame).
+    reference : Design or None
+        A design to compare with (e.g. the paper's), with the scene's material.
+    """
+
+    point: tuple[float, float]
+    reference: Design | None = None
+
+
+@dataclass(frozen=True)
+class OptimiserSettings:
+    """Budget of the optimiser (see :mod:`dpfexplore.inverse.engine.optimiser`)."""
+
+    candidates_per_n: int = 64
+    starts_per_n: int = 3
+    max_iter: int = 60
+    #: Sweep dataset whose nearest designs seed the position kinds (None: a Latin hypercube).
+    seeds: str | None = None
+    seeds_per_n: int = 8
+
+
+@dataclass(frozen=True)
+class GripperSpec:
+    """The multi-aperture gripper's targets and requirements (MODEL.md §7, §9)."""
+
+    states: tuple[str, ...]
+    apertures: tuple[float, ...]
+    aperture_tol: float
+    activated: str
+    theta_B_deg: tuple[float, float]
+    base_L: tuple[float, float]
+    min_window_kPa: float
+    metastable_unit: int
+    min_reset_s: float
+    pulse_P0: float
+    pulse_tau: tuple[float, float, float, float]
+    pulse_t_end: float
+    reference: Design | None = None
+    reference_theta_B_deg: float | None = None
+    reference_base_L: float | None = None
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A validated scene (see the module docstring for the file's keys).
+
+    Attributes
+    ----------
+    kind, name, description : str
+    seed : int
+    E, nu : float
+        Material (MPa, 1).
+    material : str
+        Preset key, or ``""`` when ``E`` was given.
+    n_units : tuple of int
+        The numbers of units searched.
+    variables : dict
+        :class:`DesignVariables` fields other than ``n_units``, ``E`` and ``nu``.
+    targets : tuple of Target
+        Position kinds; empty for the gripper.
+    state : str
+        ``"all_inverted"`` or a bit string: the targeted state of the position kinds.
+    tolerance : float, mm²
+    front : tuple of float, mm
+        Tip tolerances of the stiffness front (position_stiffness).
+    weights : tuple of float or None
+        ``(w1, w2)`` of the paper's weighted sum, if asked.
+    optimiser : OptimiserSettings
+    gripper : GripperSpec or None
+    document : dict
+        The parsed TOML, recorded with the results.
+    """
+
+    kind: str
+    name: str
+    description: str
+    seed: int
+    E: float
+    nu: float
+    material: str
+    n_units: tuple[int, ...]
+    variables: dict[str, Any]
+    targets: tuple[Target, ...] = ()
+    state: str = "all_inverted"
+    tolerance: float = 1e-6
+    front: tuple[float, ...] = ()
+    weights: tuple[float, float] | None = None
+    optimiser: OptimiserSettings = field(default_factory=OptimiserSettings)
+    gripper: GripperSpec | None = None
+    #: ``pickplace`` and ``walker_leg`` kinds (:mod:`dpfexplore.inverse.scenes.timing_spec`).
+    pickplace: Any = None
+    walker: Any = None
+    document: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def design_variables(self, n_units: int) -> DesignVariables:
+        """The design variables of ``n_units``-unit designs."""
+        return DesignVariables(n_units=n_units, E=self.E, nu=self.nu, **self.variables)
+
+
+# ----------------------------------------------------------------------------- parsing
+
+
+def load_scene(path: str | Path) -> SceneSpec:
+    """Read and validate a scene file (raises :class:`SceneSpecError` naming the key)."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except OSError as exc:
+        raise SceneSpecError(f"{path}: cannot read ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneSpecError(f"{path}: not valid TOML ({exc})") from None
+    return parse_scene(data, default_name=path.stem)
+
+
+def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> SceneSpec:
+    """Validate a TOML-shaped mapping into a :class:`SceneSpec`."""
+    if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
+        _keys(data, "", required=("scene",), optional=tuple(data))
+        _keys(_table(data, "scene"), "scene", required=("kind",),
+              optional=tuple(data["scene"]))  # fmt: skip
+    kind = data["scene"]["kind"]
+    if kind not in SCENE_KINDS:
+        known = ", ".join(SCENE_KINDS)
+        raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {known}")
+    own = kind in OWN_VARIABLES
+    tables = SCENE_TABLES.get(kind, ("targets", "objective", "gripper"))
+    _keys(data, "", required=("scene",) if own else ("scene", "variables"),
+          optional=("optimiser", *tables))  # fmt: skip
+    scene = _table(data, "scene")
+    _keys(scene, "scene", required=("kind",),
+          optional=("name", "description", "material", "E", "nu", "seed"))  # fmt: skip
+    name = _string(scene, "scene", "name", default_name)
+    if not name or "/" in name:
+        raise SceneSpecError(f"scene.name = {name!r}: need a non-empty name without '/'")
+    seed = scene.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise SceneSpecError(f"scene.seed = {seed!r}: must be an integer >= 0")
+    E, nu, material = _material(scene)
+    n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
+    fields = dict(kind=kind, name=name, description=_string(scene, "scene", "description", ""),
+                  seed=seed, E=E, nu=nu, material=material, n_units=n_units,
+                  variables=variables, optimiser=_optimiser(data.get("optimiser", {})),
+                  document=_plain(data))  # fmt: skip
+    fields.update(SCENE_KINDS[kind](data, fields))
+    spec = SceneSpec(**fields)
+    for n in () if own else spec.n_units:
+        try:
+            spec.design_variables(n)
+        except ValueError as exc:
+            raise SceneSpecError(f"variables (N = {n}): {exc}") from None
+    return spec
+
+
+def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+    stiffness = fields["kind"] == "position_stiffness"
+    if "gripper" in data:
+        raise SceneSpecError(f"gripper = {{...}}: unknown table for kind {fields['kind']!r}")
+    if "targets" not in data:
+        raise SceneSpecError("targets: missing; give [[targets]] tables with point = [x, y]")
+    raw = data["targets"]
+    if not isinstance(raw, list) or not raw or not all(isinstance(t, Mapping) for t in raw):
+        raise SceneSpecError("targets: need one or more [[targets]] tables")
+    targets = []
+    for i, entry in enumerate(raw):
+        where = f"targets[{i}]"
+        _keys(entry, where, required=("point",), optional=("reference",))
+        point = _numbers(entry["point"], f"{where}.point", length=2, unit="mm")
+        reference = None
+        if "reference" in entry:
+            reference = _design(entry["reference"], f"{where}.reference", fields, extra=())[0]
+        targets.append(Target(point=(point[0], point[1]), reference=reference))
+    objective = data.get("objective", {})
+    if not isinstance(objective, Mapping):
+        raise SceneSpecError(f"objective = {objective!r}: must be a table")
+    extra = ("front", "weights") if stiffness else ()
+    _keys(objective, "objective", required=(), optional=("state", "tolerance", *extra))
+    state = _string(objective, "objective", "state", "all_inverted")
+    if state != "all_inverted":
+        if len(fields["n_units"]) != 1 or len(state) != fields["n_units"][0] or \
+                set(state) - {"0", "1"}:  # fmt: skip
+            raise SceneSpecError(
+                f"objective.state = {state!r}: 'all_inverted', or a bit string of N characters "
+                "when variables.n_units is one number"
+            )
+    out: dict[str, Any] = {"targets": tuple(targets), "state": state,
+                           "tolerance": _positive(objective, "objective", "tolerance", 1e-6)}
+    if stiffness:
+        front = objective.get("front", [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0])
+        front = _numbers(front, "objective.front", length=None, unit="mm")
+        if not front or any(v <= 0 for v in front):
+            raise SceneSpecError(f"objective.front = {front!r}: need tolerances > 0 mm")
+        out["front"] = tuple(sorted(front))
+        if "weights" in objective:
+            w = _numbers(objective["weights"], "objective.weights", length=2, unit="")
+            if any(v < 0 for v in w) or not any(v > 0 for v in w):
+                raise SceneSpecError(f"objective.weights = {list(w)!r}: need w >= 0, not both 0")
+            out["weights"] = (w[0], w[1])
+    return out
+
+
+def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+    for key in ("targets", "objective"):
+        if key in data:
+            raise SceneSpecError(f"{key}: not used by kind 'gripper' (its targets are [gripper])")
+    if "gripper" not in data:
+        raise SceneSpecError("gripper: missing [gripper] table")
+    g = _table(data, "gripper")
+    _keys(g, "gripper", required=("states", "apertures"),
+          optional=("aperture_tol", "activated", "theta_B_deg", "base_L", "min_window_kPa",
+                    "metastable_unit", "min_reset_s", "pulse", "reference"))  # fmt: skip
+    if len(fields["n_units"]) != 1:
+        raise SceneSpecError(f"variables.n_units = {list(fields['n_units'])}: the gripper "
+                             "needs one number of units")  # fmt: skip
+    n = fields["n_units"][0]
+    states = g["states"]
+    if not isinstance(states, list) or not states or not all(
+        isinstance(s, str) and len(s) == n and not set(s) - {"0", "1"} for s in states
+    ):
+        raise SceneSpecError(f"gripper.states = {states!r}: need bit strings of {n} characters")
+    apertures = _numbers(g["apertures"], "gripper.apertures", length=len(states), unit="mm")
+    activated = _string(g, "gripper", "activated", states[-1])
+    if len(activated) != n or set(activated) - {"0", "1"}:
+        raise SceneSpecError(f"gripper.activated = {activated!r}: need {n} characters 0/1")
+    unit = g.get("metastable_unit", n)
+    if isinstance(unit, bool) or not isinstance(unit, int) or not 1 <= unit <= n:
+        raise SceneSpecError(f"gripper.metastable_unit = {unit!r}: a unit in 1..{n}")
+    pulse = g.get("pulse", {"P0": 0.7, "tau": [0.0, 0.5, 1.0, 1.1], "t_end": 2.0})
+    if not isinstance(pulse, Mapping):
+        raise SceneSpecError(f"gripper.pulse = {pulse!r}: must be a table")
+    _keys(pulse, "gripper.pulse", required=("P0", "tau"), optional=("t_end",))
+    tau = _numbers(pulse["tau"], "gripper.pulse.tau", length=4, unit="s")
+    if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
+        raise SceneSpecError(f"gripper.pulse.tau = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
+    t_end = _positive(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
+    if t_end <= tau[3]:
+        raise SceneSpecError(f"gripper.pulse.t_end = {t_end}: must be after τ4 = {tau[3]}")
+    reference = theta_ref = base_ref = None
+    if "reference" in g:
+        reference, extra = _design(g["reference"], "gripper.reference", fields,
+                                   extra=("theta_B_deg", "base_L"))  # fmt: skip
+        theta_ref, base_ref = extra.get("theta_B_deg"), extra.get("base_L")
+    spec = GripperSpec(
+        states=tuple(states), apertures=tuple(apertures),
+        aperture_tol=_positive(g, "gripper", "aperture_tol", 0.05), activated=activated,
+        theta_B_deg=_range(g.get("theta_B_deg", {"min": -60.0, "max": 0.0}),
+                           "gripper.theta_B_deg", positive=False),
+        base_L=_range(g.get("base_L", {"min": 5.0, "max": 40.0}), "gripper.base_L"),
+        min_window_kPa=_positive(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
+        metastable_unit=unit, min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
+        pulse_P0=_positive(pulse, "gripper.pulse", "P0", 0.7), pulse_tau=tuple(tau),
+        pulse_t_end=t_end, reference=reference, reference_theta_B_deg=theta_ref,
+        reference_base_L=base_ref,
+    )  # fmt: skip
+    return {"gripper": spec}
+
+
+#: Scene kinds: kind -> parser of its kind-specific tables (returns extra SceneSpec fields).
+SCENE_KINDS: dict[str, Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]]] = {
+    "position": _parse_position,
+    "position_stiffness": _parse_position,
+    "gripper": _parse_gripper,
+}
+#: Top-level tables a kind may have besides ``scene``, ``variables`` and ``optimiser``
+#: (default: ``targets``, ``objective``, ``gripper``; each parser rejects the ones it does not use).
+SCENE_TABLES: dict[str, tuple[str, ...]] = {}
+#: Kinds without a ``[variables]`` table (their parser reads their variables; ``n_units`` is set
+#: by the parser).
+OWN_VARIABLES: set[str] = set()
+
+
+# ----------------------------------------------------------------------------- pieces
+
+
+def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
+    _keys(table, "variables", required=("n_units", "H", "U_L", "U_sep", "t", "t_lim"),
+          optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep",
+                    "min_step"))  # fmt: skip
+    n_units = _n_units(table["n_units"])
+    out: dict[str, Any] = {}
+    H = table["H"]
+    if isinstance(H, list):
+        if len(n_units) != 1 or len(H) != n_units[0]:
+            raise SceneSpecError(
+                f"variables.H = {H!r}: one entry per unit needs one N (variables.n_units) and "
+                f"{n_units[0] if len(n_units) == 1 else 'N'} entries"
+            )
+        out["H"] = [_bound(v, f"variables.H[{k}]") for k, v in enumerate(H)]
+    else:
+        out["H"] = _bound(H, "variables.H")
+    for name in ("U_L", "U_sep", "t", "t_lim"):
+        out[name] = _bound(table[name], f"variables.{name}")
+    heights = table.get("heights", "free")
+    if heights not in HEIGHT_ORDERS:
+        raise SceneSpecError(f"variables.heights = {heights!r}: must be one of "
+                             f"{', '.join(HEIGHT_ORDERS)}")  # fmt: skip
+    out["heights"] = heights
+    if "ordered_units" in table:
+        units = table["ordered_units"]
+        if not isinstance(units, list) or not units or not all(
+            isinstance(u, int) and not isinstance(u, bool) and 1 <= u <= MAX_UNITS for u in units
+        ):
+            raise SceneSpecError(f"variables.ordered_units = {units!r}: need unit numbers")
+        if any(u > min(n_units) for u in units):
+            raise SceneSpecError(f"variables.ordered_units = {units!r}: unit beyond N = "
+                                 f"{min(n_units)}")  # fmt: skip
+        out["ordered_units"] = tuple(units)
+    if "tied" in table:
+        tied = table["tied"]
+        if not isinstance(tied, list) or not all(
+            isinstance(g, list) and all(isinstance(u, int) and not isinstance(u, bool) for u in g)
+            for g in tied
+        ):
+            raise SceneSpecError(f"variables.tied = {tied!r}: need lists of unit numbers")
+        out["tied"] = tuple(tuple(g) for g in tied)
+    if "min_step" in table:
+        step = table["min_step"]
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or \
+                not math.isfinite(step) or step < 0:  # fmt: skip
+            raise SceneSpecError(f"variables.min_step = {step!r}: must be a number >= 0 mm")
+        out["min_step"] = float(step)
+    for name in ("shared_U_L", "shared_U_sep"):
+        value = table.get(name, True)
+        if not isinstance(value, bool):
+            raise SceneSpecError(f"variables.{name} = {value!r}: must be true or false")
+        out[name] = value
+    return n_units, out
+
+
+def _n_units(value: Any) -> tuple[int, ...]:
+    where = "variables.n_units"
+
+    def unit(v: Any) -> int:
+        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_UNITS:
+            raise SceneSpecError(f"{where} = {value!r}: need integers between 1 and {MAX_UNITS}")
+        return v
+
+    if isinstance(value, Mapping):
+        _keys(value, where, required=("min", "max"), optional=())
+        low, high = unit(value["min"]), unit(value["max"])
+        if low > high:
+            raise SceneSpecError(f"{where} = {{min = {low}, max = {high}}}: empty range")
+        return tuple(range(low, high + 1))
+    if isinstance(value, list):
+        if not value:
+            raise SceneSpecError(f"{where} = []: empty range")
+        return tuple(sorted({unit(v) for v in value}))
+    return (unit(value),)
+
+
+def _bound(value: Any, where: str) -> float | tuple[float, float]:
+    """A number (fixed) or ``{min, max}`` -> DesignVariables' number or ``(low, high)``."""
+    if isinstance(value, Mapping):
+        return _range(value, where)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneSpecError(f"{where} = {value!r}: give a number or {{min, max}}")
+    if not (math.isfinite(value) and value > 0):
+        raise SceneSpecError(f"{where} = {value!r}: must be finite and > 0")
+    return float(value)
+
+
+def _range(value: Any, where: str, *, positive: bool = True) -> tuple[float, float]:
+    if not isinstance(value, Mapping):
+        raise SceneSpecError(f"{where} = {value!r}: give {{min, max}}")
+    _keys(value, where, required=("min", "max"), optional=())
+    low, high = value["min"], value["max"]
+    for key, v in (("min", low), ("max", high)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or \
+                (positive and v <= 0):  # fmt: skip
+            raise SceneSpecError(f"{where}.{key} = {v!r}: must be a finite number"
+                                 + (" > 0" if positive else ""))  # fmt: skip
+    if low > high:
+        raise SceneSpecError(f"{where}.min = {low}: greater than max = {high}")
+    return float(low), float(high)
+
+
+def _material(scene: Mapping[str, Any]) -> tuple[float, float, str]:
+    if "material" in scene:
+        if "E" in scene:
+            raise SceneSpecError(f"scene.E = {scene['E']!r}: give either material or E")
+        key = scene["material"]
+        if not isinstance(key, str) or key.lower() not in MATERIALS:
+            raise SceneSpecError(f"scene.material = {key!r}: must be one of "
+                                 f"{', '.join(sorted(MATERIALS))}")  # fmt: skip
+        preset = MATERIALS[key.lower()]
+        nu = _positive(scene, "scene", "nu", preset.nu)
+        return preset.E, nu, key.lower()
+    if "E" not in scene:
+        raise SceneSpecError("scene.material: missing; give material or E")
+    return _positive(scene, "scene", "E", 26.0), _positive(scene, "scene", "nu", 0.35), ""
+
+
+def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str, ...]):
+    if not isinstance(value, Mapping):
+        raise SceneSpecError(f"{where} = {value!r}: must be a table of design keys")
+    data = {k: v for k, v in value.items() if k not in extra}
+    data.setdefault("E", fields["E"])
+    data.setdefault("nu", fields["nu"])
+    try:
+        design = Design.from_dict(data)
+    except (TypeError, ValueError) as exc:
+        raise SceneSpecError(f"{where}: {exc}") from None
+    values = {}
+    for key in extra:
+        if key in value:
+            v = value[key]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise SceneSpecError(f"{where}.{key} = {v!r}: must be a finite number")
+            values[key] = float(v)
+    return design, values
+
+
+def _optimiser(value: Any) -> OptimiserSettings:
+    if not isinstance(value, Mapping):
+        raise SceneSpecError(f"optimiser = {value!r}: must be a table")
+    _keys(value, "optimiser", required=(),
+          optional=("candidates_per_n", "starts_per_n", "max_iter", "seeds", "seeds_per_n"))
+    out: dict[str, Any] = {}
+    if "seeds" in value:
+        out["seeds"] = check_seeds(value["seeds"], "optimiser.seeds")
+    for key, (low, high) in (("candidates_per_n", (2, 1 << 20)), ("starts_per_n", (1, 1000)),
+                             ("max_iter", (1, 10000)), ("seeds_per_n", (1, 10000))):  # fmt: skip
+        if key in value:
+            v = value[key]
+            if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
+                raise SceneSpecError(f"optimiser.{key} = {v!r}: an integer in [{low}, {high}]")
+            out[key] = v
+    return OptimiserSettings(**out)
+
+
+def check_seeds(value: Any, where: str) -> str:
+    """A seeds dataset path: a string naming a sweep directory (its ``_manifest.json``)."""
+    if not isinstance(value, str) or not value:
+        raise SceneSpecError(f"{where} = {value!r}: must be the path of a sweep dataset")
+    if not (Path(value) / "_manifest.json").is_file():
+        raise SceneSpecError(
+            f"{where} = {value!r}: not a sweep dataset (no _manifest.json); make it with "
+            "`dpfexplore sweep JOB --out DIR`, e.g. jobs/design-seeds-descending.toml"
+        )
+    return value
+
+
+def with_seeds(spec: SceneSpec, dataset: str) -> SceneSpec:
+    """The scene with its candidates seeded from ``dataset`` (``dpfexplore design --seeds``)."""
+    if spec.kind not in ("position", "position_stiffness"):
+        raise SceneSpecError(f"--seeds: only position scenes take seeds, not {spec.kind!r}")
+    settings = replace(spec.optimiser, seeds=check_seeds(dataset, "--seeds"))
+    return replace(spec, optimiser=settings)
+
+
+def _numbers(value: Any, where: str, *, length: int | None, unit: str) -> tuple[float, ...]:
+    if not isinstance(value, list) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        for v in value
+    ):
+        raise SceneSpecError(f"{where} = {value!r}: need a list of finite numbers"
+                             + (f" ({unit})" if unit else ""))  # fmt: skip
+    if length is not None and len(value) != length:
+        raise SceneSpecError(f"{where} = {value!r}: need {length} numbers, got {len(value)}")
+    return tuple(float(v) for v in value)
+
+
+def _positive(table: Mapping[str, Any], where: str, key: str, default: float,
+              *, allow_zero: bool = False) -> float:  # fmt: skip
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):  # fmt: skip
+        raise SceneSpecError(f"{where}.{key} = {value!r}: must be a finite number > 0")
+    return float(value)
+
+
+def _string(table: Mapping[str, Any], where: str, key: str, default: str) -> str:
+    value = table.get(key, default)
+    if not isinstance(value, str):
+        raise SceneSpecError(f"{where}.{key} = {value!r}: must be a string")
+    return value
+
+
+def _table(data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    value = data[key]
+    if not isinstance(value, Mapping):
+        raise SceneSpecError(f"{key} = {value!r}: must be a table")
+    return value
+
+
+def _keys(table: Mapping[str, Any], where: str, *, required: Sequence[str],
+          optional: Sequence[str]) -> None:  # fmt: skip
+    try:
+        check_keys(table, where, required=tuple(required), optional=tuple(optional))
+    except JobSpecError as exc:
+        raise SceneSpecError(str(exc)) from None
+
+
+def _plain(value: Any) -> Any:
+    """A JSON-ready copy of a TOML document."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    return value

@@ -1,0 +1,559 @@
+"""Snap pressures: where a finger's units snap under a slow ramp of the chamber pressure.
+
+>>> from dpfexplore import load_design
+>>> from dpfexplore.solvers.snap.continuation import snap_pressures
+>>> seq = snap_pressures(load_design("dpfexplore/examples/gripper.toml"), P_max=0.7)
+>>> [(round(e.pressure, 4), e.before, e.after) for e in seq.events]  # doctest: +SKIP
+[(0.0726, '00000', '00001'), (0.1131, '00001', '10001'), ...]
+
+What "a slow ramp" means
+    The quasi-static limit: the pressure rises so slowly that the finger is always at rest on an
+    equilibrium branch ``R(x, P) = ∇E(x) - P f(x) = 0`` (MODEL.md §8 with the velocities zero),
+    followed by pseudo-arclength continuation (:mod:`dpfexplore._kernels.continuation`). Under a
+    real ramp of rate ``r`` the finger lags: a smooth crossing by ``O(r)``, a snap by ``O(r^(2/3))``
+    (the slow passage through the saddle-node's ghost), so slow-ramp simulations converge to these
+    pressures as the ramp slows (``tests/solvers/test_snap.py`` and ``dpfexplore bench snap``
+    measure it).
+Events
+    A *snap* happens where the branch folds (a real eigenvalue of the non-symmetric Jacobian
+    ``K = H - P J_p`` crosses zero): the finger must leave the branch. A *crossing* is a unit's
+    extension passing its inversion threshold smoothly along the branch (a dome with
+    ``α >= 1/9`` has no barrier, and pressure can carry a dome over its isolated barrier without a
+    jump); it changes the state's name, not the shape.
+What decides what
+    Inertia and damping do not enter the fold pressure (a property of the static branch); they
+    decide where the finger lands after a snap, so the landing is simulated: the fold state is
+    kicked by ``kick`` mm along the fold's null direction (toward the branch beyond the fold,
+    the side the ramp pushes it; 0.1 mm, or less so that no dome moves by more than its reach)
+    and the equations of motion run at the fold pressure (plus 1e-8 MPa) with Rodas4, full
+    model by default or overdamped (``model=``), until Newton can polish the motion's end onto
+    an equilibrium it certifies stable. The landing may differ from the state before in
+    several units: a *cascade*, reported as one snap at one pressure with all those units
+    (what a slow-ramp simulation shows as snap-through times a few ms apart). Past a very flat
+    fold the motion may not settle within 400 s; it then runs 1e-5, then 1e-3 MPa past the fold
+    (``SnapEvent.landing_offset``), as a slow ramp would carry it on. Past a few folds of
+    strongly curled fingers it never settles (the follower load drives a slow relaxation
+    oscillation): such an event is ``"unsettled"`` and ends the walk.
+Tolerances
+    Equilibria to 1e-9 N (largest residual force); a fold is located where the tangent's
+    pressure component is below 1e-7 (the pressure error is quadratic in that: ~1e-13 MPa, far
+    below the corrector's ~1e-10 MPa); crossings where ``|u - u_inv| < 1e-11``. Landings:
+    Rodas4 at ``atol = 3e-3`` mm (only the basin matters: 1e-3 and 1e-2 mm landed where 1e-5
+    and 1e-6 mm did on 168 snaps of random designs), accepted when Newton moves the motion's
+    end by at most 0.2 mm onto an equilibrium certified stable.
+Stability
+    Every state reported is a stable equilibrium at its pressure. The load is not conservative,
+    so "minimum" means linearly stable: the kernels certify it by a positive definite symmetric
+    part of ``K`` (then every mode of the damped motion decays) or by the eigenvalues of
+    ``C⁻¹K``; :func:`snap_pressures` re-checks every landing with the eigenvalues of the full
+    linearised equations of motion (``SnapEvent.decay_rate``). The continuation detects folds,
+    not Hopf bifurcations (a complex pair crossing, flutter, which the circulatory load could
+    cause in principle); the tests check the eigenvalues along whole branches and found none.
+
+Windows
+    A state visited by a rising ramp holds on ``[P_enter, P_leave)``. Its *release* is where the
+    finger ends if the pressure is then slowly let down to ``P_min`` from inside that window
+    (the same for the whole window: it is one branch): that is what the gripper scene needs,
+    whose grasp states (``10000``, ``11000``, ...) are the released states of the loaded ones
+    (``10001``, ``11001``, ...: the metastable tip unit is inverted only under pressure).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from ..._kernels import continuation as kcont
+from ..._kernels import events as kevents
+from ..._kernels import snap as ksnap
+from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, MASS_PER_UNIT, damping_matrix, node_mass
+from ..._kernels.dynamics_batch import rest_state
+from ..._kernels.layout import n_free
+from ...model import status as st
+from ...model.design import Design, DesignBatch
+from ...model.domain import MAX_UNITS
+from ..dynamics.common import METHODS, controls
+from ..lattice import LatticeParams, batch_constants, lattice_params, pack_batch, spring_constants
+from ..statics import find_state, state_string
+from .results import SnapEvent, SnapSequence, StateVisit
+
+__all__ = [
+    "DEFAULT_P_MAX",
+    "LANDING_MODELS",
+    "SnapEvent",
+    "SnapSequence",
+    "StateVisit",
+    "decay_rate",
+    "inversion_pressure",
+    "inversion_pressures_batch",
+    "snap_pressures",
+    "snap_pressures_batch",
+]
+
+#: Default end of the rising ramp, MPa.
+DEFAULT_P_MAX = 1.0
+#: Models that can decide a landing (names of :data:`~dpfexplore.solvers.dynamics.common.METHODS`).
+LANDING_MODELS = ("rodas4", "rodas4-overdamped")
+#: Rodas4 position tolerance of the landings, mm (module docstring), and largest step, s: a
+#: landing has no events to resolve, and the motion settles over tens of seconds in soft fingers
+#: (the simulations' 0.5 s cap made that hundreds of steps).
+LANDING_ATOL = 3e-3
+LANDING_H_MAX = 100.0
+#: Events kept per walk.
+EVENT_CAPACITY = 4 * MAX_UNITS
+#: Branch points kept per walk (for plots).
+PATH_CAPACITY = 5_000
+
+_KIND_NAMES = {ksnap.KIND_SNAP: "snap", ksnap.KIND_CROSSING: "crossing",
+               ksnap.KIND_UNSETTLED: "unsettled"}  # fmt: skip
+
+
+def _pressure(name: str, value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: must be a number") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{name} = {value!r}: must be finite")
+    return value
+
+
+def _kick(kick) -> float:
+    """The kick (mm) for the kernels: 0 selects their default."""
+    if kick is None:
+        return 0.0
+    kick = _pressure("kick", kick)
+    if not kick > 0.0:
+        raise ValueError(f"kick = {kick}: must be > 0 mm")
+    return kick
+
+
+def _model(model: str, n_units: int) -> tuple[NDArray, NDArray]:
+    """``phys`` and Rodas4 ``ctrl`` of the landings."""
+    if model not in LANDING_MODELS:
+        raise ValueError(f"model = {model!r}: choose one of {LANDING_MODELS}")
+    mass = 0.0 if model == "rodas4-overdamped" else node_mass(n_units)
+    ctrl = controls(METHODS[model], t_release=0.0, atol=LANDING_ATOL, rtol=None,
+                    h_max=LANDING_H_MAX, max_steps=None, stop_when_reset=False)  # fmt: skip
+    return np.array([ETA_INTERNAL, ETA_ISO, mass]), ctrl
+
+
+class _Walk:
+    """One kernel walk's raw outputs."""
+
+    def __init__(self, params: LatticeParams, x0, p0, p_end, sign, phys, ctrl, kick, *,
+                 path_rows: int = PATH_CAPACITY):  # fmt: skip
+        n = n_free(params.n_units)
+        self.ev = np.empty((EVENT_CAPACITY, ksnap.N_EV))
+        self.ev_x = np.empty((EVENT_CAPACITY, 2, n))
+        self.path = np.empty((path_rows, ksnap.N_PATH_FIXED + params.n_units))
+        self.counts = np.zeros(ksnap.N_CNT, dtype=np.int64)
+        self.x_final = np.empty(n)
+        self.x_start = np.array(x0, dtype=float)
+        self.p_start = float(p0)
+        self.sign = sign
+        self.status = st.Status(int(ksnap.follow(
+            params.unit_params, params.h, self.x_start, self.p_start, float(p_end), sign, phys,
+            ctrl, float(kick), self.ev, self.ev_x, self.path, self.counts, self.x_final)))
+        self.n_events = int(min(self.counts[ksnap.CNT_EVENTS], EVENT_CAPACITY))
+        self.n_path = int(min(self.counts[ksnap.CNT_PATH], path_rows))
+
+
+def _state(params: LatticeParams, x: NDArray) -> str:
+    """Inversion state of the shape ``x`` (unit 1 first)."""
+    margins = np.empty(params.n_units)
+    kevents.margins(x, params.unit_params, margins)
+    return "".join("1" if g > 0.0 else "0" for g in margins)
+
+
+def _flat(params: LatticeParams) -> NDArray:
+    n = n_free(params.n_units)
+    y = np.empty(2 * n)
+    rest_state(params.unit_params, params.h, y)
+    return y[:n].copy()
+
+
+def decay_rate(params: LatticeParams, x: NDArray, pressure: float, model: str) -> float:
+    """Slowest decay rate (1/s) of the motion linearised about the equilibrium ``x``.
+
+    The eigenvalues of ``M v̈ + C v̇ + K v = 0`` (full model; ``C v̇ + K v = 0`` overdamped) with
+    ``K = H - P J_p`` and the damping matrix ``C`` of MODEL.md §8 at ``x``; returns
+    ``-max Re λ``: positive when every mode decays (a stable equilibrium). Dense LAPACK: for
+    verification, not for the inner loops.
+    """
+    n_units = params.n_units
+    n = n_free(n_units)
+    ws = kcont.workspace(n_units)
+    kcont.residual(np.asarray(x, dtype=float), float(pressure), params.unit_params, params.h,
+                   ws, True)  # fmt: skip
+    k = ws[3].copy()
+    c = np.empty((n, n))
+    damping_matrix(ws[0], params.unit_params, params.h, ETA_INTERNAL, ETA_ISO, np.empty(n), c)
+    if model == "rodas4-overdamped":
+        lam = np.linalg.eigvals(-np.linalg.solve(c, k))
+    else:
+        m = node_mass(n_units)
+        a = np.zeros((2 * n, 2 * n))
+        a[:n, n:] = np.eye(n)
+        a[n:, :n] = -k / m
+        a[n:, n:] = -c / m
+        lam = np.linalg.eigvals(a)
+    return float(-np.max(lam.real))
+
+
+def _after(row: NDArray, n_units: int) -> str:
+    """State after an event ("" for an unsettled fold)."""
+    after = int(row[ksnap.EV_AFTER])
+    return state_string(after, n_units) if after >= 0 else ""
+
+
+def _collect(walk: _Walk, n_units: int, direction: str, params, model, verify, events, visits,
+             path_parts, segment_offset):  # fmt: skip
+    """Append a walk's events, visits and path to the running lists; returns its segments."""
+    state = _state(params, walk.x_start)
+    entered = "turn" if visits else "start"  # a cycle's falling walk goes on from the top
+    visits.append(StateVisit(state, direction, walk.p_start, math.nan, entered, None))
+    for j in range(walk.n_events):
+        row = walk.ev[j]
+        kind = _KIND_NAMES[int(row[ksnap.EV_KIND])]
+        rate = math.inf
+        if kind == "snap" and verify:
+            rate = decay_rate(params, walk.ev_x[j, 1], row[ksnap.EV_P], model)
+        event = SnapEvent(
+            pressure=float(row[ksnap.EV_P]),
+            kind=kind,
+            direction=direction,
+            before=state_string(int(row[ksnap.EV_BEFORE]), n_units),
+            after=_after(row, n_units),
+            x_before=walk.ev_x[j, 0].copy(),
+            x_after=walk.ev_x[j, 1].copy(),
+            settle_time=float(row[ksnap.EV_SETTLE]),
+            landing_steps=int(row[ksnap.EV_STEPS]),
+            decay_rate=rate,
+            landing_offset=float(row[ksnap.EV_DP]),
+        )
+        events.append(event)
+        last = visits[-1]
+        visits[-1] = StateVisit(last.state, last.direction, last.P_enter, event.pressure,
+                                last.entered_by, kind)  # fmt: skip
+        if event.after:
+            visits.append(StateVisit(event.after, direction, event.pressure, math.nan, kind,
+                                     None))  # fmt: skip
+    rows = walk.path[: walk.n_path]
+    path_parts.append((rows, segment_offset))
+    return int(rows[-1, ksnap.PATH_SEGMENT]) + 1 if len(rows) else 0
+
+
+def _start(design, params, start_state, p_start, phys, ctrl, kick) -> tuple[NDArray, float]:
+    """The stable equilibrium at ``p_start`` a walk starts from (see :func:`snap_pressures`)."""
+    if start_state is None:
+        x = _flat(params)
+    else:
+        found = find_state(design, start_state)
+        if not found.stable:
+            raise ValueError(
+                f"start_state = {start_state!r}: not a stable state at P = 0"
+                + (f" (it collapses to {found.found})" if found.found else "")
+            )
+        x = found.x
+    if p_start == 0.0:
+        return x, 0.0
+    sign = 1 if p_start > 0.0 else -1
+    approach = _Walk(params, x, 0.0, p_start, sign, phys, ctrl, kick, path_rows=0)
+    if approach.status != st.OK:
+        raise RuntimeError(
+            f"P_start = {p_start}: the ramp from P = 0 to it failed ({approach.status.label})"
+        )
+    if start_state is not None and approach.n_events:
+        first = approach.ev[0]
+        raise ValueError(
+            f"start_state = {start_state!r} does not last up to P_start = {p_start} MPa: it "
+            f"changes at {first[ksnap.EV_P]:.6g} MPa"
+        )
+    return approach.x_final.copy(), p_start
+
+
+def snap_pressures(
+    design: Design,
+    *,
+    P_max: float = DEFAULT_P_MAX,
+    P_min: float = 0.0,
+    direction: Literal["up", "down", "cycle"] = "up",
+    start_state: str | int | None = None,
+    P_start: float | None = None,
+    release: bool = True,
+    model: str = "rodas4",
+    kick: float | None = None,
+    verify: bool = True,
+) -> SnapSequence:
+    """Follow a finger under a slow pressure ramp; every snap and crossing with its pressure.
+
+    Parameters
+    ----------
+    design : Design
+    P_max, P_min : float, MPa
+        Top and bottom of the ramp (``P_min < P_max``).
+    direction : {"up", "down", "cycle"}
+        ``"up"``: from ``P_start`` to ``P_max``; ``"down"``: from ``P_start`` to ``P_min``
+        (snap-back pressures); ``"cycle"``: up to ``P_max``, then down to ``P_min``.
+    start_state : str or int, optional
+        A state stable at ``P = 0`` to start from (default: the flat finger). It must last up to
+        ``P_start``.
+    P_start : float, MPa, optional
+        Where the recorded walk starts: ``P_min`` for ``"up"`` and ``"cycle"``, ``P_max`` for
+        ``"down"``. The finger gets there from ``P = 0`` by a slow ramp first (unrecorded).
+    release : bool
+        For rising walks, also let each visited state down to ``P_min``
+        (:attr:`StateVisit.released`, :meth:`SnapSequence.release_windows`).
+    model : {"rodas4", "rodas4-overdamped"}
+        Equations of motion that decide each landing (with or without inertia).
+    kick : float, mm, optional
+        First displacement of a landing along the fold's null direction; by default 0.1 mm, or
+        less if that would move a dome by more than its reach
+        (:func:`dpfexplore._kernels.landing.default_kick`).
+    verify : bool
+        Re-check every landing with the eigenvalues of the linearised motion (dense LAPACK,
+        ~0.1-1 ms each); a landing that fails makes the status ``UNSTABLE``.
+
+    Returns
+    -------
+    SnapSequence
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: not a Design, bad pressures or direction, a start state that is
+        not stable at ``P = 0`` or does not last to ``P_start``.
+    RuntimeError
+        The unrecorded ramp from ``P = 0`` to ``P_start`` failed (a failure of the recorded
+        walk is reported in :attr:`SnapSequence.status` instead).
+    """
+    if not isinstance(design, Design):
+        raise ValueError(f"design = {design!r}: must be a Design")
+    P_max = _pressure("P_max", P_max)
+    P_min = _pressure("P_min", P_min)
+    if not P_min < P_max:
+        raise ValueError(f"P_min = {P_min}, P_max = {P_max}: need P_min < P_max (MPa)")
+    if direction not in ("up", "down", "cycle"):
+        raise ValueError(f"direction = {direction!r}: choose 'up', 'down' or 'cycle'")
+    if P_start is None:
+        P_start = P_max if direction == "down" else P_min
+    P_start = _pressure("P_start", P_start)
+    if not P_min <= P_start <= P_max:
+        raise ValueError(f"P_start = {P_start}: must lie in [P_min, P_max] = [{P_min}, {P_max}]")
+    kick = _kick(kick)
+    n_units = design.n_units
+    params = lattice_params(design)
+    phys, ctrl = _model(model, n_units)
+    x, p0 = _start(design, params, start_state, P_start, phys, ctrl, kick)
+
+    events: list[SnapEvent] = []
+    visits: list[StateVisit] = []
+    path_parts: list[tuple[NDArray, int]] = []
+    legs = {"up": [(P_max, 1)], "down": [(P_min, -1)], "cycle": [(P_max, 1), (P_min, -1)]}
+    status = st.Status.OK
+    segment = 0
+    stats = {"steps": 0, "rejected": 0, "landing_steps": 0, "walks": 0}
+    for p_end, sign in legs[direction]:
+        walk = _Walk(params, x, p0, p_end, sign, phys, ctrl, kick)
+        stats["walks"] += 1
+        for key, col in (("steps", ksnap.CNT_STEPS), ("rejected", ksnap.CNT_REJECTED),
+                         ("landing_steps", ksnap.CNT_LANDING_STEPS)):  # fmt: skip
+            stats[key] += int(walk.counts[col])
+        first_visit = len(visits)
+        segment += _collect(walk, n_units, "up" if sign > 0 else "down", params, model, verify,
+                            events, visits, path_parts, segment)  # fmt: skip
+        if sign > 0 and release:
+            _release(params, walk, visits, first_visit, P_min, phys, ctrl, kick, stats)
+        if walk.status != st.OK:
+            status = walk.status
+            break
+        x, p0 = walk.x_final.copy(), p_end
+    if status == st.OK and verify and any(not e.decay_rate > 0.0 for e in events):
+        status = st.Status.UNSTABLE
+    path = _path_columns(path_parts, n_units)
+    stats["events"] = len(events)
+    return SnapSequence(
+        design=design, direction=direction, P_start=P_start, P_max=P_max, P_min=P_min,
+        status=status, events=tuple(events), visits=tuple(visits), path=path, final_x=x,
+        model=model, fitted_range=design.in_fitted_range,
+        no_contact=tuple(bool(v) for v in spring_constants(design).no_contact), stats=stats,
+    )  # fmt: skip
+
+
+def _release(params, walk: _Walk, visits: list[StateVisit], first: int, p_min: float, phys,
+             ctrl, kick, stats) -> None:  # fmt: skip
+    """Fill ``released`` and ``P_release_leave`` of the visits of a rising walk."""
+    m = len(visits) - first  # the visits: one per event but an unsettled last one, and the start
+    rel_status = np.zeros(m, dtype=np.int64)
+    rel_state = np.full(m, -1, dtype=np.int64)
+    rel_p = np.full(m, np.nan)
+    ksnap.release_walks(params.unit_params, params.h, walk.x_start, walk.p_start, walk.ev,
+                        walk.ev_x, m - 1, p_min, phys, ctrl, float(kick), rel_status,
+                        rel_state, rel_p)  # fmt: skip
+    for j in range(m):
+        v = visits[first + j]
+        released = state_string(int(rel_state[j]), params.n_units) if rel_state[j] >= 0 else None
+        visits[first + j] = StateVisit(v.state, v.direction, v.P_enter, v.P_leave, v.entered_by,
+                                       v.left_by, released, float(rel_p[j]))  # fmt: skip
+    stats["release_walks"] = stats.get("release_walks", 0) + m
+
+
+def _path_columns(parts, n_units: int) -> dict[str, NDArray]:
+    rows = [r for r, _ in parts]
+    table = np.concatenate(rows) if rows else np.zeros((0, ksnap.N_PATH_FIXED + n_units))
+    segment = np.concatenate([r[:, ksnap.PATH_SEGMENT] + off for r, off in parts]) if rows \
+        else np.zeros(0)  # fmt: skip
+    return {
+        "P": table[:, ksnap.PATH_P].copy(),
+        "segment": segment.astype(np.int64),
+        "state": table[:, ksnap.PATH_STATE].astype(np.int64),
+        "tip": table[:, ksnap.PATH_TIP_X : ksnap.PATH_TIP_Y + 1].copy(),
+        "u": table[:, ksnap.PATH_U : ksnap.PATH_U + n_units].copy(),
+    }
+
+
+def inversion_pressure(design: Design, unit: int, *, P_max: float = DEFAULT_P_MAX,
+                       model: str = "rodas4") -> float:  # fmt: skip
+    """Pressure (MPa) at which ``unit`` (1-based) first inverts under a slow ramp from flat.
+
+    ``inf`` if it does not invert by ``P_max``. Raises ``ValueError`` for a bad unit, and
+    ``RuntimeError`` if the walk fails before the unit inverts.
+    """
+    if isinstance(unit, bool) or not isinstance(unit, (int, np.integer)) \
+            or not 1 <= unit <= design.n_units:  # fmt: skip
+        raise ValueError(f"unit = {unit!r}: must be an integer in 1..{design.n_units}")
+    seq = snap_pressures(design, P_max=P_max, release=False, model=model)
+    value = float(seq.inversion_pressures()[unit - 1])
+    if math.isnan(value):
+        raise RuntimeError(f"the slow ramp failed ({seq.status.label}) before unit {unit} inverted")
+    return value
+
+
+def snap_pressures_batch(
+    batch: DesignBatch,
+    *,
+    P_max: float = DEFAULT_P_MAX,
+    P_min: float = 0.0,
+    release: bool = True,
+    model: str = "rodas4",
+    kick: float | None = None,
+) -> dict[str, NDArray]:
+    """The rising ramp from the flat finger of many designs, in parallel (Numba ``prange``).
+
+    Parameters
+    ----------
+    batch : DesignBatch
+        Invalid designs keep their status and get no events.
+    P_max, P_min, release, model, kick
+        As for :func:`snap_pressures` (``release`` walks down to ``P_min``).
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``status`` (int8, (n,)); ``n_events`` (int64, (n,)); per event ``j`` (``(n, 48)``,
+        padding NaN / -1): ``event_pressure`` (MPa), ``event_kind`` (int8: 1 snap, 2
+        crossing, 3 unsettled), ``event_before``, ``event_after`` (state integers, unit 1 = most
+        significant bit; -1 after an unsettled fold); per visited state ``j`` (0 = flat,
+        ``j`` = after event ``j - 1``; ``(n, 49)``):
+        ``release_status`` (int8), ``release_state`` (int64, -1 if none) and
+        ``release_pressure`` (MPa: where the state is left on the way down; NaN: never);
+        ``inversion_pressure`` ((n, 12), MPa: first pressure at which each unit is inverted;
+        ``inf`` not by ``P_max``; NaN padding, invalid designs, or a walk that failed first);
+        ``fitted_range`` (bool, (n,)); ``no_contact`` (bool, (n, 12): the unit's dome reach
+        was clamped, see :attr:`SnapSequence.no_contact`).
+
+    Notes
+    -----
+    Landings are certified stable by the kernels (symmetric-part Cholesky or eigenvalues of
+    ``C⁻¹K``); the dense re-check of :func:`snap_pressures` (``verify``) is not repeated here.
+    """
+    if not isinstance(batch, DesignBatch):
+        raise ValueError(f"batch = {batch!r}: must be a DesignBatch")
+    P_max = _pressure("P_max", P_max)
+    P_min = _pressure("P_min", P_min)
+    if not P_min <= 0.0 < P_max:
+        raise ValueError(f"P_min = {P_min}, P_max = {P_max}: need P_min <= 0 < P_max (MPa)")
+    if model not in LANDING_MODELS:
+        raise ValueError(f"model = {model!r}: choose one of {LANDING_MODELS}")
+    kick = _kick(kick)
+    n = len(batch)
+    design_status = batch.status()
+    valid = design_status == st.OK
+    unit_params, h, n_units = pack_batch(batch)
+    _, ctrl = _model(model, 1)
+    status = design_status.astype(np.int64)
+    n_events = np.zeros(n, dtype=np.int64)
+    events = np.full((n, EVENT_CAPACITY, ksnap.N_EV), np.nan)
+    rel_status = np.full((n, EVENT_CAPACITY + 1), st.NOT_COMPUTED, dtype=np.int64)
+    rel_state = np.full((n, EVENT_CAPACITY + 1), -1, dtype=np.int64)
+    rel_p = np.full((n, EVENT_CAPACITY + 1), np.nan)
+    if n:
+        # Rows differ in cost by 10x (number of snaps, slow landings): threads take rows one
+        # at a time as they free up rather than a fixed share each.
+        previous = numba.set_parallel_chunksize(1)
+        try:
+            ksnap.snap_batch(unit_params, h, n_units, valid, P_max, P_min, bool(release),
+                             ETA_INTERNAL, ETA_ISO, model == "rodas4-overdamped", MASS_PER_UNIT,
+                             ctrl, float(kick), status, n_events, events, rel_status, rel_state,
+                             rel_p)  # fmt: skip
+        finally:
+            numba.set_parallel_chunksize(previous)
+    slot = np.arange(EVENT_CAPACITY)[None, :] < n_events[:, None]
+    kind = np.where(slot, np.nan_to_num(events[..., ksnap.EV_KIND], nan=-1), -1).astype(np.int8)
+    before = np.where(slot, np.nan_to_num(events[..., ksnap.EV_BEFORE], nan=-1), -1)
+    after = np.where(slot, np.nan_to_num(events[..., ksnap.EV_AFTER], nan=-1), -1)
+    pressure = np.where(slot, events[..., ksnap.EV_P], np.nan)
+    out = {
+        "status": status.astype(np.int8),
+        "n_events": n_events,
+        "event_pressure": pressure,
+        "event_kind": kind,
+        "event_before": before.astype(np.int64),
+        "event_after": after.astype(np.int64),
+        "release_status": rel_status.astype(np.int8),
+        "release_state": rel_state,
+        "release_pressure": rel_p,
+        "fitted_range": valid & batch.in_fitted_range(),
+        "no_contact": np.asarray(batch_constants(batch, domes=False)["no_contact"], dtype=bool)
+        & (np.arange(MAX_UNITS)[None, :] < n_units[:, None]) & valid[:, None],
+    }
+    out["inversion_pressure"] = _inversion_from_events(out, n_units, valid)
+    return out
+
+
+def _inversion_from_events(out, n_units, valid) -> NDArray:
+    """First pressure each unit is inverted at, from the rising walks' event columns."""
+    n = n_units.shape[0]
+    result = np.full((n, MAX_UNITS), np.nan)
+    unit = np.arange(MAX_UNITS)[None, :]
+    active = valid[:, None] & (unit < n_units[:, None])
+    ok = out["status"] == st.OK
+    result[active] = np.inf
+    result[active & ~ok[:, None]] = np.nan
+    shift = np.maximum(n_units[:, None] - 1 - unit, 0)
+    for j in range(EVENT_CAPACITY):
+        before = out["event_before"][:, j : j + 1]
+        after = out["event_after"][:, j : j + 1]
+        p = out["event_pressure"][:, j : j + 1]
+        bit_after = (after >> shift) & 1
+        bit_before = (before >> shift) & 1
+        went = active & (before >= 0) & (after >= 0) & (bit_after == 1) & (bit_before == 0)
+        first = went & ~np.isfinite(result)
+        result = np.where(first, p, result)
+    return result
+
+
+def inversion_pressures_batch(batch: DesignBatch, *, P_max: float = DEFAULT_P_MAX,
+                              model: str = "rodas4") -> NDArray[np.float64]:  # fmt: skip
+    """First inversion pressure (MPa) of every unit of many designs, shape ``(n, 12)``.
+
+    See :func:`snap_pressures_batch` (its ``inversion_pressure``; no release walks).
+    """
+    return snap_pressures_batch(batch, P_max=P_max, release=False, model=model)[
+        "inversion_pressure"
+    ]

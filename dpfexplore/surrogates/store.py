@@ -1,0 +1,265 @@
+"""Saving and loading fitted surrogates, with the fingerprint of the data they were fitted on.
+
+Layout of a saved surrogate (``results/surrogates/NAME/``)::
+
+    surrogate.json     format, SURROGATE_VERSION, MODEL_VERSION, library versions, the training
+                       dataset's path and fingerprint, outputs, kinds, SHA-256 of models.skops
+    models.skops       the fitted estimators (skops format)
+    report.json        held-out errors, classifier accuracy, speed table, goals, verdict
+    speed_error.csv    the speed-versus-error table
+    speed_error.png    its plot
+
+Format: the estimators are stored with skops (``skops.io``), not pickle. Loading a pickle runs
+whatever code the file names; skops rebuilds objects only of the types the loader trusts, and
+:func:`load_surrogates` trusts exactly :data:`TRUSTED_TYPES` (the scikit-learn and dpfexplore
+classes a surrogate is made of) and refuses a file that names any other type. The file's
+SHA-256, kept in ``surrogate.json``, catches a damaged or swapped file.
+
+Loading refuses, with one line naming what differs: another :data:`SURROGATE_VERSION` or file
+format, another physical model (:data:`dpfexplore.model.version.MODEL_VERSION`), another
+scikit-learn minor version (its estimators' internals change between them), a changed model
+file, and, when a dataset is given, a dataset whose fingerprint differs from the training one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from ..model.version import MODEL_VERSION, package_versions
+from .data import dataset_fingerprint
+from .fit import SurrogateSet
+
+__all__ = [
+    "FORMAT",
+    "SURROGATE_VERSION",
+    "TRUSTED_TYPES",
+    "SurrogateLoadError",
+    "json_safe",
+    "load_surrogates",
+    "read_report",
+    "save_surrogates",
+]
+
+FORMAT = "dpfexplore-surrogate/1"
+#: Version of the surrogates' features and estimators; bump when a saved one would mean
+#: something else (another feature set, scaling or target) or could not be loaded (surrogate-2:
+#: the estimators' classes moved to dpfexplore.surrogates, and skops stores class paths).
+SURROGATE_VERSION = "surrogate-2"
+META, MODELS, REPORT = "surrogate.json", "models.skops", "report.json"
+SPEED_CSV, SPEED_PNG = "speed_error.csv", "speed_error.png"
+
+#: Types a saved surrogate may contain beyond those skops trusts by default.
+TRUSTED_TYPES = (
+    "dpfexplore.surrogates.flat.DesignSurrogate",
+    "dpfexplore.surrogates.flat.StatusClassifier",
+    "dpfexplore.surrogates.chain.ChainSurrogate",
+    "dpfexplore.surrogates.chain.ChainStatusClassifier",
+    "sklearn.ensemble._hist_gradient_boosting.predictor.TreePredictor",
+    "sklearn.ensemble._hist_gradient_boosting.binning._BinMapper",
+    "sklearn._loss.loss.HalfSquaredError",
+    "sklearn._loss.loss.HalfBinomialLoss",
+    "sklearn._loss.link.IdentityLink",
+    "sklearn._loss.link.LogitLink",
+    "sklearn._loss.link.Interval",
+    "sklearn.gaussian_process.kernels.ConstantKernel",
+    "sklearn.gaussian_process.kernels.Product",
+    "sklearn.gaussian_process.kernels.RBF",
+    "sklearn.gaussian_process.kernels.Sum",
+    "sklearn.gaussian_process.kernels.WhiteKernel",
+    "sklearn.gaussian_process.kernels.Hyperparameter",
+    "sklearn.metrics._dist_metrics.EuclideanDistance64",
+    "sklearn.neighbors._kd_tree.KDTree",
+    "sklearn.neural_network._stochastic_optimizers.AdamOptimizer",
+    "sklearn.neural_network._stochastic_optimizers.SGDOptimizer",
+)
+
+
+class SurrogateLoadError(ValueError):
+    """A saved surrogate that cannot be used: missing, damaged, or made for other data/code."""
+
+
+def _library_versions() -> dict[str, str]:
+    import sklearn
+    import skops
+
+    return {**package_versions(), "scikit-learn": sklearn.__version__, "skops": skops.__version__}
+
+
+def _minor(version: str) -> str:
+    return ".".join(version.split(".")[:2])
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def json_safe(value: Any) -> Any:
+    """Replace NaN and infinities (not JSON) by None, recursively."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if hasattr(value, "item"):  # NumPy scalars
+        return json_safe(value.item())
+    return value
+
+
+def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
+    """Write a fitted :class:`SurrogateSet` to directory ``path`` (created; files replaced).
+
+    Returns
+    -------
+    Path
+        The directory.
+    """
+    import skops.io as sio
+
+    from ..plotting.surrogates import plot_speed_error
+
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    payload = {"regressors": surrogates.regressors, "classifier": surrogates.classifier,
+               "classifiers": surrogates.classifiers}
+    data = sio.dumps(payload)
+    untrusted = sorted(set(sio.get_untrusted_types(data=data)) - set(TRUSTED_TYPES))
+    if untrusted:  # would be refused on load: fail now rather than write it
+        raise ValueError(f"surrogate holds types not in TRUSTED_TYPES: {', '.join(untrusted)}")
+    (path / MODELS).write_bytes(data)
+    report = surrogates.report
+    meta = {
+        "format": FORMAT,
+        "surrogate_version": SURROGATE_VERSION,
+        "model_version": MODEL_VERSION,
+        "versions": _library_versions(),
+        "dataset": {"path": report.get("dataset", {}).get("path"),
+                    "fingerprint": surrogates.fingerprint},
+        "outputs": list(surrogates.outputs),
+        "units": surrogates.units,
+        "kinds": list(surrogates.regressors),
+        "best": surrogates.best,
+        "classifier": surrogates.classifier.kind,
+        "classifiers": list(surrogates.classifiers),
+        "per_n": surrogates.classifier.per_n,
+        "models_sha256": _sha256(path / MODELS),
+    }
+    (path / META).write_text(json.dumps(json_safe(meta), indent=1) + "\n")
+    (path / REPORT).write_text(json.dumps(json_safe(report), indent=1) + "\n")
+    if report.get("speed"):
+        pd.DataFrame(report["speed"]).to_csv(path / SPEED_CSV, index=False)
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+        plot_speed_error(pd.DataFrame(report["speed"]), error=f"{report['headline']}_p95",
+                         ax=ax)
+        fig.savefig(path / SPEED_PNG, dpi=130)
+        plt.close(fig)
+    return path
+
+
+def _read_meta(path: Path) -> dict[str, Any]:
+    if not path.is_dir():
+        raise SurrogateLoadError(f"{path}: no saved surrogate (not a directory)")
+    try:
+        meta = json.loads((path / META).read_text())
+    except FileNotFoundError:
+        raise SurrogateLoadError(f"{path}: no saved surrogate (no {META})") from None
+    except ValueError as exc:
+        raise SurrogateLoadError(f"{path / META}: unreadable ({exc})") from None
+    if meta.get("format") != FORMAT:
+        raise SurrogateLoadError(f"{path}: format {meta.get('format')!r}, this dpfexplore "
+                                 f"reads {FORMAT!r}")
+    return meta
+
+
+def read_report(path: str | Path) -> dict[str, Any]:
+    """The saved report of a surrogate directory (no estimator is loaded)."""
+    path = Path(path)
+    _read_meta(path)
+    try:
+        return json.loads((path / REPORT).read_text())
+    except (FileNotFoundError, ValueError) as exc:
+        raise SurrogateLoadError(f"{path / REPORT}: unreadable ({exc})") from None
+
+
+def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None) -> None:
+    """Raise :class:`SurrogateLoadError` if a saved surrogate's metadata does not fit this code.
+
+    Parameters
+    ----------
+    meta : dict
+        Contents of ``surrogate.json``.
+    dataset : path, optional
+        A sweep dataset that must be the one the surrogate was fitted on.
+    """
+    if meta.get("surrogate_version") != SURROGATE_VERSION:
+        raise SurrogateLoadError(
+            f"surrogate version {meta.get('surrogate_version')!r}, this dpfexplore reads "
+            f"{SURROGATE_VERSION!r}: refit it")
+    if meta.get("model_version") != MODEL_VERSION:
+        raise SurrogateLoadError(
+            f"fitted on model version {meta.get('model_version')!r}, this dpfexplore computes "
+            f"{MODEL_VERSION!r}: refit it on a dataset of this model")
+    import sklearn
+
+    saved = meta.get("versions", {}).get("scikit-learn", "?")
+    if _minor(saved) != _minor(sklearn.__version__):
+        raise SurrogateLoadError(
+            f"saved with scikit-learn {saved}, this is {sklearn.__version__}: refit it")
+    if dataset is not None:
+        try:
+            actual = dataset_fingerprint(dataset)
+        except Exception as exc:
+            raise SurrogateLoadError(f"dataset {dataset}: {exc}") from None
+        wanted = meta.get("dataset", {}).get("fingerprint", {})
+        for key in ("job_fingerprint", "model_version", "chunks_sha256"):
+            if actual.get(key) != wanted.get(key):
+                raise SurrogateLoadError(
+                    f"dataset {dataset} is not the one this surrogate was fitted on "
+                    f"({key} {str(actual.get(key))[:16]} != {str(wanted.get(key))[:16]})")
+
+
+def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> SurrogateSet:
+    """Load a saved surrogate directory.
+
+    Parameters
+    ----------
+    path : path
+        Directory written by :func:`save_surrogates`.
+    dataset : path, optional
+        Sweep dataset to check the surrogate against (its fingerprint must match).
+
+    Raises
+    ------
+    SurrogateLoadError
+        One line naming the problem (see the module docstring).
+    """
+    import skops.io as sio
+
+    path = Path(path)
+    meta = _read_meta(path)
+    check_compatible(meta, dataset=dataset)
+    models = path / MODELS
+    if not models.is_file():
+        raise SurrogateLoadError(f"{path}: no {MODELS}")
+    if _sha256(models) != meta.get("models_sha256"):
+        raise SurrogateLoadError(f"{models}: checksum differs from {META} (changed or damaged)")
+    untrusted = sorted(set(sio.get_untrusted_types(file=models)) - set(TRUSTED_TYPES))
+    if untrusted:
+        raise SurrogateLoadError(f"{models}: holds types this loader does not trust: "
+                                 f"{', '.join(untrusted)}")
+    payload = sio.load(models, trusted=list(TRUSTED_TYPES))
+    report = read_report(path)
+    return SurrogateSet(
+        outputs=tuple(meta["outputs"]), units=dict(meta.get("units", {})),
+        regressors=payload["regressors"], classifier=payload["classifier"], best=meta["best"],
+        report=report, fingerprint=meta["dataset"]["fingerprint"],
+        classifiers=payload.get("classifiers") or {meta["classifier"]: payload["classifier"]},
+    )

@@ -16,13 +16,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from dpfexplore.solvers.fitted_range import fitted_range
 from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm
 from matplotlib.figure import Figure
 
 from dpfexplore import Design, DesignBatch, PressureProfile, reset_times_batch, simulate
 from dpfexplore.bench._common import machine_info
 from dpfexplore.solvers.dynamics.simulate import CLASS_NAMES
-from dpfexplore.solvers.fitted_range import fitted_range
 
 CODES = {name: code for code, name in CLASS_NAMES.items()}
 
@@ -65,21 +65,31 @@ def compute_map():
     shape = hh.shape
     reset = out["reset_time"][:, :6].reshape(*shape, 6)
     classes = out["unit_class"][:, :6].reshape(*shape, 6)
-    return {"h": hh, "t": tt, "reset": reset, "classes": classes,
-            "status": out["status"].reshape(shape), "final": out["final_state"].reshape(shape),
-            "holds": np.all(classes[..., :4] == 0, axis=-1),
-            "last": last_reset(reset, classes, metastable_only=True),
-            "field": last_reset(reset, classes, metastable_only=False),
-            "wall": wall, "n": len(designs)}  # fmt: skip
+    return {
+        "h": hh,
+        "t": tt,
+        "reset": reset,
+        "classes": classes,
+        "status": out["status"].reshape(shape),
+        "final": out["final_state"].reshape(shape),
+        "holds": np.all(classes[..., :4] == 0, axis=-1),
+        "last": last_reset(reset, classes, metastable_only=True),
+        "field": last_reset(reset, classes, metastable_only=False),
+        "wall": wall,
+        "n": len(designs),
+    }
 
 
 def full_model(h: float, t: float):
     """Last metastable reset, the continuous field, classes and whether units 1-4 hold."""
     run = simulate(finger(h, t), PULSE, t_end=T_END, n_samples=0)
     classes = np.array([CODES[c] for c in run.unit_class])
-    return (float(last_reset(run.reset_time, classes, metastable_only=True)),
-            float(last_reset(run.reset_time, classes, metastable_only=False)),
-            run.unit_class, bool(np.all(classes[:4] == 0)))  # fmt: skip
+    return (
+        float(last_reset(run.reset_time, classes, metastable_only=True)),
+        float(last_reset(run.reset_time, classes, metastable_only=False)),
+        run.unit_class,
+        bool(np.all(classes[:4] == 0)),
+    )
 
 
 def brackets(m, target: float):
@@ -89,8 +99,13 @@ def brackets(m, target: float):
     for j in range(len(T_GRID)):
         for i in range(len(H_GRID) - 1):
             a, b = f[i, j], f[i + 1, j]
-            if ok[i, j] and ok[i + 1, j] and np.isfinite(a) and np.isfinite(b) \
-                    and (a - target) * (b - target) <= 0:  # fmt: skip
+            if (
+                ok[i, j]
+                and ok[i + 1, j]
+                and np.isfinite(a)
+                and np.isfinite(b)
+                and (a - target) * (b - target) <= 0
+            ):
                 found.append((i, j))
     return found
 
@@ -120,16 +135,21 @@ def hit_target(m, target: float):
         else:
             lo, f_lo = mid, value - target
     last, _, classes, holds = full_model(mid, t)
-    return {"h": mid, "t": t, "reset": last, "classes": classes, "holds": holds,
-            "fitted": fitted_range(finger(mid, t))[0]}, found  # fmt: skip
+    return {
+        "h": mid,
+        "t": t,
+        "reset": last,
+        "classes": classes,
+        "holds": holds,
+        "fitted": fitted_range(finger(mid, t))[0],
+    }, found
 
 
 def _batch_field(points):
     designs = [finger(h, t) for h, t in points]
     out = reset_times_batch(DesignBatch.from_designs(designs), PULSE, t_end=T_END)
     classes = out["unit_class"][:, :6]
-    return (last_reset(out["reset_time"][:, :6], classes, metastable_only=False),
-            classes)  # fmt: skip
+    return (last_reset(out["reset_time"][:, :6], classes, metastable_only=False), classes)
 
 
 def change(a, b):
@@ -163,8 +183,14 @@ def smoothness(m, *, levels: int = 6):
         rel = change(field[a], field[b])
         flagged = same & m["holds"][a] & np.isfinite(rel) & (rel > 0.25)
         for i, j in zip(*np.nonzero(flagged), strict=True):
-            steep.append([(m["h"][a][i, j], m["t"][a][i, j]), (m["h"][b][i, j], m["t"][b][i, j]),
-                          field[a][i, j], field[b][i, j]])  # fmt: skip
+            steep.append(
+                [
+                    (m["h"][a][i, j], m["t"][a][i, j]),
+                    (m["h"][b][i, j], m["t"][b][i, j]),
+                    field[a][i, j],
+                    field[b][i, j],
+                ]
+            )
     counts["steep"] = len(steep)
     for _ in range(levels):
         if not steep:
@@ -190,19 +216,23 @@ def column_text(m) -> str:
     j = int(np.argmin(np.abs(T_GRID - PAPER[1])))
     column = np.where(m["holds"][:, j], m["last"][:, j], np.nan)
     i = int(np.nanargmin(column))
-    return (f"- Along h at fixed t the last metastable reset need not be monotone: at t = "
-            f"{T_GRID[j]:g} its smallest value is {column[i]:.3f} s, at h = {H_GRID[i]:g} mm "
-            "(right panel), so a target below it is out of reach at that t; lower targets "
-            "need thicker domes (larger t).")  # fmt: skip
+    return (
+        f"- Along h at fixed t the last metastable reset need not be monotone: at t = "
+        f"{T_GRID[j]:g} its smallest value is {column[i]:.3f} s, at h = {H_GRID[i]:g} mm "
+        "(right panel), so a target below it is out of reach at that t; lower targets "
+        "need thicker domes (larger t)."
+    )
 
 
 def order_text(m) -> str:
     """Which tip unit resets last where both are metastable."""
     both = np.all(m["classes"][..., 4:6] == 1, axis=-1) & m["holds"]
     five_last = both & (m["reset"][..., 4] >= m["reset"][..., 5])
-    return (f"- Where both tip units are metastable ({int(both.sum())} designs), unit 5 resets "
-            f"last in {int(five_last.sum())}; so unit 5 sets the scene's default objective "
-            "there.")  # fmt: skip
+    return (
+        f"- Where both tip units are metastable ({int(both.sum())} designs), unit 5 resets "
+        f"last in {int(five_last.sum())}; so unit 5 sets the scene's default objective "
+        "there."
+    )
 
 
 def fitted_band_text(m) -> str:
@@ -213,11 +243,17 @@ def fitted_band_text(m) -> str:
     cols = [j for j in range(len(T_GRID)) if ok[:, j].any()]
     tops = {T_GRID[j]: H_GRID[ok[:, j]].max() for j in cols}
     j_paper = int(np.argmin(np.abs(T_GRID - PAPER[1])))
-    paper = (f"; at the paper's t = {T_GRID[j_paper]:g} only h in [3.0, "
-             f"{H_GRID[ok[:, j_paper]].max():.2f}] mm" if ok[:, j_paper].any() else "")
-    return (f"- Inside the fitted range the band of metastable designs is h from 3.0 mm to "
-            f"{tops[T_GRID[cols[0]]]:.2f} mm at t = {T_GRID[cols[0]]:g}, widening to "
-            f"{tops[T_GRID[cols[-1]]]:.2f} mm at t = {T_GRID[cols[-1]]:g}{paper}.")  # fmt: skip
+    paper = (
+        f"; at the paper's t = {T_GRID[j_paper]:g} only h in [3.0, "
+        f"{H_GRID[ok[:, j_paper]].max():.2f}] mm"
+        if ok[:, j_paper].any()
+        else ""
+    )
+    return (
+        f"- Inside the fitted range the band of metastable designs is h from 3.0 mm to "
+        f"{tops[T_GRID[cols[0]]]:.2f} mm at t = {T_GRID[cols[0]]:g}, widening to "
+        f"{tops[T_GRID[cols[-1]]]:.2f} mm at t = {T_GRID[cols[-1]]:g}{paper}."
+    )
 
 
 def class_regions(m):
@@ -225,12 +261,16 @@ def class_regions(m):
     lines = []
     for k in (4, 5):
         values, counts = np.unique(m["classes"][..., k], return_counts=True)
-        text = ", ".join(f"{CLASS_NAMES[int(v)] or 'never inverted'} {c}"
-                         for v, c in zip(values, counts, strict=True))  # fmt: skip
+        text = ", ".join(
+            f"{CLASS_NAMES[int(v)] or 'never inverted'} {c}"
+            for v, c in zip(values, counts, strict=True)
+        )
         lines.append(f"- unit {k + 1}: {text} (of {m['classes'][..., k].size})")
     holds = m["holds"]
-    lines.append(f"- units 1-4 all bistable (the grasp set point holds) on {int(holds.sum())} of "
-                 f"{holds.size} designs; elsewhere some of them reset (thin domes: low t)")
+    lines.append(
+        f"- units 1-4 all bistable (the grasp set point holds) on {int(holds.sum())} of "
+        f"{holds.size} designs; elsewhere some of them reset (thin domes: low t)"
+    )
     return lines
 
 
@@ -241,8 +281,9 @@ def figure(m, hits, path: Path) -> None:
     h, t = m["h"], m["t"]
     ax = axes[0]
     last = np.ma.masked_invalid(np.where(m["holds"], m["last"], np.nan))
-    mesh = ax.pcolormesh(h, t, last, norm=LogNorm(vmin=0.05, vmax=10.0), cmap="viridis",
-                         shading="nearest")  # fmt: skip
+    mesh = ax.pcolormesh(
+        h, t, last, norm=LogNorm(vmin=0.05, vmax=10.0), cmap="viridis", shading="nearest"
+    )
     fig.colorbar(mesh, ax=ax, label="last metastable unit's reset time (s)")
     field = np.where(m["holds"], m["field"], np.nan)
     cs = ax.contour(h, t, field, levels=list(TARGETS), colors="w", linewidths=0.8)
@@ -253,18 +294,19 @@ def figure(m, hits, path: Path) -> None:
             ax.plot(hit["h"], hit["t"], "r*", markersize=10)
     ax.plot(*PAPER, "ks", markerfacecolor="none", label="paper (3.0, 0.83)")
     ax.axvline(3.0, color="0.4", linestyle="--", linewidth=0.8)
-    ax.set_title("last metastable reset (white: none / units 1-4 not held)\n"
-                 "red line: units 1-4 bistable above it; stars: targets hit", fontsize="small")
+    ax.set_title(
+        "last metastable reset (white: none / units 1-4 not held)\n"
+        "red line: units 1-4 bistable above it; stars: targets hit",
+        fontsize="small",
+    )
     ax.legend(fontsize="small", loc="lower right")
     palette = ListedColormap(["0.85", "tab:blue", "tab:green", "tab:orange", "tab:gray"])
     norm = BoundaryNorm([-1.5, -0.5, 0.5, 1.5, 2.5, 3.5], palette.N)
     for ax, k in zip(axes[1:3], (4, 5), strict=True):
-        mesh = ax.pcolormesh(h, t, m["classes"][..., k], cmap=palette, norm=norm,
-                             shading="nearest")  # fmt: skip
+        mesh = ax.pcolormesh(h, t, m["classes"][..., k], cmap=palette, norm=norm, shading="nearest")
         ax.contour(h, t, m["holds"].astype(float), levels=[0.5], colors="r", linewidths=1.0)
         bar = fig.colorbar(mesh, ax=ax, ticks=[-1, 0, 1, 2, 3])
-        bar.ax.set_yticklabels(["never inv.", "bistable", "metastable", "monostable",
-                                "no contact"])  # fmt: skip
+        bar.ax.set_yticklabels(["never inv.", "bistable", "metastable", "monostable", "no contact"])
         ax.set_title(f"class of unit {k + 1}", fontsize="small")
     for ax in axes[:3]:
         ax.set_xlabel("H_5 = H_6 (mm)")
@@ -274,8 +316,9 @@ def figure(m, hits, path: Path) -> None:
         j = int(np.argmin(np.abs(T_GRID - t_col)))
         for k, style in ((4, "-"), (5, ":")):
             values = np.where(np.isin(m["classes"][:, j, k], (1, 2)), m["reset"][:, j, k], np.nan)
-            ax.plot(H_GRID, values, style, color=f"C{n}",
-                    label=f"t = {T_GRID[j]:g}" if k == 4 else None)  # fmt: skip
+            ax.plot(
+                H_GRID, values, style, color=f"C{n}", label=f"t = {T_GRID[j]:g}" if k == 4 else None
+            )
     for target in TARGETS:
         ax.axhline(target, color="0.6", linewidth=0.6)
     ax.set_yscale("log")
@@ -317,10 +360,13 @@ def report(m, hits, reach, counts, jumps, paper, wall_hits) -> str:
         f"- Last metastable unit's reset time: {m['last'][ok].min():.3f} to "
         f"{m['last'][ok].max():.3f} s ({int(ok.sum())} of {m['n']} designs have units 1-4 "
         "bistable and a metastable tip unit).",
-        (f"- Inside the fitted range (h >= 3 mm): {m['last'][in_fit].min():.3f} to "
-         f"{m['last'][in_fit].max():.3f} s ({int(in_fit.sum())} designs), all at t >= "
-         f"{m['t'][in_fit].min():.2f} mm.") if in_fit.any() else
-        "- No such design inside the fitted range (h >= 3 mm).",
+        (
+            f"- Inside the fitted range (h >= 3 mm): {m['last'][in_fit].min():.3f} to "
+            f"{m['last'][in_fit].max():.3f} s ({int(in_fit.sum())} designs), all at t >= "
+            f"{m['t'][in_fit].min():.2f} mm."
+        )
+        if in_fit.any()
+        else "- No such design inside the fitted range (h >= 3 mm).",
         fitted_band_text(m),
         order_text(m) + " Both reset times grow without bound at the bistable edge "
         "(the ghost of the lost minimum, MODEL.md §4): the upper end of the range is the "
@@ -343,8 +389,11 @@ def report(m, hits, reach, counts, jumps, paper, wall_hits) -> str:
     for target, hit in hits.items():
         found = reach[target]
         n_fit = sum(H_GRID[i] >= 3.0 for i, _ in found)
-        t_span = (f"{min(T_GRID[j] for _, j in found):.2f}-{max(T_GRID[j] for _, j in found):.2f}"
-                  if found else "-")  # fmt: skip
+        t_span = (
+            f"{min(T_GRID[j] for _, j in found):.2f}-{max(T_GRID[j] for _, j in found):.2f}"
+            if found
+            else "-"
+        )
         if hit is None:
             lines.append(f"| {target} | 0 | 0 | - | - | - | not reachable | | | |")
             continue
@@ -369,15 +418,20 @@ def report(m, hits, reach, counts, jumps, paper, wall_hits) -> str:
         f"{counts['steep']}. Each was bisected six times (to 1/64 of a grid step); "
         f"{len(jumps)} still jump by more than 10 % there (true discontinuities, "
         f"{sum(int(j[4][0]) == 1 for j in jumps)} of them with unit 5 metastable"
-        + (", listed below); the rest change by less than 10 % over 1/64 of a step: steep "
-           "but continuous (the reset diverges at the bistable edge)." if jumps else
-           "); all change by less than 10 % over 1/64 of a step: steep but continuous (the "
-           "reset diverges at the bistable edge)."),
+        + (
+            ", listed below); the rest change by less than 10 % over 1/64 of a step: steep "
+            "but continuous (the reset diverges at the bistable edge)."
+            if jumps
+            else "); all change by less than 10 % over 1/64 of a step: steep but continuous (the "
+            "reset diverges at the bistable edge)."
+        ),
     ]
     for p, q, fp, fq, cls in jumps[:15]:
         names = ", ".join(CLASS_NAMES[int(c)] or "never inverted" for c in cls)
-        lines.append(f"  - (h, t) = ({p[0]:.4f}, {p[1]:.4f}) -> ({q[0]:.4f}, {q[1]:.4f}): "
-                     f"{fp:.4g} -> {fq:.4g} s (units 5, 6: {names})")  # fmt: skip
+        lines.append(
+            f"  - (h, t) = ({p[0]:.4f}, {p[1]:.4f}) -> ({q[0]:.4f}, {q[1]:.4f}): "
+            f"{fp:.4g} -> {fq:.4g} s (units 5, 6: {names})"
+        )
     lines += [
         *class_boundary_text(),
         "",

@@ -38,8 +38,8 @@ from dpfexplore import Design, DesignBatch, PressureProfile, reset_times_batch
 from dpfexplore.bench._common import machine_info
 from dpfexplore.examples import example_path
 from dpfexplore.plotting.leg import plot_tip_paths
-from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
 from dpfexplore.solvers.dynamics.ramp import inversion_pressures
+from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
 
 OUT = Path("results") / "reports"
 NAME = "walker-leg-map"
@@ -70,8 +70,10 @@ def run_grid(heights, make, tau, pressures):
     for P0 in pressures:
         profile = PressureProfile(P0=P0, tau=tau)
         res = reset_times_batch(batch, profile, t_end=tau[3] + HORIZON)
-        out[P0] = {"reset": res["reset_time"][:, :n_units].reshape(*hh.shape, n_units),
-                   "cls": res["unit_class"][:, :n_units].reshape(*hh.shape, n_units)}  # fmt: skip
+        out[P0] = {
+            "reset": res["reset_time"][:, :n_units].reshape(*hh.shape, n_units),
+            "cls": res["unit_class"][:, :n_units].reshape(*hh.shape, n_units),
+        }
     out["wall_pulses"] = time.perf_counter() - start
     start = time.perf_counter()
     out["p_inv"] = inversion_pressures(batch)[:, :n_units].reshape(*hh.shape, n_units)
@@ -107,8 +109,9 @@ def edge_windows(t_values, threshold: float, P0: float):
 
     def evaluate(heights, ts):
         designs = [section([h, 4.5, 4.5, 4.5], t) for h, t in zip(heights, ts, strict=True)]
-        res = reset_times_batch(DesignBatch.from_designs(designs), profile,
-                                t_end=PHASE2[3] + HORIZON)  # fmt: skip
+        res = reset_times_batch(
+            DesignBatch.from_designs(designs), profile, t_end=PHASE2[3] + HORIZON
+        )
         return res["unit_class"][:, 0], res["reset_time"][:, 0], res["unit_class"][:, 1:4]
 
     grid_h = np.repeat(H_ACTION[None, :], len(t_values), axis=0)
@@ -123,9 +126,14 @@ def edge_windows(t_values, threshold: float, P0: float):
             rows.append({"t": float(t), "edge": None})
             continue
         below = meta[reset[j, meta] < threshold]
-        rows.append({"t": float(t), "lo": float(H_ACTION[meta[-1]]),
-                     "hi": float(H_ACTION[above[0]]),
-                     "lo_T": float(H_ACTION[below[-1]]) if below.size else None})  # fmt: skip
+        rows.append(
+            {
+                "t": float(t),
+                "lo": float(H_ACTION[meta[-1]]),
+                "hi": float(H_ACTION[above[0]]),
+                "lo_T": float(H_ACTION[below[-1]]) if below.size else None,
+            }
+        )
     live = [r for r in rows if "lo" in r]
     for _ in range(18):  # the edge: metastable at lo, bistable at hi
         mids = [(r["lo"] + r["hi"]) / 2 for r in live]
@@ -187,60 +195,98 @@ def draw(purple, apart, action, legs, path: Path) -> None:
     both = np.all(purple[P_WALK]["cls"] == 1, axis=-1)
     first = np.where(both, np.min(purple[P_WALK]["reset"], axis=-1), np.nan)
     ax = axes[0, 0]
-    mesh = ax.pcolormesh(purple["h"], purple["t"], np.ma.masked_invalid(first),
-                         norm=LogNorm(0.05, 10), shading="nearest")  # fmt: skip
+    mesh = ax.pcolormesh(
+        purple["h"],
+        purple["t"],
+        np.ma.masked_invalid(first),
+        norm=LogNorm(0.05, 10),
+        shading="nearest",
+    )
     fig.colorbar(mesh, ax=ax, label="first purple unit's reset (s)")
-    ax.set_title(f"purple zone, equal heights, {P_WALK} MPa\n(white: not both units metastable)",
-                 fontsize="small")  # fmt: skip
+    ax.set_title(
+        f"purple zone, equal heights, {P_WALK} MPa\n(white: not both units metastable)",
+        fontsize="small",
+    )
     ax.set_xlabel("H_1 = H_2 (mm)")
     ax.set_ylabel("t (mm)")
     ax = axes[0, 1]
-    mesh = ax.pcolormesh(purple["h"], purple["t"], purple[P_WALK]["cls"][..., 1], cmap=palette,
-                         norm=norm, shading="nearest")  # fmt: skip
+    mesh = ax.pcolormesh(
+        purple["h"],
+        purple["t"],
+        purple[P_WALK]["cls"][..., 1],
+        cmap=palette,
+        norm=norm,
+        shading="nearest",
+    )
     fig.colorbar(mesh, ax=ax, ticks=[-1, 0, 1, 2, 3]).ax.set_yticklabels(labels)
     ax.set_title(f"purple unit 2 (tip), equal heights, at {P_WALK} MPa", fontsize="small")
     ax.set_xlabel("H_1 = H_2 (mm)")
     ax.set_ylabel("t (mm)")
     ax = axes[0, 2]
     m = apart[0]
-    mesh = ax.pcolormesh(m["h1"], m["h2"], np.ma.masked_invalid(m["first"]),
-                         norm=LogNorm(0.05, 10), shading="nearest")  # fmt: skip
+    mesh = ax.pcolormesh(
+        m["h1"],
+        m["h2"],
+        np.ma.masked_invalid(m["first"]),
+        norm=LogNorm(0.05, 10),
+        shading="nearest",
+    )
     fig.colorbar(mesh, ax=ax, label="first purple unit's reset (s)")
     ax.contour(m["h1"], m["h2"], np.nan_to_num(m["first"], nan=0.0), levels=[LIFT], colors="r")
     ax.set_xlabel("H_1 (mm)")
     ax.set_ylabel("H_2 (mm)")
-    ax.set_title(f"purple zone, heights apart, t = {m['t']:g} (red: first reset {LIFT:g} s)",
-                 fontsize="small")  # fmt: skip
+    ax.set_title(
+        f"purple zone, heights apart, t = {m['t']:g} (red: first reset {LIFT:g} s)",
+        fontsize="small",
+    )
     ax = axes[1, 0]
     meta = action[P_WALK]["cls"][..., 0] == 1
-    mesh = ax.pcolormesh(action["h"], action["t"],
-                         np.ma.masked_invalid(np.where(meta, action[P_WALK]["reset"][..., 0],
-                                                       np.nan)),
-                         norm=LogNorm(0.05, 10), shading="nearest")  # fmt: skip
+    mesh = ax.pcolormesh(
+        action["h"],
+        action["t"],
+        np.ma.masked_invalid(np.where(meta, action[P_WALK]["reset"][..., 0], np.nan)),
+        norm=LogNorm(0.05, 10),
+        shading="nearest",
+    )
     fig.colorbar(mesh, ax=ax, label="action unit reset (s)")
     ax.set_title(f"action unit at {P_WALK} MPa (white: not metastable)", fontsize="small")
     ax = axes[1, 1]
-    mesh = ax.pcolormesh(action["h"], action["t"], action["p_inv"][..., 0], shading="nearest",
-                         cmap="magma")  # fmt: skip
+    mesh = ax.pcolormesh(
+        action["h"], action["t"], action["p_inv"][..., 0], shading="nearest", cmap="magma"
+    )
     fig.colorbar(mesh, ax=ax, label="action unit inversion pressure (MPa)")
     ax.set_title("action unit inversion pressure", fontsize="small")
     ax = axes[1, 2]
-    mesh = ax.pcolormesh(action["h"], action["t"], action[P_WALK]["cls"][..., 1], cmap=palette,
-                         norm=norm, shading="nearest")  # fmt: skip
+    mesh = ax.pcolormesh(
+        action["h"],
+        action["t"],
+        action[P_WALK]["cls"][..., 1],
+        cmap=palette,
+        norm=norm,
+        shading="nearest",
+    )
     fig.colorbar(mesh, ax=ax, ticks=[-1, 0, 1, 2, 3]).ax.set_yticklabels(labels)
     ax.set_title(f"first 4.5 mm unit at {P_WALK} MPa (must stay flat)", fontsize="small")
     for ax in axes[1]:
         ax.set_xlabel("action unit H (mm)")
         ax.set_ylabel("t (mm)")
-    short = {"implementation H_p = 1.1": "impl. H_p 1.1", "implementation H_p = 2.5":
-             "impl. H_p 2.5", "designed front leg": "front",
-             "designed middle leg (monostable action unit)": "middle"}  # fmt: skip
-    plot_tip_paths([leg for _, leg in legs], axes[2, :2],
-                   labels=[short.get(label, label) for label, _ in legs])  # fmt: skip
+    short = {
+        "implementation H_p = 1.1": "impl. H_p 1.1",
+        "implementation H_p = 2.5": "impl. H_p 2.5",
+        "designed front leg": "front",
+        "designed middle leg (monostable action unit)": "middle",
+    }
+    plot_tip_paths(
+        [leg for _, leg in legs], axes[2, :2], labels=[short.get(label, label) for label, _ in legs]
+    )
     ax = axes[2, 2]
     for i, (label, leg) in enumerate(legs):
-        ax.plot(leg.t, np.linalg.norm(leg.tip_path, axis=1), color=f"C{i % 10}",
-                label=short.get(label, label))  # fmt: skip
+        ax.plot(
+            leg.t,
+            np.linalg.norm(leg.tip_path, axis=1),
+            color=f"C{i % 10}",
+            label=short.get(label, label),
+        )
     for when in (PHASE1[3], PHASE2[3]):
         ax.axvline(when, color="0.6", linewidth=0.6)
     ax.set_xlabel("time (s); grey: end of phase 1, of phase 2")
@@ -302,10 +348,12 @@ def report(purple, apart, action, windows, picks, legs) -> str:
     for m in apart:
         f = m["first"]
         i = np.unravel_index(np.nanargmax(f), f.shape) if np.isfinite(f).any() else None
-        best = (f"{f[i]:.3f} ({m['h1'][i]:.2f}, {m['h2'][i]:.2f})" if i is not None else "-")
-        lines.append(f"| {m['t']:g} | {int(np.isfinite(f).sum())} | {int((f >= 0.3).sum())} | "
-                     f"{int((f >= 0.5).sum())} | {int((f >= LIFT).sum())} | "
-                     f"{int((f >= 2.0).sum())} | {best} |")  # fmt: skip
+        best = f"{f[i]:.3f} ({m['h1'][i]:.2f}, {m['h2'][i]:.2f})" if i is not None else "-"
+        lines.append(
+            f"| {m['t']:g} | {int(np.isfinite(f).sum())} | {int((f >= 0.3).sum())} | "
+            f"{int((f >= 0.5).sum())} | {int((f >= LIFT).sum())} | "
+            f"{int((f >= 2.0).sum())} | {best} |"
+        )
     lines += [
         "",
         "  The resets diverge at each unit's bistable edge, so long resets sit in thin slivers "
@@ -333,10 +381,12 @@ def report(purple, apart, action, windows, picks, legs) -> str:
             continue
         j = int(np.argmin(np.abs(T_GRID - r["t"])))
         i = int(np.argmin(np.abs(H_ACTION - r["h_T"])))
-        lines.append(f"| {r['t']:g} | {r['edge']:.4f} | {r['h_T']:.4f} | "
-                     f"{r['edge'] - r['h_T']:.4f} | {r['reset_T']:.3f} | "
-                     f"{'yes' if r['rest_flat'] else 'no'} | "
-                     f"{action['p_inv'][i, j, 0]:.3f} |")  # fmt: skip
+        lines.append(
+            f"| {r['t']:g} | {r['edge']:.4f} | {r['h_T']:.4f} | "
+            f"{r['edge'] - r['h_T']:.4f} | {r['reset_T']:.3f} | "
+            f"{'yes' if r['rest_flat'] else 'no'} | "
+            f"{action['p_inv'][i, j, 0]:.3f} |"
+        )
     lines += [
         "",
         "- Pressure order: " + order_text(purple, apart, action) + ".",
@@ -362,44 +412,49 @@ def report(purple, apart, action, windows, picks, legs) -> str:
     base = dict(legs)
     for label, leg in legs:
         if label.startswith("designed"):
-            ratios = ", ".join(f"{leg.stride / base[ref].stride:.2f}x the {ref} leg's"
-                               for ref in base if ref.startswith("implementation"))  # fmt: skip
+            ratios = ", ".join(
+                f"{leg.stride / base[ref].stride:.2f}x the {ref} leg's"
+                for ref in base
+                if ref.startswith("implementation")
+            )
             lines.append(f"\n{label}: stride {ratios}.")
     shown = {k: v for k, v in picks.items() if k != "pressures"}
     lines += ["", "Picks: " + "; ".join(f"{k}: {v}" for k, v in shown.items()) + "."]
     if "pressures" in picks:
         pp, pa = picks["pressures"]
-        lines += ["", f"Inversion pressures of the picks: purple units {pp[0]:.3f} and "
-                  f"{pp[1]:.3f} MPa; action unit {pa[0]:.3f} MPa, then the 4.5 mm units "
-                  f"{pa[1]:.3f} MPa. " + (
-                      f"The action unit inverts above the whole purple zone: a walking pressure "
-                      f"in ({max(pp[:2]):.3f}, {pa[0]:.3f}) MPa would leave it flat until a "
-                      f"raise to ({pa[0]:.3f}, {pa[1]:.3f}) MPa (the purple zone's classes at "
-                      "that lower pressure are not mapped here)."
-                      if pa[0] > max(pp[:2]) else
-                      "The action unit inverts below the purple zone's second unit, so no "
-                      "walking pressure separates them with these picks.")]  # fmt: skip
+        lines += [
+            "",
+            f"Inversion pressures of the picks: purple units {pp[0]:.3f} and "
+            f"{pp[1]:.3f} MPa; action unit {pa[0]:.3f} MPa, then the 4.5 mm units "
+            f"{pa[1]:.3f} MPa. "
+            + (
+                f"The action unit inverts above the whole purple zone: a walking pressure "
+                f"in ({max(pp[:2]):.3f}, {pa[0]:.3f}) MPa would leave it flat until a "
+                f"raise to ({pa[0]:.3f}, {pa[1]:.3f}) MPa (the purple zone's classes at "
+                "that lower pressure are not mapped here)."
+                if pa[0] > max(pp[:2])
+                else "The action unit inverts below the purple zone's second unit, so no "
+                "walking pressure separates them with these picks."
+            ),
+        ]
     return "\n".join(lines) + "\n"
 
 
 def fmt(values) -> str:
     """Reset times as text."""
-    return ", ".join("-" if np.isnan(v) else ("inf" if np.isinf(v) else f"{v:.3f}")
-                     for v in values)  # fmt: skip
+    return ", ".join("-" if np.isnan(v) else ("inf" if np.isinf(v) else f"{v:.3f}") for v in values)
 
 
 def t1_purple_text(m) -> str:
     """What the purple zone does at t = 1.0."""
     j = int(np.argmin(np.abs(T_GRID - 1.0)))
     cls = m[P_WALK]["cls"][:, j]
-    names = {-1: "never inverted", 0: "bistable", 1: "metastable", 2: "monostable",
-             3: "no contact"}  # fmt: skip
+    names = {-1: "never inverted", 0: "bistable", 1: "metastable", 2: "monostable", 3: "no contact"}
     parts = []
     for pattern in np.unique(cls, axis=0):
         rows = np.all(cls == pattern, axis=1)
         hs = H_PURPLE[rows]
-        parts.append(f"H {hs.min():.2f}-{hs.max():.2f}: "
-                     f"{'/'.join(names[int(c)] for c in pattern)}")  # fmt: skip
+        parts.append(f"H {hs.min():.2f}-{hs.max():.2f}: {'/'.join(names[int(c)] for c in pattern)}")
     return "; ".join(parts)
 
 
@@ -418,16 +473,18 @@ def order_text(purple, apart, action) -> str:
     p_purple = np.nanmax(purple["p_inv"], axis=-1)[both]
     meta = action[P_WALK]["cls"][..., 0] == 1
     p_action = action["p_inv"][..., 0][meta]
-    text = (f"over the equal-height purple zones that work at {P_WALK} MPa, inverting both "
-            f"units takes {np.nanmin(p_purple):.3f}-{np.nanmax(p_purple):.3f} MPa; a metastable "
-            f"action unit inverts at {np.nanmin(p_action):.3f}-{np.nanmax(p_action):.3f} MPa "
-            f"(all t). Every metastable action unit thus inverts below the walking pressure: "
-            "at walking pressure it is inverted in every cycle, and raising the pressure adds "
-            "nothing. For the paper's turning (walking pressure between the purple zone's and "
-            "the action unit's inversion pressures) the action unit needs a higher inversion "
-            "pressure than any metastable height gives at t <= 1 in this layout; a lower walking "
-            "pressure, a thicker action dome (t > 1, outside the fitted range) or an action unit "
-            "placed elsewhere in its section are what a scene could vary")
+    text = (
+        f"over the equal-height purple zones that work at {P_WALK} MPa, inverting both "
+        f"units takes {np.nanmin(p_purple):.3f}-{np.nanmax(p_purple):.3f} MPa; a metastable "
+        f"action unit inverts at {np.nanmin(p_action):.3f}-{np.nanmax(p_action):.3f} MPa "
+        f"(all t). Every metastable action unit thus inverts below the walking pressure: "
+        "at walking pressure it is inverted in every cycle, and raising the pressure adds "
+        "nothing. For the paper's turning (walking pressure between the purple zone's and "
+        "the action unit's inversion pressures) the action unit needs a higher inversion "
+        "pressure than any metastable height gives at t <= 1 in this layout; a lower walking "
+        "pressure, a thicker action dome (t > 1, outside the fitted range) or an action unit "
+        "placed elsewhere in its section are what a scene could vary"
+    )
     return text
 
 
@@ -437,8 +494,7 @@ def main() -> int:
     purple = run_grid(H_PURPLE, lambda h, t: section([h, h], t), PHASE1, (P_WALK,))
     print(f"purple: {purple['wall_pulses']:.1f} + {purple['wall_ramps']:.1f} s", file=sys.stderr)
     apart = [purple_apart(t) for t in T_APART]
-    action = run_grid(H_ACTION, lambda h, t: section([h, 4.5, 4.5, 4.5], t), PHASE2,
-                      (P_WALK,))  # fmt: skip
+    action = run_grid(H_ACTION, lambda h, t: section([h, 4.5, 4.5, 4.5], t), PHASE2, (P_WALK,))
     print(f"action: {action['wall_pulses']:.1f} + {action['wall_ramps']:.1f} s", file=sys.stderr)
     windows = edge_windows(T_GRID, CYCLE, P_WALK)
     purple_pick = pick_apart(apart)
@@ -450,20 +506,33 @@ def main() -> int:
         action_pick = {"H": r["h_T"] + 0.25 * (r["edge"] - r["h_T"]), "t": r["t"]}
     picks = {"purple": purple_pick, "action": action_pick}
     if purple_pick and action_pick:
-        batch = DesignBatch.from_designs([section(purple_pick["H"], purple_pick["t"]),
-                                          section([action_pick["H"], 4.5, 4.5, 4.5],
-                                                  action_pick["t"])])  # fmt: skip
+        batch = DesignBatch.from_designs(
+            [
+                section(purple_pick["H"], purple_pick["t"]),
+                section([action_pick["H"], 4.5, 4.5, 4.5], action_pick["t"]),
+            ]
+        )
         pressures = inversion_pressures(batch)
         picks["pressures"] = (pressures[0, :2], pressures[1, :2])
-    legs = [("implementation H_p = 1.1", simulate_leg(load_leg(example_path("walker-leg")))),
-            ("implementation H_p = 2.5", simulate_leg(load_leg(example_path("walker-leg-2.5"))))]
+    legs = [
+        ("implementation H_p = 1.1", simulate_leg(load_leg(example_path("walker-leg")))),
+        ("implementation H_p = 2.5", simulate_leg(load_leg(example_path("walker-leg-2.5")))),
+    ]
     if purple_pick:
         hp, tp = purple_pick["H"], purple_pick["t"]
         if action_pick:
-            legs.append(("designed front leg", simulate_leg(
-                leg_with(hp, action_pick["H"], tp, action_pick["t"], "front"))))  # fmt: skip
-        legs.append(("designed middle leg (monostable action unit)",
-                     simulate_leg(leg_with(hp, 3.0, tp, 1.0, "middle"))))  # fmt: skip
+            legs.append(
+                (
+                    "designed front leg",
+                    simulate_leg(leg_with(hp, action_pick["H"], tp, action_pick["t"], "front")),
+                )
+            )
+        legs.append(
+            (
+                "designed middle leg (monostable action unit)",
+                simulate_leg(leg_with(hp, 3.0, tp, 1.0, "middle")),
+            )
+        )
     draw(purple, apart, action, legs, OUT / f"{NAME}.png")
     (OUT / f"{NAME}.md").write_text(report(purple, apart, action, windows, picks, legs))
     return 0

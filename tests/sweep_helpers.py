@@ -133,8 +133,10 @@ class UnitConstantsEvaluator:
         valid = status == st.OK
         per_design = np.where(valid, n_units, 1)
         design_index = np.repeat(np.arange(len(batch)), per_design)
-        parts = [np.arange(1, n + 1) if ok else np.array([-1])
-                 for n, ok in zip(n_units, valid, strict=True)]
+        parts = [
+            np.arange(1, n + 1) if ok else np.array([-1])
+            for n, ok in zip(n_units, valid, strict=True)
+        ]
         unit = np.concatenate(parts) if parts else np.empty(0, dtype=np.int64)
         slot = np.where(unit > 0, unit - 1, 0)
         values = table[design_index, slot]
@@ -149,7 +151,6 @@ class UnitConstantsEvaluator:
             "status": status[design_index],
             "status_label": status[design_index],
         }
-
 
 
 class CrashingEvaluator(UnitConstantsEvaluator):

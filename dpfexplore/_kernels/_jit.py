@@ -80,6 +80,7 @@ def invalidate_stale_cache() -> None:
 
 invalidate_stale_cache()
 
+
 def is_cached(dispatcher) -> bool | None:
     """Whether Numba's cache holds machine code of ``dispatcher`` for this CPU.
 

@@ -206,7 +206,15 @@ def solve_rows_serial(
 
 @kernel
 def solve_repeatedly(
-    unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig,
+    unit_params,
+    h,
+    requested,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
     repeats,
 ):
     """Solve one design-state ``repeats`` times (for timing single designs); returns the status.
@@ -220,8 +228,18 @@ def solve_repeatedly(
     status = 0
     for _ in range(repeats):
         status, _, _ = solve_state(
-            unit_params, h, requested, gtol, xtol, max_iter, max_step, want_stiffness,
-            want_min_eig, x, out, ws,
+            unit_params,
+            h,
+            requested,
+            gtol,
+            xtol,
+            max_iter,
+            max_step,
+            want_stiffness,
+            want_min_eig,
+            x,
+            out,
+            ws,
         )
     return status
 

@@ -287,8 +287,7 @@ def force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work
     """
     split = np.empty(N_SPLIT)
     assemble(x, unit_params, h, pos, work, np.empty((0, 0)), GRADIENT, split)
-    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
-                                   out)  # fmt: skip
+    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out)
 
 
 @kernel
@@ -352,8 +351,7 @@ def stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, 
 
 
 @kernel
-def residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
-                          res, jac):  # fmt: skip
+def residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res, jac):
     """:func:`force_residual` into ``res`` and :func:`stiffness_jacobian` into ``jac`` at once.
 
     The Hessian assembly computes the gradient on the way, so the residual at the same point
@@ -362,8 +360,7 @@ def residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, ve
     split = np.empty(N_SPLIT)
     assemble(x, unit_params, h, pos, work, jac, HESSIAN, split)
     _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, jac)
-    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
-                                   res)  # fmt: skip
+    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res)
 
 
 @kernel

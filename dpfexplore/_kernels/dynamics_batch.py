@@ -69,18 +69,57 @@ def rest_state(unit_params, h, y):
 
 
 @kernel
-def integrate(integrator, y, t0, t_end, unit_params, h, knot_t, knot_p, phys, ctrl,
-              t_out, x_out, unit_rec, event_log, stats):  # fmt: skip
+def integrate(
+    integrator,
+    y,
+    t0,
+    t_end,
+    unit_params,
+    h,
+    knot_t,
+    knot_p,
+    phys,
+    ctrl,
+    t_out,
+    x_out,
+    unit_rec,
+    event_log,
+    stats,
+):
     """Dispatch to the integrator with id ``integrator``; returns its status."""
     if integrator == INTEGRATOR_RODAS4:
         return rodas4(
-            y, t0, t_end, unit_params, h, knot_t, knot_p, phys, ctrl,
-            t_out, x_out, unit_rec, event_log, stats,
-        )  # fmt: skip
+            y,
+            t0,
+            t_end,
+            unit_params,
+            h,
+            knot_t,
+            knot_p,
+            phys,
+            ctrl,
+            t_out,
+            x_out,
+            unit_rec,
+            event_log,
+            stats,
+        )
     return dopri5(
-        y, t0, t_end, unit_params, h, knot_t, knot_p, phys, ctrl,
-        t_out, x_out, unit_rec, event_log, stats,
-    )  # fmt: skip
+        y,
+        t0,
+        t_end,
+        unit_params,
+        h,
+        knot_t,
+        knot_p,
+        phys,
+        ctrl,
+        t_out,
+        x_out,
+        unit_rec,
+        event_log,
+        stats,
+    )
 
 
 @kernel
@@ -117,9 +156,25 @@ def summarise_units(unit_rec, tau_end, status, reset, snap_through, snap_back, u
 
 @batch_kernel
 def reset_times_kernel(
-    unit_params, h, n_units, valid, knot_t, knot_p, eta, eta_iso, overdamped, integrator,
-    ctrl, t_end, status, final_state, reset, snap_through, snap_back, unit_class,
-):  # fmt: skip
+    unit_params,
+    h,
+    n_units,
+    valid,
+    knot_t,
+    knot_p,
+    eta,
+    eta_iso,
+    overdamped,
+    integrator,
+    ctrl,
+    t_end,
+    status,
+    final_state,
+    reset,
+    snap_through,
+    snap_back,
+    unit_class,
+):
     """Simulate every valid design from rest under one profile, in parallel (``prange``).
 
     Invalid rows (``valid[i] == False``) are left untouched. Output arrays are
@@ -145,9 +200,22 @@ def reset_times_kernel(
         t_out = np.empty(0)
         x_out = np.empty((0, nf))
         code = integrate(
-            integrator, y, 0.0, t_end, params, h[i], knot_t, knot_p, phys, ctrl,
-            t_out, x_out, rec, log, stats,
-        )  # fmt: skip
+            integrator,
+            y,
+            0.0,
+            t_end,
+            params,
+            h[i],
+            knot_t,
+            knot_p,
+            phys,
+            ctrl,
+            t_out,
+            x_out,
+            rec,
+            log,
+            stats,
+        )
         status[i] = code
         cls = np.empty(nu, dtype=np.int64)
         final_state[i] = summarise_units(

@@ -49,8 +49,22 @@ N_UNIT_DIAG = UD_RELEASE + N_RELEASE_DIAG
 
 
 @kernel
-def fast_reset_design(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, reset,
-                      snap_back, unit_class, unit_diag, design_diag, newton_ws):  # fmt: skip
+def fast_reset_design(
+    unit_params,
+    h,
+    knot_t,
+    knot_p,
+    eta,
+    eta_iso,
+    ctrl,
+    t_end,
+    reset,
+    snap_back,
+    unit_class,
+    unit_diag,
+    design_diag,
+    newton_ws,
+):
     """Reset times of one design under a single pulse; returns ``(status, final_state)``.
 
     Parameters
@@ -89,9 +103,24 @@ def fast_reset_design(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end,
     rec = np.empty((n_units, N_REC))
     stats = np.zeros(N_STATS, dtype=np.int64)
     counters = np.zeros(2, dtype=np.int64)
-    code = release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, knot_t[2],
-                          t_end, rec, stats, unit_diag[:, UD_RELEASE:], counters,
-                          release_workspace(n_units), newton_ws)  # fmt: skip
+    code = release_rodas3(
+        x,
+        unit_params,
+        h,
+        knot_t,
+        knot_p,
+        eta,
+        eta_iso,
+        ctrl,
+        knot_t[2],
+        t_end,
+        rec,
+        stats,
+        unit_diag[:, UD_RELEASE:],
+        counters,
+        release_workspace(n_units),
+        newton_ws,
+    )
     design_diag[DD_STEPS] = stats[STAT_STEPS]
     design_diag[DD_REJECTED] = stats[STAT_REJECTED]
     design_diag[DD_CHECK_ITER] = counters[0]
@@ -107,9 +136,25 @@ def fast_reset_design(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end,
 
 
 @batch_kernel
-def fast_reset_batch(unit_params, h, n_units, valid, knot_t, knot_p, eta, eta_iso, ctrl, t_end,
-                     status, final_state, reset, snap_back, unit_class, unit_diag,
-                     design_diag):  # fmt: skip
+def fast_reset_batch(
+    unit_params,
+    h,
+    n_units,
+    valid,
+    knot_t,
+    knot_p,
+    eta,
+    eta_iso,
+    ctrl,
+    t_end,
+    status,
+    final_state,
+    reset,
+    snap_back,
+    unit_class,
+    unit_diag,
+    design_diag,
+):
     """:func:`fast_reset_design` over the valid rows of a batch in parallel (``prange``).
 
     Arrays are ``(n,)``, ``(n, MAX_UNITS)``, ``(n, MAX_UNITS, N_UNIT_DIAG)`` and
@@ -120,9 +165,20 @@ def fast_reset_batch(unit_params, h, n_units, valid, knot_t, knot_p, eta, eta_is
             continue
         nu = n_units[i]
         code, state = fast_reset_design(
-            unit_params[i, :nu], h[i], knot_t, knot_p, eta, eta_iso, ctrl, t_end, reset[i, :nu],
-            snap_back[i, :nu], unit_class[i, :nu], unit_diag[i, :nu], design_diag[i],
+            unit_params[i, :nu],
+            h[i],
+            knot_t,
+            knot_p,
+            eta,
+            eta_iso,
+            ctrl,
+            t_end,
+            reset[i, :nu],
+            snap_back[i, :nu],
+            unit_class[i, :nu],
+            unit_diag[i, :nu],
+            design_diag[i],
             workspace(),
-        )  # fmt: skip
+        )
         status[i] = code
         final_state[i] = state

@@ -114,9 +114,21 @@ def _slope(y, t, n, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, 
 
 @kernel
 def dopri5(
-    y, t0, t_end, unit_params, h, knot_t, knot_p, phys, ctrl,
-    t_out, x_out, unit_rec, event_log, stats,
-):  # fmt: skip
+    y,
+    t0,
+    t_end,
+    unit_params,
+    h,
+    knot_t,
+    knot_p,
+    phys,
+    ctrl,
+    t_out,
+    x_out,
+    unit_rec,
+    event_log,
+    stats,
+):
     """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
 
     Same arguments as :func:`.integrators_rosenbrock.rodas4`. For the overdamped model
@@ -178,9 +190,21 @@ def dopri5(
                     acc += step * DP_A[s, j] * k[j, i]
                 y_stage[i] = acc
             if _slope(
-                y_stage, t + DP_C[s] * step, n, unit_params, h, knot_t, knot_p, phys,
-                pos, vel, work, cmat, piv, k[s],
-            ):  # fmt: skip
+                y_stage,
+                t + DP_C[s] * step,
+                n,
+                unit_params,
+                h,
+                knot_t,
+                knot_p,
+                phys,
+                pos,
+                vel,
+                work,
+                cmat,
+                piv,
+                k[s],
+            ):
                 ok = False
                 break
             stats[STAT_RHS] += 1
@@ -208,16 +232,28 @@ def dopri5(
                 for i in range(n):
                     y_new[n + i] = k[N_DP_STAGES - 1, i]
             process_step(
-                t, step, y[:n], y[n:], y_new[:n], y_new[n:], g0, g1, unit_params, unit_rec,
-                event_log, stats, t_out, x_out,
-            )  # fmt: skip
+                t,
+                step,
+                y[:n],
+                y[n:],
+                y_new[:n],
+                y_new[n:],
+                g0,
+                g1,
+                unit_params,
+                unit_rec,
+                event_log,
+                stats,
+                t_out,
+                x_out,
+            )
             t = t_stop if lands else t + step
             for i in range(2 * n):
                 y[i] = y_new[i]
             for i in range(2 * n):
                 k[0, i] = k[N_DP_STAGES - 1, i]
             stats[STAT_STEPS] += 1
-            fac = _SAFETY * max(err, 1e-10) ** (-0.2 + 0.75 * _BETA) * err_old ** _BETA
+            fac = _SAFETY * max(err, 1e-10) ** (-0.2 + 0.75 * _BETA) * err_old**_BETA
             fac = min(_FAC_MAX, max(_FAC_MIN, fac))
             if last_rejected:
                 fac = min(fac, 1.0)

@@ -180,8 +180,9 @@ def consistent_velocity(x, t, unit_params, h, knot_t, knot_p, phys, pos, vel, wo
 
 
 @kernel
-def step_start(x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0, jac,
-               cmat, ft):  # fmt: skip
+def step_start(
+    x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0, jac, cmat, ft
+):
     """``R``, ``∂R/∂x``, ``C`` and ``∂R/∂t`` at the step start ``(t, x, v)``.
 
     Into ``res0``, ``jac``, ``cmat`` and ``ft``; ``pos``, ``vel``, ``work`` are scratch (as
@@ -192,8 +193,7 @@ def step_start(x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, wo
     """
     n_units = unit_params.shape[0]
     n = n_free(n_units)
-    residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0,
-                          jac)  # fmt: skip
+    residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0, jac)
     damping_matrix(pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], work, cmat)
     slope = pressure_slope(t + 0.5 * step, knot_t, knot_p)
     for i in range(n):
@@ -224,9 +224,21 @@ def accepted_step_factor(err, step, h_acc, err_acc, expo, fac_max, last_rejected
 
 @kernel
 def rodas4(
-    y, t0, t_end, unit_params, h, knot_t, knot_p, phys, ctrl,
-    t_out, x_out, unit_rec, event_log, stats,
-):  # fmt: skip
+    y,
+    t0,
+    t_end,
+    unit_params,
+    h,
+    knot_t,
+    knot_p,
+    phys,
+    ctrl,
+    t_out,
+    x_out,
+    unit_rec,
+    event_log,
+    stats,
+):
     """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
 
     Parameters
@@ -284,9 +296,12 @@ def rodas4(
     v = y[n:]
 
     if mass == 0.0:
-        if consistent_velocity(
-            x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v
-        ) != 0:
+        if (
+            consistent_velocity(
+                x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v
+            )
+            != 0
+        ):
             return st.DEGENERATE_GEOMETRY
     init_record(x, t0, unit_params, unit_rec, stats, g0)
     record_initial_samples(t0, x, t_out, x_out, stats)
@@ -313,8 +328,24 @@ def rodas4(
         # Jacobian at (t, x, v): S = m/(hγ)² + C/(hγ) + H + D - P_J. A rejected step retries
         # from the same point, so only the step size changes.
         if not fresh:
-            step_start(x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0,
-                       jac, cmat, ft)  # fmt: skip
+            step_start(
+                x,
+                v,
+                t,
+                step,
+                unit_params,
+                h,
+                knot_t,
+                knot_p,
+                phys,
+                pos,
+                vel,
+                work,
+                res0,
+                jac,
+                cmat,
+                ft,
+            )
             stats[STAT_RHS] += 1
             fresh = True
         hg = step * RODAS4_GAMMA
@@ -360,9 +391,19 @@ def rodas4(
                 else:
                     t_stage = t + RODAS4_ALPHA[s] * step
                     force_residual(
-                        yx, yv, t_stage, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
+                        yx,
+                        yv,
+                        t_stage,
+                        unit_params,
+                        h,
+                        knot_t,
+                        knot_p,
+                        phys,
+                        pos,
+                        vel,
+                        work,
                         res,
-                    )  # fmt: skip
+                    )
                     stats[STAT_RHS] += 1
                 gam_h = RODAS4_GAMMA_SUM[s] * step
                 for i in range(n):
@@ -399,8 +440,20 @@ def rodas4(
 
         if err <= 1.0:
             process_step(
-                t, step, x, v, x_new, v_new, g0, g1, unit_params, unit_rec, event_log, stats,
-                t_out, x_out,
+                t,
+                step,
+                x,
+                v,
+                x_new,
+                v_new,
+                g0,
+                g1,
+                unit_params,
+                unit_rec,
+                event_log,
+                stats,
+                t_out,
+                x_out,
             )
             t = t_stop if lands else t + step
             for i in range(n):
@@ -415,7 +468,7 @@ def rodas4(
             step = min(step * fac, h_max)
         else:
             stats[STAT_REJECTED] += 1
-            fac = max(FAC_MIN, SAFETY * err ** -0.25)
+            fac = max(FAC_MIN, SAFETY * err**-0.25)
             step *= fac
             last_rejected = True
     return st.OK

@@ -191,8 +191,22 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
         chunk = FIRST_CHUNK
         stage_end = t + MAX_SETTLE
         while t < stage_end:
-            code = rodas4(y, t, t + chunk, unit_params, h, knot_t, knot_p, phys, local, t_out,
-                          x_out, rec, log, stats)  # fmt: skip
+            code = rodas4(
+                y,
+                t,
+                t + chunk,
+                unit_params,
+                h,
+                knot_t,
+                knot_p,
+                phys,
+                local,
+                t_out,
+                x_out,
+                rec,
+                log,
+                stats,
+            )
             steps += stats[STAT_STEPS]
             if code != st.OK:
                 info[2] = steps
@@ -202,8 +216,12 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
             chunk *= 2.0
             for i in range(n):
                 x_land[i] = y[i]
-            if loaded_equilibrium(x_land, unit_params, h, p_fold, POLISH_FTOL, POLISH_ITER,
-                                  POLISH_MOVE) != st.OK:  # fmt: skip
+            if (
+                loaded_equilibrium(
+                    x_land, unit_params, h, p_fold, POLISH_FTOL, POLISH_ITER, POLISH_MOVE
+                )
+                != st.OK
+            ):
                 continue
             moved = 0.0
             jump = 0.0
@@ -212,8 +230,9 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
                 jump = max(jump, abs(x_land[i] - x_fold[i]))
             if moved > POLISH_MAX or jump < JUMP_MIN * kick:
                 continue
-            cert = certify_stable(x_land, p_fold, unit_params, h, phys[PHYS_ETA],
-                                  phys[PHYS_ETA_ISO])  # fmt: skip
+            cert = certify_stable(
+                x_land, p_fold, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO]
+            )
             if cert > 0.0:
                 info[0] = cert
                 info[1] = t

@@ -115,9 +115,18 @@ def newton_scratch(n_units):
     """Scratch arrays of :func:`loaded_newton` for ``n_units`` units."""
     n = n_free(n_units)
     nodes = n_nodes(n_units)
-    return (np.empty((nodes, 2)), np.empty((nodes, 2)), np.empty(n), np.empty(n), np.empty(n),
-            np.empty(n), np.empty(n), np.empty((n, n)), np.empty(n, dtype=np.int64),
-            np.zeros(n))  # fmt: skip
+    return (
+        np.empty((nodes, 2)),
+        np.empty((nodes, 2)),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty(n, dtype=np.int64),
+        np.zeros(n),
+    )
 
 
 @kernel
@@ -166,8 +175,7 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
             return st.OK, it
         if it == max_iter:
             break
-        stiffness_jacobian(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
-                           jac)  # fmt: skip
+        stiffness_jacobian(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, jac)
         for i in range(n):
             for j in range(n):
                 jac[i, j] = -jac[i, j]  # H - P_J: solve (H - P_J) dx = R
@@ -187,8 +195,9 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
         for _ in range(30):
             for i in range(n):
                 trial[i] = x[i] + scale * step[i]
-            force_residual(trial, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel,
-                           work, trial_res)  # fmt: skip
+            force_residual(
+                trial, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, trial_res
+            )
             trial_merit = 0.0
             for i in range(n):
                 trial_merit += trial_res[i] * trial_res[i]

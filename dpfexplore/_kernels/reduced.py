@@ -56,8 +56,9 @@ def loaded_equilibrium(x, unit_params, h, pressure, ftol, max_iter, max_move):
 
     :func:`.loaded_state.loaded_newton` with its own scratch (see the module docstring).
     """
-    code, _ = loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move,
-                            newton_scratch(unit_params.shape[0]))  # fmt: skip
+    code, _ = loaded_newton(
+        x, unit_params, h, pressure, ftol, max_iter, max_move, newton_scratch(unit_params.shape[0])
+    )
     return code
 
 
@@ -84,8 +85,9 @@ def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, 
     loose[CTRL_ATOL] = max(ctrl[CTRL_ATOL], LOADING_ATOL)
     loose[CTRL_STOP_WHEN_RESET] = 0.0
     loading = np.empty((n_units, N_REC))
-    code = rodas4(y, 0.0, tau3, unit_params, h, knot_t, knot_p, phys, loose, t_out, x_out,
-                  loading, log, stats)  # fmt: skip
+    code = rodas4(
+        y, 0.0, tau3, unit_params, h, knot_t, knot_p, phys, loose, t_out, x_out, loading, log, stats
+    )
     if code != st.OK:
         return code
     steps = stats[STAT_STEPS]
@@ -94,8 +96,9 @@ def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, 
     code = loaded_equilibrium(y[:n], unit_params, h, knot_p[2], 1e-9, 50, 0.5)
     if code != st.OK:
         return code
-    code = rodas4(y, tau3, t_end, unit_params, h, knot_t, knot_p, phys, ctrl, t_out, x_out, rec,
-                  log, stats)  # fmt: skip
+    code = rodas4(
+        y, tau3, t_end, unit_params, h, knot_t, knot_p, phys, ctrl, t_out, x_out, rec, log, stats
+    )
     stats[STAT_STEPS] += steps
     for k in range(n_units):
         # carry over what happened during the loading
@@ -109,9 +112,23 @@ def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, 
 
 @batch_kernel
 def release_batch(
-    unit_params, h, n_units, valid, knot_t, knot_p, eta, eta_iso, ctrl, t_end,
-    status, final_state, reset, snap_through, snap_back, unit_class,
-):  # fmt: skip
+    unit_params,
+    h,
+    n_units,
+    valid,
+    knot_t,
+    knot_p,
+    eta,
+    eta_iso,
+    ctrl,
+    t_end,
+    status,
+    final_state,
+    reset,
+    snap_through,
+    snap_back,
+    unit_class,
+):
     """:func:`release_run` over many designs in parallel (layout as ``reset_times_kernel``)."""
     n = unit_params.shape[0]
     tau_end = knot_t[knot_t.shape[0] - 1]

@@ -87,8 +87,7 @@ RODAS3_GAMMA = 0.5
 RODAS3_ALPHA = np.array([0.0, 0.0, 1.0, 1.0])
 RODAS3_GAMMA_SUM = np.array([0.5, 1.5, 0.0, 0.0])
 RODAS3_A = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 0.0, 1.0]])
-RODAS3_C = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [1.0, -1.0, 0.0],
-                     [1.0, -1.0, -8.0 / 3.0]])  # fmt: skip
+RODAS3_C = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [1.0, -1.0, 0.0], [1.0, -1.0, -8.0 / 3.0]])
 RODAS3_B = np.array([2.0, 0.0, 1.0, 1.0])
 N_STAGES = 4
 #: Order of the embedded solution + 1: the step-size exponent.
@@ -122,12 +121,31 @@ def release_workspace(n_units):
     """Scratch arrays of :func:`release_rodas3` (and its static check) for ``n_units`` units."""
     n = n_free(n_units)
     nodes = n_nodes(n_units)
-    return (np.empty((nodes, 2)), np.empty((nodes, 2)), np.empty(n), np.empty(n), np.empty(n),
-            np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
-            np.empty(n, dtype=np.int64), np.empty((N_STAGES, n)), np.empty((N_STAGES, n)),
-            np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-            np.empty(n_units), np.empty(n_units), np.empty(n), np.empty(n_units),
-            np.empty(n_units))  # fmt: skip
+    return (
+        np.empty((nodes, 2)),
+        np.empty((nodes, 2)),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty(n, dtype=np.int64),
+        np.empty((N_STAGES, n)),
+        np.empty((N_STAGES, n)),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n_units),
+        np.empty(n_units),
+        np.empty(n),
+        np.empty(n_units),
+        np.empty(n_units),
+    )
 
 
 @kernel
@@ -148,8 +166,9 @@ def settled_pattern(x, unit_params, h, newton_ws, check_x, check_u, counters):
     n = n_free(unit_params.shape[0])
     for i in range(n):
         check_x[i] = x[i]
-    status, n_iter = minimize(check_x, unit_params, h, CHECK_GTOL, CHECK_XTOL, CHECK_MAX_ITER,
-                              CHECK_MAX_STEP, newton_ws)  # fmt: skip
+    status, n_iter = minimize(
+        check_x, unit_params, h, CHECK_GTOL, CHECK_XTOL, CHECK_MAX_ITER, CHECK_MAX_STEP, newton_ws
+    )
     counters[0] += n_iter
     counters[1] += 1
     if status != st.OK:
@@ -158,8 +177,24 @@ def settled_pattern(x, unit_params, h, newton_ws, check_x, check_u, counters):
 
 
 @kernel
-def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_end, unit_rec,
-                   stats, unit_diag, counters, ws, newton_ws):  # fmt: skip
+def release_rodas3(
+    x,
+    unit_params,
+    h,
+    knot_t,
+    knot_p,
+    eta,
+    eta_iso,
+    ctrl,
+    t0,
+    t_end,
+    unit_rec,
+    stats,
+    unit_diag,
+    counters,
+    ws,
+    newton_ws,
+):
     """Integrate the overdamped lattice from rest at ``x`` (time ``t0``) until it may stop.
 
     Parameters
@@ -191,8 +226,31 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
         Status: ``OK``, ``STEP_LIMIT``, ``NOT_CONVERGED`` (step below ``CTRL_H_MIN``) or
         ``DEGENERATE_GEOMETRY`` (singular damping matrix at the start).
     """
-    (pos, vel, work, res0, res, jac, cmat, smat, low, piv, kx, kv, yx, yv, rx, ft, x_new, v_new,
-     g0, g1, check_x, check_u, last_down) = ws  # fmt: skip
+    (
+        pos,
+        vel,
+        work,
+        res0,
+        res,
+        jac,
+        cmat,
+        smat,
+        low,
+        piv,
+        kx,
+        kv,
+        yx,
+        yv,
+        rx,
+        ft,
+        x_new,
+        v_new,
+        g0,
+        g1,
+        check_x,
+        check_u,
+        last_down,
+    ) = ws
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     phys = np.zeros(N_PHYS)
@@ -206,8 +264,12 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
     tau_end = knot_t[knot_t.shape[0] - 1]
     expo = 1.0 / ERROR_ORDER
     v = np.empty(n)
-    if consistent_velocity(x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv,
-                           v) != 0:  # fmt: skip
+    if (
+        consistent_velocity(
+            x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v
+        )
+        != 0
+    ):
         return st.DEGENERATE_GEOMETRY
     init_record(x, t0, unit_params, unit_rec, stats, g0)
     for k in range(n_units):
@@ -242,8 +304,24 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
         if step < h_min:
             return st.NOT_CONVERGED
         if not fresh:
-            step_start(x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0,
-                       jac, cmat, ft)  # fmt: skip
+            step_start(
+                x,
+                v,
+                t,
+                step,
+                unit_params,
+                h,
+                knot_t,
+                knot_p,
+                phys,
+                pos,
+                vel,
+                work,
+                res0,
+                jac,
+                cmat,
+                ft,
+            )
             stats[STAT_RHS] += 1
             fresh = True
         inv_hg = 1.0 / (step * RODAS3_GAMMA)
@@ -277,8 +355,20 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
                     for i in range(n):
                         res[i] = res0[i]
                 else:
-                    force_residual(yx, yv, t + RODAS3_ALPHA[s] * step, unit_params, h, knot_t,
-                                   knot_p, phys, pos, vel, work, res)  # fmt: skip
+                    force_residual(
+                        yx,
+                        yv,
+                        t + RODAS3_ALPHA[s] * step,
+                        unit_params,
+                        h,
+                        knot_t,
+                        knot_p,
+                        phys,
+                        pos,
+                        vel,
+                        work,
+                        res,
+                    )
                     stats[STAT_RHS] += 1
                 gam_h = RODAS3_GAMMA_SUM[s] * step
                 kx_s = kx[s]
@@ -316,8 +406,9 @@ def release_rodas3(x, unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t0, t_
         events = stats[STAT_EVENTS]
         for k in range(n_units):
             last_down[k] = unit_rec[k, REC_LAST_DOWN]
-        process_step(t, step, x, v, x_new, v_new, g0, g1, unit_params, unit_rec, log, stats,
-                     t_out, x_out)  # fmt: skip
+        process_step(
+            t, step, x, v, x_new, v_new, g0, g1, unit_params, unit_rec, log, stats, t_out, x_out
+        )
         if stats[STAT_EVENTS] != events:
             check_due = True
             t_event = t + step

@@ -455,9 +455,7 @@ def tangent(pos, unit_params, h, dtab, kind, unit, k_lo, k_hi, r, dg):
         d_energy += de
         d_phi += dp
         if k < n_units:
-            de, dp = _torsion_tangent(
-                pos, 2 * k, 2 * k + 1, 2 * k + 3, kt, dkt, dp1, dh, r, dg
-            )
+            de, dp = _torsion_tangent(pos, 2 * k, 2 * k + 1, 2 * k + 3, kt, dkt, dp1, dh, r, dg)
             d_energy += de
             d_phi += dp
     return d_energy, d_phi
@@ -575,9 +573,7 @@ def design_sensitivities(x, unit_params, h, dtab, E, stride, sens, dx_out, ws):
                 for i in range(nf):
                     w_dx += w[i] * dx[i]
                 dn_r = dnx * r[2 * ftip] + dny * r[2 * ftip + 1]
-                sens[SENS_STIFFNESS, col] = -stiffness * stiffness * (
-                    2.0 * dn_r - (d_phi + w_dx)
-                )
+                sens[SENS_STIFFNESS, col] = -stiffness * stiffness * (2.0 * dn_r - (d_phi + w_dx))
     # E: shapes do not depend on it; energy and stiffness are proportional to it.
     col = parameter_column(N_DPARAM, -1, stride)
     if keep_dx:

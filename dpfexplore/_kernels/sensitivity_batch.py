@@ -23,14 +23,51 @@ from .sensitivity import N_SENS, design_sensitivities, n_parameters, workspace
 
 @kernel
 def _sensitivity_rows(
-    unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol, xtol,
-    max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes, dtab,
-    E, sens, dxs,
-):  # fmt: skip
+    unit_params,
+    h,
+    n_units,
+    design_status,
+    row_design,
+    row_state,
+    first,
+    last,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    out,
+    status,
+    found,
+    n_iter,
+    shapes,
+    dtab,
+    E,
+    sens,
+    dxs,
+):
     _solve_rows(
-        unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol, xtol,
-        max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes,
-    )  # fmt: skip
+        unit_params,
+        h,
+        n_units,
+        design_status,
+        row_design,
+        row_state,
+        first,
+        last,
+        gtol,
+        xtol,
+        max_iter,
+        max_step,
+        want_stiffness,
+        want_min_eig,
+        out,
+        status,
+        found,
+        n_iter,
+        shapes,
+    )
     ws = workspace()
     keep_dx = dxs.shape[0] > 0
     no_dx = np.empty((0, 0))
@@ -44,17 +81,42 @@ def _sensitivity_rows(
         m = n_units[i]
         dx_r = dxs[r] if keep_dx else no_dx
         design_sensitivities(
-            shapes[r, : n_free(m)], unit_params[i, :m], h[i], dtab[i, :m], E[i], MAX_UNITS,
-            sens[r], dx_r, ws,
-        )  # fmt: skip
+            shapes[r, : n_free(m)],
+            unit_params[i, :m],
+            h[i],
+            dtab[i, :m],
+            E[i],
+            MAX_UNITS,
+            sens[r],
+            dx_r,
+            ws,
+        )
 
 
 @batch_kernel
 def solve_rows_sensitivities(
-    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter,
-    max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes, dtab, E, sens,
+    unit_params,
+    h,
+    n_units,
+    design_status,
+    row_design,
+    row_state,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    out,
+    status,
+    found,
+    n_iter,
+    shapes,
+    dtab,
+    E,
+    sens,
     dxs,
-):  # fmt: skip
+):
     """:func:`.batch.solve_rows` plus the sensitivities of every row, in parallel.
 
     Parameters
@@ -78,24 +140,82 @@ max_step, want_stiffness, want_min_eig, out, status, found, n_iter
         first = b * BLOCK_ROWS
         last = min(first + BLOCK_ROWS, n_rows)
         _sensitivity_rows(
-            unit_params, h, n_units, design_status, row_design, row_state, first, last, gtol,
-            xtol, max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter,
-            shapes, dtab, E, sens, dxs,
-        )  # fmt: skip
+            unit_params,
+            h,
+            n_units,
+            design_status,
+            row_design,
+            row_state,
+            first,
+            last,
+            gtol,
+            xtol,
+            max_iter,
+            max_step,
+            want_stiffness,
+            want_min_eig,
+            out,
+            status,
+            found,
+            n_iter,
+            shapes,
+            dtab,
+            E,
+            sens,
+            dxs,
+        )
 
 
 @kernel
 def solve_rows_sensitivities_serial(
-    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter,
-    max_step, want_stiffness, want_min_eig, out, status, found, n_iter, shapes, dtab, E, sens,
+    unit_params,
+    h,
+    n_units,
+    design_status,
+    row_design,
+    row_state,
+    gtol,
+    xtol,
+    max_iter,
+    max_step,
+    want_stiffness,
+    want_min_eig,
+    out,
+    status,
+    found,
+    n_iter,
+    shapes,
+    dtab,
+    E,
+    sens,
     dxs,
-):  # fmt: skip
+):
     """:func:`solve_rows_sensitivities` on the calling thread (small batches)."""
     _sensitivity_rows(
-        unit_params, h, n_units, design_status, row_design, row_state, 0, row_design.shape[0],
-        gtol, xtol, max_iter, max_step, want_stiffness, want_min_eig, out, status, found, n_iter,
-        shapes, dtab, E, sens, dxs,
-    )  # fmt: skip
+        unit_params,
+        h,
+        n_units,
+        design_status,
+        row_design,
+        row_state,
+        0,
+        row_design.shape[0],
+        gtol,
+        xtol,
+        max_iter,
+        max_step,
+        want_stiffness,
+        want_min_eig,
+        out,
+        status,
+        found,
+        n_iter,
+        shapes,
+        dtab,
+        E,
+        sens,
+        dxs,
+    )
 
 
 @kernel

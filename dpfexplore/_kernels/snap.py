@@ -106,6 +106,7 @@ D_FLOOR = 0.1
 #: Continuation steps (accepted + rejected) per branch walk.
 MAX_STEPS = 20000
 
+
 @kernel
 def state_of(g, n_units):
     """State integer from unit margins ``g = u - u_inv`` (unit 1 = most significant bit)."""
@@ -161,8 +162,9 @@ def _add_event(ev, ev_x, counts, pressure, kind, before, after, x_before, x_afte
 
 
 @kernel
-def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, ev_x, path,
-           counts, x_final):  # fmt: skip
+def follow(
+    unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, ev_x, path, counts, x_final
+):
     """Follow the equilibrium from ``(x_start, p_start)`` to ``p_end``, snapping at folds.
 
     Parameters
@@ -233,8 +235,10 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
     code, _ = correct(y1, border, 0.0, unit_params, h, ws, y0, t0)
     if code != CORRECT_OK:
         return st.NOT_CONVERGED
-    if not certify_stable(y0[:n], p_start, unit_params, h, phys[PHYS_ETA],
-                          phys[PHYS_ETA_ISO]) > 0.0:  # fmt: skip
+    if (
+        not certify_stable(y0[:n], p_start, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO])
+        > 0.0
+    ):
         for i in range(n):
             x_final[i] = y0[i]
         return st.UNSTABLE
@@ -280,8 +284,9 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
         stop = 0  # 0 none, 1 fold, 2 end
         s_stop = ds
         if sign * t1[n] < 0.0:
-            code, s_stop = locate(WHICH_FOLD, y0, t0, 0.0, t0[n], ds, t1[n], unit_params, h,
-                                  p_end_s, ws, yb, tb)  # fmt: skip
+            code, s_stop = locate(
+                WHICH_FOLD, y0, t0, 0.0, t0[n], ds, t1[n], unit_params, h, p_end_s, ws, yb, tb
+            )
             failed = code != CORRECT_OK
             stop = 1
             p_last = yb[n]  # pressure is monotone up to the fold
@@ -289,8 +294,21 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
             p_last = y1[n]
         if not failed and sign * (p_last - p_end_s) >= 0.0:
             g_end = p_last - p_end_s
-            code, s_stop = locate(WHICH_END, y0, t0, 0.0, y0[n] - p_end_s, s_stop, g_end,
-                                  unit_params, h, p_end_s, ws, yb, tb)  # fmt: skip
+            code, s_stop = locate(
+                WHICH_END,
+                y0,
+                t0,
+                0.0,
+                y0[n] - p_end_s,
+                s_stop,
+                g_end,
+                unit_params,
+                h,
+                p_end_s,
+                ws,
+                yb,
+                tb,
+            )
             failed = code != CORRECT_OK
             stop = 2
         if not failed and stop != 0:
@@ -304,8 +322,9 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
         for k in range(n_units):
             if failed or (g0[k] > 0.0) == (gb[k] > 0.0):
                 continue
-            code, s = locate(k, y0, t0, 0.0, g0[k], s_stop, gb[k], unit_params, h, p_end_s, ws,
-                             yc, tc)  # fmt: skip
+            code, s = locate(
+                k, y0, t0, 0.0, g0[k], s_stop, gb[k], unit_params, h, p_end_s, ws, yc, tc
+            )
             if code != CORRECT_OK:
                 failed = True
                 continue
@@ -339,8 +358,18 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
         for j in range(n_cross):
             bit = 1 << (n_units - 1 - cross_k[j])
             after = label ^ bit
-            if not _add_event(ev, ev_x, counts, cross_x[j, n] / PRESSURE_SCALE, KIND_CROSSING,
-                              label, after, cross_x[j, :n], cross_x[j, :n], info):  # fmt: skip
+            if not _add_event(
+                ev,
+                ev_x,
+                counts,
+                cross_x[j, n] / PRESSURE_SCALE,
+                KIND_CROSSING,
+                label,
+                after,
+                cross_x[j, :n],
+                cross_x[j, :n],
+                info,
+            ):
                 return st.STEP_LIMIT
             label = after
             _record_path(cross_x[j], segment, label, unit_params, h, gp, path, counts)
@@ -353,21 +382,24 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
         if stop == 1:
             _record_path(y1, segment, label, unit_params, h, gp, path, counts)
             p_fold = y1[n] / PRESSURE_SCALE
-            code = land(y1[:n], t1[:n], p_fold, sign, unit_params, h, phys, ctrl, kick, x_land,
-                        info)  # fmt: skip
+            code = land(
+                y1[:n], t1[:n], p_fold, sign, unit_params, h, phys, ctrl, kick, x_land, info
+            )
             counts[CNT_LANDING_STEPS] += int(info[2])
             if code != st.OK:
                 for i in range(n):
                     x_final[i] = y1[i]
                 if code == st.NOT_CONVERGED:
                     info[0] = np.nan
-                    _add_event(ev, ev_x, counts, p_fold, KIND_UNSETTLED, label, -1, y1[:n],
-                               y1[:n], info)  # fmt: skip
+                    _add_event(
+                        ev, ev_x, counts, p_fold, KIND_UNSETTLED, label, -1, y1[:n], y1[:n], info
+                    )
                 return code
             margins(x_land, unit_params, g0)
             after = state_of(g0, n_units)
-            if not _add_event(ev, ev_x, counts, p_fold, KIND_SNAP, label, after, y1[:n], x_land,
-                              info):  # fmt: skip
+            if not _add_event(
+                ev, ev_x, counts, p_fold, KIND_SNAP, label, after, y1[:n], x_land, info
+            ):
                 return st.STEP_LIMIT
             label = after
             segment += 1
@@ -392,10 +424,26 @@ def follow(unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, 
 
 @batch_kernel
 def snap_batch(
-    unit_params, h, n_units, valid, p_max, p_min, release, phys_eta, phys_eta_iso, overdamped,
-    mass_per_unit, ctrl, kick, status, n_events, events, release_status, release_state,
+    unit_params,
+    h,
+    n_units,
+    valid,
+    p_max,
+    p_min,
+    release,
+    phys_eta,
+    phys_eta_iso,
+    overdamped,
+    mass_per_unit,
+    ctrl,
+    kick,
+    status,
+    n_events,
+    events,
+    release_status,
+    release_state,
     release_p,
-):  # fmt: skip
+):
     """The rising ramp from the flat finger, and each visited state's release, for many designs.
 
     Parameters
@@ -446,21 +494,63 @@ def snap_batch(
         path = np.empty((0, N_PATH_FIXED + nu))
         counts = np.zeros(N_CNT, dtype=np.int64)
         x_final = np.empty(nf)
-        code = follow(params, h[i], y[:nf], 0.0, p_max, 1, phys, ctrl, kick, events[i], ev_x,
-                      path, counts, x_final)  # fmt: skip
+        code = follow(
+            params,
+            h[i],
+            y[:nf],
+            0.0,
+            p_max,
+            1,
+            phys,
+            ctrl,
+            kick,
+            events[i],
+            ev_x,
+            path,
+            counts,
+            x_final,
+        )
         status[i] = code
         ne = min(counts[CNT_EVENTS], capacity)
         n_events[i] = ne
         if ne > 0 and events[i, ne - 1, EV_KIND] == KIND_UNSETTLED:
             ne -= 1  # no state after it to release
         if release:
-            release_walks(params, h[i], y[:nf], 0.0, events[i], ev_x, ne, p_min, phys, ctrl, kick,
-                          release_status[i], release_state[i], release_p[i])  # fmt: skip
+            release_walks(
+                params,
+                h[i],
+                y[:nf],
+                0.0,
+                events[i],
+                ev_x,
+                ne,
+                p_min,
+                phys,
+                ctrl,
+                kick,
+                release_status[i],
+                release_state[i],
+                release_p[i],
+            )
 
 
 @kernel
-def release_walks(unit_params, h, x_start, p_start, ev, ev_x, n_events, p_min, phys, ctrl, kick,
-                  release_status, release_state, release_p):  # fmt: skip
+def release_walks(
+    unit_params,
+    h,
+    x_start,
+    p_start,
+    ev,
+    ev_x,
+    n_events,
+    p_min,
+    phys,
+    ctrl,
+    kick,
+    release_status,
+    release_state,
+    release_p,
+):
     """Release each state of a rising walk (start, then ``ev``) down to ``p_min``.
 
     The walk started at ``(x_start, p_start)``. Fills entry ``j`` (0 = the start, ``j`` = the
@@ -491,8 +581,22 @@ def release_walks(unit_params, h, x_start, p_start, ev, ev_x, n_events, p_min, p
             p_entry = ev[j - 1, EV_P]
             for i in range(nf):
                 x_entry[i] = ev_x[j - 1, 1, i]
-        code = follow(unit_params, h, x_entry, p_entry, p_min, -1, phys, ctrl, kick, ev2, ev2_x,
-                      path, counts, x_final)  # fmt: skip
+        code = follow(
+            unit_params,
+            h,
+            x_entry,
+            p_entry,
+            p_min,
+            -1,
+            phys,
+            ctrl,
+            kick,
+            ev2,
+            ev2_x,
+            path,
+            counts,
+            x_final,
+        )
         release_status[j] = code
         margins(x_final, unit_params, g)
         release_state[j] = state_of(g, n_units) if code == st.OK else -1

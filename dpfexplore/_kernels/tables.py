@@ -106,10 +106,22 @@ def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, row):
 @kernel
 def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, dtab):
     """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule)."""
-    (_, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep, dklim_dUL, dklim_dt,
-     dklim_dtlim, dkt_dUsep, dkt_dt, dkt_dtlim) = constant_derivatives_form(
-        H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch
-    )  # fmt: skip
+    (
+        _,
+        dkb_dH,
+        dkb_dt,
+        dalpha_dH,
+        dalpha_dt,
+        dd_dH,
+        dd_dt,
+        dd_dUsep,
+        dklim_dUL,
+        dklim_dt,
+        dklim_dtlim,
+        dkt_dUsep,
+        dkt_dt,
+        dkt_dtlim,
+    ) = constant_derivatives_form(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch)
     for c in range(N_DCONST):
         for j in range(N_DPARAM):
             dtab[c, j] = 0.0
@@ -192,5 +204,16 @@ def empty_derivative_table():
     return np.empty((0, 0, 0, 0))
 
 
-__all__ = ["DC_H", "DP_H", "DP_T", "DP_TLIM", "DP_UL", "DP_USEP", "N_COLS", "N_DCONST", "N_DPARAM",
-           "design_tables", "empty_derivative_table"]
+__all__ = [
+    "DC_H",
+    "DP_H",
+    "DP_T",
+    "DP_TLIM",
+    "DP_UL",
+    "DP_USEP",
+    "N_COLS",
+    "N_DCONST",
+    "N_DPARAM",
+    "design_tables",
+    "empty_derivative_table",
+]

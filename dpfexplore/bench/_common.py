@@ -65,8 +65,11 @@ def fresh_process_timings(probe: str) -> tuple[list[float], list[float]]:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
         runs = [
             subprocess.run(
-                [sys.executable, "-c", textwrap.dedent(probe)], env=env, capture_output=True,
-                text=True, check=True,
+                [sys.executable, "-c", textwrap.dedent(probe)],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
             ).stdout.split()
             for _ in range(2)
         ]

@@ -47,8 +47,10 @@ PAPER_OBJECTIVES = {
     "cheetah-95a": (0.775, 0.056, 0.55, 0.22, 0.32),
     "ninjaflex-85a": (0.2, 0.2, 2.9, 0.8, 0.4),
 }
-SCENES = {"cheetah-95a": "design-position-cheetah.toml",
-          "ninjaflex-85a": "design-position-ninjaflex.toml"}  # fmt: skip
+SCENES = {
+    "cheetah-95a": "design-position-cheetah.toml",
+    "ninjaflex-85a": "design-position-ninjaflex.toml",
+}
 #: Objective a black-box method receives for a design whose targeted state does not exist, mm².
 PENALTY = 1.0e3
 THRESHOLDS = (0.5, 1e-6)
@@ -62,35 +64,61 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[0],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--save", action="store_true",
-                        help=f"also write the record to {REPORTS}/bench-design.json")
-    parser.add_argument("--save-as", default="bench-design.json", metavar="NAME", type=_json_name,
-                        help="file name of --save under the reports folder (e.g. "
-                        "bench-design-timing.json for a run of the timing scenes only)")
+    parser.add_argument(
+        "--save", action="store_true", help=f"also write the record to {REPORTS}/bench-design.json"
+    )
+    parser.add_argument(
+        "--save-as",
+        default="bench-design.json",
+        metavar="NAME",
+        type=_json_name,
+        help="file name of --save under the reports folder (e.g. "
+        "bench-design-timing.json for a run of the timing scenes only)",
+    )
     parser.add_argument("--targets", default="1,2,3,4,5", help="targets (1-based) to run")
     parser.add_argument("--materials", default="cheetah-95a,ninjaflex-85a")
-    parser.add_argument("--n-units", default=None,
-                        help="override the scenes' N range, e.g. 2,3 (default: the scenes')")
+    parser.add_argument(
+        "--n-units",
+        default=None,
+        help="override the scenes' N range, e.g. 2,3 (default: the scenes')",
+    )
     parser.add_argument("--tpe-budget", type=int, default=1500, help="TPE evaluations per target")
-    parser.add_argument("--gp-budget", type=int, default=350,
-                        help="GP-BO evaluations per target (shared by its N)")
+    parser.add_argument(
+        "--gp-budget", type=int, default=350, help="GP-BO evaluations per target (shared by its N)"
+    )
     parser.add_argument("--skip-gripper", action="store_true", help="position targets only")
-    parser.add_argument("--gripper-budget", type=int, default=600,
-                        help="baseline evaluations on the gripper's apertures")
+    parser.add_argument(
+        "--gripper-budget",
+        type=int,
+        default=600,
+        help="baseline evaluations on the gripper's apertures",
+    )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--no-seeded", action="store_true",
-                        help="position targets: skip our optimiser seeded from a sweep dataset "
-                             "(results/design-seeds-<order>, made by jobs/design-seeds-*.toml "
-                             "when missing; its sweep time is reported apart)")
+    parser.add_argument(
+        "--no-seeded",
+        action="store_true",
+        help="position targets: skip our optimiser seeded from a sweep dataset "
+        "(results/design-seeds-<order>, made by jobs/design-seeds-*.toml "
+        "when missing; its sweep time is reported apart)",
+    )
     parser.add_argument("--skip-position", action="store_true", help="no position targets")
     parser.add_argument("--skip-pickplace", action="store_true", help="no pick-and-place targets")
     parser.add_argument("--skip-walker", action="store_true", help="no walker legs")
-    parser.add_argument("--pickplace-targets", default="0.3,1,2,3",
-                        help="pick-and-place target reset times (s)")  # fmt: skip
-    parser.add_argument("--timing-tpe-factor", type=float, default=10.0,
-                        help="timing scenes: TPE gets this many times our wall time")
-    parser.add_argument("--timing-min-seconds", type=float, default=5.0,
-                        help="timing scenes: TPE gets at least this many seconds")
+    parser.add_argument(
+        "--pickplace-targets", default="0.3,1,2,3", help="pick-and-place target reset times (s)"
+    )
+    parser.add_argument(
+        "--timing-tpe-factor",
+        type=float,
+        default=10.0,
+        help="timing scenes: TPE gets this many times our wall time",
+    )
+    parser.add_argument(
+        "--timing-min-seconds",
+        type=float,
+        default=5.0,
+        help="timing scenes: TPE gets at least this many seconds",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -125,8 +153,7 @@ def run_tpe(problems, f, budget: int, seed: int) -> None:
 
     def objective(trial) -> float:
         n = trial.suggest_categorical("N", sorted(problems))
-        z = np.array([trial.suggest_float(f"z{n}_{j}", 0.0, 1.0)
-                      for j in range(problems[n].dim)])  # fmt: skip
+        z = np.array([trial.suggest_float(f"z{n}_{j}", 0.0, 1.0) for j in range(problems[n].dim)])
         return f(n, z)
 
     study.optimize(objective, n_trials=budget)
@@ -141,8 +168,9 @@ def run_gp(problems, f, budget: int, seed: int) -> None:
     optimisers = {}
     for n, p in problems.items():
         bounds = {f"z{j:02d}": (0.0, 1.0) for j in range(p.dim)}
-        optimisers[n] = BayesianOptimization(f=None, pbounds=bounds, random_state=seed + n,
-                                             verbose=0, allow_duplicate_points=True)  # fmt: skip
+        optimisers[n] = BayesianOptimization(
+            f=None, pbounds=bounds, random_state=seed + n, verbose=0, allow_duplicate_points=True
+        )
     ns = sorted(problems)
     for i in range(budget):
         n = ns[i % len(ns)]
@@ -158,8 +186,11 @@ def run_gp(problems, f, budget: int, seed: int) -> None:
 
 
 def _summary(evaluator, paper: float, ours_evals: float, ours_wall: float) -> dict:
-    out = {"evals": evaluator.counts["designs"], "wall_s": evaluator.wall_s,
-           "objective": evaluator.best_at()}  # fmt: skip
+    out = {
+        "evals": evaluator.counts["designs"],
+        "wall_s": evaluator.wall_s,
+        "objective": evaluator.best_at(),
+    }
     for name, threshold in (("0.5", 0.5), ("1e-6", 1e-6), ("paper", paper)):
         count, seconds = evaluator.reached(threshold)
         out[f"evals_to_{name}"], out[f"wall_s_to_{name}"] = count, seconds
@@ -186,13 +217,16 @@ def bench_position(spec, index: int, material: str, args) -> dict:
         solve_position_target(seeded_spec, index, seeded)
         methods["ours_seeded"] = _summary(seeded, paper, np.inf, np.inf)
         methods["ours_seeded"]["seeds"] = seeded.counts["seeds"]
-    for name, runner, budget in (("tpe", run_tpe, args.tpe_budget),
-                                 ("gp", run_gp, args.gp_budget)):  # fmt: skip
+    for name, runner, budget in (("tpe", run_tpe, args.tpe_budget), ("gp", run_gp, args.gp_budget)):
         try:
             evaluator = Evaluator(max(spec.n_units))
             problems = {p.n_units: p for p in position_problems(spec, index, evaluator)}
-            runner(problems, _position_objective(problems, spec.targets[index].point), budget,
-                   args.seed)  # fmt: skip
+            runner(
+                problems,
+                _position_objective(problems, spec.targets[index].point),
+                budget,
+                args.seed,
+            )
             methods[name] = _summary(evaluator, paper, mine["evals"], mine["wall_s"])
         except ImportError as exc:
             methods[name] = {"error": f"not installed ({exc.name}): pip install -e '.[baselines]'"}
@@ -230,8 +264,7 @@ def seed_dataset(spec, made: dict[str, dict]) -> str:
 def _row(scene: str, target, material: str, paper: float | None, methods: dict) -> dict:
     ours = methods["ours"]
     key = "paper" if paper is not None else "1e-6"
-    baselines = {k: v for k, v in methods.items()
-                 if not k.startswith("ours") and "error" not in v}  # fmt: skip
+    baselines = {k: v for k, v in methods.items() if not k.startswith("ours") and "error" not in v}
     seeded = methods.get("ours_seeded", {})
 
     def rank(item):
@@ -241,18 +274,25 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
 
     best_name, best = min(baselines.items(), key=rank) if baselines else (None, {})
     return {
-        "scene": scene, "target": list(target), "material": material, "paper_objective": paper,
-        "ours_evals": ours.get(f"evals_to_{key}"), "ours_wall_s": ours.get(f"wall_s_to_{key}"),
-        "ours_objective": ours["objective"], "ours_total_evals": ours["evals"],
+        "scene": scene,
+        "target": list(target),
+        "material": material,
+        "paper_objective": paper,
+        "ours_evals": ours.get(f"evals_to_{key}"),
+        "ours_wall_s": ours.get(f"wall_s_to_{key}"),
+        "ours_objective": ours["objective"],
+        "ours_total_evals": ours["evals"],
         "ours_total_wall_s": ours["wall_s"],
         "ours_seeded_evals": seeded.get(f"evals_to_{key}"),
         "ours_seeded_wall_s": seeded.get(f"wall_s_to_{key}"),
         "ours_seeded_objective": seeded.get("objective"),
-        "best_baseline": best_name, "baseline_evals": best.get(f"evals_to_{key}"),
+        "best_baseline": best_name,
+        "baseline_evals": best.get(f"evals_to_{key}"),
         "baseline_wall_s": best.get(f"wall_s_to_{key}"),
         "baseline_objective": best.get("objective"),
-        "baseline_budget_evals": best.get("evals"), "methods": methods,
-    }  # fmt: skip
+        "baseline_budget_evals": best.get("evals"),
+        "methods": methods,
+    }
 
 
 def bench_gripper(args) -> dict:
@@ -299,8 +339,10 @@ def run(args: argparse.Namespace) -> int:
         spec = load_scene(JOBS / SCENES[material])
         if args.n_units:
             document = dict(spec.document)
-            document["variables"] = {**document["variables"],
-                                     "n_units": [int(n) for n in args.n_units.split(",")]}
+            document["variables"] = {
+                **document["variables"],
+                "n_units": [int(n) for n in args.n_units.split(",")],
+            }
             spec = parse_scene(document, default_name=spec.name)
         for index in targets:
             rows.append(bench_position(spec, index, material, args))
@@ -315,19 +357,30 @@ def run(args: argparse.Namespace) -> int:
             for row in bench(args, JOBS):
                 rows.append(row)
                 _progress(row, started)
-    record = {"benchmark": "design", "machine": machine_info(), "rows": rows,
-              "wall_s": time.perf_counter() - started, "summary": _goals(rows),
-              "seed_datasets": {path: {"designs": _designs_in(path), **facts}
-                                for path, facts in args.seed_datasets.items()}}  # fmt: skip
+    record = {
+        "benchmark": "design",
+        "machine": machine_info(),
+        "rows": rows,
+        "wall_s": time.perf_counter() - started,
+        "summary": _goals(rows),
+        "seed_datasets": {
+            path: {"designs": _designs_in(path), **facts}
+            for path, facts in args.seed_datasets.items()
+        },
+    }
     save = REPORTS / args.save_as if args.save else None
     emit(record, as_json=args.json, text=_text(record), save=save)
     return 0
 
 
 def _progress(row: dict, started: float) -> None:
-    print(f"{time.perf_counter() - started:8.1f} s  {row['scene']} {row['target']} "
-          f"{row['material']}: ours {row['ours_objective']:.2e}, {row['best_baseline']} "
-          f"{_fmt(row['baseline_objective'], '.2e')}", file=sys.stderr, flush=True)
+    print(
+        f"{time.perf_counter() - started:8.1f} s  {row['scene']} {row['target']} "
+        f"{row['material']}: ours {row['ours_objective']:.2e}, {row['best_baseline']} "
+        f"{_fmt(row['baseline_objective'], '.2e')}",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 def _ratio(a, b):
@@ -344,34 +397,45 @@ def _designs_in(path: str) -> int:
 
 def _goals(rows: list[dict]) -> dict:
     position = [r for r in rows if r["scene"] == "position"]
-    out = {"position_targets": len(position),
-           "position_met_1e-6": sum(r["ours_objective"] <= 1e-6 for r in position),
-           "position_max_wall_s": max((r["ours_total_wall_s"] for r in position), default=None)}
+    out = {
+        "position_targets": len(position),
+        "position_met_1e-6": sum(r["ours_objective"] <= 1e-6 for r in position),
+        "position_max_wall_s": max((r["ours_total_wall_s"] for r in position), default=None),
+    }
     ratios = []
     for r in position:
         base_evals = r["baseline_evals"]
         if base_evals is None:  # not reached within the budget: a lower bound
             base_evals = r["baseline_budget_evals"]
-        ratios.append({"target": r["target"], "material": r["material"],
-                       "evals_ratio": _ratio(r["ours_evals"], base_evals),
-                       "wall_ratio": _ratio(r["ours_wall_s"], r["baseline_wall_s"]),
-                       "seeded_evals_ratio": _ratio(r.get("ours_seeded_evals"), base_evals),
-                       "seeded_wall_ratio": _ratio(r.get("ours_seeded_wall_s"),
-                                                   r["baseline_wall_s"]),
-                       "baseline_reached_paper": r["baseline_evals"] is not None})  # fmt: skip
+        ratios.append(
+            {
+                "target": r["target"],
+                "material": r["material"],
+                "evals_ratio": _ratio(r["ours_evals"], base_evals),
+                "wall_ratio": _ratio(r["ours_wall_s"], r["baseline_wall_s"]),
+                "seeded_evals_ratio": _ratio(r.get("ours_seeded_evals"), base_evals),
+                "seeded_wall_ratio": _ratio(r.get("ours_seeded_wall_s"), r["baseline_wall_s"]),
+                "baseline_reached_paper": r["baseline_evals"] is not None,
+            }
+        )
     out["ratios"] = ratios
     timing = [r for r in rows if r["scene"] == "pickplace" or r["scene"].startswith("walker")]
-    out["timing_scenes"] = [{"scene": r["scene"], "target": r["target"],
-                             "ours_wall_s_to_goal": r["ours_wall_s"],
-                             "tpe_wall_s_to_goal": r["baseline_wall_s"],
-                             "tpe_objective_at_ours_wall": r["baseline_objective_at_ours_wall"],
-                             "wall_ratio": r["wall_ratio_to_goal"],
-                             "ratio_is_lower_bound": r["wall_ratio_is_lower_bound"],
-                             "goal": r["goal"], "goal_tight": r.get("goal_tight"),
-                             "wall_ratio_to_tight": r.get("wall_ratio_to_tight"),
-                             "tight_ratio_is_lower_bound":
-                             r.get("wall_ratio_to_tight_is_lower_bound")}
-                            for r in timing]  # fmt: skip
+    out["timing_scenes"] = [
+        {
+            "scene": r["scene"],
+            "target": r["target"],
+            "ours_wall_s_to_goal": r["ours_wall_s"],
+            "tpe_wall_s_to_goal": r["baseline_wall_s"],
+            "tpe_objective_at_ours_wall": r["baseline_objective_at_ours_wall"],
+            "wall_ratio": r["wall_ratio_to_goal"],
+            "ratio_is_lower_bound": r["wall_ratio_is_lower_bound"],
+            "goal": r["goal"],
+            "goal_tight": r.get("goal_tight"),
+            "wall_ratio_to_tight": r.get("wall_ratio_to_tight"),
+            "tight_ratio_is_lower_bound": r.get("wall_ratio_to_tight_is_lower_bound"),
+        }
+        for r in timing
+    ]
     return out
 
 
@@ -380,11 +444,13 @@ def _fmt(v, spec=".3g") -> str:
 
 
 def _text(record: dict) -> str:
-    lines = ["bench design: evaluations (designs solved) and wall time to reach the paper's "
-             "objective; best objective (mm²) within each budget",
-             f"{'scene':9} {'target':>14} {'material':>14} {'paper':>6} | {'ours ev':>7} "
-             f"{'ours s':>7} {'ours obj':>9} | {'seeded ev':>9} {'s':>6} | {'baseline':>8} "
-             f"{'ev':>6} {'s':>7} {'obj':>9} {'budget':>6}"]  # fmt: skip
+    lines = [
+        "bench design: evaluations (designs solved) and wall time to reach the paper's "
+        "objective; best objective (mm²) within each budget",
+        f"{'scene':9} {'target':>14} {'material':>14} {'paper':>6} | {'ours ev':>7} "
+        f"{'ours s':>7} {'ours obj':>9} | {'seeded ev':>9} {'s':>6} | {'baseline':>8} "
+        f"{'ev':>6} {'s':>7} {'obj':>9} {'budget':>6}",
+    ]
     for r in record["rows"]:
         t = "(" + ", ".join(f"{v:g}" for v in r["target"]) + ")"
         lines.append(
@@ -398,22 +464,35 @@ def _text(record: dict) -> str:
             f"{_fmt(r['baseline_objective'], '.2e'):>9} {_fmt(r['baseline_budget_evals'], 'd'):>6}"
         )
     s = record["summary"]
-    lines.append(f"position targets met to 1e-6 mm²: {s['position_met_1e-6']}/"
-                 f"{s['position_targets']}; slowest target {_fmt(s['position_max_wall_s'])} s")
+    lines.append(
+        f"position targets met to 1e-6 mm²: {s['position_met_1e-6']}/"
+        f"{s['position_targets']}; slowest target {_fmt(s['position_max_wall_s'])} s"
+    )
     for t in s.get("timing_scenes", []):
         bound = ">= " if t["ratio_is_lower_bound"] else ""
-        tight = "" if t.get("goal_tight") is None else (
-            f"; to {t['goal_tight']:g}: ratio {'>= ' if t['tight_ratio_is_lower_bound'] else ''}"
-            f"{_fmt(t['wall_ratio_to_tight'], '.1f')}")  # fmt: skip
-        lines.append(f"{t['scene']} {t['target']}: ours {_fmt(t['ours_wall_s_to_goal'], '.2f')} "
-                     f"s to {t['goal']:g}, TPE {_fmt(t['tpe_wall_s_to_goal'], '.2f')} s; ratio "
-                     f"{bound}{_fmt(t['wall_ratio'], '.1f')}; TPE's best at our wall time "
-                     f"{_fmt(t['tpe_objective_at_ours_wall'], '.3g')}{tight}")  # fmt: skip
+        tight = ""
+        if t.get("goal_tight") is not None:
+            tight_bound = ">= " if t["tight_ratio_is_lower_bound"] else ""
+            tight = (
+                f"; to {t['goal_tight']:g}: ratio {tight_bound}"
+                f"{_fmt(t['wall_ratio_to_tight'], '.1f')}"
+            )
+        lines.append(
+            f"{t['scene']} {t['target']}: ours {_fmt(t['ours_wall_s_to_goal'], '.2f')} "
+            f"s to {t['goal']:g}, TPE {_fmt(t['tpe_wall_s_to_goal'], '.2f')} s; ratio "
+            f"{bound}{_fmt(t['wall_ratio'], '.1f')}; TPE's best at our wall time "
+            f"{_fmt(t['tpe_objective_at_ours_wall'], '.3g')}{tight}"
+        )
     for path, facts in record.get("seed_datasets", {}).items():
-        made = ("found" if facts["sweep_wall_s"] is None
-                else f"swept in {facts['sweep_wall_s']:.1f} s")  # fmt: skip
-        lines.append(f"seeded: candidates from {path} ({facts['designs']:,} designs, {made}, "
-                     f"opened in {facts['open_s']:.2f} s; neither counted above)")  # fmt: skip
-    lines.append(f"total {record['wall_s']:.1f} s on {record['machine']['cores']} cores "
-                 f"({record['machine']['cpu']})")  # fmt: skip
+        made = (
+            "found" if facts["sweep_wall_s"] is None else f"swept in {facts['sweep_wall_s']:.1f} s"
+        )
+        lines.append(
+            f"seeded: candidates from {path} ({facts['designs']:,} designs, {made}, "
+            f"opened in {facts['open_s']:.2f} s; neither counted above)"
+        )
+    lines.append(
+        f"total {record['wall_s']:.1f} s on {record['machine']['cores']} cores "
+        f"({record['machine']['cpu']})"
+    )
     return "\n".join(lines)

@@ -34,26 +34,35 @@ def _tpe(objective, dims: int, *, seconds: float, goal: float, seed: int) -> int
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=seed),
-                                direction="minimize")  # fmt: skip
+    study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=seed), direction="minimize")
 
     def stop(study, trial) -> None:
         if study.best_value <= goal:
             study.stop()
 
-    study.optimize(lambda trial: objective(np.array([trial.suggest_float(f"z{j}", 0.0, 1.0)
-                                                     for j in range(dims)])),
-                   timeout=seconds, callbacks=[stop])  # fmt: skip
+    study.optimize(
+        lambda trial: objective(
+            np.array([trial.suggest_float(f"z{j}", 0.0, 1.0) for j in range(dims)])
+        ),
+        timeout=seconds,
+        callbacks=[stop],
+    )
     return len(study.trials)
 
 
-def _summary(evaluator, goal: float, ours_wall: float = math.inf,
-             tight: float | None = None) -> dict:  # fmt: skip
+def _summary(
+    evaluator, goal: float, ours_wall: float = math.inf, tight: float | None = None
+) -> dict:
     count, seconds = evaluator.reached(goal)
-    out = {"evals": evaluator.counts["designs"], "wall_s": evaluator.wall_s,
-           "objective": evaluator.best_at(), "evals_to_goal": count, "wall_s_to_goal": seconds,
-           "objective_at_ours_wall": evaluator.best_at(seconds=ours_wall),
-           "counts": {k: v for k, v in evaluator.counts.items() if v}}  # fmt: skip
+    out = {
+        "evals": evaluator.counts["designs"],
+        "wall_s": evaluator.wall_s,
+        "objective": evaluator.best_at(),
+        "evals_to_goal": count,
+        "wall_s_to_goal": seconds,
+        "objective_at_ours_wall": evaluator.best_at(seconds=ours_wall),
+        "counts": {k: v for k, v in evaluator.counts.items() if v},
+    }
     if tight is not None:
         out["evals_to_tight"], out["wall_s_to_tight"] = evaluator.reached(tight)
     return out
@@ -68,28 +77,50 @@ def _ratio(ours: dict, tpe: dict, key: str) -> tuple[float | None, bool]:
     return (base / ours[key] if base is not None else None), reached is None
 
 
-def _row(scene: str, target: list, goal: float, ours: dict, tpe: dict, seconds: float,
-         tight: float | None = None) -> dict:  # fmt: skip
+def _row(
+    scene: str,
+    target: list,
+    goal: float,
+    ours: dict,
+    tpe: dict,
+    seconds: float,
+    tight: float | None = None,
+) -> dict:
     reached = tpe.get("wall_s_to_goal")
     ratio, _ = _ratio(ours, tpe, "wall_s_to_goal")
     extra = {}
     if tight is not None:
         tight_ratio, bound = _ratio(ours, tpe, "wall_s_to_tight")
-        extra = {"goal_tight": tight, "ours_wall_s_to_tight": ours.get("wall_s_to_tight"),
-                 "baseline_wall_s_to_tight": tpe.get("wall_s_to_tight"),
-                 "wall_ratio_to_tight": tight_ratio, "wall_ratio_to_tight_is_lower_bound": bound}
-    return {**extra,
-        "scene": scene, "target": target, "material": "cheetah-95a", "paper_objective": goal,
-        "ours_evals": ours.get("evals_to_goal"), "ours_wall_s": ours.get("wall_s_to_goal"),
-        "ours_objective": ours["objective"], "ours_total_evals": ours["evals"],
-        "ours_total_wall_s": ours["wall_s"], "best_baseline": "tpe" if "error" not in tpe else None,
-        "baseline_evals": tpe.get("evals_to_goal"), "baseline_wall_s": reached,
-        "baseline_objective": tpe.get("objective"), "baseline_budget_evals": tpe.get("evals"),
-        "baseline_budget_s": seconds, "baseline_objective_at_ours_wall":
-        tpe.get("objective_at_ours_wall"), "wall_ratio_to_goal": ratio,
-        "wall_ratio_is_lower_bound": reached is None, "goal": goal,
+        extra = {
+            "goal_tight": tight,
+            "ours_wall_s_to_tight": ours.get("wall_s_to_tight"),
+            "baseline_wall_s_to_tight": tpe.get("wall_s_to_tight"),
+            "wall_ratio_to_tight": tight_ratio,
+            "wall_ratio_to_tight_is_lower_bound": bound,
+        }
+    return {
+        **extra,
+        "scene": scene,
+        "target": target,
+        "material": "cheetah-95a",
+        "paper_objective": goal,
+        "ours_evals": ours.get("evals_to_goal"),
+        "ours_wall_s": ours.get("wall_s_to_goal"),
+        "ours_objective": ours["objective"],
+        "ours_total_evals": ours["evals"],
+        "ours_total_wall_s": ours["wall_s"],
+        "best_baseline": "tpe" if "error" not in tpe else None,
+        "baseline_evals": tpe.get("evals_to_goal"),
+        "baseline_wall_s": reached,
+        "baseline_objective": tpe.get("objective"),
+        "baseline_budget_evals": tpe.get("evals"),
+        "baseline_budget_s": seconds,
+        "baseline_objective_at_ours_wall": tpe.get("objective_at_ours_wall"),
+        "wall_ratio_to_goal": ratio,
+        "wall_ratio_is_lower_bound": reached is None,
+        "goal": goal,
         "methods": {"ours": ours, "tpe": tpe},
-    }  # fmt: skip
+    }
 
 
 def bench_pickplace(args, jobs) -> list[dict]:
@@ -115,9 +146,13 @@ def bench_pickplace(args, jobs) -> list[dict]:
             problem = ResetProblem(spec, evaluator, target_index=0)
 
             def f(z, problem=problem, spec=spec, target=target) -> float:
-                ev = problem.resets(z[None, :], purpose="baseline", method="rodas4",
-                                    atol=spec.pickplace.search_atol,
-                                    objective_target=target)  # fmt: skip
+                ev = problem.resets(
+                    z[None, :],
+                    purpose="baseline",
+                    method="rodas4",
+                    atol=spec.pickplace.search_atol,
+                    objective_target=target,
+                )
                 value = float(ev.value[0])
                 if not (ev.admissible[0] and math.isfinite(value)):
                     return PENALTY
@@ -167,11 +202,16 @@ def _leg_objective(search, variables, sizes: dict, kind: str, violation):
     def f(z) -> float:
         parts, start = {}, 0
         for role, m in sizes.items():
-            parts[role] = variables[role].design(z[start:start + m])
+            parts[role] = variables[role].design(z[start : start + m])
             start += m
         value = violation(search.assess(parts["purple"], parts["green"], parts["action"], kind))
-        search.evaluator.record(DesignBatch.from_designs([parts["purple"]]), target=0,
-                                purpose="baseline", section="leg", objective=value)
+        search.evaluator.record(
+            DesignBatch.from_designs([parts["purple"]]),
+            target=0,
+            purpose="baseline",
+            section="leg",
+            objective=value,
+        )
         return value
 
     return f

@@ -71,16 +71,28 @@ def register(subparsers) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument("--designs", type=int, default=100, help="random metastable designs")
-    parser.add_argument("--radau-designs", type=int, default=10,
-                        help="random designs also run with SciPy Radau (baseline and check)")
-    parser.add_argument("--explicit-designs", type=int, default=3,
-                        help="random designs run with the explicit full-model dopri5 "
-                        "(0 also skips it on the pick-and-place finger)")
+    parser.add_argument(
+        "--radau-designs",
+        type=int,
+        default=10,
+        help="random designs also run with SciPy Radau (baseline and check)",
+    )
+    parser.add_argument(
+        "--explicit-designs",
+        type=int,
+        default=3,
+        help="random designs run with the explicit full-model dopri5 "
+        "(0 also skips it on the pick-and-place finger)",
+    )
     parser.add_argument("--seed", type=int, default=2024)
-    parser.add_argument("--no-compile", action="store_true",
-                        help="skip the cold-compile measurement (two fresh processes)")
-    parser.add_argument("--save", action="store_true",
-                        help=f"write bench-dynamics.json and .png to {REPORTS}/")
+    parser.add_argument(
+        "--no-compile",
+        action="store_true",
+        help="skip the cold-compile measurement (two fresh processes)",
+    )
+    parser.add_argument(
+        "--save", action="store_true", help=f"write bench-dynamics.json and .png to {REPORTS}/"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -111,20 +123,31 @@ def sample_metastable_designs(n_designs: int, seed: int):
             U_L[i, :n] = rng.uniform(5.5, 10.0)
             U_sep[i, :n] = rng.uniform(1.0, 2.0)
         batch = DesignBatch(
-            n_units=n_units, H=H, U_L=U_L, U_sep=U_sep, t=rng.uniform(0.75, 1.0, m),
-            t_lim=rng.uniform(1.0, 2.0, m), E=26.0, nu=0.35, r_b=5.0, t_ch=1.0,
-        )  # fmt: skip
+            n_units=n_units,
+            H=H,
+            U_L=U_L,
+            U_sep=U_sep,
+            t=rng.uniform(0.75, 1.0, m),
+            t_lim=rng.uniform(1.0, 2.0, m),
+            E=26.0,
+            nu=0.35,
+            r_b=5.0,
+            t_ch=1.0,
+        )
         batch = batch.take(np.flatnonzero(batch.status() == 0))
         start = time.perf_counter()
         ref = reset_times_batch(batch, profile, t_end=T_END, atol=1e-8)
-        logger.info("reference runs: %d candidates, %.1f s", len(batch),
-                    time.perf_counter() - start)  # fmt: skip
+        logger.info(
+            "reference runs: %d candidates, %.1f s", len(batch), time.perf_counter() - start
+        )
         resets = np.isfinite(ref["reset_time"]).any(axis=1) & (ref["status"] == 0)
         keep = np.flatnonzero(resets)
         kept.append(batch.take(keep))
         refs.append({k: v[keep] for k, v in ref.items()})
-    merged = {name: np.concatenate([getattr(b, name) for b in kept])[:n_designs]
-              for name in DesignBatch.__dataclass_fields__}  # fmt: skip
+    merged = {
+        name: np.concatenate([getattr(b, name) for b in kept])[:n_designs]
+        for name in DesignBatch.__dataclass_fields__
+    }
     ref = {k: np.concatenate([r[k] for r in refs])[:n_designs] for k in refs[0]}
     return DesignBatch(**merged), ref
 
@@ -143,8 +166,9 @@ def _errors(out, ref) -> dict:
     ref_resets = np.isfinite(ref["reset_time"])
     out_resets = np.isfinite(out["reset_time"])
     ref_never = np.isinf(ref["reset_time"])
-    class_mismatch = int(((ref_resets & ~out_resets) | (ref_never & ~np.isinf(out["reset_time"])))
-                         .sum())  # fmt: skip
+    class_mismatch = int(
+        ((ref_resets & ~out_resets) | (ref_never & ~np.isinf(out["reset_time"]))).sum()
+    )
     return {
         "reset_time_rel_err": float(rel.max()) if rel.size else float("nan"),
         "reset_time_rel_err_median": float(np.median(rel)) if rel.size else float("nan"),
@@ -169,8 +193,9 @@ def _time_method(batch, profile, method, atol, *, repeats) -> float:
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
-        seconds = median_time(lambda: _outputs(batch, profile, method, atol), repeats=repeats,
-                              min_time=0.0)  # fmt: skip
+        seconds = median_time(
+            lambda: _outputs(batch, profile, method, atol), repeats=repeats, min_time=0.0
+        )
     finally:
         numba.set_num_threads(threads)
     return seconds / len(batch)
@@ -182,18 +207,23 @@ def _radau(designs, profile, *, rtol, atol) -> tuple[list[float], list]:
     seconds, results = [], []
     for design in designs:
         start = time.perf_counter()
-        results.append(simulate_scipy(design, profile, t_end=T_END, rtol=rtol, atol=atol,
-                                      n_samples=0, max_nfev=MAX_NFEV))  # fmt: skip
+        results.append(
+            simulate_scipy(
+                design, profile, t_end=T_END, rtol=rtol, atol=atol, n_samples=0, max_nfev=MAX_NFEV
+            )
+        )
         seconds.append(time.perf_counter() - start)
-        logger.info("Radau rtol=%g atol=%g N=%d: %.2f s", rtol, atol, design.n_units,
-                    seconds[-1])  # fmt: skip
+        logger.info("Radau rtol=%g atol=%g N=%d: %.2f s", rtol, atol, design.n_units, seconds[-1])
     return seconds, results
 
 
 def _as_batch_output(results, n_max=12) -> dict:
     n = len(results)
-    out = {"reset_time": np.full((n, n_max), np.nan), "final_state": np.zeros(n, dtype=np.int64),
-           "status": np.zeros(n, dtype=np.int8)}  # fmt: skip
+    out = {
+        "reset_time": np.full((n, n_max), np.nan),
+        "final_state": np.zeros(n, dtype=np.int64),
+        "status": np.zeros(n, dtype=np.int8),
+    }
     for i, r in enumerate(results):
         out["reset_time"][i, : r.design.n_units] = r.reset_time
         out["final_state"][i] = int(r.final_state, 2)
@@ -203,8 +233,7 @@ def _as_batch_output(results, n_max=12) -> dict:
 
 def _compile_seconds() -> dict[str, float]:
     """Cold compile and warm cache-load of the dynamics kernels, each in a fresh process."""
-    probe = (
-        """
+    probe = """
         import time
         t0 = time.perf_counter()
         from dpfexplore.model.design import Design, DesignBatch
@@ -218,7 +247,6 @@ def _compile_seconds() -> dict[str, float]:
         reset_times_batch(batch, profile, t_end=0.04, method="release")
         print(t1 - t0, t2 - t1, time.perf_counter() - t2)
         """
-    )
     cold, warm = fresh_process_timings(probe)
     return {"import_s": cold[0], "compile_s": cold[1] + cold[2], "cache_load_s": warm[1] + warm[2]}
 
@@ -246,34 +274,55 @@ def _case(name, batch, ref, profile, radau, *, explicit_rows) -> list[dict]:
             sub_ref = {k: v[:limit] for k, v in ref.items()}
         start = time.perf_counter()
         out = _outputs(designs, profile, method, atol)
-        logger.info("%s %s atol=%s: %d designs, %.1f s", name, method, atol, len(designs),
-                    time.perf_counter() - start)  # fmt: skip
-        rows.append((method, atol, designs, {
-            "case": name,
-            "method": method,
-            "atol_mm": atol if atol is not None else METHODS[method].atol,
-            "designs": len(designs),
-            **_errors(out, sub_ref),
-        }))  # fmt: skip
+        logger.info(
+            "%s %s atol=%s: %d designs, %.1f s",
+            name,
+            method,
+            atol,
+            len(designs),
+            time.perf_counter() - start,
+        )
+        rows.append(
+            (
+                method,
+                atol,
+                designs,
+                {
+                    "case": name,
+                    "method": method,
+                    "atol_mm": atol if atol is not None else METHODS[method].atol,
+                    "designs": len(designs),
+                    **_errors(out, sub_ref),
+                },
+            )
+        )
     samples = [[] for _ in rows]
     for round_ in range(TIMING_ROUNDS):
         for i, (method, atol, designs, _) in enumerate(rows):
             explicit = method.startswith("dopri5")
             if explicit and round_ > 0:
                 continue
-            samples[i].append(_time_method(designs, profile, method, atol,
-                                           repeats=1 if explicit else 5))  # fmt: skip
+            samples[i].append(
+                _time_method(designs, profile, method, atol, repeats=1 if explicit else 5)
+            )
     records = []
     for (_, _, _, record), row_samples in zip(rows, samples, strict=True):
         seconds = float(np.median(row_samples))
-        records.append({**record, "us_per_design": seconds * 1e6,
-                        "speedup_vs_radau": radau_seconds / seconds})  # fmt: skip
+        records.append(
+            {**record, "us_per_design": seconds * 1e6, "speedup_vs_radau": radau_seconds / seconds}
+        )
     for label, (rtol, atol, seconds, err) in radau.items():
-        records.append({
-            "case": name, "method": label, "atol_mm": atol, "rtol": rtol,
-            "us_per_design": seconds * 1e6, **err,
-            "speedup_vs_radau": radau_seconds / seconds,
-        })  # fmt: skip
+        records.append(
+            {
+                "case": name,
+                "method": label,
+                "atol_mm": atol,
+                "rtol": rtol,
+                "us_per_design": seconds * 1e6,
+                **err,
+                "speedup_vs_radau": radau_seconds / seconds,
+            }
+        )
     return records
 
 
@@ -291,8 +340,9 @@ def run(args: argparse.Namespace) -> int:
             _time_method(warm, profile, method, None, repeats=1)
 
     # Case 1: the pick-and-place finger against tight Radau.
-    pick = Design(H=[4.0, 4.5, 5.0, 5.0, 3.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0,
-                  name="pickplace")  # fmt: skip
+    pick = Design(
+        H=[4.0, 4.5, 5.0, 5.0, 3.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0, name="pickplace"
+    )
     pick_batch = DesignBatch.from_designs([pick])
     start = time.perf_counter()
     tight_seconds, tight = _radau([pick], profile, rtol=1e-7, atol=1e-10)
@@ -300,10 +350,20 @@ def run(args: argparse.Namespace) -> int:
     radau = {}
     for label, rtol, atol in RADAU_ROWS:
         seconds, runs = _radau([pick] * RADAU_RUNS_PICKPLACE, profile, rtol=rtol, atol=atol)
-        radau[label] = (rtol, atol, float(np.median(seconds)),
-                        {**_errors(_as_batch_output(runs[:1]), pick_ref), "designs": 1})
-    records = _case("pickplace", pick_batch, pick_ref, profile, radau,
-                    explicit_rows=min(1, args.explicit_designs))  # fmt: skip
+        radau[label] = (
+            rtol,
+            atol,
+            float(np.median(seconds)),
+            {**_errors(_as_batch_output(runs[:1]), pick_ref), "designs": 1},
+        )
+    records = _case(
+        "pickplace",
+        pick_batch,
+        pick_ref,
+        profile,
+        radau,
+        explicit_rows=min(1, args.explicit_designs),
+    )
 
     # Case 2: random metastable designs against tight Rodas4, checked by tight Radau.
     batch, ref = sample_metastable_designs(args.designs, args.seed)
@@ -312,15 +372,20 @@ def run(args: argparse.Namespace) -> int:
     check_seconds, check = _radau(designs, profile, rtol=1e-7, atol=1e-10)
     check_out = _as_batch_output(check)
     checked = np.flatnonzero(check_out["status"] == 0)
-    reference_check = _errors({k: v[checked] for k, v in ref.items()},
-                              {k: v[checked] for k, v in check_out.items()})  # fmt: skip
+    reference_check = _errors(
+        {k: v[checked] for k, v in ref.items()}, {k: v[checked] for k, v in check_out.items()}
+    )
     reference_check["radau_failed"] = int(n_radau - checked.size)
     ref_head = {k: v[:n_radau] for k, v in ref.items()}
     radau = {}
     for label, rtol, atol in RADAU_ROWS:
         seconds, runs = _radau(designs, profile, rtol=rtol, atol=atol)
-        radau[label] = (rtol, atol, float(np.median(seconds)),
-                        {**_errors(_as_batch_output(runs), ref_head), "designs": n_radau})
+        radau[label] = (
+            rtol,
+            atol,
+            float(np.median(seconds)),
+            {**_errors(_as_batch_output(runs), ref_head), "designs": n_radau},
+        )
     records += _case("random", batch, ref, profile, radau, explicit_rows=args.explicit_designs)
     elapsed = time.perf_counter() - start
 
@@ -333,21 +398,27 @@ def run(args: argparse.Namespace) -> int:
         "error_measure": "reset_time_rel_err: max over metastable units (reference reset "
         ">= 0.05 s) of |T - T_ref| / T_ref; reset_time_abs_err_s: max over all units that reset",
         "tight_radau_seconds_pickplace": tight_seconds[0],
-        "reference_check_random": {**reference_check, "designs": n_radau,
-                                   "radau_tight_seconds_median": float(np.median(check_seconds))},
+        "reference_check_random": {
+            **reference_check,
+            "designs": n_radau,
+            "radau_tight_seconds_median": float(np.median(check_seconds)),
+        },
         "random_designs": len(batch),
         "units_per_design": np.bincount(batch.n_units).tolist(),
         **compile_times,
         "wall_s": elapsed,
         "machine": machine_info(),
-    }  # fmt: skip
+    }
     lines = [
-        "dynamics: reset-time evaluation per design on one core (median), error vs tight "
-        "reference",
+        "dynamics: reset-time evaluation per design on one core (median), error vs tight reference",
         f"machine: {record['machine']['cpu']}, {record['machine']['cores']} cores; "
         f"{len(batch)} random metastable designs (N = 2-6)",
-        (f"compile (cold cache) {compile_times['compile_s']:.1f} s, cache load "
-         f"{compile_times['cache_load_s']:.2f} s" if compile_times else "compile: not measured"),
+        (
+            f"compile (cold cache) {compile_times['compile_s']:.1f} s, cache load "
+            f"{compile_times['cache_load_s']:.2f} s"
+            if compile_times
+            else "compile: not measured"
+        ),
         f"random-set reference (Rodas4 atol 1e-8) vs Radau rtol 1e-7 on {n_radau} designs: "
         f"max rel err {reference_check['reset_time_rel_err']:.1e}, "
         f"class mismatches {reference_check['class_mismatches']}, "
@@ -355,7 +426,7 @@ def run(args: argparse.Namespace) -> int:
         "errors: relative over metastable units (reset >= 0.05 s), absolute over all",
         f"{'case':>9} {'method':>18} {'atol mm':>8} {'µs/design':>11} {'max rel err':>12} "
         f"{'median':>9} {'abs err s':>9} {'class≠':>6} {'state≠':>6} {'fail':>4} {'vs Radau':>9}",
-    ]  # fmt: skip
+    ]
     for r in records:
         lines.append(
             f"{r['case']:>9} {r['method']:>18} {r['atol_mm']:>8.0e} {r['us_per_design']:>11.0f} "
@@ -382,13 +453,18 @@ def _plot(records, path: Path) -> None:
         methods = sorted({r["method"] for r in rows})
         for i, method in enumerate(methods):
             mine = sorted((r for r in rows if r["method"] == method), key=lambda r: r["atol_mm"])
-            ax.loglog([r["us_per_design"] for r in mine],
-                      [max(r["reset_time_rel_err"], 1e-9) for r in mine], marker="o",
-                      color=f"C{i}", label=method)  # fmt: skip
+            ax.loglog(
+                [r["us_per_design"] for r in mine],
+                [max(r["reset_time_rel_err"], 1e-9) for r in mine],
+                marker="o",
+                color=f"C{i}",
+                label=method,
+            )
         ax.set_xlabel("time per design, one core (µs)")
         ax.set_ylabel("max relative reset-time error")
-        ax.set_title({"pickplace": "pick-and-place finger", "random": "random metastable designs"}[
-            case])
+        ax.set_title(
+            {"pickplace": "pick-and-place finger", "random": "random metastable designs"}[case]
+        )
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize="small")
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -47,23 +47,40 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--save", action="store_true",
-                        help=f"also write the record to {REPORTS}/bench-lookup.json")
-    parser.add_argument("--dataset", type=Path, default=DEFAULT_DATASET,
-                        help=f"sweep dataset (default {DEFAULT_DATASET}; made if missing)")
-    parser.add_argument("--job", type=Path, default=JOBS / "lookup-million.toml",
-                        help="job that makes the dataset when it is missing")
+    parser.add_argument(
+        "--save", action="store_true", help=f"also write the record to {REPORTS}/bench-lookup.json"
+    )
+    parser.add_argument(
+        "--dataset",
+        type=Path,
+        default=DEFAULT_DATASET,
+        help=f"sweep dataset (default {DEFAULT_DATASET}; made if missing)",
+    )
+    parser.add_argument(
+        "--job",
+        type=Path,
+        default=JOBS / "lookup-million.toml",
+        help="job that makes the dataset when it is missing",
+    )
     parser.add_argument("--builds", type=int, default=3, help="index builds timed (median)")
     parser.add_argument("--queries", type=int, default=200, help="query targets")
     parser.add_argument("--k", type=int, default=10, help="neighbours per query")
     parser.add_argument("--targets", type=int, default=200, help="refinement targets")
-    parser.add_argument("--tries", type=int, default=3,
-                        help="candidates refined per target at most (nearest first)")
-    parser.add_argument("--baseline-targets", type=int, default=50,
-                        help="targets refined with central differences (the baseline)")
+    parser.add_argument(
+        "--tries", type=int, default=3, help="candidates refined per target at most (nearest first)"
+    )
+    parser.add_argument(
+        "--baseline-targets",
+        type=int,
+        default=50,
+        help="targets refined with central differences (the baseline)",
+    )
     parser.add_argument("--seed", type=int, default=1, help="seed of the held-out designs")
-    parser.add_argument("--no-sensitivities", action="store_true",
-                        help="skip the sensitivity and single-design rows (bench sensitivities)")
+    parser.add_argument(
+        "--no-sensitivities",
+        action="store_true",
+        help="skip the sensitivity and single-design rows (bench sensitivities)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -98,10 +115,19 @@ def _build(args, info) -> dict:
 
     def trees_only():
         LookupIndex(
-            root=index.root, columns=index.columns, scales=index.scales, points=index.points,
-            design_id=index.design_id, requested=index.requested, n_units=index.n_units,
-            file=index.file, row=index.row, files=index.files, checksum=index.checksum,
-            complete=index.complete, rows_read=index.rows_read,
+            root=index.root,
+            columns=index.columns,
+            scales=index.scales,
+            points=index.points,
+            design_id=index.design_id,
+            requested=index.requested,
+            n_units=index.n_units,
+            file=index.file,
+            row=index.row,
+            files=index.files,
+            checksum=index.checksum,
+            complete=index.complete,
+            rows_read=index.rows_read,
         )
 
     trees_s = median_time(trees_only, repeats=3, min_time=0.0)
@@ -157,14 +183,20 @@ def _queries(args, index, tips) -> dict:
             index.query(t, args.k, **kwargs)
         ours, scan, same = [], [], True
         for t in tips:
-            ours.append(median_time(lambda t=t, kw=kwargs: index.query(t, args.k, **kw), repeats=3,
-                                    min_time=0.002))  # fmt: skip
+            ours.append(
+                median_time(
+                    lambda t=t, kw=kwargs: index.query(t, args.k, **kw), repeats=3, min_time=0.002
+                )
+            )
             d1, i1 = index.query(t, args.k, **kwargs)
             d2, i2 = index.scan(t, args.k, **kwargs)
             same &= bool(np.array_equal(i1, i2) and np.allclose(d1, d2, rtol=0, atol=1e-12))
         for t in tips[: max(5, len(tips) // 10)]:
-            scan.append(median_time(lambda t=t, kw=kwargs: index.scan(t, args.k, **kw), repeats=3,
-                                    min_time=0.0))  # fmt: skip
+            scan.append(
+                median_time(
+                    lambda t=t, kw=kwargs: index.scan(t, args.k, **kw), repeats=3, min_time=0.0
+                )
+            )
         ours_ms = 1e3 * statistics.median(ours)
         scan_ms = 1e3 * statistics.median(scan)
         rows[name] = {
@@ -198,9 +230,13 @@ def _refine_targets(index, spec, tips, tries: int, sensitivities: str) -> dict:
         batch = designs_of(index, rows)
         for j in range(len(rows)):
             design = batch.design(j)
-            result = refine(design, int(index.requested[rows[j]]), target,
-                            variables=variables_for(spec.space, design),
-                            sensitivities=sensitivities)  # fmt: skip
+            result = refine(
+                design,
+                int(index.requested[rows[j]]),
+                target,
+                variables=variables_for(spec.space, design),
+                sensitivities=sensitivities,
+            )
             times.append(result.seconds)
             evaluations.append(result.evaluations)
             jacobians.append(result.jacobians)
@@ -259,8 +295,12 @@ def run(args: argparse.Namespace) -> int:
     record = {
         "benchmark": "lookup",
         "machine": machine_info(),
-        "dataset": {"path": str(args.dataset), "rows": info.rows_committed,
-                    "designs": info.designs_committed, "complete": info.complete},
+        "dataset": {
+            "path": str(args.dataset),
+            "rows": info.rows_committed,
+            "designs": info.designs_committed,
+            "complete": info.complete,
+        },
         "build": build,
         "query": queries,
         "refinement": refinement,
@@ -272,8 +312,12 @@ def run(args: argparse.Namespace) -> int:
         from .sensitivities import measure
 
         record["sensitivities"] = measure()
-    emit(record, as_json=args.json, text=_text(record),
-         save=REPORTS / "bench-lookup.json" if args.save else None)  # fmt: skip
+    emit(
+        record,
+        as_json=args.json,
+        text=_text(record),
+        save=REPORTS / "bench-lookup.json" if args.save else None,
+    )
     return 0
 
 
@@ -296,11 +340,11 @@ def _text(record: dict) -> str:
             f"{row['speedup']:7.0f}x  {row['same_rows_as_scan']}"
         )
     lines.append(f"  goal <= 1 ms per query: {'met' if q['query_goal_met'] else 'NOT met'}")
+    lines.append(f"refinement to 1e-6 mm of held-out targets, up to {r['tries']} candidates each:")
     lines.append(
-        f"refinement to 1e-6 mm of held-out targets, up to {r['tries']} candidates each:"
+        f"  {'sensitivities':<22} {'targets':>7} {'first':>7} {'any':>7} {'ms/cand':>8} "
+        f"{'p90':>7} {'evals':>5} {'jacs':>4} {'worst mm':>9}"
     )
-    lines.append(f"  {'sensitivities':<22} {'targets':>7} {'first':>7} {'any':>7} {'ms/cand':>8} "
-                 f"{'p90':>7} {'evals':>5} {'jacs':>4} {'worst mm':>9}")  # fmt: skip
     rows = (("exact (ours)", r["exact"]), ("central differences", r["central_differences"]))
     for name, row in rows:
         lines.append(

@@ -31,8 +31,14 @@ T_END = 15.0
 #: The pick-and-place finger's reset times (s) and the goal's tolerance on them.
 PICKPLACE_TOLERANCE = 0.02
 #: Goals of the reset-model issue (a summary line says which are met).
-GOALS = {"us_per_design": 50.0, "median_rel_err": 0.01, "p95_rel_err": 0.05,
-         "max_rel_err": 0.20, "class_agreement": 0.995, "coverage_90": 0.88}  # fmt: skip
+GOALS = {
+    "us_per_design": 50.0,
+    "median_rel_err": 0.01,
+    "p95_rel_err": 0.05,
+    "max_rel_err": 0.20,
+    "class_agreement": 0.995,
+    "coverage_90": 0.88,
+}
 
 
 def register(subparsers) -> None:
@@ -46,10 +52,15 @@ def register(subparsers) -> None:
     parser.add_argument("--designs", type=int, default=500, help="held-out random designs")
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--model", default=None, help="model file (default: the packaged one)")
-    parser.add_argument("--max-rel-halfwidth", type=float, default=None,
-                        help="fall back where a unit's interval is wider (relative)")
-    parser.add_argument("--save", action="store_true",
-                        help=f"write bench-reset-model.json to {REPORTS}/")
+    parser.add_argument(
+        "--max-rel-halfwidth",
+        type=float,
+        default=None,
+        help="fall back where a unit's interval is wider (relative)",
+    )
+    parser.add_argument(
+        "--save", action="store_true", help=f"write bench-reset-model.json to {REPORTS}/"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -68,7 +79,8 @@ def compare(out: dict, ref: dict, n_units: np.ndarray) -> dict:
         rel = np.where(np.isfinite(t_out[meta]), np.abs(t_out[meta] / t_ref[meta] - 1.0), np.inf)
         claimed = meta & ~out["fallback"][:, None]
         covered = (out["reset_time_lo"][claimed] <= t_ref[claimed]) & (
-            t_ref[claimed] <= out["reset_time_hi"][claimed])  # fmt: skip
+            t_ref[claimed] <= out["reset_time_hi"][claimed]
+        )
     agree = (classes(t_out) == classes(t_ref))[active]
     levels = (0.5, 0.9, 0.95, 0.99, 1.0)
     n_of_unit = np.broadcast_to(n_units[:, None], t_ref.shape)[meta]
@@ -85,7 +97,8 @@ def compare(out: dict, ref: dict, n_units: np.ndarray) -> dict:
         "units": int(active.sum()),
         "class_mismatches": int((~agree).sum()),
         "rel_err_quantiles": {f"{q:g}": float(np.quantile(rel, q)) for q in levels}
-        if rel.size else {},
+        if rel.size
+        else {},
         "median_rel_err_by_n_units": by_n,
         "within_1pct": float(np.mean(rel <= 0.01)) if rel.size else float("nan"),
     }
@@ -100,15 +113,19 @@ def _time(batch, profile, **kwargs) -> float:
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
-        seconds = median_time(lambda: reset_times_batch(batch, profile, t_end=T_END, **kwargs),
-                              repeats=3, min_time=0.0)  # fmt: skip
+        seconds = median_time(
+            lambda: reset_times_batch(batch, profile, t_end=T_END, **kwargs),
+            repeats=3,
+            min_time=0.0,
+        )
     finally:
         numba.set_num_threads(threads)
     return seconds / len(batch)
 
 
-def reset_model_record(designs: int = 500, seed: int = 7, model=None,
-                       max_rel_halfwidth: float | None = None) -> dict:  # fmt: skip
+def reset_model_record(
+    designs: int = 500, seed: int = 7, model=None, max_rel_halfwidth: float | None = None
+) -> dict:
     """The reset model's figures on held-out designs: the dict ``bench surrogate`` embeds.
 
     Returns
@@ -129,8 +146,9 @@ def reset_model_record(designs: int = 500, seed: int = 7, model=None,
     out = reset_times_batch(batch, profile, t_end=T_END, **fast)
     record = compare(out, ref, batch.n_units)
     reasons = out["fallback_reason"]
-    record["fallback_reasons"] = {text: int(((reasons & bit) != 0).sum())
-                                  for bit, text in FALLBACK_REASONS.items()}  # fmt: skip
+    record["fallback_reasons"] = {
+        text: int(((reasons & bit) != 0).sum()) for bit, text in FALLBACK_REASONS.items()
+    }
     reset_times_batch(batch.take(np.arange(2)), profile, t_end=T_END)  # warm both paths
     record["us_per_design"] = _time(batch, profile, **fast) * 1e6
     record["full_model_us_per_design"] = _time(batch, profile) * 1e6
@@ -144,12 +162,14 @@ def reset_model_record(designs: int = 500, seed: int = 7, model=None,
     record["pickplace"] = {
         "reset_times": pick_out["reset_time"][0, :6].tolist(),
         "reference": pick_ref["reset_time"][0, :6].tolist(),
-        "interval": [pick_out["reset_time_lo"][0, :6].tolist(),
-                     pick_out["reset_time_hi"][0, :6].tolist()],
+        "interval": [
+            pick_out["reset_time_lo"][0, :6].tolist(),
+            pick_out["reset_time_hi"][0, :6].tolist(),
+        ],
         "max_rel_err": float(rel.max()),
         "fallback": bool(pick_out["fallback"][0]),
         "within_2pct": bool(rel.max() <= PICKPLACE_TOLERANCE),
-    }  # fmt: skip
+    }
     record["designs"] = len(batch)
     record["seed"] = seed
     record["max_rel_halfwidth"] = max_rel_halfwidth
@@ -167,8 +187,12 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench reset-model``."""
     start = time.perf_counter()
     record = reset_model_record(args.designs, args.seed, args.model, args.max_rel_halfwidth)
-    record = {"benchmark": "reset-model", **record,
-              "wall_s": time.perf_counter() - start, "machine": machine_info()}  # fmt: skip
+    record = {
+        "benchmark": "reset-model",
+        **record,
+        "wall_s": time.perf_counter() - start,
+        "machine": machine_info(),
+    }
     p = record["pickplace"]
     lines = [
         "reset-model: fast reset times vs the full model (rodas4, atol 1e-8 reference)",
@@ -183,15 +207,18 @@ def run(args: argparse.Namespace) -> int:
         f"class agreement {record['class_agreement']:.4%} ({record['class_mismatches']} of "
         f"{record['units']} units); 90 % interval coverage {record['coverage_90']:.1%}; "
         f"fallback rate {record['fallback_rate']:.1%}",
-        "fallback reasons: " + (", ".join(f"{k}: {v}" for k, v in
-                                          record["fallback_reasons"].items() if v) or "none"),
-        "pick-and-place: " + ", ".join(
-            f"{t:.4f} s (ref {r:.4f})" for t, r in zip(p["reset_times"], p["reference"],
-                                                      strict=True) if np.isfinite(r))
+        "fallback reasons: "
+        + (", ".join(f"{k}: {v}" for k, v in record["fallback_reasons"].items() if v) or "none"),
+        "pick-and-place: "
+        + ", ".join(
+            f"{t:.4f} s (ref {r:.4f})"
+            for t, r in zip(p["reset_times"], p["reference"], strict=True)
+            if np.isfinite(r)
+        )
         + f"; max rel err {p['max_rel_err']:.2e}",
-        "goals met: " + ", ".join(f"{k} {'yes' if v else 'NO'}"
-                                  for k, v in record["goals_met"].items()),
-    ]  # fmt: skip
+        "goals met: "
+        + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in record["goals_met"].items()),
+    ]
     save = REPORTS / "bench-reset-model.json" if args.save else None
     if save is not None:
         lines.append(f"saved {save}")

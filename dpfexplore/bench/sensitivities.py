@@ -58,16 +58,27 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--units", default=",".join(map(str, UNITS)),
-                        help="finger sizes N (default 2,5,8,12)")  # fmt: skip
+    parser.add_argument(
+        "--units", default=",".join(map(str, UNITS)), help="finger sizes N (default 2,5,8,12)"
+    )
     parser.add_argument("--designs", type=int, default=30, help="designs per N (timing)")
-    parser.add_argument("--reference-designs", type=int, default=5,
-                        help="designs per N checked against the finite-difference reference")
+    parser.add_argument(
+        "--reference-designs",
+        type=int,
+        default=5,
+        help="designs per N checked against the finite-difference reference",
+    )
     parser.add_argument("--seed", type=int, default=2025)
-    parser.add_argument("--no-compile", action="store_true",
-                        help="skip the compile-time measurement (two fresh processes)")
-    parser.add_argument("--save", action="store_true",
-                        help=f"also write the record to {REPORTS}/bench-sensitivities.json")
+    parser.add_argument(
+        "--no-compile",
+        action="store_true",
+        help="skip the compile-time measurement (two fresh processes)",
+    )
+    parser.add_argument(
+        "--save",
+        action="store_true",
+        help=f"also write the record to {REPORTS}/bench-sensitivities.json",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -143,13 +154,12 @@ def _sample(n_units: int, n_designs: int, seed: int):
     ok = (cols["status"] == st.OK) | (cols["status"] == st.COLLAPSED)
     keep = np.flatnonzero(ok & (cols["min_eig"] > MIN_EIG_FAR))[:n_designs]
     nf = 4 * n_units - 2
-    return [
-        (batch.design(int(i)), int(cols["found"][i]), cols["x"][i, :nf].copy()) for i in keep
-    ]
+    return [(batch.design(int(i)), int(cols["found"][i]), cols["x"][i, :nf].copy()) for i in keep]
 
 
-def bench_size(n_units: int, n_designs: int, n_reference: int, seed: int,
-               passes: int = 5, repeats: int = 20) -> dict:  # fmt: skip
+def bench_size(
+    n_units: int, n_designs: int, n_reference: int, seed: int, passes: int = 5, repeats: int = 20
+) -> dict:
     """Sensitivities of one finger size: kernel costs, the finite-difference baseline, errors."""
     from .._kernels.batch import solve_repeatedly
     from .._kernels.sensitivity_batch import sensitivities_repeatedly
@@ -189,11 +199,16 @@ def bench_size(n_units: int, n_designs: int, n_reference: int, seed: int,
         result = find_state(design, bits, options=tight, sensitivities=True)
         ours = np.stack([result.sensitivities.of(name) for name in OUTPUTS])
         reference = central_differences(
-            design, bits, lambda name: _reference_steps(design, name), tight  # noqa: B023
+            design,
+            bits,
+            lambda name: _reference_steps(design, name),  # noqa: B023
+            tight,
         )
         start = time.perf_counter()
         baseline = central_differences(
-            design, bits, lambda name: [FD_STEP * abs(_parameter_value(design, name))]  # noqa: B023
+            design,
+            bits,
+            lambda name: [FD_STEP * abs(_parameter_value(design, name))],  # noqa: B023
         )
         fd_us.append((time.perf_counter() - start) * 1e6)
         if reference is None or baseline is None:  # a step crossed into another state
@@ -270,12 +285,21 @@ def _row_kernel(tables, states, *, sensitivities: bool, shape_derivatives: bool 
     n_rows = len(states)
     nf = 4 * MAX_UNITS - 2
     args = (
-        tables.unit_params, tables.h, tables.n_units, tables.status,
-        np.arange(n_rows, dtype=np.int64), np.asarray(states, dtype=np.int64),
-        *DEFAULT_OPTIONS.kernel_args(), True, True, np.empty((n_rows, 11)),
-        np.empty(n_rows, np.int8), np.empty(n_rows, np.int64), np.empty(n_rows, np.int32),
+        tables.unit_params,
+        tables.h,
+        tables.n_units,
+        tables.status,
+        np.arange(n_rows, dtype=np.int64),
+        np.asarray(states, dtype=np.int64),
+        *DEFAULT_OPTIONS.kernel_args(),
+        True,
+        True,
+        np.empty((n_rows, 11)),
+        np.empty(n_rows, np.int8),
+        np.empty(n_rows, np.int64),
+        np.empty(n_rows, np.int32),
         np.empty((n_rows, nf if sensitivities else 0)),
-    )  # fmt: skip
+    )
     if not sensitivities:
         return lambda: solve_rows_serial(*args)
     n_params = 3 * MAX_UNITS + 3
@@ -301,42 +325,54 @@ def bench_api(seed: int) -> dict:
         design = load_design(example_path(name))
         tables = design_kernel_tables(design, derivatives=True)
         state = [parse_state(bits, design.n_units)]
-        t = _interleaved({
-            "api": lambda: find_state(design, bits),  # noqa: B023
-            "kernel": _row_kernel(tables, state, sensitivities=False),
-            "api_sens": lambda: find_state(design, bits, sensitivities=True),  # noqa: B023
-            "kernel_sens": _row_kernel(tables, state, sensitivities=True, shape_derivatives=True),
-        })  # fmt: skip
-        rows.append({
-            "design": name, "n_units": design.n_units, "state": bits,
-            "find_state_us": t["api"] * 1e6,
-            "kernel_us": t["kernel"] * 1e6,
-            "ratio": t["api"] / t["kernel"],
-            "find_state_sensitivities_us": t["api_sens"] * 1e6,
-            "kernel_sensitivities_us": t["kernel_sens"] * 1e6,
-            "ratio_sensitivities": t["api_sens"] / t["kernel_sens"],
-        })  # fmt: skip
+        t = _interleaved(
+            {
+                "api": lambda: find_state(design, bits),  # noqa: B023
+                "kernel": _row_kernel(tables, state, sensitivities=False),
+                "api_sens": lambda: find_state(design, bits, sensitivities=True),  # noqa: B023
+                "kernel_sens": _row_kernel(
+                    tables, state, sensitivities=True, shape_derivatives=True
+                ),
+            }
+        )
+        rows.append(
+            {
+                "design": name,
+                "n_units": design.n_units,
+                "state": bits,
+                "find_state_us": t["api"] * 1e6,
+                "kernel_us": t["kernel"] * 1e6,
+                "ratio": t["api"] / t["kernel"],
+                "find_state_sensitivities_us": t["api_sens"] * 1e6,
+                "kernel_sensitivities_us": t["kernel_sens"] * 1e6,
+                "ratio_sensitivities": t["api_sens"] / t["kernel_sens"],
+            }
+        )
     batch = sample_bistable_batch(5, max(BATCH_SIZES), seed)
     batches = []
     for size in BATCH_SIZES:
         sub = batch.take(np.arange(size))
         tables = kernel_tables(sub, derivatives=True)
-        states = 2 ** sub.n_units - 1
-        t = _interleaved({
-            "api": lambda: solve_batch(sub, "all_inverted"),  # noqa: B023
-            "kernel": _row_kernel(tables, states, sensitivities=False),
-            "api_sens": lambda: solve_batch(sub, "all_inverted", sensitivities=True),  # noqa: B023
-            "kernel_sens": _row_kernel(tables, states, sensitivities=True),
-        })  # fmt: skip
-        batches.append({
-            "batch": size,
-            "solve_batch_us_per_design": t["api"] / size * 1e6,
-            "kernel_us_per_design": t["kernel"] / size * 1e6,
-            "ratio": t["api"] / t["kernel"],
-            "solve_batch_sensitivities_us_per_design": t["api_sens"] / size * 1e6,
-            "kernel_sensitivities_us_per_design": t["kernel_sens"] / size * 1e6,
-            "ratio_sensitivities": t["api_sens"] / t["kernel_sens"],
-        })  # fmt: skip
+        states = 2**sub.n_units - 1
+        t = _interleaved(
+            {
+                "api": lambda: solve_batch(sub, "all_inverted"),  # noqa: B023
+                "kernel": _row_kernel(tables, states, sensitivities=False),
+                "api_sens": lambda: solve_batch(sub, "all_inverted", sensitivities=True),  # noqa: B023
+                "kernel_sens": _row_kernel(tables, states, sensitivities=True),
+            }
+        )
+        batches.append(
+            {
+                "batch": size,
+                "solve_batch_us_per_design": t["api"] / size * 1e6,
+                "kernel_us_per_design": t["kernel"] / size * 1e6,
+                "ratio": t["api"] / t["kernel"],
+                "solve_batch_sensitivities_us_per_design": t["api_sens"] / size * 1e6,
+                "kernel_sensitivities_us_per_design": t["kernel_sens"] / size * 1e6,
+                "ratio_sensitivities": t["api_sens"] / t["kernel_sens"],
+            }
+        )
     return {"find_state": rows, "solve_batch": batches}
 
 
@@ -357,13 +393,19 @@ def _compile_seconds() -> dict[str, float]:
     return {"compile_s": cold_s, "cache_load_s": warm_s, "import_s": import_s}
 
 
-def measure(units=UNITS, designs: int = 30, reference_designs: int = 5, seed: int = 2025,
-            compile_time: bool = False) -> dict:  # fmt: skip
+def measure(
+    units=UNITS,
+    designs: int = 30,
+    reference_designs: int = 5,
+    seed: int = 2025,
+    compile_time: bool = False,
+) -> dict:
     """The benchmark's record: per-N sensitivity rows, API rows, machine, compile times."""
     compile_times = (
-        _compile_seconds() if compile_time
+        _compile_seconds()
+        if compile_time
         else {"compile_s": float("nan"), "cache_load_s": float("nan")}
-    )  # fmt: skip
+    )
     by_n = [bench_size(n, designs, reference_designs, seed + n) for n in units]
     return {
         "by_n_units": by_n,
@@ -391,16 +433,20 @@ def text_rows(record: dict) -> list[str]:
             f"{r['ours_stiffness_rel_err']:>10.1e} {r['fd_stiffness_rel_err']:>9.1e}"
         )
     lines.append("API calls against the row kernel they run (best of 40 interleaved rounds)")
-    lines.append(f"{'design':>10} {'N':>2} {'find_state µs':>13} {'kernel µs':>9} {'ratio':>6} "
-                 f"{'+sens µs':>9} {'kernel µs':>9} {'ratio':>6}")  # fmt: skip
+    lines.append(
+        f"{'design':>10} {'N':>2} {'find_state µs':>13} {'kernel µs':>9} {'ratio':>6} "
+        f"{'+sens µs':>9} {'kernel µs':>9} {'ratio':>6}"
+    )
     for r in record["api"]["find_state"]:
         lines.append(
             f"{r['design']:>10} {r['n_units']:>2} {r['find_state_us']:>13.1f} "
             f"{r['kernel_us']:>9.1f} {r['ratio']:>5.2f}x {r['find_state_sensitivities_us']:>9.1f} "
             f"{r['kernel_sensitivities_us']:>9.1f} {r['ratio_sensitivities']:>5.2f}x"
         )
-    lines.append(f"{'batch':>6} {'solve_batch µs/design':>21} {'kernel':>7} {'ratio':>6} "
-                 f"{'+sens':>7} {'kernel':>7} {'ratio':>6}")  # fmt: skip
+    lines.append(
+        f"{'batch':>6} {'solve_batch µs/design':>21} {'kernel':>7} {'ratio':>6} "
+        f"{'+sens':>7} {'kernel':>7} {'ratio':>6}"
+    )
     for r in record["api"]["solve_batch"]:
         lines.append(
             f"{r['batch']:>6} {r['solve_batch_us_per_design']:>21.1f} "
@@ -414,14 +460,19 @@ def text_rows(record: dict) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench sensitivities``."""
     units = tuple(int(s) for s in args.units.split(","))
-    record = measure(units, args.designs, args.reference_designs, args.seed,
-                     compile_time=not args.no_compile)  # fmt: skip
+    record = measure(
+        units, args.designs, args.reference_designs, args.seed, compile_time=not args.no_compile
+    )
     machine = record["machine"]
     header = [
         f"machine: {machine['cpu']}, {machine['cores']} cores; {machine['date']}",
         f"compile (cold cache) {record['compile_s']:.1f} s, cache load "
         f"{record['cache_load_s']:.2f} s",
     ]
-    emit(record, as_json=args.json, text="\n".join(header + text_rows(record)),
-         save=REPORTS / "bench-sensitivities.json" if args.save else None)  # fmt: skip
+    emit(
+        record,
+        as_json=args.json,
+        text="\n".join(header + text_rows(record)),
+        save=REPORTS / "bench-sensitivities.json" if args.save else None,
+    )
     return 0

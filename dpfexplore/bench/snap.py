@@ -30,8 +30,13 @@ from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_
 #: Ramp durations (s) of the slow-ramp simulations.
 DURATIONS = (20.0, 200.0, 2000.0)
 #: The paper's design box (MODEL.md §2).
-BOX = {"H": (3.0, 5.0), "U_L": (5.5, 10.0), "U_sep": (1.0, 5.0), "t": (0.5, 1.0),
-       "t_lim": (1.0, 2.0)}  # fmt: skip
+BOX = {
+    "H": (3.0, 5.0),
+    "U_L": (5.5, 10.0),
+    "U_sep": (1.0, 5.0),
+    "t": (0.5, 1.0),
+    "t_lim": (1.0, 2.0),
+}
 
 
 def register(subparsers) -> None:
@@ -42,18 +47,28 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--units", type=_unit_list, default=(2, 4, 6, 8),
-                        help="finger sizes N, comma-separated (default 2,4,6,8)")
+    parser.add_argument(
+        "--units",
+        type=_unit_list,
+        default=(2, 4, 6, 8),
+        help="finger sizes N, comma-separated (default 2,4,6,8)",
+    )
     parser.add_argument("--designs", type=int, default=40, help="random designs per N")
-    parser.add_argument("--ramp-designs", type=int, default=8,
-                        help="random designs (N = 2-4) checked against slow ramps")  # fmt: skip
+    parser.add_argument(
+        "--ramp-designs",
+        type=int,
+        default=8,
+        help="random designs (N = 2-4) checked against slow ramps",
+    )
     parser.add_argument("--P-max", type=float, default=0.8, help="top of the ramp, MPa")
     parser.add_argument("--rounds", type=int, default=3, help="timing rounds through all designs")
     parser.add_argument("--seed", type=int, default=2024)
-    parser.add_argument("--no-compile", action="store_true",
-                        help="skip the fresh-process compile-time measurement")  # fmt: skip
-    parser.add_argument("--save", action="store_true",
-                        help=f"write the record to {REPORTS}/bench-snap.json")  # fmt: skip
+    parser.add_argument(
+        "--no-compile", action="store_true", help="skip the fresh-process compile-time measurement"
+    )
+    parser.add_argument(
+        "--save", action="store_true", help=f"write the record to {REPORTS}/bench-snap.json"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -97,8 +112,7 @@ def _cost(designs, p_max: float, rounds: int) -> dict:
     up = _per_design_times(designs, p_max, rounds, release=False)
     both = _per_design_times(designs, p_max, rounds, release=True)
     batch = DesignBatch.from_designs(designs)
-    batch_s = median_time(lambda: snap_pressures_batch(batch, P_max=p_max), repeats=3,
-                          min_time=0.0)  # fmt: skip
+    batch_s = median_time(lambda: snap_pressures_batch(batch, P_max=p_max), repeats=3, min_time=0.0)
     seqs = [snap_pressures(d, P_max=p_max, release=False, verify=False) for d in designs]
     return {
         "designs": len(designs),
@@ -139,8 +153,13 @@ def _ramp_agreement(designs, p_max: float) -> dict:
             lags[T].extend(lag.tolist())
             # no-contact units: the continuation reports their micro-snap and flags it, the
             # simulation classes them no_contact with a 0 bit (MODEL.md §3): not compared
-            state_mismatch[T] += any(a != b for a, b, loose in zip(
-                run.final_state, seq.visits[-1].state, seq.no_contact, strict=True) if not loose)
+            state_mismatch[T] += any(
+                a != b
+                for a, b, loose in zip(
+                    run.final_state, seq.visits[-1].state, seq.no_contact, strict=True
+                )
+                if not loose
+            )
         slow, slower = per_t[DURATIONS[-2]], per_t[DURATIONS[-1]]
         good = (slow > 0) & (slower > 0)
         exponents.extend(np.log10(slow[good] / slower[good]).tolist())
@@ -187,8 +206,9 @@ def run(args: argparse.Namespace) -> int:
         {"n_units": n, **_cost(random_designs(rng, n, args.designs), args.P_max, args.rounds)}
         for n in units
     ]
-    ramp_designs = [gripper] + [d for n in (2, 3, 4)
-                                for d in random_designs(rng, n, args.ramp_designs // 3 + 1)]
+    ramp_designs = [gripper] + [
+        d for n in (2, 3, 4) for d in random_designs(rng, n, args.ramp_designs // 3 + 1)
+    ]
     ramp_designs = ramp_designs[: args.ramp_designs + 1]
     record["slow_ramp"] = _ramp_agreement(ramp_designs, args.P_max)
     record["slow_ramp_gripper"] = _ramp_agreement([gripper], args.P_max)
@@ -205,28 +225,41 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _text(record: dict) -> str:
-    lines = [f"snap pressures, rising ramp to {record['P_max']} MPa "
-             f"({record['machine']['cpu']}, {record['machine']['date']})"]  # fmt: skip
+    lines = [
+        f"snap pressures, rising ramp to {record['P_max']} MPa "
+        f"({record['machine']['cpu']}, {record['machine']['date']})"
+    ]
     g = record["gripper"]
     step_us = record["slow_ramp_gripper"]["rodas4_us_per_step_median"]
-    lines.append(f"gripper: {g['median_ms']:.2f} ms per design, {g['median_ms_with_release']:.2f} "
-                 f"ms with releases; one slow-ramp simulation {g['slow_ramp_sim_ms']:.1f} ms "
-                 f"({g['speedup_vs_slow_ramp']:.0f}x); Rodas4 {step_us:.1f} us/step")  # fmt: skip
-    lines.append(f"{'N':>3} {'median ms':>10} {'p90 ms':>8} {'+release ms':>12} "
-                 f"{'batch ms':>9} {'snaps':>6} {'crossings':>9} {'failed':>6}")  # fmt: skip
+    lines.append(
+        f"gripper: {g['median_ms']:.2f} ms per design, {g['median_ms_with_release']:.2f} "
+        f"ms with releases; one slow-ramp simulation {g['slow_ramp_sim_ms']:.1f} ms "
+        f"({g['speedup_vs_slow_ramp']:.0f}x); Rodas4 {step_us:.1f} us/step"
+    )
+    lines.append(
+        f"{'N':>3} {'median ms':>10} {'p90 ms':>8} {'+release ms':>12} "
+        f"{'batch ms':>9} {'snaps':>6} {'crossings':>9} {'failed':>6}"
+    )
     for row in record["by_n_units"]:
-        lines.append(f"{row['n_units']:>3} {row['median_ms']:>10.2f} {row['p90_ms']:>8.2f} "
-                     f"{row['median_ms_with_release']:>12.2f} "
-                     f"{row['batch_mean_ms_with_release']:>9.2f} {row['mean_snaps']:>6.1f} "
-                     f"{row['mean_crossings']:>9.1f} {row['failed']:>6}")  # fmt: skip
+        lines.append(
+            f"{row['n_units']:>3} {row['median_ms']:>10.2f} {row['p90_ms']:>8.2f} "
+            f"{row['median_ms_with_release']:>12.2f} "
+            f"{row['batch_mean_ms_with_release']:>9.2f} {row['mean_snaps']:>6.1f} "
+            f"{row['mean_crossings']:>9.1f} {row['failed']:>6}"
+        )
     for name in ("slow_ramp_gripper", "slow_ramp"):
         r = record[name]
-        lags = ", ".join(f"{T:g} s: {lag:.2e}" for T, lag in
-                         zip(r["durations_s"], r["max_lag_MPa"], strict=True))  # fmt: skip
-        lines.append(f"{name} ({r['designs']} designs): largest lag (MPa) {lags}; exponent "
-                     f"{r['lag_exponent_median']:.2f}; final states differing "
-                     f"(no-contact units aside) {r['final_state_mismatches']}")  # fmt: skip
+        lags = ", ".join(
+            f"{T:g} s: {lag:.2e}" for T, lag in zip(r["durations_s"], r["max_lag_MPa"], strict=True)
+        )
+        lines.append(
+            f"{name} ({r['designs']} designs): largest lag (MPa) {lags}; exponent "
+            f"{r['lag_exponent_median']:.2f}; final states differing "
+            f"(no-contact units aside) {r['final_state_mismatches']}"
+        )
     if "compile_s" in record:
-        lines.append(f"compile {record['compile_s']:.0f} s cold, first call "
-                     f"{record['cached_first_call_s']:.2f} s from the cache")  # fmt: skip
+        lines.append(
+            f"compile {record['compile_s']:.0f} s cold, first call "
+            f"{record['cached_first_call_s']:.2f} s from the cache"
+        )
     return "\n".join(lines)

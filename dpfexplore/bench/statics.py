@@ -49,12 +49,20 @@ def register(subparsers) -> None:
     parser.add_argument("--designs", type=int, default=500, help="designs per N for ours")
     parser.add_argument("--scipy-designs", type=int, default=30, help="designs per N for SciPy")
     parser.add_argument("--seed", type=int, default=2024)
-    parser.add_argument("--no-compile", action="store_true",
-                        help="skip the compile-time measurement (two fresh processes)")
-    parser.add_argument("--rounds", type=int, default=5,
-                        help="interleaved rounds of ours and SciPy (medians over rounds)")
-    parser.add_argument("--save", action="store_true",
-                        help=f"also write the record to {REPORTS}/bench-statics.json")
+    parser.add_argument(
+        "--no-compile",
+        action="store_true",
+        help="skip the compile-time measurement (two fresh processes)",
+    )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=5,
+        help="interleaved rounds of ours and SciPy (medians over rounds)",
+    )
+    parser.add_argument(
+        "--save", action="store_true", help=f"also write the record to {REPORTS}/bench-statics.json"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -134,7 +142,10 @@ def _scipy_solve(lattice, params, state: int):
     load[-2:] = normal
     stiffness = 1.0 / (load @ np.linalg.solve(hess, load))
     found = inversion_state(
-        x, params.unit_params, params.h, np.empty((2 * lattice.n_units + 2, 2)),
+        x,
+        params.unit_params,
+        params.h,
+        np.empty((2 * lattice.n_units + 2, 2)),
         np.empty(lattice.n_units),
     )
     return pos[-1], stiffness, found
@@ -229,13 +240,15 @@ def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int, rounds: in
     for round_ in range(rounds):
         numba.set_num_threads(1)
         try:
-            t_one.append(median_time(lambda: solve_batch(batch, "all_inverted", min_eig=False),
-                                     repeats=3))
+            t_one.append(
+                median_time(lambda: solve_batch(batch, "all_inverted", min_eig=False), repeats=3)
+            )
             t_one_eig.append(median_time(lambda: solve_batch(batch, "all_inverted"), repeats=3))
         finally:
             numba.set_num_threads(threads)
-        t_all.append(median_time(lambda: solve_batch(batch, "all_inverted", min_eig=False),
-                                 repeats=3))
+        t_all.append(
+            median_time(lambda: solve_batch(batch, "all_inverted", min_eig=False), repeats=3)
+        )
         for i, (lattice, params) in enumerate(problems):
             start = time.perf_counter()
             tip, k, found = _scipy_solve(lattice, params, state)
@@ -332,6 +345,10 @@ def run(args: argparse.Namespace) -> int:
             f"{r['designs_per_s_all_cores']:>20.0f} "
             f"{r['speedup_vs_paper'][0]:>6.0f}-{r['speedup_vs_paper'][1]:.0f}x"
         )
-    emit(record, as_json=args.json, text="\n".join(lines),
-         save=REPORTS / "bench-statics.json" if args.save else None)
+    emit(
+        record,
+        as_json=args.json,
+        text="\n".join(lines),
+        save=REPORTS / "bench-statics.json" if args.save else None,
+    )
     return 0

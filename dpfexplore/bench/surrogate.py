@@ -41,20 +41,36 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--save", action="store_true",
-                        help=f"also write {REPORTS}/bench-surrogate.json and .png, and the "
-                        f"fitted surrogate to {SAVED_MODEL}")
-    parser.add_argument("--dataset", type=Path,
-                        help="use this sweep dataset instead of running the training job")
-    parser.add_argument("--samples-per-n", type=int,
-                        help="designs per N of the training job (default: the job's 20000)")
+    parser.add_argument(
+        "--save",
+        action="store_true",
+        help=f"also write {REPORTS}/bench-surrogate.json and .png, and the "
+        f"fitted surrogate to {SAVED_MODEL}",
+    )
+    parser.add_argument(
+        "--dataset", type=Path, help="use this sweep dataset instead of running the training job"
+    )
+    parser.add_argument(
+        "--samples-per-n",
+        type=int,
+        help="designs per N of the training job (default: the job's 20000)",
+    )
     parser.add_argument("--kinds", default="knn,gbt,mlp,gp,chain", help="regressor kinds")
     parser.add_argument("--classifiers", default="gbt,chain", help="status classifier kinds")
-    parser.add_argument("--params", type=json.loads, default=None, metavar="JSON",
-                        help="estimator keyword arguments per kind (JSON)")
-    parser.add_argument("--reset-designs", type=int, default=500, metavar="N",
-                        help="held-out metastable designs of the reset-model section "
-                        "(default 500)")
+    parser.add_argument(
+        "--params",
+        type=json.loads,
+        default=None,
+        metavar="JSON",
+        help="estimator keyword arguments per kind (JSON)",
+    )
+    parser.add_argument(
+        "--reset-designs",
+        type=int,
+        default=500,
+        metavar="N",
+        help="held-out metastable designs of the reset-model section (default 500)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -83,9 +99,12 @@ def _dataset(args: argparse.Namespace, tmp: Path) -> tuple[Path, dict[str, Any]]
         spec = dataclasses.replace(spec, samples_per_n=args.samples_per_n)
     out = tmp / "surrogate-training"
     summary = run_sweep(spec, out)
-    return out, {"source": f"jobs/surrogate-training.toml, {spec.samples_per_n} per N",
-                 "designs": spec.n_designs, "sweep_s": summary.wall_s,
-                 "compile_s": summary.timings.get("compile_s", 0.0)}
+    return out, {
+        "source": f"jobs/surrogate-training.toml, {spec.samples_per_n} per N",
+        "designs": spec.n_designs,
+        "sweep_s": summary.wall_s,
+        "compile_s": summary.timings.get("compile_s", 0.0),
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,11 +119,15 @@ def run(args: argparse.Namespace) -> int:
         data = load_training_data(root, OUTPUTS)
         start = time.perf_counter()
         classifiers = [k.strip() for k in args.classifiers.split(",") if k.strip()]
-        surrogates = fit_surrogates(data, kinds=kinds, classifier_kind=classifiers,
-                                    params=args.params,
-                                    progress=lambda line: print(f"bench surrogate: {line}",
-                                                                flush=True)
-                                    if not args.json else None)
+        surrogates = fit_surrogates(
+            data,
+            kinds=kinds,
+            classifier_kind=classifiers,
+            params=args.params,
+            progress=lambda line: (
+                print(f"bench surrogate: {line}", flush=True) if not args.json else None
+            ),
+        )
         wall = time.perf_counter() - start
         if args.save:
             from ..surrogates.store import save_surrogates
@@ -123,13 +146,16 @@ def run(args: argparse.Namespace) -> int:
     text = format_report(report)
     text += "\n\nreset_model: " + json.dumps(reset["reset_model"])
     m = record["machine"]
-    text += (f"\n\nmachine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, "
-             f"NumPy {m['numpy']}, Numba {m['numba']}; fit and report {wall:.0f} s")
+    text += (
+        f"\n\nmachine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, "
+        f"NumPy {m['numpy']}, Numba {m['numba']}; fit and report {wall:.0f} s"
+    )
     save = REPORTS / "bench-surrogate.json" if args.save else None
     if save is not None and (SAVED_MODEL / "speed_error.png").is_file():
         save.parent.mkdir(parents=True, exist_ok=True)
         (REPORTS / "bench-surrogate.png").write_bytes(
-            (SAVED_MODEL / "speed_error.png").read_bytes())
+            (SAVED_MODEL / "speed_error.png").read_bytes()
+        )
     emit(_json_ready(record), as_json=args.json, text=text, save=save)
     return 0
 

@@ -50,21 +50,38 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--save", action="store_true",
-                        help=f"also write the record to {REPORTS}/bench-sweep.json")
+    parser.add_argument(
+        "--save", action="store_true", help=f"also write the record to {REPORTS}/bench-sweep.json"
+    )
     parser.add_argument("--jobs-dir", type=Path, default=JOBS, help="where the job files are")
     parser.add_argument("--repeats", type=int, default=3, help="runs of the paper job (median)")
-    parser.add_argument("--baseline-designs", type=int, default=30,
-                        help="designs per N solved one at a time for the baseline")
-    parser.add_argument("--overnight-designs", type=int, default=100,
-                        help="designs per N of the overnight job's subsample")
-    parser.add_argument("--rss-designs", type=int, default=1_000_000,
-                        help="designs of the peak-RSS run (0 skips it)")
-    parser.add_argument("--workers", type=int, default=None,
-                        help="Dask worker processes (default: one per core)")
+    parser.add_argument(
+        "--baseline-designs",
+        type=int,
+        default=30,
+        help="designs per N solved one at a time for the baseline",
+    )
+    parser.add_argument(
+        "--overnight-designs",
+        type=int,
+        default=100,
+        help="designs per N of the overnight job's subsample",
+    )
+    parser.add_argument(
+        "--rss-designs",
+        type=int,
+        default=1_000_000,
+        help="designs of the peak-RSS run (0 skips it)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=None, help="Dask worker processes (default: one per core)"
+    )
     parser.add_argument("--skip-dask", action="store_true", help="do not run the Dask engine")
-    parser.add_argument("--no-compile", action="store_true",
-                        help="skip the compile-time measurement (two fresh processes)")
+    parser.add_argument(
+        "--no-compile",
+        action="store_true",
+        help="skip the compile-time measurement (two fresh processes)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -191,13 +208,19 @@ def _one_at_a_time(spec, frame, designs_per_n: int) -> dict:
         for i in range(len(batch)):
             one = batch.take(np.array([i]))
             start = time.perf_counter()
-            out = solve_batch(one, spec.compute.states, stiffness=spec.compute.stiffness,
-                              min_eig=spec.compute.min_eig)
+            out = solve_batch(
+                one,
+                spec.compute.states,
+                stiffness=spec.compute.stiffness,
+                min_eig=spec.compute.min_eig,
+            )
             elapsed += time.perf_counter() - start
             count += 1
-            rows.append(pd.DataFrame({
-                "n_units": n, "sample": i, **{k: out[k] for k in COMPARED if k in out}
-            }))
+            rows.append(
+                pd.DataFrame(
+                    {"n_units": n, "sample": i, **{k: out[k] for k in COMPARED if k in out}}
+                )
+            )
     baseline = pd.concat(rows, ignore_index=True)
     ours = frame[frame["sample"] < designs_per_n].sort_values(["n_units", "sample"])
     per_design = elapsed / count
@@ -282,8 +305,15 @@ def _rss_run(designs: int, tmp: Path) -> dict:
     per_n = max(1, designs // 10)
     job = tmp / f"rss-{designs}.toml"
     job.write_text(RSS_JOB.format(per_n=per_n))
-    command = [sys.executable, "-m", "dpfexplore", "sweep", str(job), "--out",
-               str(tmp / f"rss-{designs}")]
+    command = [
+        sys.executable,
+        "-m",
+        "dpfexplore",
+        "sweep",
+        str(job),
+        "--out",
+        str(tmp / f"rss-{designs}"),
+    ]
     start = time.perf_counter()
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     with PeakRSS(proc.pid, interval=0.05) as rss:
@@ -318,8 +348,9 @@ def run(args: argparse.Namespace) -> int:
         spec, frame = paper.pop("spec"), paper.pop("frame")
         paper["one_at_a_time"] = _one_at_a_time(spec, frame, args.baseline_designs)
         record["paper_job"] = paper
-        engines = {"local": {k: paper[k] for k in
-                             ("designs", "wall_s", "designs_per_s", "peak_rss_mb")}}
+        engines = {
+            "local": {k: paper[k] for k in ("designs", "wall_s", "designs_per_s", "peak_rss_mb")}
+        }
         if not args.skip_dask:
             dask = _dask_job(args, spec, frame, tmp)
             dask["overhead_ratio_vs_local"] = dask["wall_s"] / paper["wall_s"]
@@ -332,8 +363,12 @@ def run(args: argparse.Namespace) -> int:
                 "small": _rss_run(max(10, args.rss_designs // 10), tmp),
                 "large": _rss_run(args.rss_designs, tmp),
             }
-    emit(record, as_json=args.json, text=_text(record),
-         save=REPORTS / "bench-sweep.json" if args.save else None)
+    emit(
+        record,
+        as_json=args.json,
+        text=_text(record),
+        save=REPORTS / "bench-sweep.json" if args.save else None,
+    )
     return 0
 
 
@@ -372,8 +407,10 @@ def _text(r: dict) -> str:
             f"{p['chunks_s']:.2f} s), close {t.get('cluster_close_s', 0):.2f} s; "
             f"max |diff| vs local {d['max_abs_difference_vs_local']:.1e}"
         )
-    lines.append("  peak RSS: " + ", ".join(
-        f"{name} {e['peak_rss_mb']:.0f} MB" for name, e in r["engines"].items()))
+    lines.append(
+        "  peak RSS: "
+        + ", ".join(f"{name} {e['peak_rss_mb']:.0f} MB" for name, e in r["engines"].items())
+    )
     o = r["overnight_outputs"]
     lines += [
         "",

@@ -30,8 +30,17 @@ from ._output import SafeStreamHandler, UsageError, discard, error_line
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
 COMMAND_MODULES = (
-    "states", "sweep", "simulate", "simulate_leg", "snap", "resetmaps", "resetmodel",
-    "surrogate", "lookup", "design", "bench",
+    "states",
+    "sweep",
+    "simulate",
+    "simulate_leg",
+    "snap",
+    "resetmaps",
+    "resetmodel",
+    "surrogate",
+    "lookup",
+    "design",
+    "bench",
 )
 
 EXIT_OK = 0
@@ -100,8 +109,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(attach_dash_values(argv, parser))
     handler = SafeStreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        handlers=[handler])  # fmt: skip
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, handlers=[handler])
     try:
         code = int(args.handler(args))
         sys.stdout.flush()

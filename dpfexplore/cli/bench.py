@@ -10,8 +10,15 @@ import importlib
 
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
 BENCHMARKS = (
-    "statics", "sweep", "dynamics", "sensitivities", "snap", "surrogate", "reset_model",
-    "lookup", "design",
+    "statics",
+    "sweep",
+    "dynamics",
+    "sensitivities",
+    "snap",
+    "surrogate",
+    "reset_model",
+    "lookup",
+    "design",
 )
 
 

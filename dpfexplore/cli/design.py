@@ -31,17 +31,26 @@ def register(subparsers) -> None:
         "tip positions, tip stiffness, gripper apertures. Every reported design is re-solved "
         "by the exact model. Units: mm, N/mm, MPa, degrees.",
     )
-    parser.add_argument("scene", type=Path, help="scene file (TOML), e.g. "
-                        "jobs/design-position-cheetah.toml")  # fmt: skip
+    parser.add_argument(
+        "scene", type=Path, help="scene file (TOML), e.g. jobs/design-position-cheetah.toml"
+    )
     parser.add_argument("--out", type=Path, help="report directory (default results/<name>)")
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument("--plot", action="store_true", help="also write figures (PNG) to --out")
-    parser.add_argument("--seeds", metavar="DATASET", default=None,
-                        help="position scenes: candidates from this sweep dataset's nearest tips "
-                             "(e.g. results/design-seeds-descending) instead of a Latin hypercube")
-    parser.add_argument("--target-reset", type=float, default=None, metavar="T",
-                        help="pick-and-place scenes: one target reset time T (s) instead of the "
-                        "scene's targets")  # fmt: skip
+    parser.add_argument(
+        "--seeds",
+        metavar="DATASET",
+        default=None,
+        help="position scenes: candidates from this sweep dataset's nearest tips "
+        "(e.g. results/design-seeds-descending) instead of a Latin hypercube",
+    )
+    parser.add_argument(
+        "--target-reset",
+        type=float,
+        default=None,
+        metavar="T",
+        help="pick-and-place scenes: one target reset time T (s) instead of the scene's targets",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -104,12 +113,25 @@ def run(args: argparse.Namespace) -> int:
     outcome = run_design(spec, out, plot=args.plot, progress=progress)
     rows = [public(r) for r in outcome.rows]
     if args.json:
-        print(json.dumps({"results": rows, "evaluations": dict(outcome.evaluator.counts),
-                          "wall_s": outcome.wall_s}, default=_default))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "results": rows,
+                    "evaluations": dict(outcome.evaluator.counts),
+                    "wall_s": outcome.wall_s,
+                },
+                default=_default,
+            )
+        )
     else:
         _print_summary(spec, rows, outcome, out)
-    failed = [r for r in rows if not r["reachable"] or r.get("windows_ok") is False
-              or (r.get("metastability") and not r["metastability"].get("ok", True))]  # fmt: skip
+    failed = [
+        r
+        for r in rows
+        if not r["reachable"]
+        or r.get("windows_ok") is False
+        or (r.get("metastability") and not r["metastability"].get("ok", True))
+    ]
     return EXIT_FAILURE if failed else EXIT_OK
 
 
@@ -138,53 +160,78 @@ def _print_summary(spec, rows, outcome, out: Path) -> None:
         from ._timing_output import print_timing_summary
 
         print_timing_summary(spec, rows)
-        print(f"  every reported design re-simulated alone in the full model; evaluations: "
-              f"{counts}; wall {outcome.wall_s:.2f} s")  # fmt: skip
+        print(
+            f"  every reported design re-simulated alone in the full model; evaluations: "
+            f"{counts}; wall {outcome.wall_s:.2f} s"
+        )
         return
     if spec.kind == "gripper":
         for r in rows:
             ap = ", ".join(f"{a:.3f}" for a in r["apertures"])
-            print(f"  apertures {ap} mm (targets {r['target']}), theta_B {r['theta_B_deg']:.3f}"
-                  f" deg, Base_L {r['base_L']:.3f} mm, stiffness {_fmt(r['stiffness'], '.5f')}"
-                  f" N/mm")  # fmt: skip
+            print(
+                f"  apertures {ap} mm (targets {r['target']}), theta_B {r['theta_B_deg']:.3f}"
+                f" deg, Base_L {r['base_L']:.3f} mm, stiffness {_fmt(r['stiffness'], '.5f')}"
+                f" N/mm"
+            )
             meta = r.get("metastability") or {}
-            print(f"  tip unit: reset after {_fmt(meta.get('reset_time_s'), '.4f')} s "
-                  f"({'ok' if meta.get('ok') else 'NOT metastable'})")  # fmt: skip
-            windows = "; ".join("-" if w is None else f"{w[0]:.1f}-{w[1]:.1f}"
-                                for w in r["pressure_windows"] or [])  # fmt: skip
-            print(f"  pressure windows (kPa): {windows} "
-                  f"({'ok' if r.get('windows_ok') else 'NOT ok'}; "
-                  f"{r['pressure_windows_detail'].get('note')})")  # fmt: skip
+            print(
+                f"  tip unit: reset after {_fmt(meta.get('reset_time_s'), '.4f')} s "
+                f"({'ok' if meta.get('ok') else 'NOT metastable'})"
+            )
+            windows = "; ".join(
+                "-" if w is None else f"{w[0]:.1f}-{w[1]:.1f}" for w in r["pressure_windows"] or []
+            )
+            print(
+                f"  pressure windows (kPa): {windows} "
+                f"({'ok' if r.get('windows_ok') else 'NOT ok'}; "
+                f"{r['pressure_windows_detail'].get('note')})"
+            )
             if "reference" in r:
                 ref = r["reference"]
                 ap = ", ".join(f"{a:.3f}" for a in ref["apertures"])
-                print(f"  reference: apertures {ap} mm, stiffness "
-                      f"{_fmt(ref['stiffness'], '.5f')} N/mm")  # fmt: skip
+                print(
+                    f"  reference: apertures {ap} mm, stiffness "
+                    f"{_fmt(ref['stiffness'], '.5f')} N/mm"
+                )
             _print_range(r)
     else:
-        print(f"{'target':>16}  {'N':>2}  {'tip x':>9}  {'tip y':>9}  {'objective':>10}  "
-              f"{'stiffness':>9}  {'evals':>6}  {'wall':>6}  reached")  # fmt: skip
-        print(f"{'mm':>16}  {'':>2}  {'mm':>9}  {'mm':>9}  {'mm²':>10}  {'N/mm':>9}  "
-              f"{'':>6}  {'s':>6}")  # fmt: skip
+        print(
+            f"{'target':>16}  {'N':>2}  {'tip x':>9}  {'tip y':>9}  {'objective':>10}  "
+            f"{'stiffness':>9}  {'evals':>6}  {'wall':>6}  reached"
+        )
+        print(
+            f"{'mm':>16}  {'':>2}  {'mm':>9}  {'mm':>9}  {'mm²':>10}  {'N/mm':>9}  "
+            f"{'':>6}  {'s':>6}"
+        )
         for r in rows:
             target = f"({r['target'][0]:g}, {r['target'][1]:g})"
-            print(f"{target:>16}  {r['n_units']:>2}  {r['tip'][0]:9.4f}  {r['tip'][1]:9.4f}  "
-                  f"{_fmt(r['objective'], '10.3g')}  {_fmt(r['stiffness'], '9.5f')}  "
-                  f"{r['evaluations']['designs']:>6}  {r['wall_s']:6.2f}  "
-                  f"{'yes' if r['reachable'] else 'UNREACHABLE'}")  # fmt: skip
+            print(
+                f"{target:>16}  {r['n_units']:>2}  {r['tip'][0]:9.4f}  {r['tip'][1]:9.4f}  "
+                f"{_fmt(r['objective'], '10.3g')}  {_fmt(r['stiffness'], '9.5f')}  "
+                f"{r['evaluations']['designs']:>6}  {r['wall_s']:6.2f}  "
+                f"{'yes' if r['reachable'] else 'UNREACHABLE'}"
+            )
             if "front" in r:
                 ks = [p.get("stiffness") for p in r["front"]]
-                print("      front (tol mm: N/mm): " + ", ".join(
-                    f"{p['tolerance_mm']:g}: {_fmt(k, '.4f')}" for p, k in zip(r["front"], ks,
-                                                                             strict=True)))
+                print(
+                    "      front (tol mm: N/mm): "
+                    + ", ".join(
+                        f"{p['tolerance_mm']:g}: {_fmt(k, '.4f')}"
+                        for p, k in zip(r["front"], ks, strict=True)
+                    )
+                )
             if "reference" in r:
                 ref, dom = r["reference"], r.get("dominates_reference")
-                print(f"      reference: objective {_fmt(ref['objective'], '.3g')} mm², "
-                      f"stiffness {_fmt(ref['stiffness'], '.4f')} N/mm; "
-                      + ("dominated" if dom else "NOT dominated"))  # fmt: skip
+                print(
+                    f"      reference: objective {_fmt(ref['objective'], '.3g')} mm², "
+                    f"stiffness {_fmt(ref['stiffness'], '.4f')} N/mm; "
+                    + ("dominated" if dom else "NOT dominated")
+                )
             _print_range(r)
-    print(f"  every reported design re-solved by find_state; evaluations: {counts}; "
-          f"wall {outcome.wall_s:.2f} s")  # fmt: skip
+    print(
+        f"  every reported design re-solved by find_state; evaluations: {counts}; "
+        f"wall {outcome.wall_s:.2f} s"
+    )
 
 
 def _print_range(row) -> None:

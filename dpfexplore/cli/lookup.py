@@ -25,40 +25,72 @@ def register(subparsers) -> None:
         "(DATASET/_lookup-<columns>.npz) and rebuilt when the dataset changes.",
     )
     parser.add_argument("dataset", type=Path, help="sweep dataset directory")
-    parser.add_argument("--target", required=True,
-                        help="target values, comma-separated, one per column (e.g. 25,40 mm; "
-                        "a negative first value as --target=-5,30)")
-    parser.add_argument("--columns", default="tip_x,tip_y",
-                        help="indexed output columns (default tip_x,tip_y)")
-    parser.add_argument("--scales",
-                        help="scale of each column in its unit (default 1 each): distances are "
-                        "Euclidean in value/scale, e.g. --columns tip_x,tip_y,stiffness "
-                        "--scales 1,1,0.01")
-    parser.add_argument("--state",
-                        help="only this state: a bit string (unit 1 first, e.g. 11110) or "
-                        "all-inverted (default: any state in the dataset)")
-    parser.add_argument("--n-units", metavar="N",
-                        help="only these numbers of units: N, LOW..HIGH or N,N,...")
+    parser.add_argument(
+        "--target",
+        required=True,
+        help="target values, comma-separated, one per column (e.g. 25,40 mm; "
+        "a negative first value as --target=-5,30)",
+    )
+    parser.add_argument(
+        "--columns", default="tip_x,tip_y", help="indexed output columns (default tip_x,tip_y)"
+    )
+    parser.add_argument(
+        "--scales",
+        help="scale of each column in its unit (default 1 each): distances are "
+        "Euclidean in value/scale, e.g. --columns tip_x,tip_y,stiffness "
+        "--scales 1,1,0.01",
+    )
+    parser.add_argument(
+        "--state",
+        help="only this state: a bit string (unit 1 first, e.g. 11110) or "
+        "all-inverted (default: any state in the dataset)",
+    )
+    parser.add_argument(
+        "--n-units", metavar="N", help="only these numbers of units: N, LOW..HIGH or N,N,..."
+    )
     parser.add_argument("--where", help='dataset row filter, e.g. "stiffness > 0.05 and t < 0.8"')
     parser.add_argument("--k", type=int, default=10, help="number of candidates (default 10)")
-    parser.add_argument("--refine", action="store_true",
-                        help="polish each candidate with the exact model until the target is met")
-    parser.add_argument("--tol", type=float, default=1e-6,
-                        help="refinement tolerance (default 1e-6, mm for the tip)")
-    parser.add_argument("--constraints", nargs="+", metavar="KEY=VALUE", default=[],
-                        help="refinement constraints inside the job's box: "
-                        "heights=free|ascending|descending, ordered_units=1-4, tied=5,6, "
-                        "shared=U_L,U_sep, H|U_L|U_sep|t|t_lim=LOW:HIGH or =VALUE")
-    parser.add_argument("--no-rebuild", action="store_true",
-                        help="refuse a stale index instead of rebuilding it")
-    parser.add_argument("--no-verify", action="store_true",
-                        help="read chunks without checking their SHA-256 against the manifest")
+    parser.add_argument(
+        "--refine",
+        action="store_true",
+        help="polish each candidate with the exact model until the target is met",
+    )
+    parser.add_argument(
+        "--tol",
+        type=float,
+        default=1e-6,
+        help="refinement tolerance (default 1e-6, mm for the tip)",
+    )
+    parser.add_argument(
+        "--constraints",
+        nargs="+",
+        metavar="KEY=VALUE",
+        default=[],
+        help="refinement constraints inside the job's box: "
+        "heights=free|ascending|descending, ordered_units=1-4, tied=5,6, "
+        "shared=U_L,U_sep, H|U_L|U_sep|t|t_lim=LOW:HIGH or =VALUE",
+    )
+    parser.add_argument(
+        "--no-rebuild", action="store_true", help="refuse a stale index instead of rebuilding it"
+    )
+    parser.add_argument(
+        "--no-verify",
+        action="store_true",
+        help="read chunks without checking their SHA-256 against the manifest",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--plot", metavar="FILE.png", type=Path,
-                        help="draw the reachable tip region per N with the target and designs")
-    parser.add_argument("--write", metavar="DIR", type=Path,
-                        help="save each design as DIR/candidate-NN.toml (read by dpfexplore "
-                        "states)")
+    parser.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        type=Path,
+        help="draw the reachable tip region per N with the target and designs",
+    )
+    parser.add_argument(
+        "--write",
+        metavar="DIR",
+        type=Path,
+        help="save each design as DIR/candidate-NN.toml (read by dpfexplore states)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -89,9 +121,18 @@ def run(args: argparse.Namespace) -> int:
         n_units = parse_n_units(args.n_units) if args.n_units else None
         constraints = parse_constraints(args.constraints)
         result = lookup(
-            args.dataset, target, columns=columns, scales=scales, state=args.state,
-            n_units=n_units, where=args.where, k=args.k, refine=args.refine,
-            constraints=constraints, tol=args.tol, rebuild=not args.no_rebuild,
+            args.dataset,
+            target,
+            columns=columns,
+            scales=scales,
+            state=args.state,
+            n_units=n_units,
+            where=args.where,
+            k=args.k,
+            refine=args.refine,
+            constraints=constraints,
+            tol=args.tol,
+            rebuild=not args.no_rebuild,
             verify=not args.no_verify,
         )
     except (StoreError, StaleIndexError, ValueError) as exc:
@@ -117,16 +158,27 @@ def run(args: argparse.Namespace) -> int:
 def _print(result, written) -> None:
     target = ", ".join(f"{c} = {v:g}" for c, v in zip(result.columns, result.target, strict=True))
     origin = result.index_origin
-    index = (f"index of {result.index_rows} rows {origin.action} in {origin.seconds:.2f} s"
-             if origin else f"index of {result.index_rows} rows")  # fmt: skip
-    print(f"lookup {result.dataset.root}: {target}; {index}; query "
-          f"{result.query_seconds * 1e3:.2f} ms")  # fmt: skip
+    index = (
+        f"index of {result.index_rows} rows {origin.action} in {origin.seconds:.2f} s"
+        if origin
+        else f"index of {result.index_rows} rows"
+    )
+    print(
+        f"lookup {result.dataset.root}: {target}; {index}; query "
+        f"{result.query_seconds * 1e3:.2f} ms"
+    )
     extra = [c for c in result.columns if c not in ("tip_x", "tip_y")]
-    header = (f"{'#':>2}  {'N':>2}  {'state':<12}  {'status':<9}  {'tip x':>9}  {'tip y':>9}  "
-              f"{'error':>9}  {'stiffness':>9}  " + "".join(f"{c:>12}  " for c in extra)
-              + f"{'dataset d':>9}  {'fit':<3}  design_id")  # fmt: skip
-    units = (f"{'':>2}  {'':>2}  {'':<12}  {'':<9}  {'mm':>9}  {'mm':>9}  {'':>9}  {'N/mm':>9}  "
-             + "".join(f"{'':>12}  " for _ in extra) + f"{'':>9}")  # fmt: skip
+    header = (
+        f"{'#':>2}  {'N':>2}  {'state':<12}  {'status':<9}  {'tip x':>9}  {'tip y':>9}  "
+        f"{'error':>9}  {'stiffness':>9}  "
+        + "".join(f"{c:>12}  " for c in extra)
+        + f"{'dataset d':>9}  {'fit':<3}  design_id"
+    )
+    units = (
+        f"{'':>2}  {'':>2}  {'':<12}  {'':<9}  {'mm':>9}  {'mm':>9}  {'':>9}  {'N/mm':>9}  "
+        + "".join(f"{'':>12}  " for _ in extra)
+        + f"{'':>9}"
+    )
     print(header)
     print(units)
     for rank, c in enumerate(result.candidates, start=1):
@@ -160,10 +212,16 @@ def _plot(result, path: Path) -> None:
     tips = reachable_tips(result.index, result.n_units, result.state)
     target = None
     if {"tip_x", "tip_y"} <= set(result.columns):
-        target = (result.target[result.columns.index("tip_x")],
-                  result.target[result.columns.index("tip_y")])  # fmt: skip
-    ax = plot_reachable(tips, target, [c.tip for c in result.candidates],
-                        labels=[c.status for c in result.candidates])  # fmt: skip
+        target = (
+            result.target[result.columns.index("tip_x")],
+            result.target[result.columns.index("tip_y")],
+        )
+    ax = plot_reachable(
+        tips,
+        target,
+        [c.tip for c in result.candidates],
+        labels=[c.status for c in result.candidates],
+    )
     ax.figure.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(ax.figure)
     print(f"reachable tip region written to {path}", file=sys.stderr)

@@ -22,12 +22,17 @@ def register(subparsers) -> None:
     )
     parser.add_argument("--out", type=Path, default=Path("results"), help="output directory")
     parser.add_argument("--units", type=int, default=1, help="units per finger (1: unit cell)")
-    parser.add_argument("--t-after", type=float, default=30.0,
-                        help="horizon after the release, s (longer resets are 'inf')")  # fmt: skip
     parser.add_argument(
-        "--method", default=DEFAULT_METHOD,
+        "--t-after",
+        type=float,
+        default=30.0,
+        help="horizon after the release, s (longer resets are 'inf')",
+    )
+    parser.add_argument(
+        "--method",
+        default=DEFAULT_METHOD,
         choices=sorted(n for n, i in METHODS.items() if i.integrator >= 0),
-    )  # fmt: skip
+    )
     parser.add_argument("--quick", action="store_true", help="coarse grids (a smoke run)")
     parser.set_defaults(handler=run)
 
@@ -42,8 +47,12 @@ def run(args) -> int:
         raise UsageError(f"--units {args.units}: must be between 1 and 12")
     changes = {"n_units": args.units, "t_after": args.t_after, "method": args.method}
     if args.quick:
-        changes.update(H_values=(2.6, 2.9, 3.2), t_values=(0.75, 0.85, 1.0),
-                       hold_values=(0.05, 1.0), hold_H=(2.9,))  # fmt: skip
+        changes.update(
+            H_values=(2.6, 2.9, 3.2),
+            t_values=(0.75, 0.85, 1.0),
+            hold_values=(0.05, 1.0),
+            hold_H=(2.9,),
+        )
     from ..solvers.compilation import compile_notice
 
     notice = compile_notice(["release" if args.method == "release" else "reset"])
@@ -61,11 +70,13 @@ def run(args) -> int:
     for name, frame in maps.items():
         failed += int((frame["status"] != "ok").sum())
         finite = frame["reset_time"][np.isfinite(frame["reset_time"])]
-        print(f"{name:>5}: {frame['value'].nunique()} values, {len(frame)} unit rows, "
-              f"reset times {finite.min() if len(finite) else float('nan'):.4g}-"
-              f"{finite.max() if len(finite) else float('nan'):.4g} s, "
-              f"{int(np.isinf(frame['reset_time']).sum())} never reset within "
-              f"{spec.t_after:g} s")  # fmt: skip
+        print(
+            f"{name:>5}: {frame['value'].nunique()} values, {len(frame)} unit rows, "
+            f"reset times {finite.min() if len(finite) else float('nan'):.4g}-"
+            f"{finite.max() if len(finite) else float('nan'):.4g} s, "
+            f"{int(np.isinf(frame['reset_time']).sum())} never reset within "
+            f"{spec.t_after:g} s"
+        )
     print(f"computed in {elapsed:.1f} s (including any compilation); wrote:")
     for path in paths:
         print(f"  {path}")

@@ -20,29 +20,48 @@ def register(subparsers) -> None:
         "one by active learning on designs simulated by the full model; 'report' describes one.",
     )
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    fit = sub.add_parser("fit", help="train a model and write it as JSON",
-                         description="Train the fitted part of the fast reset-time model.")
+    fit = sub.add_parser(
+        "fit",
+        help="train a model and write it as JSON",
+        description="Train the fitted part of the fast reset-time model.",
+    )
     fit.add_argument("--out", type=Path, required=True, help="model file to write (.json)")
     fit.add_argument("--P0", type=float, default=0.7, help="pulse pressure, MPa")
     fit.add_argument("--tau", default="0,1,5,5.1", help="tau1,tau2,tau3,tau4 in s")
-    fit.add_argument("--horizon", type=float, default=15.0,
-                     help="longest horizon t_end - tau4 the model serves, s")
+    fit.add_argument(
+        "--horizon",
+        type=float,
+        default=15.0,
+        help="longest horizon t_end - tau4 the model serves, s",
+    )
     fit.add_argument("--initial", type=int, default=3000, help="uniform designs first")
-    fit.add_argument("--per-round", type=int, default=1000,
-                     help="actively chosen designs per round")
+    fit.add_argument(
+        "--per-round", type=int, default=1000, help="actively chosen designs per round"
+    )
     fit.add_argument("--rounds", type=int, default=2, help="active-learning rounds")
     fit.add_argument("--pool", type=int, default=8000, help="candidates scored per round")
-    fit.add_argument("--calibration", type=int, default=2000,
-                     help="uniform designs for the conformal calibration")
-    fit.add_argument("--test-designs", type=int, default=500,
-                     help="held-out bench designs evaluated into the model's record (0: skip)")
+    fit.add_argument(
+        "--calibration",
+        type=int,
+        default=2000,
+        help="uniform designs for the conformal calibration",
+    )
+    fit.add_argument(
+        "--test-designs",
+        type=int,
+        default=500,
+        help="held-out bench designs evaluated into the model's record (0: skip)",
+    )
     fit.add_argument("--atol", type=float, default=3e-3, help="the core's tolerance, mm")
     fit.add_argument("--seed", type=int, default=2025)
     fit.add_argument("--json", action="store_true", help="print the training record as JSON")
     fit.set_defaults(handler=run_fit)
-    report = sub.add_parser("report", help="describe a model (default: the packaged one)",
-                            description="Print a model's scene, domain, training and test "
-                            "record and which features its correction uses.")
+    report = sub.add_parser(
+        "report",
+        help="describe a model (default: the packaged one)",
+        description="Print a model's scene, domain, training and test "
+        "record and which features its correction uses.",
+    )
     report.add_argument("model", nargs="?", default=None, help="model file (.json)")
     report.add_argument("--json", action="store_true", help="print the model's record as JSON")
     report.set_defaults(handler=run_report)
@@ -62,9 +81,14 @@ def run_fit(args) -> int:
     """Handler of ``reset-model fit``."""
     from ..surrogates.reset_training import TrainingOptions, fit_reset_model
 
-    counts = {"--initial": args.initial, "--per-round": args.per_round, "--rounds": args.rounds,
-              "--pool": args.pool, "--calibration": args.calibration,
-              "--test-designs": args.test_designs}  # fmt: skip
+    counts = {
+        "--initial": args.initial,
+        "--per-round": args.per_round,
+        "--rounds": args.rounds,
+        "--pool": args.pool,
+        "--calibration": args.calibration,
+        "--test-designs": args.test_designs,
+    }
     for flag, value in counts.items():
         if value < (1 if flag in ("--initial", "--calibration") else 0):
             raise UsageError(f"{flag} {value}: must be a positive count")
@@ -76,10 +100,18 @@ def run_fit(args) -> int:
     tau = _tau(args.tau)
     if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
         raise UsageError(f"--tau {args.tau!r}: need 0 <= tau1 <= tau2 <= tau3 <= tau4")
-    options = TrainingOptions(P0=args.P0, tau=tau, horizon=args.horizon, initial=args.initial,
-                              per_round=args.per_round, rounds=args.rounds, pool=args.pool,
-                              calibration=args.calibration, atol=args.atol,
-                              seed=args.seed)  # fmt: skip
+    options = TrainingOptions(
+        P0=args.P0,
+        tau=tau,
+        horizon=args.horizon,
+        initial=args.initial,
+        per_round=args.per_round,
+        rounds=args.rounds,
+        pool=args.pool,
+        calibration=args.calibration,
+        atol=args.atol,
+        seed=args.seed,
+    )
     model, record = fit_reset_model(options)
     if args.test_designs and (args.P0, tau) == (0.7, (0.0, 1.0, 5.0, 5.1)):
         from ..bench.reset_model import reset_model_record
@@ -118,14 +150,15 @@ def _summary(model, path) -> str:
         f"reset model {path}",
         f"scene: P0 = {model.P0} MPa, tau = {list(model.tau)} s, horizons up to "
         f"{model.horizon_max} s",
-        "domain: " + ", ".join(f"{k} {tuple(v)}" for k, v in model.domain.items()
-                               if k != "fixed")
-        + "; fixed " + ", ".join(f"{k} = {v}" for k, v in model.domain["fixed"].items()),
+        "domain: "
+        + ", ".join(f"{k} {tuple(v)}" for k, v in model.domain.items() if k != "fixed")
+        + "; fixed "
+        + ", ".join(f"{k} = {v}" for k, v in model.domain["fixed"].items()),
         f"core tolerance {model.atol} mm; interval: {model.coverage:.0%} conformal, q = "
         f"{model.conformal_q:.3f}, monostable ± {model.abs_halfwidth * 1e3:.2f} ms; falls back "
         f"below a snap margin of {model.margin_min:.3g} N",
         f"trees: correction {model.correction.roots.size}, scale {model.scale.roots.size}",
-    ]  # fmt: skip
+    ]
     if info:
         opts = info.get("options", {})
         lines.append(
@@ -135,8 +168,10 @@ def _summary(model, path) -> str:
             f"labels rodas4 atol {info.get('reference_atol_mm')} mm"
         )
         top = list(info.get("feature_importance", {}).items())[:6]
-        lines.append("correction's main features (mean |change| when permuted, log units): "
-                     + ", ".join(f"{k} {v:.1e}" for k, v in top))  # fmt: skip
+        lines.append(
+            "correction's main features (mean |change| when permuted, log units): "
+            + ", ".join(f"{k} {v:.1e}" for k, v in top)
+        )
         test = info.get("test")
         if test:
             lines.append(

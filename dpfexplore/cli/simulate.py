@@ -22,29 +22,36 @@ def register(subparsers) -> None:
         "profile (s; 'inf' = still inverted at --t-end), its class and the final state.",
     )
     parser.add_argument("design", help="design TOML file (a [design] table) or an example name")
-    parser.add_argument("--P0", type=float, default=0.7,
-                        help="pulse pressure, MPa (default 0.7; 0 < P0 <= 2)")
     parser.add_argument(
-        "--tau", default="0,1,5,5.1",
+        "--P0", type=float, default=0.7, help="pulse pressure, MPa (default 0.7; 0 < P0 <= 2)"
+    )
+    parser.add_argument(
+        "--tau",
+        default="0,1,5,5.1",
         help="tau1,tau2,tau3,tau4 in s: ramp start, full pressure, release start, release end",
-    )  # fmt: skip
+    )
     parser.add_argument(
-        "--profile", default=None,
+        "--profile",
+        default=None,
         help="piecewise-linear profile 't:P,t:P,...' (s:MPa, 0 <= P <= 2), overrides --P0/--tau",
-    )  # fmt: skip
+    )
     parser.add_argument("--t-end", type=float, default=15.0, help="end of the run, s")
     parser.add_argument(
-        "--method", default=DEFAULT_METHOD,
+        "--method",
+        default=DEFAULT_METHOD,
         choices=sorted(name for name, info in METHODS.items() if info.model != "release"),
         help=f"integrator (default {DEFAULT_METHOD})",
-    )  # fmt: skip
+    )
     parser.add_argument("--atol", type=float, default=None, help="position tolerance, mm")
     parser.add_argument(
-        "--max-rel-halfwidth", type=float, default=None,
+        "--max-rel-halfwidth",
+        type=float,
+        default=None,
         help="--method fast: run the full model where a unit's 90%% interval is wider",
-    )  # fmt: skip
-    parser.add_argument("--reset-model", default=None,
-                        help="--method fast: model file (default: the packaged one)")
+    )
+    parser.add_argument(
+        "--reset-model", default=None, help="--method fast: model file (default: the packaged one)"
+    )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--plot", type=Path, default=None, help="write a PNG of the run")
     parser.set_defaults(handler=run)
@@ -120,16 +127,23 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
-        print(f"design {design.name or args.design}: {design.n_units} units, method "
-              f"{result.method}, status {result.status.label}")  # fmt: skip
-        print(f"final state {result.final_state} (unit 1 first); horizon {result.horizon:g} s "
-              f"after the profile ends at {profile.t_release:g} s")  # fmt: skip
-        print(f"{'unit':>4} {'class':>11} {'snap-through/s':>15} {'snap-back/s':>12} "
-              f"{'reset/s':>10}")  # fmt: skip
+        print(
+            f"design {design.name or args.design}: {design.n_units} units, method "
+            f"{result.method}, status {result.status.label}"
+        )
+        print(
+            f"final state {result.final_state} (unit 1 first); horizon {result.horizon:g} s "
+            f"after the profile ends at {profile.t_release:g} s"
+        )
+        print(
+            f"{'unit':>4} {'class':>11} {'snap-through/s':>15} {'snap-back/s':>12} {'reset/s':>10}"
+        )
         for k in range(design.n_units):
-            print(f"{k + 1:>4} {result.unit_class[k] or 'never inv.':>11} "
-                  f"{result.snap_through[k]:>15.4f} {result.snap_back[k]:>12.4f} "
-                  f"{result.reset_time[k]:>10.4f}")  # fmt: skip
+            print(
+                f"{k + 1:>4} {result.unit_class[k] or 'never inv.':>11} "
+                f"{result.snap_through[k]:>15.4f} {result.snap_back[k]:>12.4f} "
+                f"{result.reset_time[k]:>10.4f}"
+            )
         if note is not None:
             print(fitted_range_line(note))
     if plot is not None:
@@ -144,45 +158,69 @@ def _run_fast(args, design, profile) -> int:
     from ..solvers.dynamics.fast_reset import FALLBACK_REASONS
     from ..solvers.dynamics.simulate import CLASS_NAMES, reset_times_batch
 
-    out = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=args.t_end,
-                            method="fast", atol=args.atol,
-                            max_rel_halfwidth=args.max_rel_halfwidth,
-                            model=args.reset_model)  # fmt: skip
+    out = reset_times_batch(
+        DesignBatch.from_designs([design]),
+        profile,
+        t_end=args.t_end,
+        method="fast",
+        atol=args.atol,
+        max_rel_halfwidth=args.max_rel_halfwidth,
+        model=args.reset_model,
+    )
     n = design.n_units
     status = Status(int(out["status"][0]))
     reset, lo, hi = (out[k][0, :n] for k in ("reset_time", "reset_time_lo", "reset_time_hi"))
     classes = [CLASS_NAMES[int(c)] for c in out["unit_class"][0, :n]]
-    reasons = [text for bit, text in FALLBACK_REASONS.items()
-               if int(out["fallback_reason"][0]) & bit]  # fmt: skip
+    reasons = [
+        text for bit, text in FALLBACK_REASONS.items() if int(out["fallback_reason"][0]) & bit
+    ]
     state = int(out["final_state"][0])
     final = format(state, f"0{n}b") if state >= 0 else None
 
     def times(values):
-        return [None if math.isnan(v) else ("inf" if math.isinf(v) else round(float(v), 9))
-                for v in values]  # fmt: skip
+        return [
+            None if math.isnan(v) else ("inf" if math.isinf(v) else round(float(v), 9))
+            for v in values
+        ]
 
     if args.json:
-        print(json.dumps({
-            "final_state": final, "reset_times": times(reset),
-            "reset_time_interval": [times(lo), times(hi)],
-            "snap_through": times(out["snap_through"][0, :n]),
-            "snap_back": times(out["snap_back"][0, :n]), "classes": classes,
-            "status": status.label, "method": "fast", "fallback": bool(out["fallback"][0]),
-            "fallback_reasons": reasons, "horizon": args.t_end - profile.t_release,
-            "t_release": profile.t_release,
-            "fitted_range": design.fitted_range_note is None,
-            "fitted_range_note": design.fitted_range_note,
-        }, indent=2))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "final_state": final,
+                    "reset_times": times(reset),
+                    "reset_time_interval": [times(lo), times(hi)],
+                    "snap_through": times(out["snap_through"][0, :n]),
+                    "snap_back": times(out["snap_back"][0, :n]),
+                    "classes": classes,
+                    "status": status.label,
+                    "method": "fast",
+                    "fallback": bool(out["fallback"][0]),
+                    "fallback_reasons": reasons,
+                    "horizon": args.t_end - profile.t_release,
+                    "t_release": profile.t_release,
+                    "fitted_range": design.fitted_range_note is None,
+                    "fitted_range_note": design.fitted_range_note,
+                },
+                indent=2,
+            )
+        )
     else:
-        print(f"design {design.name or args.design}: {n} units, method fast"
-              f"{' (fell back to rodas4: ' + '; '.join(reasons) + ')' if reasons else ''}, "
-              f"status {status.label}")  # fmt: skip
-        print(f"final state {final} (unit 1 first); horizon {args.t_end - profile.t_release:g} s "
-              f"after the profile ends at {profile.t_release:g} s")  # fmt: skip
+        print(
+            f"design {design.name or args.design}: {n} units, method fast"
+            f"{' (fell back to rodas4: ' + '; '.join(reasons) + ')' if reasons else ''}, "
+            f"status {status.label}"
+        )
+        print(
+            f"final state {final} (unit 1 first); horizon {args.t_end - profile.t_release:g} s "
+            f"after the profile ends at {profile.t_release:g} s"
+        )
         print(f"{'unit':>4} {'class':>11} {'reset/s':>10} {'90% interval/s':>23}")
         for k in range(n):
-            print(f"{k + 1:>4} {classes[k] or 'never inv.':>11} {reset[k]:>10.4f} "
-                  f"{lo[k]:>11.4f} {hi[k]:>11.4f}")  # fmt: skip
+            print(
+                f"{k + 1:>4} {classes[k] or 'never inv.':>11} {reset[k]:>10.4f} "
+                f"{lo[k]:>11.4f} {hi[k]:>11.4f}"
+            )
         if design.fitted_range_note is not None:
             print(fitted_range_line(design.fitted_range_note))
     return EXIT_OK if status == Status.OK else EXIT_FAILURE

@@ -19,18 +19,25 @@ def register(subparsers) -> None:
         "of its phase) and unit classes, the tip path relative to its start (mm), and whether "
         "every section is inside the fitted range of the closed forms.",
     )
-    parser.add_argument("leg", help="leg TOML file or an example name (walker-leg, "
-                        "walker-leg-2.5)")  # fmt: skip
+    parser.add_argument("leg", help="leg TOML file or an example name (walker-leg, walker-leg-2.5)")
     parser.add_argument(
-        "--set", dest="assignments", action="append", default=[], metavar="SECTION.KEY=VALUE",
+        "--set",
+        dest="assignments",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
         help="change a section's design key, e.g. --set purple.H=2.5 or "
         "--set action.H=3.0,4.5,4.5,4.5 (repeatable)",
-    )  # fmt: skip
+    )
     parser.add_argument("--method", default=None, help="integrator (default: the leg's, rodas4)")
     parser.add_argument("--atol", type=float, default=None, help="position tolerance, mm")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
-    parser.add_argument("--plot", type=Path, default=None,
-                        help="write a PNG of the tip path (x-y and y-z projections)")  # fmt: skip
+    parser.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        help="write a PNG of the tip path (x-y and y-z projections)",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -68,18 +75,24 @@ def run(args) -> int:
 
 def _print_text(result, summary) -> None:
     leg = result.leg
-    print(f"leg {leg.name}: {len(leg.sections)} sections, composition {leg.composition}, "
-          f"status {summary['status']}, horizon {leg.t_end:g} s")  # fmt: skip
+    print(
+        f"leg {leg.name}: {len(leg.sections)} sections, composition {leg.composition}, "
+        f"status {summary['status']}, horizon {leg.t_end:g} s"
+    )
     for run in result.sections:
         s = run.section
         start = f"integrated from {run.t_start:g} s" if run.integrated else "at rest (no pressure)"
         print(f"section {s.name} (phase {s.phase}, H = {list(s.design.H)} mm): {start}")
         for k in range(s.design.n_units):
-            print(f"  unit {k + 1}: {run.result.unit_class[k] or 'never inverted':>14}  "
-                  f"reset {run.result.reset_time[k]:8.4f} s")  # fmt: skip
+            print(
+                f"  unit {k + 1}: {run.result.unit_class[k] or 'never inverted':>14}  "
+                f"reset {run.result.reset_time[k]:8.4f} s"
+            )
     dx, dy, dz = result.extent
-    print(f"tip path: extent x {dx:.3f}, y {dy:.3f}, z {dz:.3f} mm; stride (diameter) "
-          f"{result.stride:.3f} mm")  # fmt: skip
+    print(
+        f"tip path: extent x {dx:.3f}, y {dy:.3f}, z {dz:.3f} mm; stride (diameter) "
+        f"{result.stride:.3f} mm"
+    )
     if not result.fitted_range:
         print(f"outside the fitted range: {result.fitted_range_note}")
 

@@ -24,19 +24,38 @@ def register(subparsers) -> None:
     parser.add_argument("design", help="design TOML file (a [design] table) or an example name")
     parser.add_argument("--P-max", type=float, default=1.0, help="top of the ramp, MPa (1.0)")
     parser.add_argument("--P-min", type=float, default=0.0, help="bottom of the ramp, MPa (0)")
-    parser.add_argument("--direction", choices=("up", "down", "cycle"), default="up",
-                        help="rising ramp, falling ramp (snap-back pressures) or both")  # fmt: skip
-    parser.add_argument("--start", default=None, metavar="STATE",
-                        help="start from this state (stable at P = 0) instead of flat")  # fmt: skip
-    parser.add_argument("--P-start", type=float, default=None,
-                        help="pressure where the recorded ramp starts, MPa")  # fmt: skip
-    parser.add_argument("--model", choices=("rodas4", "rodas4-overdamped"), default="rodas4",
-                        help="equations of motion deciding each landing")  # fmt: skip
-    parser.add_argument("--no-release", action="store_true",
-                        help="skip the release of each visited state")  # fmt: skip
+    parser.add_argument(
+        "--direction",
+        choices=("up", "down", "cycle"),
+        default="up",
+        help="rising ramp, falling ramp (snap-back pressures) or both",
+    )
+    parser.add_argument(
+        "--start",
+        default=None,
+        metavar="STATE",
+        help="start from this state (stable at P = 0) instead of flat",
+    )
+    parser.add_argument(
+        "--P-start", type=float, default=None, help="pressure where the recorded ramp starts, MPa"
+    )
+    parser.add_argument(
+        "--model",
+        choices=("rodas4", "rodas4-overdamped"),
+        default="rodas4",
+        help="equations of motion deciding each landing",
+    )
+    parser.add_argument(
+        "--no-release", action="store_true", help="skip the release of each visited state"
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.add_argument("--plot", type=Path, default=None, metavar="FILE.png",
-                        help="draw each unit's extension and the tip against pressure")  # fmt: skip
+    parser.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        metavar="FILE.png",
+        help="draw each unit's extension and the tip against pressure",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -48,10 +67,16 @@ def run(args) -> int:
 
     try:
         design = _design(args.design)
-        seq = snap_pressures(design, P_max=args.P_max, P_min=args.P_min,
-                             direction=args.direction, start_state=args.start,
-                             P_start=args.P_start, release=not args.no_release,
-                             model=args.model)  # fmt: skip
+        seq = snap_pressures(
+            design,
+            P_max=args.P_max,
+            P_min=args.P_min,
+            direction=args.direction,
+            start_state=args.start,
+            P_start=args.P_start,
+            release=not args.no_release,
+            model=args.model,
+        )
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     except RuntimeError as exc:
@@ -71,27 +96,37 @@ def _fmt(value: float) -> str:
 
 
 def _print_table(seq, design, name) -> None:
-    print(f"design {design.name or name}: {design.n_units} units; ramp {seq.direction} "
-          f"{seq.P_start:g} -> {seq.P_max if seq.direction != 'down' else seq.P_min:g} MPa; "
-          f"landings: {seq.model}; status {seq.status.label}")  # fmt: skip
+    print(
+        f"design {design.name or name}: {design.n_units} units; ramp {seq.direction} "
+        f"{seq.P_start:g} -> {seq.P_max if seq.direction != 'down' else seq.P_min:g} MPa; "
+        f"landings: {seq.model}; status {seq.status.label}"
+    )
     if not seq.fitted_range:
         print(f"warning: {design.fitted_range_note}: the closed forms are extrapolated")
     loose = [str(k + 1) for k, flag in enumerate(seq.no_contact) if flag]
     if loose:
-        print(f"note: unit(s) {', '.join(loose)} have no dome contact (reach clamped to 0.01 mm): "
-              "their events are the model's artefact")  # fmt: skip
-    print(f"{'pressure/MPa':>12}  {'event':<8}  {'before':>{design.n_units}} -> "
-          f"{'after':<{design.n_units}}  units")  # fmt: skip
+        print(
+            f"note: unit(s) {', '.join(loose)} have no dome contact (reach clamped to 0.01 mm): "
+            "their events are the model's artefact"
+        )
+    print(
+        f"{'pressure/MPa':>12}  {'event':<8}  {'before':>{design.n_units}} -> "
+        f"{'after':<{design.n_units}}  units"
+    )
     for e in seq.events:
         units = " ".join([f"+{k}" for k in e.inverted] + [f"-{k}" for k in e.reverted])
         print(f"{e.pressure:>12.6f}  {e.kind:<8}  {e.before:>6} -> {e.after:<6}  {units}")
     print()
-    print(f"{'state':<8} {'dir':<4} {'from/MPa':>10} {'to/MPa':>10} {'entered':<9} "
-          f"{'released':<9} {'lost going down at/MPa':>22}")  # fmt: skip
+    print(
+        f"{'state':<8} {'dir':<4} {'from/MPa':>10} {'to/MPa':>10} {'entered':<9} "
+        f"{'released':<9} {'lost going down at/MPa':>22}"
+    )
     for v in seq.visits:
         released = v.released or "-"
-        print(f"{v.state:<8} {v.direction:<4} {v.P_enter:>10.6f} {_fmt(v.P_leave):>10} "
-              f"{v.entered_by:<9} {released:<9} {_fmt(v.P_release_leave):>22}")  # fmt: skip
+        print(
+            f"{v.state:<8} {v.direction:<4} {v.P_enter:>10.6f} {_fmt(v.P_leave):>10} "
+            f"{v.entered_by:<9} {released:<9} {_fmt(v.P_release_leave):>22}"
+        )
 
 
 def _save_plot(seq, path: Path) -> None:

@@ -36,25 +36,53 @@ def register(subparsers) -> None:
 
     fit = sub.add_parser("fit", help="fit surrogates of a sweep dataset and save them")
     fit.add_argument("dataset", type=Path, help="sweep dataset directory")
-    fit.add_argument("--outputs", required=True,
-                     help="comma-separated output columns, e.g. tip_x,tip_y,stiffness")
-    fit.add_argument("--out", type=Path, required=True,
-                     help="directory to save into, e.g. results/surrogates/NAME")
-    fit.add_argument("--kinds", default="knn,gbt,mlp,gp,chain",
-                     help="regressor kinds to fit and compare (default knn,gbt,mlp,gp,chain)")
-    fit.add_argument("--classifier", default="gbt,chain",
-                     help="status classifier kinds (gbt, mlp, chain), comma-separated; the "
-                     "most accurate held-out is used (default gbt,chain)")
-    fit.add_argument("--n-as-feature", action="store_true",
-                     help="one model for all N with N as a feature (default: one per N)")
-    fit.add_argument("--test-fraction", type=float, default=1 / 6,
-                     help="share of the designs held out (default 1/6)")
-    fit.add_argument("--max-train-designs", type=int, default=100_000,
-                     help="cap on the training designs (default 100000)")
+    fit.add_argument(
+        "--outputs",
+        required=True,
+        help="comma-separated output columns, e.g. tip_x,tip_y,stiffness",
+    )
+    fit.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="directory to save into, e.g. results/surrogates/NAME",
+    )
+    fit.add_argument(
+        "--kinds",
+        default="knn,gbt,mlp,gp,chain",
+        help="regressor kinds to fit and compare (default knn,gbt,mlp,gp,chain)",
+    )
+    fit.add_argument(
+        "--classifier",
+        default="gbt,chain",
+        help="status classifier kinds (gbt, mlp, chain), comma-separated; the "
+        "most accurate held-out is used (default gbt,chain)",
+    )
+    fit.add_argument(
+        "--n-as-feature",
+        action="store_true",
+        help="one model for all N with N as a feature (default: one per N)",
+    )
+    fit.add_argument(
+        "--test-fraction",
+        type=float,
+        default=1 / 6,
+        help="share of the designs held out (default 1/6)",
+    )
+    fit.add_argument(
+        "--max-train-designs",
+        type=int,
+        default=100_000,
+        help="cap on the training designs (default 100000)",
+    )
     fit.add_argument("--seed", type=int, default=0, help="seed of the split and the estimators")
-    fit.add_argument("--params", type=json.loads, default=None, metavar="JSON",
-                     help="estimator keyword arguments per kind (JSON), "
-                     'e.g. \'{"mlp": {"max_iter": 50}}\'')
+    fit.add_argument(
+        "--params",
+        type=json.loads,
+        default=None,
+        metavar="JSON",
+        help='estimator keyword arguments per kind (JSON), e.g. \'{"mlp": {"max_iter": 50}}\'',
+    )
     fit.add_argument("--no-timing", action="store_true", help="skip the speed measurement")
     fit.set_defaults(handler=_fit)
 
@@ -65,15 +93,21 @@ def register(subparsers) -> None:
 
     predict = sub.add_parser("predict", help="predict outputs of designs with a saved surrogate")
     predict.add_argument("name", help="directory, or a name under results/surrogates/")
-    predict.add_argument("designs", type=Path,
-                         help="Parquet file (or sweep directory) of design rows in the sweep "
-                         "schema: n_units, H_k, U_L_k, U_sep_k, t, t_lim, E, nu, r_b, t_ch")
+    predict.add_argument(
+        "designs",
+        type=Path,
+        help="Parquet file (or sweep directory) of design rows in the sweep "
+        "schema: n_units, H_k, U_L_k, U_sep_k, t, t_lim, E, nu, r_b, t_ch",
+    )
     predict.add_argument("--kind", help="which regressor (default: the best held-out one)")
-    predict.add_argument("--out", type=Path,
-                         help="write the predictions to FILE (.parquet or .csv) instead of "
-                         "printing them")
-    predict.add_argument("--dataset", type=Path,
-                         help="refuse the surrogate unless it was fitted on this dataset")
+    predict.add_argument(
+        "--out",
+        type=Path,
+        help="write the predictions to FILE (.parquet or .csv) instead of printing them",
+    )
+    predict.add_argument(
+        "--dataset", type=Path, help="refuse the surrogate unless it was fitted on this dataset"
+    )
     predict.set_defaults(handler=_predict)
 
 
@@ -97,10 +131,15 @@ def _fit(args: argparse.Namespace) -> int:
     try:
         data = load_training_data(args.dataset, outputs)
         surrogates = fit_surrogates(
-            data, kinds=kinds, per_n=not args.n_as_feature,
+            data,
+            kinds=kinds,
+            per_n=not args.n_as_feature,
             classifier_kind=[k.strip() for k in args.classifier.split(",") if k.strip()],
-            test_fraction=args.test_fraction, max_train_designs=args.max_train_designs,
-            seed=args.seed, params=args.params, timing=not args.no_timing,
+            test_fraction=args.test_fraction,
+            max_train_designs=args.max_train_designs,
+            seed=args.seed,
+            params=args.params,
+            timing=not args.no_timing,
             progress=lambda line: print(f"surrogate fit: {line}", file=sys.stderr, flush=True),
         )
     except (ValueError, TypeError) as exc:
@@ -173,7 +212,10 @@ def _predict(args: argparse.Namespace) -> int:
     else:
         print(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
     if flagged:
-        print(f"surrogate predict: {flagged} of {len(table)} designs lie outside the range the "
-              "surrogate was fitted on (flag OUT OF RANGE): do not trust their predictions; "
-              "solve them with the exact model", file=sys.stderr)
+        print(
+            f"surrogate predict: {flagged} of {len(table)} designs lie outside the range the "
+            "surrogate was fitted on (flag OUT OF RANGE): do not trust their predictions; "
+            "solve them with the exact model",
+            file=sys.stderr,
+        )
     return EXIT_OK

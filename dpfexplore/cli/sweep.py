@@ -35,21 +35,42 @@ def register(subparsers) -> None:
     )
     sweep.add_argument("job", type=Path, help="job file (TOML), e.g. jobs/paper-design-space.toml")
     sweep.add_argument("--out", type=Path, help="dataset directory (default results/<job name>)")
-    sweep.add_argument("--resume", action="store_true",
-                       help="continue a directory of the same job: recompute what is missing")
-    sweep.add_argument("--repair", action="store_true",
-                       help="rebuild a lost _manifest.json from the chunk files that verify "
-                       "against the job (then --resume computes the rest; both at once work)")
-    sweep.add_argument("--engine", choices=("local", "dask"), default="local",
-                       help="local: this process on all cores (default); dask: Dask workers")
-    sweep.add_argument("--workers", type=int, metavar="N",
-                       help="dask: worker processes of the LocalCluster (default: one per "
-                       "core); local: Numba threads")
-    sweep.add_argument("--scheduler", metavar="ADDR",
-                       help="dask: address of a running scheduler, e.g. tcp://host:8786 "
-                       "(workers must share --out)")
-    sweep.add_argument("--chunk-size", type=int, metavar="N",
-                       help="designs per chunk file (default: the job's, else automatic)")
+    sweep.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a directory of the same job: recompute what is missing",
+    )
+    sweep.add_argument(
+        "--repair",
+        action="store_true",
+        help="rebuild a lost _manifest.json from the chunk files that verify "
+        "against the job (then --resume computes the rest; both at once work)",
+    )
+    sweep.add_argument(
+        "--engine",
+        choices=("local", "dask"),
+        default="local",
+        help="local: this process on all cores (default); dask: Dask workers",
+    )
+    sweep.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="dask: worker processes of the LocalCluster (default: one per "
+        "core); local: Numba threads",
+    )
+    sweep.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="dask: address of a running scheduler, e.g. tcp://host:8786 "
+        "(workers must share --out)",
+    )
+    sweep.add_argument(
+        "--chunk-size",
+        type=int,
+        metavar="N",
+        help="designs per chunk file (default: the job's, else automatic)",
+    )
     sweep.set_defaults(handler=_sweep)
 
     query = subparsers.add_parser(
@@ -60,14 +81,22 @@ def register(subparsers) -> None:
     )
     query.add_argument("dir", type=Path, help="sweep dataset directory")
     query.add_argument("--where", help='filter, e.g. "n_units == 5 and stiffness > 0.1"')
-    query.add_argument("--columns", nargs="+", metavar="COL",
-                       help="columns to output (space- or comma-separated; default all)")
+    query.add_argument(
+        "--columns",
+        nargs="+",
+        metavar="COL",
+        help="columns to output (space- or comma-separated; default all)",
+    )
     output = query.add_mutually_exclusive_group()
     output.add_argument("--csv", type=Path, metavar="FILE", help="write CSV to FILE ('-': stdout)")
     output.add_argument("--json", action="store_true", help="print JSON records")
-    query.add_argument("--no-verify", dest="verify", action="store_false",
-                       help="skip the SHA-256 check of each chunk against the manifest "
-                       "(faster; reads only the columns asked for)")
+    query.add_argument(
+        "--no-verify",
+        dest="verify",
+        action="store_false",
+        help="skip the SHA-256 check of each chunk against the manifest "
+        "(faster; reads only the columns asked for)",
+    )
     query.set_defaults(handler=_query)
 
     plot = subparsers.add_parser(
@@ -77,9 +106,12 @@ def register(subparsers) -> None:
         "of the all-inverted state of every converged design, by number of units.",
     )
     plot.add_argument("dir", type=Path, help="sweep dataset directory")
-    plot.add_argument("--out", type=Path,
-                      help="image file (default DIR.png beside the directory: files inside a "
-                      "dataset directory would break pandas.read_parquet(DIR))")
+    plot.add_argument(
+        "--out",
+        type=Path,
+        help="image file (default DIR.png beside the directory: files inside a "
+        "dataset directory would break pandas.read_parquet(DIR))",
+    )
     plot.set_defaults(handler=_plot_space)
 
 
@@ -99,8 +131,14 @@ class _BarProgress:
         from tqdm import tqdm
 
         try:
-            self.bar = tqdm(total=total_designs, initial=done_designs, unit="design",
-                            unit_scale=True, dynamic_ncols=True, file=sys.stderr)
+            self.bar = tqdm(
+                total=total_designs,
+                initial=done_designs,
+                unit="design",
+                unit_scale=True,
+                dynamic_ncols=True,
+                file=sys.stderr,
+            )
         except (OSError, ValueError):
             self.bar = None
 
@@ -157,7 +195,11 @@ def _sweep(args: argparse.Namespace) -> int:
     progress = _BarProgress() if sys.stderr.isatty() else _LineProgress()
     try:
         summary = run_sweep(
-            spec, out, resume=args.resume, engine=engine, chunk_size=args.chunk_size,
+            spec,
+            out,
+            resume=args.resume,
+            engine=engine,
+            chunk_size=args.chunk_size,
             progress=progress,
         )
     except StoreError as exc:
@@ -180,8 +222,10 @@ def _sweep(args: argparse.Namespace) -> int:
     )
     note = spec.fitted_range_note()
     if note is not None:
-        print(f"  note: the job's space leaves the range the closed forms were fitted on "
-              f"({note}); the column fitted_range says which rows are extrapolated")  # fmt: skip
+        print(
+            f"  note: the job's space leaves the range the closed forms were fitted on "
+            f"({note}); the column fitted_range says which rows are extrapolated"
+        )
     if summary.failures:
         for failure in summary.failures:
             error_line(f"  failed: {failure.task.path}: {failure.error}")
@@ -266,8 +310,9 @@ def _plot_space(args: argparse.Namespace) -> int:
         axes = plot_design_space(frame)
     except ValueError as exc:
         raise UsageError(f"{args.dir}: {exc}") from None
-    out = output_path(args.out if args.out is not None
-                      else args.dir.with_name(args.dir.name + ".png"))  # fmt: skip
+    out = output_path(
+        args.out if args.out is not None else args.dir.with_name(args.dir.name + ".png")
+    )
     figure = axes[0].figure
     figure.savefig(out, dpi=150)
     plt.close(figure)

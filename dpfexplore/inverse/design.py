@@ -34,8 +34,15 @@ from .scenes.walker.report import walker_report, write_walker_report
 from .scenes.walker.solve import solve_walker
 from .spec import SceneSpec
 
-__all__ = ["REPORTS", "SOLVERS", "WRITERS", "DesignOutcome", "Progress", "design_scene",
-           "run_design"]
+__all__ = [
+    "REPORTS",
+    "SOLVERS",
+    "WRITERS",
+    "DesignOutcome",
+    "Progress",
+    "design_scene",
+    "run_design",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -111,8 +118,12 @@ def design_scene(spec: SceneSpec, *, progress: Progress | None = None) -> Design
             result = SOLVERS[spec.kind](spec, i, evaluator)
             row = REPORTS[spec.kind](spec, result, evaluator)
             rows.append(row)
-            logger.info("target %d: objective %s, %s", i + 1, row.get("objective"),
-                        "reachable" if row["reachable"] else "unreachable")  # fmt: skip
+            logger.info(
+                "target %d: objective %s, %s",
+                i + 1,
+                row.get("objective"),
+                "reachable" if row["reachable"] else "unreachable",
+            )
             if progress is not None:
                 progress.advance(_progress_text(i, total, row))
     finally:
@@ -121,8 +132,9 @@ def design_scene(spec: SceneSpec, *, progress: Progress | None = None) -> Design
     return DesignOutcome(spec=spec, rows=rows, evaluator=evaluator, wall_s=evaluator.wall_s)
 
 
-def run_design(spec: SceneSpec, out: str | Path, *, plot: bool = False,
-               progress: Progress | None = None) -> DesignOutcome:  # fmt: skip
+def run_design(
+    spec: SceneSpec, out: str | Path, *, plot: bool = False, progress: Progress | None = None
+) -> DesignOutcome:
     """Solve a scene and write its report to ``out`` (see :mod:`.design_report`)."""
     outcome = design_scene(spec, progress=progress)
     writer = WRITERS.get(spec.kind, write_report)

@@ -44,8 +44,18 @@ from ..solvers.statics import solve_batch
 
 __all__ = ["EVALUATION_KINDS", "Evaluator", "few_threads"]
 
-EVALUATION_KINDS = ("designs", "state_solves", "stiffness", "derivative", "snap", "simulations",
-                    "screening", "sections", "verifications", "seeds")  # fmt: skip
+EVALUATION_KINDS = (
+    "designs",
+    "state_solves",
+    "stiffness",
+    "derivative",
+    "snap",
+    "simulations",
+    "screening",
+    "sections",
+    "verifications",
+    "seeds",
+)
 #: Reduced reset-time models: their evaluations count as ``screening``, the others as
 #: ``simulations``.
 SCREENING_METHODS = ("fast", "release")
@@ -133,13 +143,21 @@ class Evaluator:
         n_states = states.shape[1]
         want = np.broadcast_to(np.asarray(stiffness, dtype=bool), (n_states,))
         out = {
-            **({key: np.full((n, n_states, N_SENSITIVITY_COLUMNS), np.nan)
-                for key in _SENSITIVITY_KEYS} if sensitivities else {}),
+            **(
+                {
+                    key: np.full((n, n_states, N_SENSITIVITY_COLUMNS), np.nan)
+                    for key in _SENSITIVITY_KEYS
+                }
+                if sensitivities
+                else {}
+            ),
             "status": np.empty((n, n_states), np.int8),
             "found": np.empty((n, n_states), np.int64),
-            **{key: np.full((n, n_states), np.nan) for key in
-               ("tip_x", "tip_y", "stiffness", "min_eig", "bend_angle")},
-        }  # fmt: skip
+            **{
+                key: np.full((n, n_states), np.nan)
+                for key in ("tip_x", "tip_y", "stiffness", "min_eig", "bend_angle")
+            },
+        }
         for with_k in (False, True):
             cols = np.flatnonzero(want == with_k)
             if cols.size == 0 or n == 0:
@@ -147,8 +165,13 @@ class Evaluator:
             rows = np.repeat(np.arange(n), cols.size)
             requested = states[:, cols].reshape(-1)
             with few_threads(rows.size):
-                res = solve_batch(batch.take(rows), requested, stiffness=with_k, min_eig=with_k,
-                                  sensitivities=sensitivities)  # fmt: skip
+                res = solve_batch(
+                    batch.take(rows),
+                    requested,
+                    stiffness=with_k,
+                    min_eig=with_k,
+                    sensitivities=sensitivities,
+                )
             for key in ("status", "found", "tip_x", "tip_y", "bend_angle"):
                 out[key][:, cols] = res[key].reshape(n, cols.size)
             if sensitivities:
@@ -164,9 +187,16 @@ class Evaluator:
             self.counts["derivative"] += n
         return out
 
-    def reset_times(self, batch: DesignBatch, profile: PressureProfile, *, t_end: float,
-                    method: str = "rodas4", atol: float | None = None,
-                    verification: bool = False) -> dict[str, NDArray]:  # fmt: skip
+    def reset_times(
+        self,
+        batch: DesignBatch,
+        profile: PressureProfile,
+        *,
+        t_end: float,
+        method: str = "rodas4",
+        atol: float | None = None,
+        verification: bool = False,
+    ) -> dict[str, NDArray]:
         """Reset times of ``batch`` under ``profile`` (:func:`reset_times_batch`), counted.
 
         Reduced models (:data:`SCREENING_METHODS`) count as ``screening``, the full model as
@@ -186,8 +216,15 @@ class Evaluator:
         self.counts["designs"] += n
         return out
 
-    def simulate(self, design: Design, profile: PressureProfile, *, t_end: float,
-                 kind: str = "simulations", **options) -> SimulationResult:  # fmt: skip
+    def simulate(
+        self,
+        design: Design,
+        profile: PressureProfile,
+        *,
+        t_end: float,
+        kind: str = "simulations",
+        **options,
+    ) -> SimulationResult:
         """One full-model run (:func:`~dpfexplore.solvers.dynamics.simulate.simulate`), as ``kind``.
 
         Runs to ``t_end`` (no early stop unless asked), so a reset time is the last downward
@@ -266,8 +303,11 @@ class Evaluator:
         frames = []
         for record in self._records:
             n = len(record["n_units"])
-            frames.append(pd.DataFrame({k: record[k] if k in record else _missing(record, k, n)
-                                        for k in keys}))  # fmt: skip
+            frames.append(
+                pd.DataFrame(
+                    {k: record[k] if k in record else _missing(record, k, n) for k in keys}
+                )
+            )
         frame = pd.concat(frames, ignore_index=True)
         return frame[["evaluation", *[k for k in keys if k != "evaluation"]]]
 

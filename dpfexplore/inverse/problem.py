@@ -107,8 +107,9 @@ class Problem:
         """Solve the box points ``z`` and record them in the history with their ``purpose``."""
         z = np.atleast_2d(np.asarray(z, dtype=float))
         batch, states, want = self.requests(z, stiffness=stiffness)
-        out = self.evaluator.solve(batch, states, stiffness=want,
-                                   derivative=purpose == "derivative")  # fmt: skip
+        out = self.evaluator.solve(
+            batch, states, stiffness=want, derivative=purpose == "derivative"
+        )
         ev = self.finish(z, batch, out)
         self.record(batch, ev, purpose)
         if len(z):
@@ -122,9 +123,14 @@ class Problem:
     def record(self, batch: DesignBatch, ev: Evaluation, purpose: str) -> None:
         """Add evaluated designs to the scene's history."""
         columns = {k: v for k, v in ev.columns.items() if not k.startswith("_")}
-        self.evaluator.record(batch, target=self.target_index, purpose=purpose,
-                              objective=ev.objective, stiffness=ev.stiffness,
-                              **columns)  # fmt: skip
+        self.evaluator.record(
+            batch,
+            target=self.target_index,
+            purpose=purpose,
+            objective=ev.objective,
+            stiffness=ev.stiffness,
+            **columns,
+        )
 
     def jacobian(self, ev: Evaluation, *, stiffness: bool = False) -> tuple[NDArray, NDArray]:
         """``d residual / dz`` (r, dim) and ``d log K / dz`` (dim,) at the first row of ``ev``.
@@ -138,8 +144,9 @@ class Problem:
         """
         z = ev.z[:1]
         batch, states, want = self.requests(z, stiffness=stiffness)
-        out = self.evaluator.solve(batch, states, stiffness=want, derivative=True,
-                                   sensitivities=True)  # fmt: skip
+        out = self.evaluator.solve(
+            batch, states, stiffness=want, derivative=True, sensitivities=True
+        )
         # The history lists every model evaluation, this re-solve of the point included.
         self.record(batch, self.finish(z, batch, out), "derivative")
         dtheta = self.variables.jacobian(z[:, : self.variables.n_variables])[0]
@@ -150,8 +157,9 @@ class Problem:
         jac[: self.n_residuals, : d_res.shape[1]] = d_res
         if stiffness:
             k = out["stiffness"][0, self._stiffness_column]
-            jac[-1, : d_res.shape[1]] = (out["d_stiffness"][0, self._stiffness_column, cols]
-                                         @ dtheta) / k  # fmt: skip
+            jac[-1, : d_res.shape[1]] = (
+                out["d_stiffness"][0, self._stiffness_column, cols] @ dtheta
+            ) / k
         if not np.all(np.isfinite(jac)):
             return self._difference_jacobian(ev, stiffness=stiffness)
         self._analytic_columns(ev, jac)
@@ -214,8 +222,14 @@ class PositionProblem(Problem):
 
     n_residuals = 2
 
-    def __init__(self, variables: DesignVariables, target, state: str, evaluator: Evaluator,
-                 target_index: int = 0) -> None:  # fmt: skip
+    def __init__(
+        self,
+        variables: DesignVariables,
+        target,
+        state: str,
+        evaluator: Evaluator,
+        target_index: int = 0,
+    ) -> None:
         self.variables = variables
         self.dim = variables.n_variables
         self.target = np.asarray(target, dtype=float)
@@ -239,8 +253,13 @@ class PositionProblem(Problem):
         tip = np.column_stack([out["tip_x"][:, 0], out["tip_y"][:, 0]])
         residual = np.where(ok[:, None], tip - self.target, np.nan)
         k = np.where(ok, out["stiffness"][:, 0], np.nan)
-        columns = {"state": np.full(len(z), self.state_bits), "status": out["status"][:, 0],
-                   "found": out["found"][:, 0], "tip_x": tip[:, 0], "tip_y": tip[:, 1]}  # fmt: skip
+        columns = {
+            "state": np.full(len(z), self.state_bits),
+            "status": out["status"][:, 0],
+            "found": out["found"][:, 0],
+            "tip_x": tip[:, 0],
+            "tip_y": tip[:, 1],
+        }
         return Evaluation(z=z, ok=ok, residual=residual, stiffness=k, columns=columns)
 
     def _residual_derivatives(self, ev: Evaluation, d_tip: NDArray, dtheta: NDArray) -> NDArray:
@@ -255,8 +274,7 @@ class GripperProblem(Problem):
     activated state.
     """
 
-    def __init__(self, variables: DesignVariables, spec: GripperSpec, evaluator: Evaluator
-                 ) -> None:  # fmt: skip
+    def __init__(self, variables: DesignVariables, spec: GripperSpec, evaluator: Evaluator) -> None:
         self.variables = variables
         self.spec = spec
         self.n_finger = variables.n_variables
@@ -293,14 +311,17 @@ class GripperProblem(Problem):
         theta, base_l = self.base(z)
         h = segment_height(batch.r_b, batch.t_lim, batch.t)
         tips = np.stack([out["tip_x"], out["tip_y"]], axis=-1)  # (m, S, 2)
-        apertures = np.column_stack([
-            gripper_aperture(tips[i], h[i], base_l[i], theta[i]) for i in range(len(z))
-        ]).T if len(z) else np.empty((0, self.states.size))  # fmt: skip
+        apertures = (
+            np.column_stack(
+                [gripper_aperture(tips[i], h[i], base_l[i], theta[i]) for i in range(len(z))]
+            ).T
+            if len(z)
+            else np.empty((0, self.states.size))
+        )
         n_target = self.n_residuals
         residual = np.where(ok[:, None], apertures[:, :n_target] - self.targets, np.nan)
         k = np.where(ok, out["stiffness"][:, self.activated_column], np.nan)
-        columns = {"status": np.max(out["status"], axis=1), "theta_B_deg": theta,
-                   "base_L": base_l}  # fmt: skip
+        columns = {"status": np.max(out["status"], axis=1), "theta_B_deg": theta, "base_L": base_l}
         for j, bits in enumerate(self.spec.states):
             columns[f"aperture_{bits}"] = apertures[:, j]
             columns[f"found_{bits}"] = out["found"][:, j]

@@ -40,8 +40,10 @@ from .scenes.gripper.windows import pressure_windows
 
 __all__ = ["fitted_range", "gripper_report", "position_report", "write_report"]
 
-_VERIFIED_BY = ("re-solved alone by find_state (exact model, default solver options); the "
-                "reported values are this re-solve's")  # fmt: skip
+_VERIFIED_BY = (
+    "re-solved alone by find_state (exact model, default solver options); the "
+    "reported values are this re-solve's"
+)
 
 
 def fitted_range(design: Design) -> tuple[bool, str | None]:
@@ -56,10 +58,15 @@ def fitted_range(design: Design) -> tuple[bool, str | None]:
 def _verify(design: Design, state: str, evaluator: Evaluator) -> dict[str, Any]:
     result = find_state(design, state)
     evaluator.count("verifications")
-    return {"stable": result.stable, "status": result.status.label, "found": result.found,
-            "tip": [float(result.tip[0]), float(result.tip[1])],
-            "stiffness": float(result.stiffness), "min_eig": float(result.min_eig),
-            "nodes": result.nodes}  # fmt: skip
+    return {
+        "stable": result.stable,
+        "status": result.status.label,
+        "found": result.found,
+        "tip": [float(result.tip[0]), float(result.tip[1])],
+        "stiffness": float(result.stiffness),
+        "min_eig": float(result.min_eig),
+        "nodes": result.nodes,
+    }
 
 
 def _design_entry(design: Design, state: str, target, evaluator: Evaluator) -> dict[str, Any]:
@@ -68,14 +75,24 @@ def _design_entry(design: Design, state: str, target, evaluator: Evaluator) -> d
     tip = np.array(check["tip"])
     objective = float(np.sum((tip - np.asarray(target)) ** 2)) if check["stable"] else math.inf
     inside, note = fitted_range(design)
-    return {"design": design.to_dict(), "n_units": design.n_units, "state": state,
-            "tip": check["tip"], "objective": json_number(objective),
-            "distance_mm": json_number(math.sqrt(objective)),
-            "stiffness": json_number(check["stiffness"]),
-            "fitted_range": inside, "fitted_range_note": note,
-            "verification": {"method": _VERIFIED_BY, "status": check["status"],
-                             "stable": check["stable"], "min_eig": json_number(check["min_eig"])},
-            "_nodes": check["nodes"]}  # fmt: skip
+    return {
+        "design": design.to_dict(),
+        "n_units": design.n_units,
+        "state": state,
+        "tip": check["tip"],
+        "objective": json_number(objective),
+        "distance_mm": json_number(math.sqrt(objective)),
+        "stiffness": json_number(check["stiffness"]),
+        "fitted_range": inside,
+        "fitted_range_note": note,
+        "verification": {
+            "method": _VERIFIED_BY,
+            "status": check["status"],
+            "stable": check["stable"],
+            "min_eig": json_number(check["min_eig"]),
+        },
+        "_nodes": check["nodes"],
+    }
 
 
 def position_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
@@ -85,12 +102,19 @@ def position_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[st
     design = best.problem.designs(np.atleast_2d(best.z)).design(0)
     state = best.problem.state_bits
     entry = _design_entry(design, state, target.point, evaluator)
-    reachable = entry["verification"]["stable"] and entry["objective"] is not None and \
-        entry["objective"] <= spec.tolerance  # fmt: skip
-    row: dict[str, Any] = {"target": list(target.point), "reachable": bool(reachable), **entry,
-                           "evaluations": dict(result.counts), "wall_s": result.wall_s,
-                           "best_objective_per_n": {str(n): json_number(v)
-                                                    for n, v in result.per_n.items()}}  # fmt: skip
+    reachable = (
+        entry["verification"]["stable"]
+        and entry["objective"] is not None
+        and entry["objective"] <= spec.tolerance
+    )
+    row: dict[str, Any] = {
+        "target": list(target.point),
+        "reachable": bool(reachable),
+        **entry,
+        "evaluations": dict(result.counts),
+        "wall_s": result.wall_s,
+        "best_objective_per_n": {str(n): json_number(v) for n, v in result.per_n.items()},
+    }
     if not reachable:
         row["nearest_tip"] = entry["tip"]
         row["proof"] = (
@@ -116,8 +140,9 @@ def position_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[st
         e.pop("_nodes")
         row["weighted"] = {"weights": list(spec.weights), **e}
     if target.reference is not None:
-        ref = _design_entry(target.reference, "1" * target.reference.n_units, target.point,
-                            evaluator)  # fmt: skip
+        ref = _design_entry(
+            target.reference, "1" * target.reference.n_units, target.point, evaluator
+        )
         ref.pop("_nodes")
         row["reference"] = ref
         row["dominates_reference"] = _dominating(row, ref)
@@ -129,15 +154,22 @@ def _dominating(row: dict[str, Any], ref: dict[str, Any]) -> dict[str, Any] | No
     if ref["objective"] is None or ref["stiffness"] is None:
         return None
     candidates = [p for p in row.get("front", []) if p.get("design") is not None]
-    candidates.append({"tolerance_mm": None, **{k: row[k] for k in ("objective", "stiffness",
-                                                                   "distance_mm", "n_units")}})
+    candidates.append(
+        {
+            "tolerance_mm": None,
+            **{k: row[k] for k in ("objective", "stiffness", "distance_mm", "n_units")},
+        }
+    )
     for p in candidates:
         if p["objective"] is None or p["stiffness"] is None:
             continue
         if p["objective"] < ref["objective"] and p["stiffness"] > ref["stiffness"]:
-            return {"tolerance_mm": p["tolerance_mm"], "distance_mm": p["distance_mm"],
-                    "stiffness": p["stiffness"],
-                    "stiffness_ratio": p["stiffness"] / ref["stiffness"]}  # fmt: skip
+            return {
+                "tolerance_mm": p["tolerance_mm"],
+                "distance_mm": p["distance_mm"],
+                "stiffness": p["stiffness"],
+                "stiffness_ratio": p["stiffness"] / ref["stiffness"],
+            }
     return None
 
 
@@ -154,14 +186,26 @@ def _gripper_entry(design: Design, g, theta: float, base_l: float, evaluator: Ev
             stiffness = check["stiffness"]
     errors = [a - t for a, t in zip(apertures, g.apertures, strict=True)]
     inside, note = fitted_range(design)
-    return {"design": design.to_dict(), "n_units": design.n_units, "theta_B_deg": theta,
-            "base_L": base_l, "apertures": apertures, "aperture_errors": errors,
-            "stiffness": json_number(stiffness), "state": g.activated,
-            "objective": float(np.sum(np.square(errors))), "fitted_range": inside,
-            "fitted_range_note": note,
-            "verification": {"method": _VERIFIED_BY, "status": statuses,
-                             "stable": all(s == "ok" for s in statuses)},
-            "_nodes": nodes, "_h": h}  # fmt: skip
+    return {
+        "design": design.to_dict(),
+        "n_units": design.n_units,
+        "theta_B_deg": theta,
+        "base_L": base_l,
+        "apertures": apertures,
+        "aperture_errors": errors,
+        "stiffness": json_number(stiffness),
+        "state": g.activated,
+        "objective": float(np.sum(np.square(errors))),
+        "fitted_range": inside,
+        "fitted_range_note": note,
+        "verification": {
+            "method": _VERIFIED_BY,
+            "status": statuses,
+            "stable": all(s == "ok" for s in statuses),
+        },
+        "_nodes": nodes,
+        "_h": h,
+    }
 
 
 def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
@@ -175,18 +219,24 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
     entry = _gripper_entry(design, g, theta, base_l, evaluator)
     windows = result.extra.get("windows", {})
     checks = result.extra.get("metastability", {})
-    met = entry["verification"]["stable"] and max(abs(e) for e in entry["aperture_errors"]) <= \
-        g.aperture_tol  # fmt: skip
+    met = (
+        entry["verification"]["stable"]
+        and max(abs(e) for e in entry["aperture_errors"]) <= g.aperture_tol
+    )
     window_ok = windows_ok(windows, g.min_window_kPa) if windows.get("computed") else None
     row: dict[str, Any] = {
-        "target": list(g.apertures), "reachable": bool(met), **entry,
-        "pressure_windows": windows.get("windows"), "pressure_windows_detail": windows,
-        "windows_ok": window_ok, "metastability": checks,
-        "evaluations": dict(result.counts), "wall_s": result.wall_s,
+        "target": list(g.apertures),
+        "reachable": bool(met),
+        **entry,
+        "pressure_windows": windows.get("windows"),
+        "pressure_windows_detail": windows,
+        "windows_ok": window_ok,
+        "metastability": checks,
+        "evaluations": dict(result.counts),
+        "wall_s": result.wall_s,
     }
     if g.reference is not None and g.reference_theta_B_deg is not None:
-        ref = _gripper_entry(g.reference, g, g.reference_theta_B_deg, g.reference_base_L,
-                             evaluator)  # fmt: skip
+        ref = _gripper_entry(g.reference, g, g.reference_theta_B_deg, g.reference_base_L, evaluator)
         ref.pop("_nodes")
         ref.pop("_h")
         ref["metastability"] = metastability(g.reference, g, evaluator)
@@ -202,11 +252,24 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
 
 def design_toml(row: dict[str, Any], *, title: str) -> str:
     """A ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table."""
-    keys = ("state", "target", "tip", "objective", "stiffness", "apertures", "theta_B_deg",
-            "base_L", "reachable", "fitted_range", "fitted_range_note")  # fmt: skip
+    keys = (
+        "state",
+        "target",
+        "tip",
+        "objective",
+        "stiffness",
+        "apertures",
+        "theta_B_deg",
+        "base_L",
+        "reachable",
+        "fitted_range",
+        "fitted_range_note",
+    )
     return write_design_toml(
-        row["design"], [title, "Written by dpfexplore design; [design] is read by dpfexplore "
-                        "states."], {key: row.get(key) for key in keys})  # fmt: skip
+        row["design"],
+        [title, "Written by dpfexplore design; [design] is read by dpfexplore states."],
+        {key: row.get(key) for key in keys},
+    )
 
 
 def public(row: dict[str, Any]) -> dict[str, Any]:
@@ -214,8 +277,15 @@ def public(row: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in row.items() if not k.startswith("_")}
 
 
-def write_summary(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
-                  *, wall_s: float, history=None) -> list[Path]:  # fmt: skip
+def write_summary(
+    spec,
+    rows: list[dict[str, Any]],
+    evaluator: Evaluator,
+    out: Path,
+    *,
+    wall_s: float,
+    history=None,
+) -> list[Path]:
     """Write ``summary.json`` and ``history.parquet`` in ``out``; returns their paths.
 
     The summary holds the scene, the results, the evaluations by kind and the wall time; the
@@ -223,9 +293,14 @@ def write_summary(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: P
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = {"scene": spec.document, "kind": spec.kind, "name": spec.name,
-               "results": [public(r) for r in rows], "evaluations": dict(evaluator.counts),
-               "wall_s": wall_s}  # fmt: skip
+    summary = {
+        "scene": spec.document,
+        "kind": spec.kind,
+        "name": spec.name,
+        "results": [public(r) for r in rows],
+        "evaluations": dict(evaluator.counts),
+        "wall_s": wall_s,
+    }
     path = out / "summary.json"
     path.write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
     history_path = out / "history.parquet"
@@ -233,8 +308,15 @@ def write_summary(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: P
     return [path, history_path]
 
 
-def write_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
-                 *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
+def write_report(
+    spec,
+    rows: list[dict[str, Any]],
+    evaluator: Evaluator,
+    out: Path,
+    *,
+    wall_s: float,
+    plot: bool = False,
+) -> list[Path]:
     """Write summary, history, design TOMLs and (optionally) figures; returns the paths."""
     out = Path(out)
     history = evaluator.history()
@@ -287,22 +369,44 @@ def _figures(spec, rows, history, out: Path) -> list[Path]:
     save(plot_objective_history(history), "objective.png")
     if spec.kind == "gripper":
         row = rows[0]
-        save(plot_gripper(row["_nodes"], row["_h"], row["theta_B_deg"], row["base_L"],
-                          row["target"], row["apertures"], states=list(spec.gripper.states)),
-             "gripper.png")  # fmt: skip
+        save(
+            plot_gripper(
+                row["_nodes"],
+                row["_h"],
+                row["theta_B_deg"],
+                row["base_L"],
+                row["target"],
+                row["apertures"],
+                states=list(spec.gripper.states),
+            ),
+            "gripper.png",
+        )
         return paths
-    save(plot_target_shapes([r["_nodes"] for r in rows], [r["target"] for r in rows],
-                            [r["reachable"] for r in rows]), "targets.png")  # fmt: skip
+    save(
+        plot_target_shapes(
+            [r["_nodes"] for r in rows], [r["target"] for r in rows], [r["reachable"] for r in rows]
+        ),
+        "targets.png",
+    )
     for i, row in enumerate(rows):
         if row.get("front"):
-            fronts = [(p["tolerance_mm"], p.get("distance_mm"), p.get("stiffness"))
-                      for p in row["front"] if p.get("design") is not None]  # fmt: skip
+            fronts = [
+                (p["tolerance_mm"], p.get("distance_mm"), p.get("stiffness"))
+                for p in row["front"]
+                if p.get("design") is not None
+            ]
             ref = row.get("reference")
-            save(plot_front(fronts, reference=None if ref is None else
-                            (ref["distance_mm"], ref["stiffness"]),
-                            title=f"target {i + 1} {row['target']}"), f"front-{i + 1:02d}.png")
+            save(
+                plot_front(
+                    fronts,
+                    reference=None if ref is None else (ref["distance_mm"], ref["stiffness"]),
+                    title=f"target {i + 1} {row['target']}",
+                ),
+                f"front-{i + 1:02d}.png",
+            )
         if not row["reachable"]:
             part = history[history["target"] == i]
-            save(plot_reachable_region(part, row["target"], row["tip"]),
-                 f"reachable-{i + 1:02d}.png")  # fmt: skip
+            save(
+                plot_reachable_region(part, row["target"], row["tip"]), f"reachable-{i + 1:02d}.png"
+            )
     return paths

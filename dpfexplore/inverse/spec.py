@@ -234,19 +234,26 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
     """Validate a TOML-shaped mapping into a :class:`SceneSpec`."""
     if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
         _keys(data, "", required=("scene",), optional=tuple(data))
-        _keys(_table(data, "scene"), "scene", required=("kind",),
-              optional=tuple(data["scene"]))  # fmt: skip
+        _keys(_table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
     kind = data["scene"]["kind"]
     if kind not in SCENE_KINDS:
         known = ", ".join(SCENE_KINDS)
         raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {known}")
     own = kind in OWN_VARIABLES
     tables = SCENE_TABLES.get(kind, ("targets", "objective", "gripper"))
-    _keys(data, "", required=("scene",) if own else ("scene", "variables"),
-          optional=("optimiser", *tables))  # fmt: skip
+    _keys(
+        data,
+        "",
+        required=("scene",) if own else ("scene", "variables"),
+        optional=("optimiser", *tables),
+    )
     scene = _table(data, "scene")
-    _keys(scene, "scene", required=("kind",),
-          optional=("name", "description", "material", "E", "nu", "seed"))  # fmt: skip
+    _keys(
+        scene,
+        "scene",
+        required=("kind",),
+        optional=("name", "description", "material", "E", "nu", "seed"),
+    )
     name = _string(scene, "scene", "name", default_name)
     if not name or "/" in name:
         raise SceneSpecError(f"scene.name = {name!r}: need a non-empty name without '/'")
@@ -255,10 +262,19 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
         raise SceneSpecError(f"scene.seed = {seed!r}: must be an integer >= 0")
     E, nu, material = _material(scene)
     n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
-    fields = dict(kind=kind, name=name, description=_string(scene, "scene", "description", ""),
-                  seed=seed, E=E, nu=nu, material=material, n_units=n_units,
-                  variables=variables, optimiser=_optimiser(data.get("optimiser", {})),
-                  document=_plain(data))  # fmt: skip
+    fields = dict(
+        kind=kind,
+        name=name,
+        description=_string(scene, "scene", "description", ""),
+        seed=seed,
+        E=E,
+        nu=nu,
+        material=material,
+        n_units=n_units,
+        variables=variables,
+        optimiser=_optimiser(data.get("optimiser", {})),
+        document=_plain(data),
+    )
     fields.update(SCENE_KINDS[kind](data, fields))
     spec = SceneSpec(**fields)
     for n in () if own else spec.n_units:
@@ -294,14 +310,20 @@ def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
     _keys(objective, "objective", required=(), optional=("state", "tolerance", *extra))
     state = _string(objective, "objective", "state", "all_inverted")
     if state != "all_inverted":
-        if len(fields["n_units"]) != 1 or len(state) != fields["n_units"][0] or \
-                set(state) - {"0", "1"}:  # fmt: skip
+        if (
+            len(fields["n_units"]) != 1
+            or len(state) != fields["n_units"][0]
+            or set(state) - {"0", "1"}
+        ):
             raise SceneSpecError(
                 f"objective.state = {state!r}: 'all_inverted', or a bit string of N characters "
                 "when variables.n_units is one number"
             )
-    out: dict[str, Any] = {"targets": tuple(targets), "state": state,
-                           "tolerance": _positive(objective, "objective", "tolerance", 1e-6)}
+    out: dict[str, Any] = {
+        "targets": tuple(targets),
+        "state": state,
+        "tolerance": _positive(objective, "objective", "tolerance", 1e-6),
+    }
     if stiffness:
         front = objective.get("front", [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0])
         front = _numbers(front, "objective.front", length=None, unit="mm")
@@ -323,16 +345,32 @@ def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str,
     if "gripper" not in data:
         raise SceneSpecError("gripper: missing [gripper] table")
     g = _table(data, "gripper")
-    _keys(g, "gripper", required=("states", "apertures"),
-          optional=("aperture_tol", "activated", "theta_B_deg", "base_L", "min_window_kPa",
-                    "metastable_unit", "min_reset_s", "pulse", "reference"))  # fmt: skip
+    _keys(
+        g,
+        "gripper",
+        required=("states", "apertures"),
+        optional=(
+            "aperture_tol",
+            "activated",
+            "theta_B_deg",
+            "base_L",
+            "min_window_kPa",
+            "metastable_unit",
+            "min_reset_s",
+            "pulse",
+            "reference",
+        ),
+    )
     if len(fields["n_units"]) != 1:
-        raise SceneSpecError(f"variables.n_units = {list(fields['n_units'])}: the gripper "
-                             "needs one number of units")  # fmt: skip
+        raise SceneSpecError(
+            f"variables.n_units = {list(fields['n_units'])}: the gripper needs one number of units"
+        )
     n = fields["n_units"][0]
     states = g["states"]
-    if not isinstance(states, list) or not states or not all(
-        isinstance(s, str) and len(s) == n and not set(s) - {"0", "1"} for s in states
+    if (
+        not isinstance(states, list)
+        or not states
+        or not all(isinstance(s, str) and len(s) == n and not set(s) - {"0", "1"} for s in states)
     ):
         raise SceneSpecError(f"gripper.states = {states!r}: need bit strings of {n} characters")
     apertures = _numbers(g["apertures"], "gripper.apertures", length=len(states), unit="mm")
@@ -354,21 +392,29 @@ def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str,
         raise SceneSpecError(f"gripper.pulse.t_end = {t_end}: must be after τ4 = {tau[3]}")
     reference = theta_ref = base_ref = None
     if "reference" in g:
-        reference, extra = _design(g["reference"], "gripper.reference", fields,
-                                   extra=("theta_B_deg", "base_L"))  # fmt: skip
+        reference, extra = _design(
+            g["reference"], "gripper.reference", fields, extra=("theta_B_deg", "base_L")
+        )
         theta_ref, base_ref = extra.get("theta_B_deg"), extra.get("base_L")
     spec = GripperSpec(
-        states=tuple(states), apertures=tuple(apertures),
-        aperture_tol=_positive(g, "gripper", "aperture_tol", 0.05), activated=activated,
-        theta_B_deg=_range(g.get("theta_B_deg", {"min": -60.0, "max": 0.0}),
-                           "gripper.theta_B_deg", positive=False),
+        states=tuple(states),
+        apertures=tuple(apertures),
+        aperture_tol=_positive(g, "gripper", "aperture_tol", 0.05),
+        activated=activated,
+        theta_B_deg=_range(
+            g.get("theta_B_deg", {"min": -60.0, "max": 0.0}), "gripper.theta_B_deg", positive=False
+        ),
         base_L=_range(g.get("base_L", {"min": 5.0, "max": 40.0}), "gripper.base_L"),
         min_window_kPa=_positive(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
-        metastable_unit=unit, min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
-        pulse_P0=_positive(pulse, "gripper.pulse", "P0", 0.7), pulse_tau=tuple(tau),
-        pulse_t_end=t_end, reference=reference, reference_theta_B_deg=theta_ref,
+        metastable_unit=unit,
+        min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
+        pulse_P0=_positive(pulse, "gripper.pulse", "P0", 0.7),
+        pulse_tau=tuple(tau),
+        pulse_t_end=t_end,
+        reference=reference,
+        reference_theta_B_deg=theta_ref,
         reference_base_L=base_ref,
-    )  # fmt: skip
+    )
     return {"gripper": spec}
 
 
@@ -390,9 +436,12 @@ OWN_VARIABLES: set[str] = set()
 
 
 def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
-    _keys(table, "variables", required=("n_units", "H", "U_L", "U_sep", "t", "t_lim"),
-          optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep",
-                    "min_step"))  # fmt: skip
+    _keys(
+        table,
+        "variables",
+        required=("n_units", "H", "U_L", "U_sep", "t", "t_lim"),
+        optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep", "min_step"),
+    )
     n_units = _n_units(table["n_units"])
     out: dict[str, Any] = {}
     H = table["H"]
@@ -409,18 +458,25 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
         out[name] = _bound(table[name], f"variables.{name}")
     heights = table.get("heights", "free")
     if heights not in HEIGHT_ORDERS:
-        raise SceneSpecError(f"variables.heights = {heights!r}: must be one of "
-                             f"{', '.join(HEIGHT_ORDERS)}")  # fmt: skip
+        raise SceneSpecError(
+            f"variables.heights = {heights!r}: must be one of {', '.join(HEIGHT_ORDERS)}"
+        )
     out["heights"] = heights
     if "ordered_units" in table:
         units = table["ordered_units"]
-        if not isinstance(units, list) or not units or not all(
-            isinstance(u, int) and not isinstance(u, bool) and 1 <= u <= MAX_UNITS for u in units
+        if (
+            not isinstance(units, list)
+            or not units
+            or not all(
+                isinstance(u, int) and not isinstance(u, bool) and 1 <= u <= MAX_UNITS
+                for u in units
+            )
         ):
             raise SceneSpecError(f"variables.ordered_units = {units!r}: need unit numbers")
         if any(u > min(n_units) for u in units):
-            raise SceneSpecError(f"variables.ordered_units = {units!r}: unit beyond N = "
-                                 f"{min(n_units)}")  # fmt: skip
+            raise SceneSpecError(
+                f"variables.ordered_units = {units!r}: unit beyond N = {min(n_units)}"
+            )
         out["ordered_units"] = tuple(units)
     if "tied" in table:
         tied = table["tied"]
@@ -432,8 +488,12 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
         out["tied"] = tuple(tuple(g) for g in tied)
     if "min_step" in table:
         step = table["min_step"]
-        if isinstance(step, bool) or not isinstance(step, (int, float)) or \
-                not math.isfinite(step) or step < 0:  # fmt: skip
+        if (
+            isinstance(step, bool)
+            or not isinstance(step, (int, float))
+            or not math.isfinite(step)
+            or step < 0
+        ):
             raise SceneSpecError(f"variables.min_step = {step!r}: must be a number >= 0 mm")
         out["min_step"] = float(step)
     for name in ("shared_U_L", "shared_U_sep"):
@@ -482,10 +542,15 @@ def _range(value: Any, where: str, *, positive: bool = True) -> tuple[float, flo
     _keys(value, where, required=("min", "max"), optional=())
     low, high = value["min"], value["max"]
     for key, v in (("min", low), ("max", high)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or \
-                (positive and v <= 0):  # fmt: skip
-            raise SceneSpecError(f"{where}.{key} = {v!r}: must be a finite number"
-                                 + (" > 0" if positive else ""))  # fmt: skip
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float))
+            or not math.isfinite(v)
+            or (positive and v <= 0)
+        ):
+            raise SceneSpecError(
+                f"{where}.{key} = {v!r}: must be a finite number" + (" > 0" if positive else "")
+            )
     if low > high:
         raise SceneSpecError(f"{where}.min = {low}: greater than max = {high}")
     return float(low), float(high)
@@ -497,8 +562,9 @@ def _material(scene: Mapping[str, Any]) -> tuple[float, float, str]:
             raise SceneSpecError(f"scene.E = {scene['E']!r}: give either material or E")
         key = scene["material"]
         if not isinstance(key, str) or key.lower() not in MATERIALS:
-            raise SceneSpecError(f"scene.material = {key!r}: must be one of "
-                                 f"{', '.join(sorted(MATERIALS))}")  # fmt: skip
+            raise SceneSpecError(
+                f"scene.material = {key!r}: must be one of {', '.join(sorted(MATERIALS))}"
+            )
         preset = MATERIALS[key.lower()]
         nu = _positive(scene, "scene", "nu", preset.nu)
         return preset.E, nu, key.lower()
@@ -530,13 +596,21 @@ def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str,
 def _optimiser(value: Any) -> OptimiserSettings:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"optimiser = {value!r}: must be a table")
-    _keys(value, "optimiser", required=(),
-          optional=("candidates_per_n", "starts_per_n", "max_iter", "seeds", "seeds_per_n"))
+    _keys(
+        value,
+        "optimiser",
+        required=(),
+        optional=("candidates_per_n", "starts_per_n", "max_iter", "seeds", "seeds_per_n"),
+    )
     out: dict[str, Any] = {}
     if "seeds" in value:
         out["seeds"] = check_seeds(value["seeds"], "optimiser.seeds")
-    for key, (low, high) in (("candidates_per_n", (2, 1 << 20)), ("starts_per_n", (1, 1000)),
-                             ("max_iter", (1, 10000)), ("seeds_per_n", (1, 10000))):  # fmt: skip
+    for key, (low, high) in (
+        ("candidates_per_n", (2, 1 << 20)),
+        ("starts_per_n", (1, 1000)),
+        ("max_iter", (1, 10000)),
+        ("seeds_per_n", (1, 10000)),
+    ):
         if key in value:
             v = value[key]
             if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
@@ -567,21 +641,27 @@ def with_seeds(spec: SceneSpec, dataset: str) -> SceneSpec:
 
 def _numbers(value: Any, where: str, *, length: int | None, unit: str) -> tuple[float, ...]:
     if not isinstance(value, list) or not all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-        for v in value
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
     ):
-        raise SceneSpecError(f"{where} = {value!r}: need a list of finite numbers"
-                             + (f" ({unit})" if unit else ""))  # fmt: skip
+        raise SceneSpecError(
+            f"{where} = {value!r}: need a list of finite numbers" + (f" ({unit})" if unit else "")
+        )
     if length is not None and len(value) != length:
         raise SceneSpecError(f"{where} = {value!r}: need {length} numbers, got {len(value)}")
     return tuple(float(v) for v in value)
 
 
-def _positive(table: Mapping[str, Any], where: str, key: str, default: float,
-              *, allow_zero: bool = False) -> float:  # fmt: skip
+def _positive(
+    table: Mapping[str, Any], where: str, key: str, default: float, *, allow_zero: bool = False
+) -> float:
     value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-            not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):  # fmt: skip
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value < 0
+        or (value == 0 and not allow_zero)
+    ):
         raise SceneSpecError(f"{where}.{key} = {value!r}: must be a finite number > 0")
     return float(value)
 
@@ -600,8 +680,9 @@ def _table(data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
     return value
 
 
-def _keys(table: Mapping[str, Any], where: str, *, required: Sequence[str],
-          optional: Sequence[str]) -> None:  # fmt: skip
+def _keys(
+    table: Mapping[str, Any], where: str, *, required: Sequence[str], optional: Sequence[str]
+) -> None:
     try:
         check_keys(table, where, required=tuple(required), optional=tuple(optional))
     except JobSpecError as exc:

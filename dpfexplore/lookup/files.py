@@ -41,8 +41,11 @@ def toml_value(value: Any) -> str:
     raise TypeError(f"{type(value).__name__} has no TOML form here")
 
 
-def design_toml(design: Design | Mapping[str, Any], comments: Sequence[str] = (),
-                result: Mapping[str, Any] | None = None) -> str:  # fmt: skip
+def design_toml(
+    design: Design | Mapping[str, Any],
+    comments: Sequence[str] = (),
+    result: Mapping[str, Any] | None = None,
+) -> str:
     """A TOML document with a ``[design]`` table that :func:`~dpfexplore.load_design` reads.
 
     ``design`` is a :class:`Design` or its :meth:`~Design.to_dict`; ``comments`` open the file;
@@ -54,8 +57,9 @@ def design_toml(design: Design | Mapping[str, Any], comments: Sequence[str] = ()
     lines += [f"{key} = {toml_value(value)}" for key, value in values.items()]
     if result:
         lines += ["", "[result]"]
-        lines += [f"{key} = {toml_value(value)}" for key, value in result.items()
-                  if value is not None]  # fmt: skip
+        lines += [
+            f"{key} = {toml_value(value)}" for key, value in result.items() if value is not None
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -67,14 +71,14 @@ def write_designs(result: LookupResult, directory: str | Path) -> list[Path]:
     width = max(2, len(str(len(result.candidates))))
     for rank, c in enumerate(result.candidates, start=1):
         path = directory / f"candidate-{rank:0{width}d}.toml"
-        target = ", ".join(f"{col} = {v:g}" for col, v in zip(result.columns, result.target,
-                                                              strict=True))  # fmt: skip
+        target = ", ".join(
+            f"{col} = {v:g}" for col, v in zip(result.columns, result.target, strict=True)
+        )
         comments = [
             f"dpfexplore lookup {result.dataset.root}: candidate {rank} for {target}",
             f"state {c.state}: tip = ({c.tip[0]:.9f}, {c.tip[1]:.9f}) mm, error {c.error:.3g}, "
             f"status {c.status} (re-solved by the exact model)",
-            f"from design_id {c.design_id} of the dataset"
-            + (", refined" if c.refined else ""),
+            f"from design_id {c.design_id} of the dataset" + (", refined" if c.refined else ""),
         ]
         if c.fitted_range_note:
             comments.append(c.fitted_range_note)

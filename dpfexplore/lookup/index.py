@@ -206,10 +206,19 @@ class LookupIndex:
     def with_scales(self, scales: ArrayLike | None) -> LookupIndex:
         """The same rows under other scales (new trees; the arrays are shared)."""
         return LookupIndex(
-            root=self.root, columns=self.columns, scales=check_scales(scales, self.columns),
-            points=self.points, design_id=self.design_id, requested=self.requested,
-            n_units=self.n_units, file=self.file, row=self.row, files=self.files,
-            checksum=self.checksum, complete=self.complete, rows_read=self.rows_read,
+            root=self.root,
+            columns=self.columns,
+            scales=check_scales(scales, self.columns),
+            points=self.points,
+            design_id=self.design_id,
+            requested=self.requested,
+            n_units=self.n_units,
+            file=self.file,
+            row=self.row,
+            files=self.files,
+            checksum=self.checksum,
+            complete=self.complete,
+            rows_read=self.rows_read,
         )
 
     # ------------------------------------------------------------------ queries
@@ -232,8 +241,9 @@ class LookupIndex:
         if isinstance(state, str) and state not in ("all-inverted", "all_inverted"):
             bits = state.strip()
             if not bits or set(bits) - {"0", "1"}:
-                raise ValueError(f"state = {state!r}: a bit string (unit 1 first) or "
-                                 "'all-inverted'")  # fmt: skip
+                raise ValueError(
+                    f"state = {state!r}: a bit string (unit 1 first) or 'all-inverted'"
+                )
             if n_units is not None and len(bits) not in wanted:
                 raise ValueError(
                     f"state = {state!r}: has {len(bits)} units, outside n_units = {list(wanted)}"
@@ -348,6 +358,7 @@ class LookupIndex:
         rows = np.flatnonzero(keep)
         return _scan(self._scaled[rows], point, k, rows)
 
+
 def _scan(scaled: NDArray, point: NDArray, k: int, rows: NDArray):
     distance = np.sqrt(np.sum((scaled - point) ** 2, axis=1))
     if distance.size > k:
@@ -414,13 +425,23 @@ def build_index(
     order = np.lexsort((design_id, requested, n_units))
     points = (
         np.stack([joined(name, np.float64) for name in columns], axis=1)
-        if parts["file"] else np.empty((0, len(columns)))
+        if parts["file"]
+        else np.empty((0, len(columns)))
     )
     return LookupIndex(
-        root=root, columns=columns, scales=scales, points=np.ascontiguousarray(points[order]),
-        design_id=design_id[order], requested=requested[order], n_units=n_units[order],
-        file=joined("file", np.int32)[order], row=joined("row", np.int32)[order],
-        files=info.chunks, checksum=info.checksum, complete=info.complete, rows_read=rows_read,
+        root=root,
+        columns=columns,
+        scales=scales,
+        points=np.ascontiguousarray(points[order]),
+        design_id=design_id[order],
+        requested=requested[order],
+        n_units=n_units[order],
+        file=joined("file", np.int32)[order],
+        row=joined("row", np.int32)[order],
+        files=info.chunks,
+        checksum=info.checksum,
+        complete=info.complete,
+        rows_read=rows_read,
     )
 
 

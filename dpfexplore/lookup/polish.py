@@ -65,8 +65,16 @@ __all__ = [
 REFINABLE_COLUMNS = ("tip_x", "tip_y", "bend_angle", "curvature", "energy", "stiffness")
 #: Keys of a constraints mapping (:func:`variables_for`) and of ``--constraints KEY=VALUE``.
 CONSTRAINT_KEYS = (
-    "heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep",
-    "H", "U_L", "U_sep", "t", "t_lim",
+    "heights",
+    "ordered_units",
+    "tied",
+    "shared_U_L",
+    "shared_U_sep",
+    "H",
+    "U_L",
+    "U_sep",
+    "t",
+    "t_lim",
 )
 _BOUNDED = ("H", "U_L", "U_sep", "t", "t_lim")
 #: Relative step of the central differences (per parameter, times max(|θ|, 1)): the solver's
@@ -143,8 +151,9 @@ def variables_for(
     for name, job_shares in (("U_L", space.equal_U_L), ("U_sep", space.equal_U_sep)):
         wanted = constraints.get(f"shared_{name}", job_shares)
         if job_shares and not wanted:
-            raise ValueError(f"constraints: shared_{name} = false contradicts the job's shared "
-                             f"{name}")  # fmt: skip
+            raise ValueError(
+                f"constraints: shared_{name} = false contradicts the job's shared {name}"
+            )
         shared[f"shared_{name}"] = bool(wanted)
     return DesignVariables(
         n_units=design.n_units,
@@ -153,7 +162,10 @@ def variables_for(
         ordered_units=constraints.get("ordered_units"),
         tied=constraints.get("tied", ()),
         **shared,
-        E=design.E, nu=design.nu, r_b=design.r_b, t_ch=design.t_ch,
+        E=design.E,
+        nu=design.nu,
+        r_b=design.r_b,
+        t_ch=design.t_ch,
     )
 
 
@@ -225,10 +237,14 @@ def _batch_of(theta: NDArray, like: DesignBatch) -> DesignBatch:
     return DesignBatch(
         n_units=np.full(m, n),
         H=np.hstack([theta[:, :n], pad]),
-        U_L=np.hstack([theta[:, n:2 * n], pad]),
-        U_sep=np.hstack([theta[:, 2 * n:3 * n], pad]),
-        t=theta[:, 3 * n], t_lim=theta[:, 3 * n + 1], E=theta[:, 3 * n + 2],
-        nu=like.nu[0], r_b=like.r_b[0], t_ch=like.t_ch[0],
+        U_L=np.hstack([theta[:, n : 2 * n], pad]),
+        U_sep=np.hstack([theta[:, 2 * n : 3 * n], pad]),
+        t=theta[:, 3 * n],
+        t_lim=theta[:, 3 * n + 1],
+        E=theta[:, 3 * n + 2],
+        nu=like.nu[0],
+        r_b=like.r_b[0],
+        t_ch=like.t_ch[0],
     )
 
 
@@ -280,20 +296,21 @@ def _central_differences(
     rows = np.repeat(theta[None, :], 2 * p + 1, axis=0)
     rows[1 + np.arange(p), np.arange(p)] += step
     rows[1 + p + np.arange(p), np.arange(p)] -= step
-    cols = solve_batch(_batch_of(rows, batch), [state] * (2 * p + 1), stiffness=True,
-                       min_eig=False)  # fmt: skip
+    cols = solve_batch(_batch_of(rows, batch), [state] * (2 * p + 1), stiffness=True, min_eig=False)
     values = np.stack([cols[c] for c in columns], axis=1)
     ok = cols["status"] == st.OK
     status = int(cols["status"][0])
     if not ok[0]:
         return values[0], None, status
-    centre, plus, minus = values[0], values[1:p + 1], values[p + 1:]
-    ok_p, ok_m = ok[1:p + 1, None], ok[p + 1:, None]
+    centre, plus, minus = values[0], values[1 : p + 1], values[p + 1 :]
+    ok_p, ok_m = ok[1 : p + 1, None], ok[p + 1 :, None]
     h = step[:, None]
     # Next to a fold one side of a difference may collapse: fall back to the other side.
-    jac = np.where(ok_p & ok_m, (plus - minus) / (2 * h),
-                   np.where(ok_p, (plus - centre) / h,
-                            np.where(ok_m, (centre - minus) / h, 0.0)))  # fmt: skip
+    jac = np.where(
+        ok_p & ok_m,
+        (plus - minus) / (2 * h),
+        np.where(ok_p, (plus - centre) / h, np.where(ok_m, (centre - minus) / h, 0.0)),
+    )
     return centre, jac.T, status
 
 
@@ -392,8 +409,7 @@ class _Problem:
 
     def _residual(self, z: NDArray) -> NDArray:
         batch = self.variables.designs(z[None, :])
-        values, jac, status = self.model(batch, self.state, self.columns,
-                                         derivatives=self.together)  # fmt: skip
+        values, jac, status = self.model(batch, self.state, self.columns, derivatives=self.together)
         self.evaluations += 1
         if status != st.OK:
             self.collapses += 1
@@ -435,8 +451,16 @@ def _project(design: Design, variables: DesignVariables) -> DesignBatch:
         units = [int(u) - 1 for u in group]
         H[0, units] = H[0, units].mean()
     return DesignBatch(
-        n_units=batch.n_units, H=H, U_L=U_L, U_sep=U_sep, t=batch.t, t_lim=batch.t_lim,
-        E=batch.E, nu=batch.nu, r_b=batch.r_b, t_ch=batch.t_ch,
+        n_units=batch.n_units,
+        H=H,
+        U_L=U_L,
+        U_sep=U_sep,
+        t=batch.t,
+        t_lim=batch.t_lim,
+        E=batch.E,
+        nu=batch.nu,
+        r_b=batch.r_b,
+        t_ch=batch.t_ch,
     )
 
 
@@ -506,18 +530,25 @@ def refine(
     state_int = parse_state(state, design.n_units)
     bits = state_string(state_int, design.n_units)
     start = time.perf_counter()
-    problem = _Problem(variables, state_int, target, scales, columns, tol,
-                       SENSITIVITIES[sensitivities])  # fmt: skip
+    problem = _Problem(
+        variables, state_int, target, scales, columns, tol, SENSITIVITIES[sensitivities]
+    )
     z0 = variables.encode(_project(design, variables))[0][0]
 
     def done(z, status, message) -> Refinement:
         found = problem.best_z is not None
         values = problem.best_values if found else np.full(len(columns), np.nan)
         return Refinement(
-            design=variables.design(z), state=bits, status=status,
+            design=variables.design(z),
+            state=bits,
+            status=status,
             error=problem.best_error if found else float("nan"),
-            values=values, evaluations=problem.evaluations, jacobians=problem.jacobians,
-            collapses=problem.collapses, seconds=time.perf_counter() - start, message=message,
+            values=values,
+            evaluations=problem.evaluations,
+            jacobians=problem.jacobians,
+            collapses=problem.collapses,
+            seconds=time.perf_counter() - start,
+            message=message,
         )
 
     try:
@@ -538,8 +569,15 @@ def refine(
             if budget <= 0:
                 break
             result = least_squares(
-                problem.residual, z0, jac=problem.jacobian, bounds=(0.0, 1.0),
-                method=method, tr_solver=tr_solver, ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                problem.residual,
+                z0,
+                jac=problem.jacobian,
+                bounds=(0.0, 1.0),
+                method=method,
+                tr_solver=tr_solver,
+                ftol=1e-12,
+                xtol=1e-12,
+                gtol=1e-12,
                 max_nfev=budget,
             )
             messages.append(f"{method}: {result.message}")
@@ -547,7 +585,10 @@ def refine(
         return done(problem.best_z, "ok", f"met to {problem.best_error:.2g}")
     message = "; ".join(messages)
     if problem.collapses:
-        return done(problem.best_z, "collapsed",
-                    f"state {bits} collapsed at {problem.collapses} trial designs; stopped at "
-                    f"{problem.best_error:.3g} ({message})")  # fmt: skip
+        return done(
+            problem.best_z,
+            "collapsed",
+            f"state {bits} collapsed at {problem.collapses} trial designs; stopped at "
+            f"{problem.best_error:.3g} ({message})",
+        )
     return done(problem.best_z, "not_met", f"stopped at {problem.best_error:.3g}: {message}")

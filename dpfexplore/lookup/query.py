@@ -170,15 +170,20 @@ class Candidate:
             "source": {
                 "design_id": self.design_id,
                 "distance": json_number(self.source_distance),
-                "values": {c: json_number(v)
-                           for c, v in zip(columns, self.source_values, strict=True)},
+                "values": {
+                    c: json_number(v) for c, v in zip(columns, self.source_values, strict=True)
+                },
             },
         }
         if self.refinement is not None:
             r = self.refinement
             out["refinement"] = {
-                "status": r.status, "evaluations": r.evaluations, "jacobians": r.jacobians,
-                "collapses": r.collapses, "seconds": r.seconds, "message": r.message,
+                "status": r.status,
+                "evaluations": r.evaluations,
+                "jacobians": r.jacobians,
+                "collapses": r.collapses,
+                "seconds": r.seconds,
+                "message": r.message,
             }
         return out
 
@@ -370,8 +375,9 @@ def lookup(
                 )
     origin = None
     if index is None:
-        index, origin = open_index(dataset, columns, scales, rebuild=rebuild, info=info,
-                                   verify=verify)  # fmt: skip
+        index, origin = open_index(
+            dataset, columns, scales, rebuild=rebuild, info=info, verify=verify
+        )
         if origin.reason:
             notes.append(f"lookup index {origin.action}: {origin.reason}")
     else:
@@ -387,8 +393,7 @@ def lookup(
         )
     mask = None
     if where:
-        keys = read_results(dataset, columns=["design_id", "requested"], where=where,
-                            verify=verify)  # fmt: skip
+        keys = read_results(dataset, columns=["design_id", "requested"], where=where, verify=verify)
         mask = mask_of(index, {c: keys[c].to_numpy() for c in ("design_id", "requested")})
     t0 = time.perf_counter()
     distance, rows = index.query(target, k, n_units=n_units, state=state, mask=mask)
@@ -408,8 +413,14 @@ def lookup(
         for i, design in enumerate(designs):
             variables = variables_for(space, design, constraints)
             refinements[i] = refine_design(
-                design, int(states[i]), target, variables=variables, columns=index.columns,
-                scales=index.scales, tol=tol, max_evaluations=max_evaluations,
+                design,
+                int(states[i]),
+                target,
+                variables=variables,
+                columns=index.columns,
+                scales=index.scales,
+                tol=tol,
+                max_evaluations=max_evaluations,
             )
             designs[i] = refinements[i].design
     candidates = _verified(designs, states, rows, distance, index, target, tol, refinements)
@@ -428,11 +439,23 @@ def lookup(
         reachable = True if any(c.met for c in candidates) else None
     notes.append(VERIFIED_NOTE)
     return LookupResult(
-        target=target, columns=columns, scales=index.scales, tol=float(tol),
-        candidates=candidates, refined=refine, reachable=reachable, dataset=info,
-        index_origin=origin, index_rows=len(index), query_seconds=query_seconds,
-        seconds=time.perf_counter() - start, notes=notes, state=state,
-        n_units=tuple(n_units) if n_units is not None else None, where=where, index=index,
+        target=target,
+        columns=columns,
+        scales=index.scales,
+        tol=float(tol),
+        candidates=candidates,
+        refined=refine,
+        reachable=reachable,
+        dataset=info,
+        index_origin=origin,
+        index_rows=len(index),
+        query_seconds=query_seconds,
+        seconds=time.perf_counter() - start,
+        notes=notes,
+        state=state,
+        n_units=tuple(n_units) if n_units is not None else None,
+        where=where,
+        index=index,
     )
 
 
@@ -464,8 +487,9 @@ def designs_of(
     for f in np.unique(files):
         pick = np.flatnonzero(files == f)
         source = info.open_chunk(index.files[f], verify=verify)
-        table = pq.read_table(source, columns=["n_units", *per_unit, *shared],
-                              schema=schema).take(index.row[rows[pick]])  # fmt: skip
+        table = pq.read_table(source, columns=["n_units", *per_unit, *shared], schema=schema).take(
+            index.row[rows[pick]]
+        )
         n_units[pick] = table.column("n_units").to_numpy()
         for p in ("H", "U_L", "U_sep"):
             for k in range(1, max_units + 1):
@@ -488,32 +512,50 @@ def _verified(designs, states, rows, distance, index, target, tol, refinements) 
         refinement = refinements[i]
         # Columns the model computes come from the solve; others (reset times, ...) from the
         # dataset row, which only an unrefined candidate can report.
-        values = np.array([
-            cols[c][i] if c in OUTPUT_COLUMNS else (source_values[j] if refinement is None
-                                                    else np.nan)
-            for j, c in enumerate(index.columns)
-        ])  # fmt: skip
+        values = np.array(
+            [
+                cols[c][i]
+                if c in OUTPUT_COLUMNS
+                else (source_values[j] if refinement is None else np.nan)
+                for j, c in enumerate(index.columns)
+            ]
+        )
         error = float(np.linalg.norm((values - target) / index.scales))
         tip = np.array([cols["tip_x"][i], cols["tip_y"][i]])
         error_mm = float(np.linalg.norm(tip - target[tip_cols])) if len(tip_cols) == 2 else None
         met = bool(code == st.OK and error <= tol)
         if code == st.OK:
-            status = "ok" if refinement is None or met else (
-                refinement.status if refinement.status != "ok" else "not_met")
+            status = (
+                "ok"
+                if refinement is None or met
+                else (refinement.status if refinement.status != "ok" else "not_met")
+            )
         elif code == st.COLLAPSED:
             status = "collapsed"
         else:
             status = "failed"
         found = int(cols["found"][i])
-        out.append(Candidate(
-            design=design, state=state_string(int(states[i]), n),
-            found=state_string(found, n) if found >= 0 else "", status=status, values=values,
-            tip=tip, stiffness=float(cols["stiffness"][i]), error=error, error_mm=error_mm,
-            met=met, refined=refinement is not None, design_id=int(index.design_id[rows[i]]),
-            source_distance=float(distance[i]), source_values=source_values,
-            fitted_range=design.in_fitted_range, fitted_range_note=design.fitted_range_note,
-            refinement=refinement,
-        ))
+        out.append(
+            Candidate(
+                design=design,
+                state=state_string(int(states[i]), n),
+                found=state_string(found, n) if found >= 0 else "",
+                status=status,
+                values=values,
+                tip=tip,
+                stiffness=float(cols["stiffness"][i]),
+                error=error,
+                error_mm=error_mm,
+                met=met,
+                refined=refinement is not None,
+                design_id=int(index.design_id[rows[i]]),
+                source_distance=float(distance[i]),
+                source_values=source_values,
+                fitted_range=design.in_fitted_range,
+                fitted_range_note=design.fitted_range_note,
+                refinement=refinement,
+            )
+        )
     return out
 
 

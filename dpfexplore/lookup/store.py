@@ -75,9 +75,14 @@ def save_index(index: LookupIndex, path: str | Path | None = None) -> Path:
     try:
         with open(tmp, "wb") as fh:
             np.savez(
-                fh, meta=np.array(json.dumps(meta)), points=index.points,
-                design_id=index.design_id, requested=index.requested, n_units=index.n_units,
-                chunk_file=index.file, chunk_row=index.row,
+                fh,
+                meta=np.array(json.dumps(meta)),
+                points=index.points,
+                design_id=index.design_id,
+                requested=index.requested,
+                n_units=index.n_units,
+                chunk_file=index.file,
+                chunk_row=index.row,
             )
             fh.flush()
             os.fsync(fh.fileno())
@@ -116,10 +121,18 @@ def load_index(
                 f"need {INDEX_FORMAT!r} over {list(columns)}; rebuild it"
             )
         index = LookupIndex(
-            root=root, columns=tuple(columns), scales=check_scales(scales, columns),
-            points=data["points"], design_id=data["design_id"], requested=data["requested"],
-            n_units=data["n_units"], file=data["chunk_file"], row=data["chunk_row"],
-            files=tuple(meta["files"]), checksum=meta["checksum"], complete=meta["complete"],
+            root=root,
+            columns=tuple(columns),
+            scales=check_scales(scales, columns),
+            points=data["points"],
+            design_id=data["design_id"],
+            requested=data["requested"],
+            n_units=data["n_units"],
+            file=data["chunk_file"],
+            row=data["chunk_row"],
+            files=tuple(meta["files"]),
+            checksum=meta["checksum"],
+            complete=meta["complete"],
             rows_read=int(meta["rows_read"]),
         )
     index.check(info)

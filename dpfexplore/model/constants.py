@@ -301,9 +301,21 @@ def constant_derivatives_form(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
     dkt_dUsep = -k_t / (U_sep + t + t_ch)
     dkt_dtlim = 3.0 * k_t / t_lim
     return (
-        dR_dH, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep,
-        dklim_dUL, dklim_dUL, dklim_dtlim, dkt_dUsep, dkt_dUsep, dkt_dtlim,
-    )  # fmt: skip
+        dR_dH,
+        dkb_dH,
+        dkb_dt,
+        dalpha_dH,
+        dalpha_dt,
+        dd_dH,
+        dd_dt,
+        dd_dUsep,
+        dklim_dUL,
+        dklim_dUL,
+        dklim_dtlim,
+        dkt_dUsep,
+        dkt_dUsep,
+        dkt_dtlim,
+    )
 
 
 #: Parameters of :func:`constant_derivatives`, in the order of the sensitivities.
@@ -343,8 +355,22 @@ def constant_derivatives(
         *(np.asarray(a, dtype=float) for a in (H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch))
     )
     with np.errstate(all="ignore"):
-        (dR_dH, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep, dklim_dUL, dklim_dt,
-         dklim_dtlim, dkt_dUsep, dkt_dt, dkt_dtlim) = constant_derivatives_form(*args)  # fmt: skip
+        (
+            dR_dH,
+            dkb_dH,
+            dkb_dt,
+            dalpha_dH,
+            dalpha_dt,
+            dd_dH,
+            dd_dt,
+            dd_dUsep,
+            dklim_dUL,
+            dklim_dt,
+            dklim_dtlim,
+            dkt_dUsep,
+            dkt_dt,
+            dkt_dtlim,
+        ) = constant_derivatives_form(*args)
     zero = np.zeros(args[0].shape)
     one = np.ones(args[0].shape)
     table = {

@@ -109,9 +109,10 @@ def _problems(
 
     n_ok = (n_units >= 1) & (n_units <= MAX_UNITS)
     flag(
-        ~n_ok, st.INVALID_INPUT,
+        ~n_ok,
+        st.INVALID_INPUT,
         lambda i: f"N = {_num(n_units[i])}: must be between 1 and {MAX_UNITS}",
-    )  # fmt: skip
+    )
     active = active_units(n_units)
     for name in PER_UNIT_FIELDS:
         values = per_unit[name]
@@ -131,9 +132,10 @@ def _problems(
             bad = ~(np.isfinite(values) & (values > 0.0))
             rule = "must be finite and > 0" + (" MPa" if name == "E" else " mm")
         flag(
-            bad, st.INVALID_INPUT,
+            bad,
+            st.INVALID_INPUT,
             lambda i, name=name, v=values, r=rule: f"{name} = {_num(v[i])}: {r}",
-        )  # fmt: skip
+        )
     # The physical domain (model/domain.py): geometries that are not a finger of caps in units.
     taller_than_base, taller_than_unit = outside_domain(
         per_unit["H"], per_unit["U_L"], shared["r_b"], active

@@ -32,8 +32,12 @@ def _axes(ax: Axes | None, size=(6, 5)) -> Axes:
     return ax
 
 
-def plot_target_shapes(nodes: Sequence[np.ndarray], targets: Sequence[Sequence[float]],
-                       reachable: Sequence[bool], ax: Axes | None = None) -> Axes:  # fmt: skip
+def plot_target_shapes(
+    nodes: Sequence[np.ndarray],
+    targets: Sequence[Sequence[float]],
+    reachable: Sequence[bool],
+    ax: Axes | None = None,
+) -> Axes:
     """Each target's finger in its targeted state, with the target (x: unreachable).
 
     Parameters
@@ -78,9 +82,13 @@ def plot_objective_history(history, ax: Axes | None = None) -> Axes:
     return ax
 
 
-def plot_front(points: Sequence[tuple[float, float | None, float | None]], *,
-               reference: tuple[float, float] | None = None, title: str = "",
-               ax: Axes | None = None) -> Axes:  # fmt: skip
+def plot_front(
+    points: Sequence[tuple[float, float | None, float | None]],
+    *,
+    reference: tuple[float, float] | None = None,
+    title: str = "",
+    ax: Axes | None = None,
+) -> Axes:
     """Stiffness against tip tolerance (the two-objective scenes' answer).
 
     Parameters
@@ -106,8 +114,9 @@ def plot_front(points: Sequence[tuple[float, float | None, float | None]], *,
     return ax
 
 
-def plot_reachable_region(history, target: Sequence[float], nearest: Sequence[float],
-                          ax: Axes | None = None) -> Axes:  # fmt: skip
+def plot_reachable_region(
+    history, target: Sequence[float], nearest: Sequence[float], ax: Axes | None = None
+) -> Axes:
     """Tips of every evaluated design per N (the sampled reachable region) with the target.
 
     Parameters
@@ -130,9 +139,17 @@ def plot_reachable_region(history, target: Sequence[float], nearest: Sequence[fl
     return ax
 
 
-def plot_gripper(nodes: Sequence[np.ndarray], h: float, theta_deg: float, base_l: float,
-                 targets: Sequence[float], apertures: Sequence[float], *,
-                 states: Sequence[str] = (), fig: Figure | None = None) -> Figure:  # fmt: skip
+def plot_gripper(
+    nodes: Sequence[np.ndarray],
+    h: float,
+    theta_deg: float,
+    base_l: float,
+    targets: Sequence[float],
+    apertures: Sequence[float],
+    *,
+    states: Sequence[str] = (),
+    fig: Figure | None = None,
+) -> Figure:
     """The two mirrored fingers of the gripper in each targeted state, with the object.
 
     Parameters
@@ -157,8 +174,15 @@ def plot_gripper(nodes: Sequence[np.ndarray], h: float, theta_deg: float, base_l
         mirrored[:, 1] = 2.0 * base_l - finger[:, 1]
         plot_finger(finger, ax, color="C0")
         plot_finger(mirrored, ax, color="C0")
-        ax.add_patch(plt.Circle((float(np.mean(finger[-1:, 0])), base_l), target / 2.0,
-                                fill=False, ls="--", color="C3"))  # fmt: skip
+        ax.add_patch(
+            plt.Circle(
+                (float(np.mean(finger[-1:, 0])), base_l),
+                target / 2.0,
+                fill=False,
+                ls="--",
+                color="C3",
+            )
+        )
         ax.set_title(f"{label}: {aperture:.2f} mm\n(target {target:g})", fontsize="small")
         ax.autoscale()
     fig.suptitle("Gripper in its targeted states (dashed: object)")

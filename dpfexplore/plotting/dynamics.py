@@ -94,12 +94,17 @@ def plot_reset_map(frame, x: str, *, hue: str | None = None, ax=None, xlabel: st
         color = f"C{i % 10}"
         label = None if hue is None else f"{hue} = {value:g}"
         finite = np.isfinite(group["reset_time"])
-        ax.plot(group[x][finite], group["reset_time"][finite], marker="o", color=color,
-                label=label)  # fmt: skip
+        ax.plot(group[x][finite], group["reset_time"][finite], marker="o", color=color, label=label)
         never = np.isinf(group["reset_time"])
         if never.any():
-            ax.plot(group[x][never], np.full(never.sum(), top), marker="o", color=color,
-                    markerfacecolor="none", linestyle="none")  # fmt: skip
+            ax.plot(
+                group[x][never],
+                np.full(never.sum(), top),
+                marker="o",
+                color=color,
+                markerfacecolor="none",
+                linestyle="none",
+            )
     ax.set_xlabel(xlabel or x)
     ax.set_ylabel("reset time after release (s)")
     if hue is not None:
@@ -112,8 +117,14 @@ def plot_time_vs_error(records: Sequence[dict], ax=None, *, case: str | None = N
     ax = _axes(ax)
     for i, rec in enumerate(r for r in records if case is None or r.get("case") == case):
         err = max(float(rec["reset_time_rel_err"]), 1e-9)
-        ax.loglog([rec["us_per_design"]], [err], marker="o", linestyle="none", color=f"C{i % 10}",
-                  label=rec["method"])  # fmt: skip
+        ax.loglog(
+            [rec["us_per_design"]],
+            [err],
+            marker="o",
+            linestyle="none",
+            color=f"C{i % 10}",
+            label=rec["method"],
+        )
     ax.set_xlabel("time per design (µs)")
     ax.set_ylabel("reset time relative error")
     ax.grid(True, which="both", alpha=0.3)
@@ -152,8 +163,11 @@ def plot_reset_maps(maps, fig=None):
         else:
             hue = "unit" if frame["n_units"].iloc[0] > 1 else None
             plot_reset_map(frame, "value", hue=hue, ax=ax, xlabel=labels[name])
-        fixed = {"H": f"t = {frame['t'].iloc[0]:g} mm", "t": f"H = {frame['H'].iloc[0]:g} mm",
-                 "hold": f"t = {frame['t'].iloc[0]:g} mm"}[name]  # fmt: skip
+        fixed = {
+            "H": f"t = {frame['t'].iloc[0]:g} mm",
+            "t": f"H = {frame['H'].iloc[0]:g} mm",
+            "hold": f"t = {frame['t'].iloc[0]:g} mm",
+        }[name]
         horizon = frame["horizon"].iloc[0]
         ax.set_title(f"{fixed}, N = {frame['n_units'].iloc[0]} (open: > {horizon:g} s)")
     return fig

@@ -17,8 +17,9 @@ PROJECTIONS = ((0, 1), (1, 2))
 _AXIS = "xyz"
 
 
-def plot_tip_paths(results: Any, axes: Sequence[Any] | None = None,
-                   labels: Sequence[str] | None = None):  # fmt: skip
+def plot_tip_paths(
+    results: Any, axes: Sequence[Any] | None = None, labels: Sequence[str] | None = None
+):
     """Tip paths relative to their start (mm), in the x-y and y-z projections.
 
     Parameters
@@ -45,8 +46,7 @@ def plot_tip_paths(results: Any, axes: Sequence[Any] | None = None,
             path = result.tip_path
             text = label if result.fitted_range else f"{label} (outside fitted H/t/E)"
             ax.plot(path[:, a], path[:, b], color=f"C{i % 10}", label=text)
-            ax.plot(path[-1:, a], path[-1:, b], marker="s", color=f"C{i % 10}",
-                    linestyle="none")  # fmt: skip
+            ax.plot(path[-1:, a], path[-1:, b], marker="s", color=f"C{i % 10}", linestyle="none")
         ax.plot([0.0], [0.0], marker="o", color="k", linestyle="none", label="start")
         ax.set_xlabel(f"tip {_AXIS[a]} (mm)")
         ax.set_ylabel(f"tip {_AXIS[b]} (mm)")

@@ -93,29 +93,42 @@ def plot_reachable(
     handles = []
     for i, (n, tips) in enumerate(sorted(clouds.items())):
         colour = cmap(0.9 * i / span_n)
-        shown = tips if len(tips) <= _MAX_POINTS else tips[rng.choice(len(tips), _MAX_POINTS,
-                                                                      replace=False)]  # fmt: skip
-        ax.scatter(shown[:, 0], shown[:, 1], s=1, color=colour, alpha=0.25, linewidths=0,
-                   rasterized=True)  # fmt: skip
+        shown = (
+            tips
+            if len(tips) <= _MAX_POINTS
+            else tips[rng.choice(len(tips), _MAX_POINTS, replace=False)]
+        )
+        ax.scatter(
+            shown[:, 0], shown[:, 1], s=1, color=colour, alpha=0.25, linewidths=0, rasterized=True
+        )
         occupied = occupied_cells(tips, x_edges, y_edges).astype(float)
         if occupied.any():
-            ax.contour(centres[0], centres[1], occupied.T, levels=[0.5], colors=[colour],
-                       linewidths=1.2)  # fmt: skip
+            ax.contour(
+                centres[0], centres[1], occupied.T, levels=[0.5], colors=[colour], linewidths=1.2
+            )
         handles.append(mpl.lines.Line2D([], [], color=colour, label=f"N = {n}"))
     if len(candidates):
         tips = np.asarray(candidates, float).reshape(-1, 2)
         ax.scatter(tips[:, 0], tips[:, 1], s=14, color="black", zorder=4)
-        ax.scatter(tips[:1, 0], tips[:1, 1], s=80, facecolors="none", edgecolors="red",
-                   linewidths=1.5, zorder=5)  # fmt: skip
+        ax.scatter(
+            tips[:1, 0],
+            tips[:1, 1],
+            s=80,
+            facecolors="none",
+            edgecolors="red",
+            linewidths=1.5,
+            zorder=5,
+        )
         best = "best design" + (f" ({labels[0]})" if labels else "")
-        handles.append(mpl.lines.Line2D([], [], ls="", marker="o", mfc="none", mec="red",
-                                        label=best))  # fmt: skip
+        handles.append(
+            mpl.lines.Line2D([], [], ls="", marker="o", mfc="none", mec="red", label=best)
+        )
     if target is not None:
-        ax.scatter([target[0]], [target[1]], marker="*", s=160, color="red", zorder=6,
-                   clip_on=False)
+        ax.scatter(
+            [target[0]], [target[1]], marker="*", s=160, color="red", zorder=6, clip_on=False
+        )
         label = f"target ({target[0]:g}, {target[1]:g})"
-        handles.append(mpl.lines.Line2D([], [], ls="", marker="*", color="red", ms=10,
-                                        label=label))  # fmt: skip
+        handles.append(mpl.lines.Line2D([], [], ls="", marker="*", color="red", ms=10, label=label))
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("tip x (mm)")
     ax.set_ylabel("tip y (mm)")

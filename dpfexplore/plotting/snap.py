@@ -46,8 +46,14 @@ def plot_snap(sequence: SnapSequence, ax: Axes | None = None, *, quantity: str =
     for seg in np.unique(segments):
         rows = segments == seg
         for k, color in enumerate(colors):
-            ax.plot(pressure[rows], values[rows, k], "-", color=color, lw=1.4,
-                    label=labels[k] if seg == segments[0] else None)  # fmt: skip
+            ax.plot(
+                pressure[rows],
+                values[rows, k],
+                "-",
+                color=color,
+                lw=1.4,
+                label=labels[k] if seg == segments[0] else None,
+            )
     # each snap: a dotted jump from the fold's last point to the landing's first
     for seg in np.unique(segments)[1:]:
         before = np.flatnonzero(segments == seg - 1)
@@ -58,16 +64,29 @@ def plot_snap(sequence: SnapSequence, ax: Axes | None = None, *, quantity: str =
         if not np.isclose(pressure[i], pressure[j], rtol=0.0, atol=1e-9):
             continue  # the turn of a cycle, not a snap
         for k, color in enumerate(colors):
-            ax.plot([pressure[i], pressure[j]], [values[i, k], values[j, k]], ":", color=color,
-                    lw=1.0)  # fmt: skip
+            ax.plot(
+                [pressure[i], pressure[j]], [values[i, k], values[j, k]], ":", color=color, lw=1.0
+            )
     for event in sequence.snaps:
         ax.axvline(event.pressure, color="0.6", lw=0.6, zorder=0)
-        ax.annotate(event.after, (event.pressure, 1.0), xycoords=("data", "axes fraction"),
-                    rotation=90, va="top", ha="right", fontsize="x-small", color="0.3")  # fmt: skip
+        ax.annotate(
+            event.after,
+            (event.pressure, 1.0),
+            xycoords=("data", "axes fraction"),
+            rotation=90,
+            va="top",
+            ha="right",
+            fontsize="x-small",
+            color="0.3",
+        )
     ax.set_xlabel("chamber pressure (MPa)")
-    title = f"slow ramp ({sequence.direction}), snaps at " + ", ".join(
-        f"{e.pressure:.4g}" for e in sequence.snaps
-    ) + " MPa" if sequence.snaps else f"slow ramp ({sequence.direction}), no snap"
+    title = (
+        f"slow ramp ({sequence.direction}), snaps at "
+        + ", ".join(f"{e.pressure:.4g}" for e in sequence.snaps)
+        + " MPa"
+        if sequence.snaps
+        else f"slow ramp ({sequence.direction}), no snap"
+    )
     ax.set_title(title, fontsize="small")
     ax.legend(fontsize="small")
     return ax

@@ -64,8 +64,15 @@ def plot_tip_positions(frame: pd.DataFrame, ax: Axes | None = None) -> Axes:
     colours = _colours(n_values)
     for n in n_values:
         part = rows[rows["n_units"] == n]
-        ax.scatter(part["tip_x"], part["tip_y"], s=2, color=colours[n], label=f"N = {n}",
-                   rasterized=True, linewidths=0)
+        ax.scatter(
+            part["tip_x"],
+            part["tip_y"],
+            s=2,
+            color=colours[n],
+            label=f"N = {n}",
+            rasterized=True,
+            linewidths=0,
+        )
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("tip x (mm)")
     ax.set_ylabel("tip y (mm)")
@@ -146,8 +153,9 @@ def plot_design_space(frame: pd.DataFrame, axes=None) -> np.ndarray:
     if axes is None:
         import matplotlib.pyplot as plt
 
-        _, axes = plt.subplots(1, len(panels), figsize=(5.0 * len(panels), 4.5),
-                               layout="constrained")
+        _, axes = plt.subplots(
+            1, len(panels), figsize=(5.0 * len(panels), 4.5), layout="constrained"
+        )
     axes = np.atleast_1d(axes)
     if len(axes) != len(panels):
         raise ValueError(f"axes: need {len(panels)} Axes, got {len(axes)}")

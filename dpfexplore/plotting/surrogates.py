@@ -9,8 +9,9 @@ from matplotlib.axes import Axes
 __all__ = ["plot_speed_error"]
 
 
-def plot_speed_error(speed: pd.DataFrame, *, error: str = "tip_p95", ax: Axes | None = None,
-                     unit: str = "mm") -> Axes:
+def plot_speed_error(
+    speed: pd.DataFrame, *, error: str = "tip_p95", ax: Axes | None = None, unit: str = "mm"
+) -> Axes:
     """Time per prediction against held-out error; the exact model as vertical lines.
 
     Parameters
@@ -30,20 +31,32 @@ def plot_speed_error(speed: pd.DataFrame, *, error: str = "tip_p95", ax: Axes | 
         import matplotlib.pyplot as plt
 
         _, ax = plt.subplots(figsize=(6.4, 4.4))
-    rows = speed[(speed["model"] != "exact") & speed[error].notna()] if error in speed else \
-        speed.iloc[:0]
+    rows = (
+        speed[(speed["model"] != "exact") & speed[error].notna()]
+        if error in speed
+        else speed.iloc[:0]
+    )
     for _, row in rows.iterrows():
-        (line,) = ax.plot([row["us_batched"], row["us_single"]], [row[error]] * 2, "-",
-                          lw=0.8, alpha=0.6)
-        ax.plot(row["us_batched"], row[error], "o", color=line.get_color(),
-                label=f"{row['model']}")
+        (line,) = ax.plot(
+            [row["us_batched"], row["us_single"]], [row[error]] * 2, "-", lw=0.8, alpha=0.6
+        )
+        ax.plot(row["us_batched"], row[error], "o", color=line.get_color(), label=f"{row['model']}")
         ax.plot(row["us_single"], row[error], "o", mfc="none", color=line.get_color())
     exact = speed[speed["model"] == "exact"]
     if len(exact):
-        ax.axvline(float(exact["us_batched"].iloc[0]), color="k", lw=1.2,
-                   label="exact model, batched (error 0)")
-        ax.axvline(float(exact["us_single"].iloc[0]), color="k", lw=1.2, ls="--",
-                   label="exact model, single")
+        ax.axvline(
+            float(exact["us_batched"].iloc[0]),
+            color="k",
+            lw=1.2,
+            label="exact model, batched (error 0)",
+        )
+        ax.axvline(
+            float(exact["us_single"].iloc[0]),
+            color="k",
+            lw=1.2,
+            ls="--",
+            label="exact model, single",
+        )
     ax.set_xscale("log")
     if len(rows) and np.all(rows[error] > 0):
         ax.set_yscale("log")

@@ -13,8 +13,13 @@ from matplotlib.axes import Axes
 __all__ = ["CLASS_COLOURS", "plot_difference_front", "plot_gait_timing", "plot_reset_screen"]
 
 #: Colour of each unit class in the timing diagrams.
-CLASS_COLOURS = {"bistable": "tab:blue", "metastable": "tab:green", "monostable": "tab:orange",
-                 "no_contact": "tab:gray", None: "0.6"}  # fmt: skip
+CLASS_COLOURS = {
+    "bistable": "tab:blue",
+    "metastable": "tab:green",
+    "monostable": "tab:orange",
+    "no_contact": "tab:gray",
+    None: "0.6",
+}
 
 
 def _axes(ax: Axes | None, size=(7, 5)) -> Axes:
@@ -25,9 +30,17 @@ def _axes(ax: Axes | None, size=(7, 5)) -> Axes:
     return ax
 
 
-def plot_reset_screen(H: np.ndarray, t: np.ndarray, value: np.ndarray, admissible: np.ndarray, *,
-                      designs: Sequence[tuple[float, float, str]] = (), ax: Axes | None = None,
-                      method: str = "", h_label: str = "H (mm)") -> Axes:  # fmt: skip
+def plot_reset_screen(
+    H: np.ndarray,
+    t: np.ndarray,
+    value: np.ndarray,
+    admissible: np.ndarray,
+    *,
+    designs: Sequence[tuple[float, float, str]] = (),
+    ax: Axes | None = None,
+    method: str = "",
+    h_label: str = "H (mm)",
+) -> Axes:
     """Objective reset time over the screening grid (log colour), with designs marked.
 
     Parameters
@@ -44,17 +57,37 @@ def plot_reset_screen(H: np.ndarray, t: np.ndarray, value: np.ndarray, admissibl
 
     ax = _axes(ax)
     finite = admissible & np.isfinite(value) & (value > 0)
-    sc = ax.scatter(H[finite], t[finite], c=value[finite], s=14, marker="s",
-                    norm=LogNorm(vmin=max(1e-2, float(np.min(value[finite])) if finite.any()
-                                      else 1e-2), vmax=max(1.0, float(np.max(value[finite]))
-                                                           if finite.any() else 1.0)),
-                    cmap="viridis")  # fmt: skip
+    sc = ax.scatter(
+        H[finite],
+        t[finite],
+        c=value[finite],
+        s=14,
+        marker="s",
+        norm=LogNorm(
+            vmin=max(1e-2, float(np.min(value[finite])) if finite.any() else 1e-2),
+            vmax=max(1.0, float(np.max(value[finite])) if finite.any() else 1.0),
+        ),
+        cmap="viridis",
+    )
     ax.figure.colorbar(sc, ax=ax, label="objective reset time (s)")
     never = admissible & np.isposinf(value)
-    ax.scatter(H[never], t[never], s=6, marker="s", color="tab:blue", alpha=0.4,
-               label="never resets (bistable)")  # fmt: skip
-    ax.scatter(H[~admissible], t[~admissible], s=4, marker="s", color="0.8",
-               label="not admissible (a hold unit resets, or none inverts)")  # fmt: skip
+    ax.scatter(
+        H[never],
+        t[never],
+        s=6,
+        marker="s",
+        color="tab:blue",
+        alpha=0.4,
+        label="never resets (bistable)",
+    )
+    ax.scatter(
+        H[~admissible],
+        t[~admissible],
+        s=4,
+        marker="s",
+        color="0.8",
+        label="not admissible (a hold unit resets, or none inverts)",
+    )
     for h, tt, label in designs:
         ax.plot(h, tt, "*", color="tab:red", ms=13, mec="k")
         ax.annotate(label, (h, tt), textcoords="offset points", xytext=(6, 4), fontsize="small")
@@ -66,10 +99,13 @@ def plot_reset_screen(H: np.ndarray, t: np.ndarray, value: np.ndarray, admissibl
     return ax
 
 
-def plot_difference_front(front: Sequence[tuple[float, float, float]], *,
-                          lines: Sequence[tuple[float, float]] = (),
-                          weighted: tuple[float, float] | None = None,
-                          ax: Axes | None = None) -> Axes:  # fmt: skip
+def plot_difference_front(
+    front: Sequence[tuple[float, float, float]],
+    *,
+    lines: Sequence[tuple[float, float]] = (),
+    weighted: tuple[float, float] | None = None,
+    ax: Axes | None = None,
+) -> Axes:
     """Grasp stiffness against the reset-time difference of two profiles.
 
     Parameters
@@ -90,8 +126,13 @@ def plot_difference_front(front: Sequence[tuple[float, float, float]], *,
         order = np.argsort(d)
         ax.plot(d[order], k[order], "o-", color="tab:blue", label="front (verified)")
         for di, ki, ti in zip(d, k, tt, strict=True):
-            ax.annotate(f"t={ti:.3f}", (di, ki), textcoords="offset points", xytext=(4, 3),
-                        fontsize="x-small")  # fmt: skip
+            ax.annotate(
+                f"t={ti:.3f}",
+                (di, ki),
+                textcoords="offset points",
+                xytext=(4, 3),
+                fontsize="x-small",
+            )
     if weighted is not None:
         ax.plot(*weighted, "*", color="tab:red", ms=14, mec="k", label="weighted sum")
     ax.set_xlabel("RT_2 - RT_1 (s)")
@@ -101,10 +142,15 @@ def plot_difference_front(front: Sequence[tuple[float, float, float]], *,
     return ax
 
 
-def plot_gait_timing(phases: Sequence[tuple[str, np.ndarray, np.ndarray]],
-                     units: Sequence[tuple[str, Sequence[tuple[float, float]], str | None]], *,
-                     t_end: float, marks: Sequence[tuple[float, str]] = (),
-                     ax: Axes | None = None, title: str = "") -> Axes:  # fmt: skip
+def plot_gait_timing(
+    phases: Sequence[tuple[str, np.ndarray, np.ndarray]],
+    units: Sequence[tuple[str, Sequence[tuple[float, float]], str | None]],
+    *,
+    t_end: float,
+    marks: Sequence[tuple[float, str]] = (),
+    ax: Axes | None = None,
+    title: str = "",
+) -> Axes:
     """Timing diagram: phase pressures on top, each unit's inverted intervals below.
 
     Parameters
@@ -123,16 +169,29 @@ def plot_gait_timing(phases: Sequence[tuple[str, np.ndarray, np.ndarray]],
     ticks, labels = [], []
     p_max = max((float(np.max(P)) for _, _, P in phases), default=1.0) or 1.0
     for label, t, P in reversed(phases):
-        ax.fill_between(t, lane, lane + 1.6 * np.asarray(P) / p_max, step=None, alpha=0.35,
-                        color="tab:purple" if "1" in label else "tab:olive")  # fmt: skip
+        ax.fill_between(
+            t,
+            lane,
+            lane + 1.6 * np.asarray(P) / p_max,
+            step=None,
+            alpha=0.35,
+            color="tab:purple" if "1" in label else "tab:olive",
+        )
         ax.plot(t, lane + 1.6 * np.asarray(P) / p_max, color="k", lw=0.6)
         ticks.append(lane + 0.8)
         labels.append(f"{label} (peak {float(np.max(P)) * 1000:.0f} kPa)")
         lane += 2.0
     for label, intervals, cls in reversed(units):
         for a, b in intervals:
-            ax.barh(lane + 0.4, b - a, left=a, height=0.7, color=CLASS_COLOURS.get(cls, "0.6"),
-                    edgecolor="k", lw=0.4)  # fmt: skip
+            ax.barh(
+                lane + 0.4,
+                b - a,
+                left=a,
+                height=0.7,
+                color=CLASS_COLOURS.get(cls, "0.6"),
+                edgecolor="k",
+                lw=0.4,
+            )
         ticks.append(lane + 0.4)
         labels.append(f"{label} ({cls or 'never inverted'})")
         lane += 1.0

@@ -386,8 +386,11 @@ def _solve(
     found = np.empty(n_rows, dtype=np.int64)
     n_iter = np.empty(n_rows, dtype=np.int32)
     # NaN: the row kernel writes no shape for an invalid design
-    x = (np.full((n_rows, n_free(MAX_UNITS)), np.nan) if shapes or sensitivities
-         else np.empty((n_rows, 0)))  # fmt: skip
+    x = (
+        np.full((n_rows, n_free(MAX_UNITS)), np.nan)
+        if shapes or sensitivities
+        else np.empty((n_rows, 0))
+    )
     args = (
         tables.unit_params,
         tables.h,
@@ -427,8 +430,17 @@ def warm_up(batch: DesignBatch, *, sensitivities: bool = False) -> None:
     tables = kernel_tables(batch, derivatives=sensitivities)
     row_design, row_state = _row_plan(batch, "all_inverted", tables.status == st.OK)
     for serial in (True, False):
-        _solve(tables, row_design, row_state, stiffness=True, min_eig=True, options=None,
-               shapes=False, sensitivities=sensitivities, serial=serial)  # fmt: skip
+        _solve(
+            tables,
+            row_design,
+            row_state,
+            stiffness=True,
+            min_eig=True,
+            options=None,
+            shapes=False,
+            sensitivities=sensitivities,
+            serial=serial,
+        )
 
 
 def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:
@@ -442,8 +454,9 @@ def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:
     }
     # one copy makes every output column a contiguous row of its own (small batches keep
     # strided views: the copy would cost more than it saves)
-    by_column = rows.out.T if rows.out.shape[0] <= SERIAL_MAX_ROWS else np.ascontiguousarray(
-        rows.out.T)  # fmt: skip
+    by_column = (
+        rows.out.T if rows.out.shape[0] <= SERIAL_MAX_ROWS else np.ascontiguousarray(rows.out.T)
+    )
     result.update({name: by_column[col] for name, col in OUTPUT_COLUMNS.items()})
     if shapes:
         result["x"] = rows.x

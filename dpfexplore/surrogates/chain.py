@@ -64,8 +64,21 @@ __all__ = ["CHAIN", "ChainStatusClassifier", "ChainSurrogate", "feature_names", 
 #: Kind name of the chain surrogate and classifier in reports.
 CHAIN = "chain"
 #: Features of a unit (its own and, in a row, its predecessor's).
-UNIT_FEATURES = ("H", "U_L", "U_sep", "alpha", "reach", "inverted_extension", "rho_rigid",
-                 "beta_rigid", "k_b_over_k_t", "k_lim_over_k_t", "p", "inverted", "margin")
+UNIT_FEATURES = (
+    "H",
+    "U_L",
+    "U_sep",
+    "alpha",
+    "reach",
+    "inverted_extension",
+    "rho_rigid",
+    "beta_rigid",
+    "k_b_over_k_t",
+    "k_lim_over_k_t",
+    "p",
+    "inverted",
+    "margin",
+)
 #: Features shared by a design's units.
 SHARED_FEATURES = ("t", "t_lim", "h")
 #: Learned per-unit targets.
@@ -103,8 +116,9 @@ def _designs(X: pd.DataFrame, all_inverted_only: bool | None) -> tuple[DesignBat
     if "requested" in X.columns:
         requested = X["requested"].to_numpy(dtype=np.int64)
     elif all_inverted_only is False:
-        raise ValueError("X: missing column 'requested' (the model was fitted on several "
-                         "requested states)")
+        raise ValueError(
+            "X: missing column 'requested' (the model was fitted on several requested states)"
+        )
     else:
         requested = (np.int64(1) << np.clip(n_units, 0, MAX_UNITS)) - 1
     return designs_from_rows(X), state_bits(requested, n_units)
@@ -121,23 +135,40 @@ def unit_rows(rigid: RigidUnits) -> NDArray:
     """
     h = rigid.h
     with np.errstate(invalid="ignore", divide="ignore"):
-        own = np.column_stack([
-            rigid.H, rigid.U_L, rigid.U_sep, rigid.alpha, rigid.d, rigid.u_second * rigid.d,
-            rigid.rho, rigid.beta, rigid.k_b * h * h / rigid.k_t,
-            rigid.k_lim * h * h / rigid.k_t, rigid.p, rigid.inverted.astype(float),
-            np.clip(rigid.margin, -MARGIN_CLIP, MARGIN_CLIP),
-        ])
+        own = np.column_stack(
+            [
+                rigid.H,
+                rigid.U_L,
+                rigid.U_sep,
+                rigid.alpha,
+                rigid.d,
+                rigid.u_second * rigid.d,
+                rigid.rho,
+                rigid.beta,
+                rigid.k_b * h * h / rigid.k_t,
+                rigid.k_lim * h * h / rigid.k_t,
+                rigid.p,
+                rigid.inverted.astype(float),
+                np.clip(rigid.margin, -MARGIN_CLIP, MARGIN_CLIP),
+            ]
+        )
     first = rigid.unit == 0
     # The units of a design are consecutive, unit 1 first: the predecessor is the row before.
     previous = np.where(first[:, None], 0.0, np.roll(own, 1, axis=0))
-    return np.column_stack([own, previous, rigid.t, rigid.t_lim, h, first,
-                            rigid.unit == 1]).astype(float)
+    return np.column_stack([own, previous, rigid.t, rigid.t_lim, h, first, rigid.unit == 1]).astype(
+        float
+    )
 
 
 def feature_names() -> list[str]:
     """Names of the columns of :func:`unit_rows`' features."""
-    return [*UNIT_FEATURES, *(f"previous_{name}" for name in UNIT_FEATURES), *SHARED_FEATURES,
-            "unit_1", "unit_2"]
+    return [
+        *UNIT_FEATURES,
+        *(f"previous_{name}" for name in UNIT_FEATURES),
+        *SHARED_FEATURES,
+        "unit_1",
+        "unit_2",
+    ]
 
 
 class _UnitBox(BaseEstimator):
@@ -147,10 +178,12 @@ class _UnitBox(BaseEstimator):
         n_units = batch.n_units
         active = np.arange(MAX_UNITS)[None, :] < n_units[:, None]
         self.n_units_ = tuple(int(n) for n in np.unique(n_units))
-        self.unit_lower_ = {name: float(np.min(getattr(batch, name)[active]))
-                            for name in PER_UNIT_FIELDS}
-        self.unit_upper_ = {name: float(np.max(getattr(batch, name)[active]))
-                            for name in PER_UNIT_FIELDS}
+        self.unit_lower_ = {
+            name: float(np.min(getattr(batch, name)[active])) for name in PER_UNIT_FIELDS
+        }
+        self.unit_upper_ = {
+            name: float(np.max(getattr(batch, name)[active])) for name in PER_UNIT_FIELDS
+        }
         self.shared_lower_ = {name: float(np.min(getattr(batch, name))) for name in SHARED_FIELDS}
         self.shared_upper_ = {name: float(np.max(getattr(batch, name))) for name in SHARED_FIELDS}
         self.sides_ = tuple(sorted({int(v) for v in bits[active]}))
@@ -225,10 +258,16 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
     fit_notes_ : list of str
     """
 
-    def __init__(self, *, outputs: Sequence[str] = ("tip_x", "tip_y"),
-                 params: Mapping[str, Any] | None = None, inner: str = "mlp",
-                 inner_params: Mapping[str, Any] | None = None, max_train: int | None = None,
-                 random_state: int = 0) -> None:
+    def __init__(
+        self,
+        *,
+        outputs: Sequence[str] = ("tip_x", "tip_y"),
+        params: Mapping[str, Any] | None = None,
+        inner: str = "mlp",
+        inner_params: Mapping[str, Any] | None = None,
+        max_train: int | None = None,
+        random_state: int = 0,
+    ) -> None:
         self.outputs = outputs
         self.params = params
         self.inner = inner
@@ -250,8 +289,10 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         y = np.asarray(y, dtype=float)
         y = y[:, None] if y.ndim == 1 else y
         if y.shape != (len(X), len(outputs)):
-            raise ValueError(f"y: shape {y.shape}, need ({len(X)}, {len(outputs)}) for outputs "
-                             f"{', '.join(outputs)}")
+            raise ValueError(
+                f"y: shape {y.shape}, need ({len(X)}, {len(outputs)}) for outputs "
+                f"{', '.join(outputs)}"
+            )
         if not np.all(np.isfinite(y)):
             raise ValueError("y: non-finite outputs (fit on rows whose outputs exist)")
         batch, bits = _designs(X, None)
@@ -262,21 +303,31 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         exact = solve_batch(batch, requested, stiffness=False, min_eig=False, shapes=True)
         missing = int(np.sum(exact["status"] != st.OK))
         if missing:
-            raise ValueError(f"X: {missing} rows whose requested state the exact model does not "
-                             "find (fit on rows with status ok)")
+            raise ValueError(
+                f"X: {missing} rows whose requested state the exact model does not "
+                "find (fit on rows with status ok)"
+            )
         for name in ("tip_x", "tip_y"):
             if name in outputs:
                 gap = float(np.max(np.abs(exact[name] - y[:, outputs.index(name)])))
                 if gap > TIP_CHECK_MM:
-                    raise ValueError(f"y: {name} differs from the exact model's by up to "
-                                     f"{gap:.3g} mm (data of another model version?)")
+                    raise ValueError(
+                        f"y: {name} differs from the exact model's by up to "
+                        f"{gap:.3g} mm (data of another model version?)"
+                    )
         rigid = rigid_units(batch, bits)
-        rho, beta, ell = unit_kinematics(exact["x"], batch.n_units, rigid.p[rigid.unit == 0],
-                                         rigid.h[rigid.unit == 0])
+        rho, beta, ell = unit_kinematics(
+            exact["x"], batch.n_units, rigid.p[rigid.unit == 0], rigid.h[rigid.unit == 0]
+        )
         features = unit_rows(rigid)
         design, k0 = rigid.design, rigid.unit
-        targets = np.column_stack([rho[design, k0] - rigid.rho, beta[design, k0] - rigid.beta,
-                                   ell[design, k0] / rigid.p - 1.0])
+        targets = np.column_stack(
+            [
+                rho[design, k0] - rigid.rho,
+                beta[design, k0] - rigid.beta,
+                ell[design, k0] / rigid.p - 1.0,
+            ]
+        )
         # Units whose rigid model has no minimum on the requested side (a few near the fold)
         # would teach a residual of another branch.
         keep = rigid.holds & np.all(np.isfinite(targets), axis=1)
@@ -292,14 +343,21 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         self.t_mean_ = targets.mean(axis=0)
         self.t_scale_ = np.where(targets.std(axis=0) > 0, targets.std(axis=0), 1.0)
         notes: list[str] = []
-        self.model_ = _fit_quietly(self._estimator(features.shape[0]), self._scale(features),
-                                   (targets - self.t_mean_) / self.t_scale_, notes, 0)
+        self.model_ = _fit_quietly(
+            self._estimator(features.shape[0]),
+            self._scale(features),
+            (targets - self.t_mean_) / self.t_scale_,
+            notes,
+            0,
+        )
         self.fit_notes_ = [note.replace("N=0:", "unit model:", 1) for note in notes]
         others = [j for j, name in enumerate(outputs) if name not in GEOMETRIC_OUTPUTS]
         self.inner_model_ = None
         if others:
             self.inner_model_ = DesignSurrogate(
-                kind=self.inner, params=self.inner_params, random_state=self.random_state,
+                kind=self.inner,
+                params=self.inner_params,
+                random_state=self.random_state,
             ).fit(X, y[:, others])
             self.fit_notes_ += [f"inner: {note}" for note in self.inner_model_.fit_notes_]
         self.n_outputs_ = len(outputs)
@@ -308,9 +366,15 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
     def _estimator(self, n_rows: int):
         from sklearn.neural_network import MLPRegressor
 
-        defaults = {"hidden_layer_sizes": (32, 32), "batch_size": 1024, "max_iter": 100,
-                    "learning_rate_init": 2e-3, "tol": 1e-7, "n_iter_no_change": 20,
-                    "random_state": self.random_state}
+        defaults = {
+            "hidden_layer_sizes": (32, 32),
+            "batch_size": 1024,
+            "max_iter": 100,
+            "learning_rate_init": 2e-3,
+            "tol": 1e-7,
+            "n_iter_no_change": 20,
+            "random_state": self.random_state,
+        }
         merged = {**defaults, **(self.params or {})}
         merged["batch_size"] = min(merged["batch_size"], n_rows)  # sklearn warns otherwise
         return MLPRegressor(**merged)
@@ -345,8 +409,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         rho, beta, ell, rigid = self.predict_units(X)
         n_units = np.clip(X["n_units"].to_numpy(dtype=np.int64), 0, MAX_UNITS)
         h = rigid.grid(rigid.h)[:, 0]
-        geometry = compose(np.nan_to_num(rho), np.nan_to_num(beta), np.nan_to_num(ell), n_units,
-                           h)
+        geometry = compose(np.nan_to_num(rho), np.nan_to_num(beta), np.nan_to_num(ell), n_units, h)
         out = np.full((len(X), len(self.outputs)), np.nan)
         others = []
         for j, name in enumerate(self.outputs):
@@ -363,8 +426,9 @@ def _requested(bits: NDArray, n_units: NDArray) -> NDArray[np.int64]:
     """State integers (unit 1 = most significant bit) of requested sides."""
     n_units = np.clip(np.asarray(n_units, dtype=np.int64), 0, MAX_UNITS)
     k = np.arange(1, MAX_UNITS + 1)[None, :]
-    weights = np.where(k <= n_units[:, None], np.int64(1) << np.clip(n_units[:, None] - k, 0,
-                                                                        None), 0)
+    weights = np.where(
+        k <= n_units[:, None], np.int64(1) << np.clip(n_units[:, None] - k, 0, None), 0
+    )
     return (bits.astype(np.int64) * weights).sum(axis=1)
 
 

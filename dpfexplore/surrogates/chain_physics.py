@@ -119,15 +119,16 @@ def _nodes(x: NDArray, n_units: NDArray, p1: NDArray, h: NDArray) -> tuple[NDArr
     D[:, 1] = x[:, 0:2]
     for k in range(2, M + 1):
         rows_k = n_units >= k
-        D[rows_k, k] = x[rows_k, 4 * k - 6:4 * k - 4]
-        L[rows_k, k] = x[rows_k, 4 * k - 4:4 * k - 2]
+        D[rows_k, k] = x[rows_k, 4 * k - 6 : 4 * k - 4]
+        L[rows_k, k] = x[rows_k, 4 * k - 4 : 4 * k - 2]
     return D, L
 
 
 def _angle(a: NDArray, b: NDArray) -> NDArray:
     """Signed angle from vectors ``a`` to ``b`` (last axis: x, y), in (-pi, pi]."""
-    return np.arctan2(a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
-                      a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1])
+    return np.arctan2(
+        a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0], a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+    )
 
 
 def unit_kinematics(
@@ -312,22 +313,31 @@ def _newton(b, r, args, side):
 
 def _unit_constants(batch: DesignBatch, design: NDArray, unit: NDArray) -> dict[str, NDArray]:
     """Closed forms (MODEL.md §3) of the listed units only (not the NaN padding)."""
-    shared = {name: getattr(batch, name)[design] for name in
-              ("t", "t_lim", "E", "nu", "r_b", "t_ch")}
+    shared = {
+        name: getattr(batch, name)[design] for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")
+    }
     H, U_L, U_sep = batch.H[design, unit], batch.U_L[design, unit], batch.U_sep[design, unit]
     t, t_ch = shared["t"], shared["t_ch"]
     with np.errstate(all="ignore"):
         R = dome_radius(H, shared["r_b"])
         alpha = dome_alpha(H, t, R)
         return {
-            "H": H, "U_L": U_L, "U_sep": U_sep, "t": t, "t_lim": shared["t_lim"],
-            "p": U_L + t_ch + U_sep, "h": segment_height(shared["r_b"], shared["t_lim"], t),
-            "k_b": dome_stiffness(shared["E"], H, t, R), "alpha": alpha,
+            "H": H,
+            "U_L": U_L,
+            "U_sep": U_sep,
+            "t": t,
+            "t_lim": shared["t_lim"],
+            "p": U_L + t_ch + U_sep,
+            "h": segment_height(shared["r_b"], shared["t_lim"], t),
+            "k_b": dome_stiffness(shared["E"], H, t, R),
+            "alpha": alpha,
             "d": dome_reach(H, t, U_sep, t_ch)[0],
-            "k_lim": limiting_layer_stiffness(shared["E"], shared["t_lim"], shared["r_b"], U_L,
-                                              t, t_ch),
-            "k_t": torsion_stiffness(shared["E"], shared["t_lim"], shared["nu"], shared["r_b"],
-                                     U_sep, t, t_ch),
+            "k_lim": limiting_layer_stiffness(
+                shared["E"], shared["t_lim"], shared["r_b"], U_L, t, t_ch
+            ),
+            "k_t": torsion_stiffness(
+                shared["E"], shared["t_lim"], shared["nu"], shared["r_b"], U_sep, t, t_ch
+            ),
             "extrema": dome_extrema(alpha),
         }
 
@@ -375,8 +385,9 @@ def rigid_units(batch: DesignBatch, inverted: NDArray[np.bool_]) -> RigidUnits:
             return share * r, r
 
         b0, r0 = angles_at(u_min)
-        b, r = _newton(np.where(inv, b0, 0.0), np.where(inv, r0, 0.0), args,
-                       np.where(inv, 1.0, -1.0))
+        b, r = _newton(
+            np.where(inv, b0, 0.0), np.where(inv, r0, 0.0), args, np.where(inv, 1.0, -1.0)
+        )
         g_b, g_r, H_bb, H_br, H_rr, u = _derivatives(b, r, *args)
         scale = kb * d * h
         converged = np.hypot(g_b, g_r) <= GRAD_RTOL * scale
@@ -388,9 +399,31 @@ def rigid_units(batch: DesignBatch, inverted: NDArray[np.bool_]) -> RigidUnits:
         g_b, g_r, H_bb, H_br, _, _ = _derivatives(bl, rl, *args)
         margin = np.where(inv, -(g_r - H_br * g_b / H_bb) / scale, np.inf)
     return RigidUnits(
-        design=design, unit=unit, n_designs=int(n_units.size), rho=r, beta=b, u=u,
-        holds=holds, margin=margin, inverted=inv,
+        design=design,
+        unit=unit,
+        n_designs=int(n_units.size),
+        rho=r,
+        beta=b,
+        u=u,
+        holds=holds,
+        margin=margin,
+        inverted=inv,
         u_second=np.where(np.isnan(u_second), 0.75, u_second),
-        **{name: c[name] for name in ("H", "U_L", "U_sep", "p", "h", "k_b", "alpha", "d",
-                                      "k_t", "k_lim", "t", "t_lim")},
+        **{
+            name: c[name]
+            for name in (
+                "H",
+                "U_L",
+                "U_sep",
+                "p",
+                "h",
+                "k_b",
+                "alpha",
+                "d",
+                "k_t",
+                "k_lim",
+                "t",
+                "t_lim",
+            )
+        },
     )

@@ -37,8 +37,18 @@ __all__ = [
 ]
 
 #: Columns that identify a row or describe its design: never outputs.
-_NOT_OUTPUTS = {"design_id", "n_units", "sample", "requested", "found", "status", "n_iter",
-                "dyn_status", "final_state", *SHARED_FIELDS}
+_NOT_OUTPUTS = {
+    "design_id",
+    "n_units",
+    "sample",
+    "requested",
+    "found",
+    "status",
+    "n_iter",
+    "dyn_status",
+    "final_state",
+    *SHARED_FIELDS,
+}
 #: Derived output: Euclidean distance between predicted and true tip (mm).
 TIP = "tip"
 
@@ -133,12 +143,22 @@ def load_training_data(root: str | Path, outputs: Sequence[str]) -> TrainingData
     available = output_columns(schema)
     for name in outputs:
         if name not in available:
-            raise ValueError(f"output {name!r}: not an output column of {root}; "
-                             f"choose from {', '.join(available)}")
+            raise ValueError(
+                f"output {name!r}: not an output column of {root}; "
+                f"choose from {', '.join(available)}"
+            )
     max_n = max((k for k in range(1, MAX_UNITS + 1) if f"H_{k}" in schema.names), default=0)
     per_unit = [f"{name}_{k}" for name in PER_UNIT_FIELDS for k in range(1, max_n + 1)]
-    columns = ["design_id", "n_units", "requested", "status_label", "problem", *per_unit,
-               *SHARED_FIELDS, *outputs]
+    columns = [
+        "design_id",
+        "n_units",
+        "requested",
+        "status_label",
+        "problem",
+        *per_unit,
+        *SHARED_FIELDS,
+        *outputs,
+    ]
     frame = read_results(root, columns=columns)
     frame = frame[frame["problem"].isna()].drop(columns="problem").reset_index(drop=True)
     frame["status_label"] = frame["status_label"].astype(str)
@@ -150,7 +170,10 @@ def load_training_data(root: str | Path, outputs: Sequence[str]) -> TrainingData
 
 
 def split_by_design(
-    design_id: NDArray[np.integer], *, test_fraction: float, seed: int = 0,
+    design_id: NDArray[np.integer],
+    *,
+    test_fraction: float,
+    seed: int = 0,
     max_train_designs: int | None = None,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Row masks of a train / held-out split that keeps each design's rows together.
@@ -217,13 +240,18 @@ def held_out_errors(
             e, r = errors[name][rows_n], relative[name][rows_n]
             if e.size == 0:
                 continue
-            rows.append({
-                "output": name, "n_units": n, "n": int(e.size),
-                "median": float(np.median(e)), "p95": float(np.quantile(e, 0.95)),
-                "max": float(e.max()),
-                "median_rel": float(np.median(r)) if np.isfinite(r).any() else np.nan,
-                "p95_rel": float(np.quantile(r, 0.95)) if np.isfinite(r).any() else np.nan,
-            })
+            rows.append(
+                {
+                    "output": name,
+                    "n_units": n,
+                    "n": int(e.size),
+                    "median": float(np.median(e)),
+                    "p95": float(np.quantile(e, 0.95)),
+                    "max": float(e.max()),
+                    "median_rel": float(np.median(r)) if np.isfinite(r).any() else np.nan,
+                    "p95_rel": float(np.quantile(r, 0.95)) if np.isfinite(r).any() else np.nan,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -241,5 +269,8 @@ def designs_from_rows(frame: pd.DataFrame) -> DesignBatch:
     values = values.reshape(n, len(PER_UNIT_FIELDS), MAX_UNITS)
     per_unit = {name: np.ascontiguousarray(values[:, j]) for j, name in enumerate(PER_UNIT_FIELDS)}
     shared = frame[list(SHARED_FIELDS)].to_numpy(dtype=float)
-    return DesignBatch(n_units=n_units, **per_unit,
-                       **{name: shared[:, j].copy() for j, name in enumerate(SHARED_FIELDS)})
+    return DesignBatch(
+        n_units=n_units,
+        **per_unit,
+        **{name: shared[:, j].copy() for j, name in enumerate(SHARED_FIELDS)},
+    )

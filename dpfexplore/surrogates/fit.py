@@ -41,15 +41,26 @@ from .data import (
 )
 from .flat import CLASSIFIER_KINDS, KINDS, DesignSurrogate, StatusClassifier
 
-__all__ = ["ALL_CLASSIFIER_KINDS", "ALL_KINDS", "GOALS", "SurrogateSet", "fit_surrogates",
-           "one_thread", "time_per_row"]
+__all__ = [
+    "ALL_CLASSIFIER_KINDS",
+    "ALL_KINDS",
+    "GOALS",
+    "SurrogateSet",
+    "fit_surrogates",
+    "one_thread",
+    "time_per_row",
+]
 
 logger = logging.getLogger(__name__)
 
 #: Issue 12's goals on held-out designs of the paper's box: tip error (mm), classifier accuracy,
 #: training designs.
-GOALS = {"tip_median_mm": 0.05, "tip_p95_mm": 0.3, "classifier_accuracy": 0.99,
-         "max_train_designs": 100_000}
+GOALS = {
+    "tip_median_mm": 0.05,
+    "tip_p95_mm": 0.3,
+    "classifier_accuracy": 0.99,
+    "max_train_designs": 100_000,
+}
 #: Largest number of held-out rows timed in one batched call, and rows timed one at a time.
 TIMED_BATCH = 5000
 TIMED_SINGLE = 60
@@ -111,8 +122,7 @@ class SurrogateSet:
         if kind not in self.regressors:
             raise ValueError(f"kind = {kind!r}: this surrogate has {', '.join(self.regressors)}")
         model = self.regressors[kind]
-        out = pd.DataFrame(model.predict(designs), columns=list(self.outputs),
-                           index=designs.index)
+        out = pd.DataFrame(model.predict(designs), columns=list(self.outputs), index=designs.index)
         p_ok = self.classifier.predict_proba(designs)[:, 1]
         out["p_ok"] = p_ok
         out["exists"] = p_ok > 0.5
@@ -145,7 +155,10 @@ def _median_seconds(func: Callable[[], object], repeats: int) -> float:
 
 
 def time_per_row(
-    predict: Callable[[pd.DataFrame], object], frame: pd.DataFrame, *, repeats: int = 3,
+    predict: Callable[[pd.DataFrame], object],
+    frame: pd.DataFrame,
+    *,
+    repeats: int = 3,
     single_rows: int = TIMED_SINGLE,
 ) -> tuple[float, float]:
     """Microseconds per row of ``predict``: batched (one call on ``frame``) and single.
@@ -172,8 +185,12 @@ def _exact_predict(outputs: Sequence[str]) -> Callable[[pd.DataFrame], dict[str,
     stiffness, min_eig = "stiffness" in outputs, "min_eig" in outputs
 
     def predict(rows: pd.DataFrame) -> dict[str, NDArray]:
-        return solve_batch(designs_from_rows(rows), rows["requested"].to_numpy(dtype=np.int64),
-                           stiffness=stiffness, min_eig=min_eig)
+        return solve_batch(
+            designs_from_rows(rows),
+            rows["requested"].to_numpy(dtype=np.int64),
+            stiffness=stiffness,
+            min_eig=min_eig,
+        )
 
     return predict
 
@@ -235,34 +252,63 @@ def fit_surrogates(
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=threads):
-        return _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction,
-                               max_train_designs, seed, params, timing, progress)
+        return _fit_surrogates(
+            data,
+            kinds,
+            classifier_kind,
+            per_n,
+            test_fraction,
+            max_train_designs,
+            seed,
+            params,
+            timing,
+            progress,
+        )
 
 
-def _make_regressor(kind: str, outputs: Sequence[str], per_n: bool, seed: int,
-                    params: Mapping[str, Any]) -> DesignSurrogate | ChainSurrogate:
+def _make_regressor(
+    kind: str, outputs: Sequence[str], per_n: bool, seed: int, params: Mapping[str, Any]
+) -> DesignSurrogate | ChainSurrogate:
     params = dict(params)
     max_train = params.pop("max_train", None)
     if kind == CHAIN:
         inner = params.pop("inner", "mlp")
         inner_params = params.pop("inner_params", None)
-        return ChainSurrogate(outputs=tuple(outputs), params=params, inner=inner,
-                              inner_params=inner_params, max_train=max_train,
-                              random_state=seed)
-    return DesignSurrogate(kind=kind, per_n=per_n, random_state=seed, max_train=max_train,
-                           params=params)
+        return ChainSurrogate(
+            outputs=tuple(outputs),
+            params=params,
+            inner=inner,
+            inner_params=inner_params,
+            max_train=max_train,
+            random_state=seed,
+        )
+    return DesignSurrogate(
+        kind=kind, per_n=per_n, random_state=seed, max_train=max_train, params=params
+    )
 
 
 def _make_classifier(kind: str, per_n: bool, seed: int, params: Mapping[str, Any]):
     if kind == CHAIN:
-        return ChainStatusClassifier(random_state=seed, **dict(params.get("chain_classifier")
-                                                               or {}))
-    return StatusClassifier(kind=kind, per_n=per_n, random_state=seed,
-                            params=params.get("classifier"))
+        return ChainStatusClassifier(
+            random_state=seed, **dict(params.get("chain_classifier") or {})
+        )
+    return StatusClassifier(
+        kind=kind, per_n=per_n, random_state=seed, params=params.get("classifier")
+    )
 
 
-def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_train_designs, seed,
-                    params, timing, progress) -> SurrogateSet:
+def _fit_surrogates(
+    data,
+    kinds,
+    classifier_kind,
+    per_n,
+    test_fraction,
+    max_train_designs,
+    seed,
+    params,
+    timing,
+    progress,
+) -> SurrogateSet:
     say = progress or logger.info
     kinds = list(dict.fromkeys(kinds))
     for kind in kinds:
@@ -270,30 +316,40 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
             raise ValueError(f"kind {kind!r}: choose from {', '.join(ALL_KINDS)}")
     if not kinds:
         raise ValueError("kinds: none given")
-    classifier_kinds = list(dict.fromkeys(
-        [classifier_kind] if isinstance(classifier_kind, str) else classifier_kind))
+    classifier_kinds = list(
+        dict.fromkeys([classifier_kind] if isinstance(classifier_kind, str) else classifier_kind)
+    )
     for kind in classifier_kinds:
         if kind not in ALL_CLASSIFIER_KINDS:
-            raise ValueError(f"classifier kind {kind!r}: choose from "
-                             f"{', '.join(ALL_CLASSIFIER_KINDS)}")
+            raise ValueError(
+                f"classifier kind {kind!r}: choose from {', '.join(ALL_CLASSIFIER_KINDS)}"
+            )
     if not classifier_kinds:
         raise ValueError("classifier kinds: none given")
     params = dict(params or {})
     frame, outputs = data.frame, list(data.outputs)
-    train, test = split_by_design(frame["design_id"].to_numpy(), test_fraction=test_fraction,
-                                  seed=seed, max_train_designs=max_train_designs)
+    train, test = split_by_design(
+        frame["design_id"].to_numpy(),
+        test_fraction=test_fraction,
+        seed=seed,
+        max_train_designs=max_train_designs,
+    )
     ok = data.ok
     if not (train & ok).any() or not (test & ok).any():
-        raise ValueError(f"{data.root}: no rows whose requested state exists on one side of "
-                         "the split (too few designs?)")
+        raise ValueError(
+            f"{data.root}: no rows whose requested state exists on one side of "
+            "the split (too few designs?)"
+        )
     train_ok, test_ok = frame[train & ok], frame[test & ok]
     test_all = frame[test]
     n_designs = {
         "train": int(frame.loc[train, "design_id"].nunique()),
         "test": int(test_all["design_id"].nunique()),
     }
-    say(f"split by design: {n_designs['train']} training designs ({int(train.sum())} rows, "
-        f"{len(train_ok)} ok), {n_designs['test']} held out ({int(test.sum())} rows)")
+    say(
+        f"split by design: {n_designs['train']} training designs ({int(train.sum())} rows, "
+        f"{len(train_ok)} ok), {n_designs['test']} held out ({int(test.sum())} rows)"
+    )
 
     truth_ok = ok[test]
     test_n = test_all["n_units"].to_numpy()
@@ -306,15 +362,19 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
         right = predicted_ok == truth_ok
         classifiers[kind] = classifier
         classifier_records[kind] = {
-            "kind": kind, "accuracy": float(np.mean(right)),
-            "accuracy_per_n": {int(n): float(np.mean(right[test_n == n]))
-                               for n in np.unique(test_n)},
+            "kind": kind,
+            "accuracy": float(np.mean(right)),
+            "accuracy_per_n": {
+                int(n): float(np.mean(right[test_n == n])) for n in np.unique(test_n)
+            },
             "missed": int(np.sum(truth_ok & ~predicted_ok)),
             "false_alarms": int(np.sum(~truth_ok & predicted_ok)),
             "test_rows": int(test.sum()),
         }
-        say(f"classifier ({kind}): held-out accuracy {classifier_records[kind]['accuracy']:.4f}"
-            f" ({classifier_seconds[kind]:.1f} s)")
+        say(
+            f"classifier ({kind}): held-out accuracy {classifier_records[kind]['accuracy']:.4f}"
+            f" ({classifier_seconds[kind]:.1f} s)"
+        )
     # Ties go to the first kind given.
     best_classifier = max(classifier_kinds, key=lambda k: classifier_records[k]["accuracy"])
     classifier = classifiers[best_classifier]
@@ -324,16 +384,19 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
     y_train = train_ok[outputs].to_numpy(dtype=float)
     for kind in kinds:
         start = time.perf_counter()
-        model = _make_regressor(kind, outputs, per_n, seed,
-                                params.get(kind) or {}).fit(train_ok, y_train)
+        model = _make_regressor(kind, outputs, per_n, seed, params.get(kind) or {}).fit(
+            train_ok, y_train
+        )
         fit_seconds[kind] = time.perf_counter() - start
         table = held_out_errors(test_ok, model.predict(test_ok), outputs)
         table.insert(0, "model", kind)
         error_tables.append(table)
         regressors[kind] = model
         line = table[(table["output"] == _headline(outputs)) & (table["n_units"] == "all")]
-        say(f"{kind}: fitted in {fit_seconds[kind]:.1f} s; held-out {_headline(outputs)} error "
-            f"median {line['median'].iloc[0]:.4g}, p95 {line['p95'].iloc[0]:.4g}")
+        say(
+            f"{kind}: fitted in {fit_seconds[kind]:.1f} s; held-out {_headline(outputs)} error "
+            f"median {line['median'].iloc[0]:.4g}, p95 {line['p95'].iloc[0]:.4g}"
+        )
 
     exact = _exact_predict(outputs)
     exact_out = exact(test_all)
@@ -359,9 +422,14 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
                 speed.append({"model": kind, "us_batched": batched, "us_single": single})
             for kind, model in classifiers.items():
                 batched, single = time_per_row(model.predict, timed)
-                speed.append({"model": f"classifier ({kind})", "us_batched": batched,
-                              "us_single": single,
-                              "fit_s": classifier_seconds[kind]})
+                speed.append(
+                    {
+                        "model": f"classifier ({kind})",
+                        "us_batched": batched,
+                        "us_single": single,
+                        "fit_s": classifier_seconds[kind],
+                    }
+                )
             batched, single = time_per_row(exact, timed)
             speed.append({"model": "exact", "us_batched": batched, "us_single": single})
         for row in speed:
@@ -374,60 +442,102 @@ def _fit_surrogates(data, kinds, classifier_kind, per_n, test_fraction, max_trai
         "outputs": outputs,
         "units": dict(data.units),
         "headline": headline,
-        "dataset": {"path": str(data.root), "fingerprint": data.fingerprint,
-                    "rows": len(frame), "designs": int(frame["design_id"].nunique())},
-        "split": {"by": "design_id", "test_fraction": test_fraction, "seed": seed,
-                  "max_train_designs": max_train_designs, "train_designs": n_designs["train"],
-                  "test_designs": n_designs["test"], "train_rows_ok": len(train_ok),
-                  "test_rows_ok": len(test_ok)},
+        "dataset": {
+            "path": str(data.root),
+            "fingerprint": data.fingerprint,
+            "rows": len(frame),
+            "designs": int(frame["design_id"].nunique()),
+        },
+        "split": {
+            "by": "design_id",
+            "test_fraction": test_fraction,
+            "seed": seed,
+            "max_train_designs": max_train_designs,
+            "train_designs": n_designs["train"],
+            "test_designs": n_designs["test"],
+            "train_rows_ok": len(train_ok),
+            "test_rows_ok": len(test_ok),
+        },
         "per_n": per_n,
         "kinds": kinds,
         "best": best,
         "errors": errors.to_dict(orient="records"),
-        "classifier": {**classifier_records[best_classifier],
-                       "exact_model_agreement": exact_status_agreement},
+        "classifier": {
+            **classifier_records[best_classifier],
+            "exact_model_agreement": exact_status_agreement,
+        },
         "classifiers": [classifier_records[k] for k in classifier_kinds],
-        "fit_seconds": {**fit_seconds, "classifier": classifier_s,
-                        **{f"classifier ({k})": v for k, v in classifier_seconds.items()}},
-        "fit_notes": {**{k: m.fit_notes_ for k, m in regressors.items()},
-                      "classifier": classifier.fit_notes_,
-                      **{f"classifier ({k})": m.fit_notes_ for k, m in classifiers.items()}},
+        "fit_seconds": {
+            **fit_seconds,
+            "classifier": classifier_s,
+            **{f"classifier ({k})": v for k, v in classifier_seconds.items()},
+        },
+        "fit_notes": {
+            **{k: m.fit_notes_ for k, m in regressors.items()},
+            "classifier": classifier.fit_notes_,
+            **{f"classifier ({k})": m.fit_notes_ for k, m in classifiers.items()},
+        },
         "speed": speed,
     }
-    by_n = errors[(errors["model"] == best) & (errors["output"] == headline)
-                  & (errors["n_units"] != "all")]
+    by_n = errors[
+        (errors["model"] == best) & (errors["output"] == headline) & (errors["n_units"] != "all")
+    ]
     report["goals"] = _goals(report, pooled.loc[best], by_n, headline)
     report["verdict"] = _verdict(report)
-    return SurrogateSet(tuple(outputs), dict(data.units), regressors, classifier, best,
-                        report, dict(data.fingerprint), classifiers)
+    return SurrogateSet(
+        tuple(outputs),
+        dict(data.units),
+        regressors,
+        classifier,
+        best,
+        report,
+        dict(data.fingerprint),
+        classifiers,
+    )
 
 
-def _goals(report: Mapping[str, Any], best: pd.Series, by_n: pd.DataFrame,
-           headline: str) -> dict[str, Any]:
+def _goals(
+    report: Mapping[str, Any], best: pd.Series, by_n: pd.DataFrame, headline: str
+) -> dict[str, Any]:
     """The issue's goals on all held-out designs, and on the worst N (``n_units`` says which)."""
     goals: dict[str, Any] = {}
     if headline == TIP:
         for stat in ("median", "p95"):
             goal = GOALS[f"tip_{stat}_mm"]
-            goals[f"tip_{stat}_mm"] = {"goal": goal, "value": float(best[stat]),
-                                       "met": bool(best[stat] <= goal)}
+            goals[f"tip_{stat}_mm"] = {
+                "goal": goal,
+                "value": float(best[stat]),
+                "met": bool(best[stat] <= goal),
+            }
             if len(by_n):
                 worst = by_n.loc[by_n[stat].astype(float).idxmax()]
                 goals[f"tip_{stat}_mm_worst_n"] = {
-                    "goal": goal, "value": float(worst[stat]), "n_units": int(worst["n_units"]),
-                    "met": bool(worst[stat] <= goal)}
+                    "goal": goal,
+                    "value": float(worst[stat]),
+                    "n_units": int(worst["n_units"]),
+                    "met": bool(worst[stat] <= goal),
+                }
     accuracy = report["classifier"]["accuracy"]
-    goals["classifier_accuracy"] = {"goal": GOALS["classifier_accuracy"], "value": accuracy,
-                                    "met": bool(accuracy >= GOALS["classifier_accuracy"])}
+    goals["classifier_accuracy"] = {
+        "goal": GOALS["classifier_accuracy"],
+        "value": accuracy,
+        "met": bool(accuracy >= GOALS["classifier_accuracy"]),
+    }
     per_n = report["classifier"]["accuracy_per_n"]
     if per_n:
         n, value = min(per_n.items(), key=lambda item: item[1])
         goals["classifier_accuracy_worst_n"] = {
-            "goal": GOALS["classifier_accuracy"], "value": value, "n_units": int(n),
-            "met": bool(value >= GOALS["classifier_accuracy"])}
+            "goal": GOALS["classifier_accuracy"],
+            "value": value,
+            "n_units": int(n),
+            "met": bool(value >= GOALS["classifier_accuracy"]),
+        }
     train = report["split"]["train_designs"]
-    goals["train_designs"] = {"goal": GOALS["max_train_designs"], "value": train,
-                              "met": bool(train <= GOALS["max_train_designs"])}
+    goals["train_designs"] = {
+        "goal": GOALS["max_train_designs"],
+        "value": train,
+        "met": bool(train <= GOALS["max_train_designs"]),
+    }
     return goals
 
 
@@ -439,24 +549,36 @@ def _verdict(report: Mapping[str, Any]) -> str:
     exact = speed["exact"]
     headline = report["headline"]
     unit = "mm" if headline == TIP else report["units"].get(headline, "")
-    lines = [f"The exact model takes {exact['us_batched']:.1f} µs per design batched and "
-             f"{exact['us_single']:.0f} µs for a single design on one core, with no error."]
+    lines = [
+        f"The exact model takes {exact['us_batched']:.1f} µs per design batched and "
+        f"{exact['us_single']:.0f} µs for a single design on one core, with no error."
+    ]
     for kind in report["kinds"]:
         row = speed[kind]
         batched = exact["us_batched"] / row["us_batched"]
         single = exact["us_single"] / row["us_single"]
-        relation = (f"{batched:.1f}x faster than the exact model batched" if batched > 1
-                    else f"{1 / batched:.1f}x slower than the exact model batched")
-        relation += (f", {single:.1f}x faster single" if single > 1
-                     else f", {1 / single:.1f}x slower single")
-        lines.append(f"{kind}: {relation}, at a held-out {headline} error of "
-                     f"{row[f'{headline}_median']:.3g} {unit} median, "
-                     f"{row[f'{headline}_p95']:.3g} {unit} p95.")
+        relation = (
+            f"{batched:.1f}x faster than the exact model batched"
+            if batched > 1
+            else f"{1 / batched:.1f}x slower than the exact model batched"
+        )
+        relation += (
+            f", {single:.1f}x faster single" if single > 1 else f", {1 / single:.1f}x slower single"
+        )
+        lines.append(
+            f"{kind}: {relation}, at a held-out {headline} error of "
+            f"{row[f'{headline}_median']:.3g} {unit} median, "
+            f"{row[f'{headline}_p95']:.3g} {unit} p95."
+        )
     faster = [k for k in report["kinds"] if speed[k]["us_batched"] < exact["us_batched"]]
     if not faster:
-        lines.append("No surrogate is faster than the exact model: call the exact model "
-                     "(solve_batch) instead; the surrogates only add error.")
+        lines.append(
+            "No surrogate is faster than the exact model: call the exact model "
+            "(solve_batch) instead; the surrogates only add error."
+        )
     else:
-        lines.append(f"Faster than the exact model batched: {', '.join(faster)}; each at the "
-                     "error above, where the exact model has none.")
+        lines.append(
+            f"Faster than the exact model batched: {', '.join(faster)}; each at the "
+            "error above, where the exact model has none."
+        )
     return " ".join(lines)

@@ -88,19 +88,23 @@ def _raw_features(frame: pd.DataFrame, n_units: int, use_state: bool) -> tuple[N
     if missing:
         raise ValueError(f"designs: missing column {missing[0]!r} (N = {n_units})")
     values = frame[names].to_numpy(dtype=float)
-    H, U_sep = values[:, :n_units], values[:, 2 * n_units:3 * n_units]
+    H, U_sep = values[:, :n_units], values[:, 2 * n_units : 3 * n_units]
     t, r_b, t_ch = (frame[c].to_numpy(dtype=float)[:, None] for c in ("t", "r_b", "t_ch"))
     with np.errstate(all="ignore"):
         alpha = dome_alpha(H, t, dome_radius(H, r_b))
         reach, _ = dome_reach(H, t, U_sep, t_ch)
         inverted = np.nan_to_num(dome_extrema(alpha)[1], nan=0.75) * reach
-    names = [*names, *(f"{stem}_{k}" for stem in ("alpha", "reach", "inverted")
-                       for k in range(1, n_units + 1))]
+    names = [
+        *names,
+        *(f"{stem}_{k}" for stem in ("alpha", "reach", "inverted") for k in range(1, n_units + 1)),
+    ]
     parts = [values, alpha, reach, inverted]
     if use_state:
         if "requested" not in frame.columns:
-            raise ValueError("designs: missing column 'requested' (the model was fitted on "
-                             "several requested states per design)")
+            raise ValueError(
+                "designs: missing column 'requested' (the model was fitted on "
+                "several requested states per design)"
+            )
         parts.append(_state_bits(frame["requested"].to_numpy(), n_units))
         names += [f"state_{k}" for k in range(1, n_units + 1)]
     return np.column_stack(parts), names
@@ -122,13 +126,19 @@ def _make_estimator(kind: str, task: str, params: Mapping[str, Any], seed: int, 
 
         # A k-d tree computes distances directly; the brute-force path expands |x - y|^2 and
         # puts a training point ~1e-8 from itself, so distance weights would not be exact there.
-        return KNeighborsRegressor(**{"n_neighbors": 8, "weights": "distance",
-                                      "algorithm": "kd_tree", **params})
+        return KNeighborsRegressor(
+            **{"n_neighbors": 8, "weights": "distance", "algorithm": "kd_tree", **params}
+        )
     if kind == "gbt":
         from sklearn.ensemble import HistGradientBoostingClassifier, HistGradientBoostingRegressor
 
-        defaults = {"max_iter": 500, "learning_rate": 0.1, "max_leaf_nodes": 31,
-                    "early_stopping": False, "random_state": seed}
+        defaults = {
+            "max_iter": 500,
+            "learning_rate": 0.1,
+            "max_leaf_nodes": 31,
+            "early_stopping": False,
+            "random_state": seed,
+        }
         if task == "classify":
             return HistGradientBoostingClassifier(**{**defaults, **params})
         from sklearn.multioutput import MultiOutputRegressor
@@ -137,9 +147,15 @@ def _make_estimator(kind: str, task: str, params: Mapping[str, Any], seed: int, 
     if kind == "mlp":
         from sklearn.neural_network import MLPClassifier, MLPRegressor
 
-        defaults = {"hidden_layer_sizes": (128, 128), "batch_size": 256, "max_iter": 500,
-                    "learning_rate_init": 2e-3, "tol": 1e-6, "n_iter_no_change": 20,
-                    "random_state": seed}
+        defaults = {
+            "hidden_layer_sizes": (128, 128),
+            "batch_size": 256,
+            "max_iter": 500,
+            "learning_rate_init": 2e-3,
+            "tol": 1e-6,
+            "n_iter_no_change": 20,
+            "random_state": seed,
+        }
         cls = MLPClassifier if task == "classify" else MLPRegressor
         merged = {**defaults, **params}
         merged["batch_size"] = min(merged["batch_size"], n_rows)
@@ -164,8 +180,9 @@ def _fit_quietly(model: Any, Z: NDArray, T: NDArray, notes: list[str], n: int) -
         if issubclass(warning.category, ConvergenceWarning):
             notes.append(f"N={n}: {str(warning.message).splitlines()[0]}")
         else:
-            warnings.warn_explicit(warning.message, warning.category, warning.filename,
-                                   warning.lineno)
+            warnings.warn_explicit(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )
     _flush_subnormals(model)
     return model
 
@@ -210,8 +227,9 @@ class _DesignModel(BaseEstimator):
             lo, hi = raw.min(axis=0), raw.max(axis=0)
             varying = hi > lo
             self.feature_names_[n] = [c for c, v in zip(names, varying, strict=True) if v]
-            self.fixed_[n] = {c: float(v) for c, v, var in zip(names, lo, varying, strict=True)
-                              if not var}
+            self.fixed_[n] = {
+                c: float(v) for c, v, var in zip(names, lo, varying, strict=True) if not var
+            }
             self.lower_[n], self.upper_[n] = lo[varying], hi[varying]
             self.n_train_[n] = int(rows.sum())
             self.varying_[n] = varying
@@ -236,11 +254,13 @@ class _DesignModel(BaseEstimator):
             raw, names = _raw_features(X.loc[rows], n, self.use_state_)
             z = self._scale(raw, n)
             fixed = raw[:, ~self.varying_[n]]
-            want = np.array([self.fixed_[n][c] for c, v in zip(names, self.varying_[n],
-                                                                   strict=True) if not v])
+            want = np.array(
+                [self.fixed_[n][c] for c, v in zip(names, self.varying_[n], strict=True) if not v]
+            )
             ok = np.all((z >= -RANGE_SLACK) & (z <= 1.0 + RANGE_SLACK), axis=1)
-            ok &= np.all(np.abs(fixed - want) <= RANGE_SLACK * np.maximum(1.0, np.abs(want)),
-                         axis=1)
+            ok &= np.all(
+                np.abs(fixed - want) <= RANGE_SLACK * np.maximum(1.0, np.abs(want)), axis=1
+            )
             inside[rows] = ok & np.all(np.isfinite(raw), axis=1)
             scaled[n] = np.nan_to_num(z)
         return n_units, scaled, inside
@@ -306,9 +326,15 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
         Convergence warnings of the estimators (e.g. an MLP stopped at ``max_iter``).
     """
 
-    def __init__(self, *, kind: str = "mlp", per_n: bool = True,
-                 params: Mapping[str, Any] | None = None, max_train: int | None = None,
-                 random_state: int = 0) -> None:
+    def __init__(
+        self,
+        *,
+        kind: str = "mlp",
+        per_n: bool = True,
+        params: Mapping[str, Any] | None = None,
+        max_train: int | None = None,
+        random_state: int = 0,
+    ) -> None:
         self.kind = kind
         self.per_n = per_n
         self.params = params
@@ -362,9 +388,9 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
         if self.kind == "gp" and "kernel" not in params:
             from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-            params["kernel"] = (ConstantKernel(1.0, (1e-2, 1e3))
-                                * RBF(np.ones(Z.shape[1]), (1e-2, 1e3))
-                                + WhiteKernel(1e-4, (1e-10, 1e-1)))
+            params["kernel"] = ConstantKernel(1.0, (1e-2, 1e3)) * RBF(
+                np.ones(Z.shape[1]), (1e-2, 1e3)
+            ) + WhiteKernel(1e-4, (1e-10, 1e-1))
         model = _make_estimator(self.kind, "regress", params, self.random_state, Z.shape[0])
         target = T[:, 0] if T.shape[1] == 1 and self.kind != "gbt" else T
         return _fit_quietly(model, Z, target, self.fit_notes_, n)
@@ -386,7 +412,7 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
             pred = self.models_[0].predict(Z).reshape(Z.shape[0], -1)
             start = 0
             for n, z in scaled.items():
-                out[n_units == n] = self._unscale(pred[start:start + z.shape[0]], n)
+                out[n_units == n] = self._unscale(pred[start : start + z.shape[0]], n)
                 start += z.shape[0]
         return out
 
@@ -416,8 +442,14 @@ class StatusClassifier(ClassifierMixin, _DesignModel):
         As in :class:`DesignSurrogate`.
     """
 
-    def __init__(self, *, kind: str = "gbt", per_n: bool = True,
-                 params: Mapping[str, Any] | None = None, random_state: int = 0) -> None:
+    def __init__(
+        self,
+        *,
+        kind: str = "gbt",
+        per_n: bool = True,
+        params: Mapping[str, Any] | None = None,
+        random_state: int = 0,
+    ) -> None:
         self.kind = kind
         self.per_n = per_n
         self.params = params
@@ -447,8 +479,9 @@ class StatusClassifier(ClassifierMixin, _DesignModel):
     def _fit_one(self, Z: NDArray, labels: NDArray, n: int) -> Any:
         if labels.all() or not labels.any():
             return bool(labels[0])
-        model = _make_estimator(self.kind, "classify", self.params or {}, self.random_state,
-                                Z.shape[0])
+        model = _make_estimator(
+            self.kind, "classify", self.params or {}, self.random_state, Z.shape[0]
+        )
         return _fit_quietly(model, Z, labels, self.fit_notes_, n)
 
     def predict_proba(self, X: pd.DataFrame) -> NDArray:
@@ -463,7 +496,7 @@ class StatusClassifier(ClassifierMixin, _DesignModel):
             p = self._p_ok(self.models_[0], Z)
             start = 0
             for n, z in scaled.items():
-                p_ok[n_units == n] = p[start:start + z.shape[0]]
+                p_ok[n_units == n] = p[start : start + z.shape[0]]
                 start += z.shape[0]
         return np.column_stack([1.0 - p_ok, p_ok])
 
@@ -476,4 +509,3 @@ class StatusClassifier(ClassifierMixin, _DesignModel):
     def predict(self, X: pd.DataFrame) -> NDArray[np.bool_]:
         """Whether each row's requested state exists (False also for an N not fitted)."""
         return self.predict_proba(X)[:, 1] > 0.5
-

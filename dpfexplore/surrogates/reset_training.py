@@ -140,19 +140,32 @@ def training_designs(n: int, seed: int, domain: dict | None = None) -> DesignBat
         U_L[~active] = np.nan
         U_sep[~active] = np.nan
         batch = DesignBatch(
-            n_units=n_units, H=H, U_L=U_L, U_sep=U_sep, t=rng.uniform(*domain["t"], m),
-            t_lim=rng.uniform(*domain["t_lim"], m), **domain["fixed"],
-        )  # fmt: skip
+            n_units=n_units,
+            H=H,
+            U_L=U_L,
+            U_sep=U_sep,
+            t=rng.uniform(*domain["t"], m),
+            t_lim=rng.uniform(*domain["t_lim"], m),
+            **domain["fixed"],
+        )
         batch = batch.take(np.flatnonzero(batch.status() == 0)[: n - count])
         kept.append(batch)
         count += len(batch)
-    return DesignBatch(**{name: np.concatenate([getattr(b, name) for b in kept])
-                          for name in DesignBatch.__dataclass_fields__})  # fmt: skip
+    return DesignBatch(
+        **{
+            name: np.concatenate([getattr(b, name) for b in kept])
+            for name in DesignBatch.__dataclass_fields__
+        }
+    )
 
 
 def _concat(batches: list[DesignBatch]) -> DesignBatch:
-    return DesignBatch(**{name: np.concatenate([getattr(b, name) for b in batches])
-                          for name in DesignBatch.__dataclass_fields__})  # fmt: skip
+    return DesignBatch(
+        **{
+            name: np.concatenate([getattr(b, name) for b in batches])
+            for name in DesignBatch.__dataclass_fields__
+        }
+    )
 
 
 @dataclass
@@ -169,14 +182,20 @@ class _Labelled:
         return _Labelled(_concat([self.batch, other.batch]), cat, ref)
 
 
-def _label(batch: DesignBatch, profile: PressureProfile, t_end: float, atol: float,
-           core: dict | None = None) -> _Labelled:  # fmt: skip
+def _label(
+    batch: DesignBatch,
+    profile: PressureProfile,
+    t_end: float,
+    atol: float,
+    core: dict | None = None,
+) -> _Labelled:
     if core is None:
         core = fast_reset_core(batch, profile, t_end=t_end, atol=atol)
     start = time.perf_counter()
     ref = reset_times_batch(batch, profile, t_end=t_end, atol=REFERENCE_ATOL)
-    logger.info("labelled %d designs with the full model in %.1f s", len(batch),
-                time.perf_counter() - start)  # fmt: skip
+    logger.info(
+        "labelled %d designs with the full model in %.1f s", len(batch), time.perf_counter() - start
+    )
     return _Labelled(batch, core, ref)
 
 
@@ -192,8 +211,13 @@ def _units(data: _Labelled, small_t: float) -> tuple[NDArray, NDArray, NDArray, 
     ref_t = data.ref["reset_time"]
     ok = (data.core["status"] == 0) & (data.ref["status"] == 0) & ~raced_release(data.core)
     with np.errstate(invalid="ignore"):
-        mask = ok[:, None] & np.isfinite(core_t) & (core_t >= small_t) & np.isfinite(ref_t) & (
-            ref_t > 0.0)  # fmt: skip
+        mask = (
+            ok[:, None]
+            & np.isfinite(core_t)
+            & (core_t >= small_t)
+            & np.isfinite(ref_t)
+            & (ref_t > 0.0)
+        )
     x = unit_features(data.batch, data.core, mask)
     y = np.log(ref_t[mask] / core_t[mask])
     return x, y, np.nonzero(mask)[0], mask
@@ -202,9 +226,16 @@ def _units(data: _Labelled, small_t: float) -> tuple[NDArray, NDArray, NDArray, 
 def _gbr(**kwargs):
     from sklearn.ensemble import GradientBoostingRegressor
 
-    base = {"n_estimators": 400, "max_depth": 3, "learning_rate": 0.05, "subsample": 0.8,
-            "min_samples_leaf": 20, "n_iter_no_change": 20, "validation_fraction": 0.15,
-            "random_state": 0}  # fmt: skip
+    base = {
+        "n_estimators": 400,
+        "max_depth": 3,
+        "learning_rate": 0.05,
+        "subsample": 0.8,
+        "min_samples_leaf": 20,
+        "n_iter_no_change": 20,
+        "validation_fraction": 0.15,
+        "random_state": 0,
+    }
     return GradientBoostingRegressor(**{**base, **kwargs})
 
 
@@ -220,8 +251,9 @@ def _fit_trees(x: NDArray, y: NDArray, groups: NDArray, seed: int):
         part = _gbr(loss="huber", alpha=0.9).fit(x[fold != f], y[fold != f])
         residual[fold == f] = np.abs(y[fold == f] - part.predict(x[fold == f]))
     scale = _gbr(loss="quantile", alpha=0.9).fit(x, residual)
-    return TreeEnsemble.from_gradient_boosting(correction), \
-        TreeEnsemble.from_gradient_boosting(scale)  # fmt: skip
+    return TreeEnsemble.from_gradient_boosting(correction), TreeEnsemble.from_gradient_boosting(
+        scale
+    )
 
 
 def _margin_min(data: _Labelled) -> float:
@@ -239,8 +271,12 @@ def _conformal(model: ResetModel, data: _Labelled, horizon: float) -> tuple[floa
     """Conformal factor, monostable half-width and calibration facts on ``data``."""
     core_t = data.core["reset_time"]
     ref_t = data.ref["reset_time"]
-    run = (data.core["status"] == 0) & (data.ref["status"] == 0) & (
-        data.core["design_diag"][:, 2] >= model.margin_min) & ~raced_release(data.core)  # fmt: skip
+    run = (
+        (data.core["status"] == 0)
+        & (data.ref["status"] == 0)
+        & (data.core["design_diag"][:, 2] >= model.margin_min)
+        & ~raced_release(data.core)
+    )
     with np.errstate(invalid="ignore"):
         slow = run[:, None] & np.isfinite(core_t) & (core_t >= model.small_T)
         quick = run[:, None] & np.isfinite(core_t) & (core_t < model.small_T)
@@ -257,8 +293,11 @@ def _conformal(model: ResetModel, data: _Labelled, horizon: float) -> tuple[floa
     quick_err = np.abs(ref_t[quick] - core_t[quick])
     quick_err = np.where(np.isfinite(quick_err), quick_err, np.inf)
     abs_half = _conformal_quantile(quick_err, model.coverage) if quick_err.size else 0.01
-    facts = {"calibration_units": int(score.size), "calibration_quick_units": int(quick_err.size),
-             "calibration_designs": int(run.sum())}  # fmt: skip
+    facts = {
+        "calibration_units": int(score.size),
+        "calibration_quick_units": int(quick_err.size),
+        "calibration_designs": int(run.sum()),
+    }
     return q, abs_half, facts
 
 
@@ -271,8 +310,11 @@ def _conformal_quantile(score: NDArray, level: float) -> float:
 def _score_pool(model: ResetModel, batch: DesignBatch, core: dict) -> NDArray:
     """Per design: the largest predicted scale of its slow units (0 where none)."""
     with np.errstate(invalid="ignore"):
-        slow = (core["status"] == 0)[:, None] & np.isfinite(core["reset_time"]) & (
-            core["reset_time"] >= model.small_T)  # fmt: skip
+        slow = (
+            (core["status"] == 0)[:, None]
+            & np.isfinite(core["reset_time"])
+            & (core["reset_time"] >= model.small_T)
+        )
     score = np.zeros(len(batch))
     if slow.any():
         s = model.scale.predict(unit_features(batch, core, slow))
@@ -283,42 +325,62 @@ def _score_pool(model: ResetModel, batch: DesignBatch, core: dict) -> NDArray:
     return score
 
 
-def fit_reset_model(options: TrainingOptions = TrainingOptions(),
-                    domain: dict | None = None) -> tuple[ResetModel, dict]:  # fmt: skip
+def fit_reset_model(
+    options: TrainingOptions = TrainingOptions(), domain: dict | None = None
+) -> tuple[ResetModel, dict]:
     """Train the fitted part (module docstring); returns the model and a training record."""
     domain = domain or DEFAULT_DOMAIN
     profile = PressureProfile.pulse(options.P0, options.tau)
     t_end = options.tau[3] + options.horizon
     start = time.perf_counter()
     seeds = np.random.SeedSequence(options.seed).spawn(options.rounds + 3)
-    data = _label(training_designs(options.initial, _int(seeds[0]), domain), profile, t_end,
-                  options.atol)  # fmt: skip
+    data = _label(
+        training_designs(options.initial, _int(seeds[0]), domain), profile, t_end, options.atol
+    )
     rounds = []
     model = None
     for r in range(options.rounds + 1):
         x, y, groups, _ = _units(data, SMALL_T)
         correction, scale = _fit_trees(x, y, groups, options.seed + r)
         model = ResetModel(
-            P0=options.P0, tau=tuple(options.tau), horizon_max=options.horizon, domain=domain,
-            atol=options.atol, correction=correction, scale=scale, conformal_q=1.0,
-            coverage=0.9, scale_floor=SCALE_FLOOR, small_T=SMALL_T, abs_halfwidth=0.01,
+            P0=options.P0,
+            tau=tuple(options.tau),
+            horizon_max=options.horizon,
+            domain=domain,
+            atol=options.atol,
+            correction=correction,
+            scale=scale,
+            conformal_q=1.0,
+            coverage=0.9,
+            scale_floor=SCALE_FLOOR,
+            small_T=SMALL_T,
+            abs_halfwidth=0.01,
             margin_min=_margin_min(data),
-        )  # fmt: skip
-        rounds.append({"round": r, "designs": len(data.batch), "units": int(y.size),
-                       "margin_min": model.margin_min})  # fmt: skip
+        )
+        rounds.append(
+            {
+                "round": r,
+                "designs": len(data.batch),
+                "units": int(y.size),
+                "margin_min": model.margin_min,
+            }
+        )
         logger.info("round %d: %d designs, %d units", r, len(data.batch), y.size)
         if r == options.rounds:
             break
         pool = training_designs(options.pool, _int(seeds[r + 3]), domain)
         pool_core = fast_reset_core(pool, profile, t_end=t_end, atol=options.atol)
         chosen = np.argsort(-_score_pool(model, pool, pool_core), kind="stable")[
-            : options.per_round]  # fmt: skip
+            : options.per_round
+        ]
         pool_core = {k: v[chosen] for k, v in pool_core.items()}
         data = data.extend(_label(pool.take(chosen), profile, t_end, options.atol, pool_core))
         rounds[-1]["chosen_mean_score"] = float(
-            np.mean(_score_pool(model, pool.take(chosen), pool_core)))  # fmt: skip
-    calibration = _label(training_designs(options.calibration, _int(seeds[1]), domain), profile,
-                         t_end, options.atol)  # fmt: skip
+            np.mean(_score_pool(model, pool.take(chosen), pool_core))
+        )
+    calibration = _label(
+        training_designs(options.calibration, _int(seeds[1]), domain), profile, t_end, options.atol
+    )
     q, abs_half, facts = _conformal(model, calibration, options.horizon)
     importance = _importance(model, data)
     ablation = _ablation(model, data, calibration)
@@ -333,10 +395,19 @@ def fit_reset_model(options: TrainingOptions = TrainingOptions(),
         "ablation": ablation,
         "versions": package_versions(),
     }
-    model = ResetModel(**{**{k: getattr(model, k) for k in model.__dataclass_fields__},
-                          "conformal_q": q, "abs_halfwidth": abs_half, "info": info})  # fmt: skip
-    record = {"training_designs": len(data.batch), "calibration_designs": len(calibration.batch),
-              **info}  # fmt: skip
+    model = ResetModel(
+        **{
+            **{k: getattr(model, k) for k in model.__dataclass_fields__},
+            "conformal_q": q,
+            "abs_halfwidth": abs_half,
+            "info": info,
+        }
+    )
+    record = {
+        "training_designs": len(data.batch),
+        "calibration_designs": len(calibration.batch),
+        **info,
+    }
     return model, record
 
 
@@ -354,9 +425,19 @@ def _importance(model: ResetModel, data: _Labelled) -> dict[str, float]:
 
 
 #: Features a fit without the release dynamics can use: the design and the static loading.
-STATIC_FEATURES = tuple(name for name in FEATURES if name not in (
-    "log_T_core", "crossings", "log_event_step", "event_error", "n_reset_core",
-    "release_steps"))  # fmt: skip
+STATIC_FEATURES = tuple(
+    name
+    for name in FEATURES
+    if name
+    not in (
+        "log_T_core",
+        "crossings",
+        "log_event_step",
+        "event_error",
+        "n_reset_core",
+        "release_steps",
+    )
+)
 
 
 def _ablation(model: ResetModel, data: _Labelled, calibration: _Labelled) -> dict:
@@ -371,13 +452,22 @@ def _ablation(model: ResetModel, data: _Labelled, calibration: _Labelled) -> dic
         core_t = d.core["reset_time"]
         ref_t = d.ref["reset_time"]
         with np.errstate(invalid="ignore"):
-            mask = ((d.core["status"] == 0) & (d.ref["status"] == 0))[:, None] & np.isfinite(
-                core_t) & np.isfinite(ref_t) & (ref_t >= 0.05) & (core_t >= model.small_T)
+            mask = (
+                ((d.core["status"] == 0) & (d.ref["status"] == 0))[:, None]
+                & np.isfinite(core_t)
+                & np.isfinite(ref_t)
+                & (ref_t >= 0.05)
+                & (core_t >= model.small_T)
+            )
         return unit_features(d.batch, d.core, mask), ref_t[mask], core_t[mask]
 
     def stats(rel):
-        return {"median": float(np.median(rel)), "p95": float(np.quantile(rel, 0.95)),
-                "max": float(rel.max()), "units": int(rel.size)}  # fmt: skip
+        return {
+            "median": float(np.median(rel)),
+            "p95": float(np.quantile(rel, 0.95)),
+            "max": float(rel.max()),
+            "units": int(rel.size),
+        }
 
     x_train, t_train, _ = units(data)
     x_test, t_test, core_test = units(calibration)
@@ -385,7 +475,8 @@ def _ablation(model: ResetModel, data: _Labelled, calibration: _Labelled) -> dic
         return {}
     static = [FEATURES.index(name) for name in STATIC_FEATURES]
     fit = _gbr(n_estimators=1500, max_depth=5, loss="huber", alpha=0.9).fit(
-        x_train[:, static], np.log(t_train))  # fmt: skip
+        x_train[:, static], np.log(t_train)
+    )
     corrected = core_test * np.exp(model.correction.predict(x_test))
     return {
         "static_features": list(STATIC_FEATURES),

@@ -126,8 +126,11 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
 
     path = Path(path)
     path.mkdir(parents=True, exist_ok=True)
-    payload = {"regressors": surrogates.regressors, "classifier": surrogates.classifier,
-               "classifiers": surrogates.classifiers}
+    payload = {
+        "regressors": surrogates.regressors,
+        "classifier": surrogates.classifier,
+        "classifiers": surrogates.classifiers,
+    }
     data = sio.dumps(payload)
     untrusted = sorted(set(sio.get_untrusted_types(data=data)) - set(TRUSTED_TYPES))
     if untrusted:  # would be refused on load: fail now rather than write it
@@ -139,8 +142,10 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
         "surrogate_version": SURROGATE_VERSION,
         "model_version": MODEL_VERSION,
         "versions": _library_versions(),
-        "dataset": {"path": report.get("dataset", {}).get("path"),
-                    "fingerprint": surrogates.fingerprint},
+        "dataset": {
+            "path": report.get("dataset", {}).get("path"),
+            "fingerprint": surrogates.fingerprint,
+        },
         "outputs": list(surrogates.outputs),
         "units": surrogates.units,
         "kinds": list(surrogates.regressors),
@@ -157,8 +162,7 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
-        plot_speed_error(pd.DataFrame(report["speed"]), error=f"{report['headline']}_p95",
-                         ax=ax)
+        plot_speed_error(pd.DataFrame(report["speed"]), error=f"{report['headline']}_p95", ax=ax)
         fig.savefig(path / SPEED_PNG, dpi=130)
         plt.close(fig)
     return path
@@ -174,8 +178,9 @@ def _read_meta(path: Path) -> dict[str, Any]:
     except ValueError as exc:
         raise SurrogateLoadError(f"{path / META}: unreadable ({exc})") from None
     if meta.get("format") != FORMAT:
-        raise SurrogateLoadError(f"{path}: format {meta.get('format')!r}, this dpfexplore "
-                                 f"reads {FORMAT!r}")
+        raise SurrogateLoadError(
+            f"{path}: format {meta.get('format')!r}, this dpfexplore reads {FORMAT!r}"
+        )
     return meta
 
 
@@ -202,17 +207,20 @@ def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None)
     if meta.get("surrogate_version") != SURROGATE_VERSION:
         raise SurrogateLoadError(
             f"surrogate version {meta.get('surrogate_version')!r}, this dpfexplore reads "
-            f"{SURROGATE_VERSION!r}: refit it")
+            f"{SURROGATE_VERSION!r}: refit it"
+        )
     if meta.get("model_version") != MODEL_VERSION:
         raise SurrogateLoadError(
             f"fitted on model version {meta.get('model_version')!r}, this dpfexplore computes "
-            f"{MODEL_VERSION!r}: refit it on a dataset of this model")
+            f"{MODEL_VERSION!r}: refit it on a dataset of this model"
+        )
     import sklearn
 
     saved = meta.get("versions", {}).get("scikit-learn", "?")
     if _minor(saved) != _minor(sklearn.__version__):
         raise SurrogateLoadError(
-            f"saved with scikit-learn {saved}, this is {sklearn.__version__}: refit it")
+            f"saved with scikit-learn {saved}, this is {sklearn.__version__}: refit it"
+        )
     if dataset is not None:
         try:
             actual = dataset_fingerprint(dataset)
@@ -223,7 +231,8 @@ def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None)
             if actual.get(key) != wanted.get(key):
                 raise SurrogateLoadError(
                     f"dataset {dataset} is not the one this surrogate was fitted on "
-                    f"({key} {str(actual.get(key))[:16]} != {str(wanted.get(key))[:16]})")
+                    f"({key} {str(actual.get(key))[:16]} != {str(wanted.get(key))[:16]})"
+                )
 
 
 def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> SurrogateSet:
@@ -253,13 +262,18 @@ def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> S
         raise SurrogateLoadError(f"{models}: checksum differs from {META} (changed or damaged)")
     untrusted = sorted(set(sio.get_untrusted_types(file=models)) - set(TRUSTED_TYPES))
     if untrusted:
-        raise SurrogateLoadError(f"{models}: holds types this loader does not trust: "
-                                 f"{', '.join(untrusted)}")
+        raise SurrogateLoadError(
+            f"{models}: holds types this loader does not trust: {', '.join(untrusted)}"
+        )
     payload = sio.load(models, trusted=list(TRUSTED_TYPES))
     report = read_report(path)
     return SurrogateSet(
-        outputs=tuple(meta["outputs"]), units=dict(meta.get("units", {})),
-        regressors=payload["regressors"], classifier=payload["classifier"], best=meta["best"],
-        report=report, fingerprint=meta["dataset"]["fingerprint"],
+        outputs=tuple(meta["outputs"]),
+        units=dict(meta.get("units", {})),
+        regressors=payload["regressors"],
+        classifier=payload["classifier"],
+        best=meta["best"],
+        report=report,
+        fingerprint=meta["dataset"]["fingerprint"],
         classifiers=payload.get("classifiers") or {meta["classifier"]: payload["classifier"]},
     )

@@ -17,7 +17,6 @@ class JobSpecError(ValueError):
     """A job file that does not validate; the message is one line naming the key."""
 
 
-
 def check_keys(
     table: Mapping[str, Any], where: str, *, required: tuple[str, ...], optional: tuple[str, ...]
 ) -> None:
@@ -75,8 +74,12 @@ def string(table: Mapping[str, Any], where: str, key: str, *, default: str | Non
 
 
 def choice(
-    table: Mapping[str, Any], where: str, key: str, choices: tuple[str, ...],
-    *, default: str | None = None,
+    table: Mapping[str, Any],
+    where: str,
+    key: str,
+    choices: tuple[str, ...],
+    *,
+    default: str | None = None,
 ) -> str:
     if key not in table and default is not None:
         return default

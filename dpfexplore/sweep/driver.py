@@ -68,6 +68,7 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+
 class Progress(Protocol):
     """Receives the sweep's progress (the CLI shows a bar or log lines)."""
 
@@ -393,8 +394,7 @@ def run_sweep(
     created = not out.exists()
     try:
         with sweep_lock(out):
-            return _run_locked(spec, out, resume, engine, evaluator, chunk_size, progress,
-                               started)  # fmt: skip
+            return _run_locked(spec, out, resume, engine, evaluator, chunk_size, progress, started)
     except StoreError:
         if created:  # bad input writes nothing: remove the directory the lock created
             _remove_if_empty(out)
@@ -480,8 +480,9 @@ def _commit(out: Path, manifest: Manifest, record: ChunkRecord, *, remote: bool)
     if problem is not None:
         hint = (
             "; with --scheduler, --out must be a directory the workers share with this machine"
-            if remote else "; was the directory changed by another process?"
-        )  # fmt: skip
+            if remote
+            else "; was the directory changed by another process?"
+        )
         raise StoreError(
             f"chunk {record.path}: a worker reported it written, but here it is {problem}{hint}"
         )
@@ -494,4 +495,3 @@ def _status_totals(records: Iterable[ChunkRecord]) -> dict[str, int]:
     for record in records:
         totals.update(record.statuses)
     return dict(sorted(totals.items()))
-

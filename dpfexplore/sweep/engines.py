@@ -316,7 +316,8 @@ class DaskEngine(Engine):
                 logger.warning(
                     "worker %s has %d threads; its chunks run one at a time (start workers with "
                     "--nthreads 1 to use the cores through worker processes)",
-                    address, info["nthreads"],
+                    address,
+                    info["nthreads"],
                 )
         return threads, 1
 
@@ -346,8 +347,13 @@ class DaskEngine(Engine):
         def submit(task: ChunkTask, attempt: int):
             key = f"dpfexplore-chunk-{token}-N{task.n_units:02d}-{task.index:06d}-a{attempt}"
             future = client.submit(
-                _run_chunk_on_worker, context, task, threads_by_host, default,
-                key=key, pure=False,
+                _run_chunk_on_worker,
+                context,
+                task,
+                threads_by_host,
+                default,
+                key=key,
+                pure=False,
             )
             submitted[future.key] = (task, attempt)
             return future
@@ -368,8 +374,12 @@ class DaskEngine(Engine):
                 except (Exception, CancelledError) as error:
                     message = f"{type(error).__name__}: {error}"
                     if attempt < self.max_attempts:
-                        logger.warning("chunk %s attempt %d failed (%s); resubmitting",
-                                       task.path, attempt, message)
+                        logger.warning(
+                            "chunk %s attempt %d failed (%s); resubmitting",
+                            task.path,
+                            attempt,
+                            message,
+                        )
                         pending.add(submit(task, attempt + 1))
                     else:
                         yield ChunkFailure(task, message)
@@ -399,9 +409,7 @@ class DaskEngine(Engine):
 _POLL_S = 2.0
 
 
-def make_engine(
-    name: str, *, workers: int | None = None, scheduler: str | None = None
-) -> Engine:
+def make_engine(name: str, *, workers: int | None = None, scheduler: str | None = None) -> Engine:
     """Engine by CLI name: ``"local"`` (``workers`` = Numba threads) or ``"dask"``.
 
     Raises

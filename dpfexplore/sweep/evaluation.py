@@ -95,39 +95,76 @@ class StaticsEvaluator:
     def fields(self, max_units: int) -> list[pa.Field]:
         """State columns, then (with reset times) the per-design dynamics columns."""
         fields = [
-            column("requested", pa.int64(), "1",
-                   "requested state: inversion vector as an integer, unit 1 = most significant "
-                   "bit (-1: none, invalid design)"),
-            column("requested_bits", STATE_BITS_TYPE, "1",
-                   "requested state as a bit string, unit 1 first ('11110')"),
-            column("found", pa.int64(), "1",
-                   "state the solver settled in (differs from requested when collapsed; -1: none)"),
+            column(
+                "requested",
+                pa.int64(),
+                "1",
+                "requested state: inversion vector as an integer, unit 1 = most significant "
+                "bit (-1: none, invalid design)",
+            ),
+            column(
+                "requested_bits",
+                STATE_BITS_TYPE,
+                "1",
+                "requested state as a bit string, unit 1 first ('11110')",
+            ),
+            column(
+                "found",
+                pa.int64(),
+                "1",
+                "state the solver settled in (differs from requested when collapsed; -1: none)",
+            ),
             column("found_bits", STATE_BITS_TYPE, "1", "found state as a bit string, unit 1 first"),
-            column("status", pa.int8(), "1",
-                   "outcome code of the row (dpfexplore.model.status.Status)"),
-            column("status_label", STATUS_TYPE, "1",
-                   "outcome: ok, invalid_input, invalid_constants, outside_domain (a dome "
-                   "taller than its base radius or its unit; not solved), not_converged, "
-                   "collapsed (requested state does not exist; outputs describe the found "
-                   "state), nonfinite, degenerate_geometry, unstable"),
+            column(
+                "status", pa.int8(), "1", "outcome code of the row (dpfexplore.model.status.Status)"
+            ),
+            column(
+                "status_label",
+                STATUS_TYPE,
+                "1",
+                "outcome: ok, invalid_input, invalid_constants, outside_domain (a dome "
+                "taller than its base radius or its unit; not solved), not_converged, "
+                "collapsed (requested state does not exist; outputs describe the found "
+                "state), nonfinite, degenerate_geometry, unstable",
+            ),
             column("energy", pa.float64(), "N·mm", "total elastic energy of the state"),
             column("energy_linear", pa.float64(), "N·mm", "energy of posts and limiting layer"),
             column("energy_dome", pa.float64(), "N·mm", "energy of the dome springs"),
             column("energy_torsion", pa.float64(), "N·mm", "energy of the torsional springs"),
             column("tip_x", pa.float64(), "mm", "x of the tip node L_N (MODEL.md §5 frame)"),
             column("tip_y", pa.float64(), "mm", "y of the tip node L_N"),
-            column("bend_angle", pa.float64(), "rad",
-                   "heading of the last limiting-layer segment (unwrapped along the finger)"),
-            column("curvature", pa.float64(), "1/mm",
-                   "mean curvature: bend angle over the limiting layer's length"),
+            column(
+                "bend_angle",
+                pa.float64(),
+                "rad",
+                "heading of the last limiting-layer segment (unwrapped along the finger)",
+            ),
+            column(
+                "curvature",
+                pa.float64(),
+                "1/mm",
+                "mean curvature: bend angle over the limiting layer's length",
+            ),
         ]
         if self.compute.min_eig:
-            fields.append(column("min_eig", pa.float64(), "N/mm",
-                                 "smallest eigenvalue of the Hessian on the free coordinates"))
+            fields.append(
+                column(
+                    "min_eig",
+                    pa.float64(),
+                    "N/mm",
+                    "smallest eigenvalue of the Hessian on the free coordinates",
+                )
+            )
         if self.compute.stiffness:
-            fields.append(column("stiffness", pa.float64(), "N/mm",
-                                 "tip stiffness 1/(n^T H^-1 n) for a force normal to the last "
-                                 "limiting-layer segment (MODEL.md §7)"))
+            fields.append(
+                column(
+                    "stiffness",
+                    pa.float64(),
+                    "N/mm",
+                    "tip stiffness 1/(n^T H^-1 n) for a force normal to the last "
+                    "limiting-layer segment (MODEL.md §7)",
+                )
+            )
         fields += [
             column("grad_norm", pa.float64(), "N", "largest gradient component at the solution"),
             column("n_iter", pa.int32(), "1", "Hessian evaluations over all search attempts"),
@@ -165,37 +202,68 @@ class StaticsEvaluator:
 
 def _dynamics_fields(max_units: int, *, fast: bool = False) -> list[pa.Field]:
     fields = [
-        column("dyn_status", pa.int8(), "1",
-               "outcome code of the pressure-cycle simulation (per design; invalid designs keep "
-               "their input status)"),
+        column(
+            "dyn_status",
+            pa.int8(),
+            "1",
+            "outcome code of the pressure-cycle simulation (per design; invalid designs keep "
+            "their input status)",
+        ),
         column("dyn_status_label", STATUS_TYPE, "1", "outcome of the simulation, as a label"),
-        column("final_state", pa.int64(), "1",
-               "state at the end of the simulation horizon (-1: not simulated)"),
+        column(
+            "final_state",
+            pa.int64(),
+            "1",
+            "state at the end of the simulation horizon (-1: not simulated)",
+        ),
     ]
     per_unit = (
-        ("reset_time", pa.float64(), "s",
-         "time from the end of release until unit {k} falls back below its barrier "
-         "(inf: not within the horizon; NaN: never inverted, no contact or not simulated)"),
+        (
+            "reset_time",
+            pa.float64(),
+            "s",
+            "time from the end of release until unit {k} falls back below its barrier "
+            "(inf: not within the horizon; NaN: never inverted, no contact or not simulated)",
+        ),
         ("snap_through", pa.float64(), "s", "time unit {k} snapped through (inverted)"),
         ("snap_back", pa.float64(), "s", "time unit {k} snapped back"),
-        ("unit_class", pa.int8(), "1",
-         "class of unit {k} in its finger: 0 bistable, 1 metastable, 2 monostable, "
-         "3 no contact (reach d clamped: no inversion in this model), "
-         "-1 never inverted or not simulated"),
+        (
+            "unit_class",
+            pa.int8(),
+            "1",
+            "class of unit {k} in its finger: 0 bistable, 1 metastable, 2 monostable, "
+            "3 no contact (reach d clamped: no inversion in this model), "
+            "-1 never inverted or not simulated",
+        ),
     )
     if fast:
         fields += [
-            column("reset_fallback", pa.bool_(), "1",
-                   "the fast reset model fell back to the full model for this design"),
-            column("reset_fallback_reason", pa.int16(), "1",
-                   "why (bit flags, dpfexplore.solvers.dynamics.fast_reset.FALLBACK_REASONS;"
-                   " 0: none)"),
+            column(
+                "reset_fallback",
+                pa.bool_(),
+                "1",
+                "the fast reset model fell back to the full model for this design",
+            ),
+            column(
+                "reset_fallback_reason",
+                pa.int16(),
+                "1",
+                "why (bit flags, dpfexplore.solvers.dynamics.fast_reset.FALLBACK_REASONS; 0: none)",
+            ),
         ]
         per_unit += (
-            ("reset_time_lo", pa.float64(), "s",
-             "lower end of the fast model's 90 % interval of reset_time_{k}"),
-            ("reset_time_hi", pa.float64(), "s",
-             "upper end of the fast model's 90 % interval of reset_time_{k}"),
+            (
+                "reset_time_lo",
+                pa.float64(),
+                "s",
+                "lower end of the fast model's 90 % interval of reset_time_{k}",
+            ),
+            (
+                "reset_time_hi",
+                pa.float64(),
+                "s",
+                "upper end of the fast model's 90 % interval of reset_time_{k}",
+            ),
         )
     for name, dtype, unit, text in per_unit:
         fields += [

@@ -146,8 +146,10 @@ def acquire(out: str | Path) -> dict:
             if holder is None:
                 continue
         if not _is_stale(holder):
-            where = "" if holder.get("host") == me["host"] else (
-                f"; if that process is gone, remove {path}"
+            where = (
+                ""
+                if holder.get("host") == me["host"]
+                else (f"; if that process is gone, remove {path}")
             )
             raise LockHeld(
                 f"--out {out}: another sweep is using this directory: {describe(holder)}{where}"

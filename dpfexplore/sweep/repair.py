@@ -132,8 +132,10 @@ def _chunk_size(spec: JobSpec, n_units: int, found: list[_Candidate], given: int
             votes[start // index] += 1
     if votes:
         return votes.most_common(1)[0][0]
-    size = spec.chunk_size if spec.chunk_size is not None else default_chunk_size(
-        spec.compute, n_units
+    size = (
+        spec.chunk_size
+        if spec.chunk_size is not None
+        else default_chunk_size(spec.compute, n_units)
     )
     if any(c.identity["index"] == 0 and c.identity["stop"] == spec.samples_per_n for c in found):
         size = max(size, spec.samples_per_n)  # one chunk held the whole plan of this N
@@ -181,11 +183,16 @@ def _record(candidate: _Candidate) -> ChunkRecord:
         counts = labels.dictionary_decode().value_counts()
         statuses = {str(e["values"]): int(e["counts"]) for e in counts.to_pylist()}
     return ChunkRecord(
-        path=candidate.path, n_units=ident["n_units"], index=ident["index"],
-        start=ident["start"], stop=ident["stop"], rows=candidate.table.num_rows,
-        bytes=len(candidate.data), sha256=hashlib.sha256(candidate.data).hexdigest(),
+        path=candidate.path,
+        n_units=ident["n_units"],
+        index=ident["index"],
+        start=ident["start"],
+        stop=ident["stop"],
+        rows=candidate.table.num_rows,
+        bytes=len(candidate.data),
+        sha256=hashlib.sha256(candidate.data).hexdigest(),
         statuses=dict(sorted(statuses.items())),
-    )  # fmt: skip
+    )
 
 
 def repair_sweep(

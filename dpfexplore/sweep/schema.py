@@ -77,8 +77,12 @@ _SHARED_DOCS = {
 def design_fields(max_units: int) -> list[pa.Field]:
     """Columns that identify and describe a design (repeated on each of its state rows)."""
     fields = [
-        column("design_id", pa.int64(), "1",
-               "design number within the sweep: designs of smaller N first, then plan order"),
+        column(
+            "design_id",
+            pa.int64(),
+            "1",
+            "design number within the sweep: designs of smaller N first, then plan order",
+        ),
         column("n_units", pa.int8(), "1", "number of units N"),
         column("sample", pa.int64(), "1", "index of the design in the sample plan of its N"),
     ]
@@ -90,16 +94,24 @@ def design_fields(max_units: int) -> list[pa.Field]:
     fields += [
         column(name, pa.float64(), unit, text) for name, (unit, text) in _SHARED_DOCS.items()
     ]
-    fields.append(column(
-        "problem", pa.string(), "1",
-        "why the design is invalid (null for a valid design); see status",
-    ))
-    fields.append(column(
-        "fitted_range", pa.bool_(), "1",
-        "true when the design's H (every unit), t, E and r_b lie in the ranges the closed-form "
-        "spring constants were fitted on (dpfexplore.model.domain.FITTED_RANGES: H 3-5 mm, "
-        "t 0.5-1 mm, E 5-40 MPa, r_b 5 mm); false: its results extrapolate the closed forms",
-    ))
+    fields.append(
+        column(
+            "problem",
+            pa.string(),
+            "1",
+            "why the design is invalid (null for a valid design); see status",
+        )
+    )
+    fields.append(
+        column(
+            "fitted_range",
+            pa.bool_(),
+            "1",
+            "true when the design's H (every unit), t, E and r_b lie in the ranges the closed-form "
+            "spring constants were fitted on (dpfexplore.model.domain.FITTED_RANGES: H 3-5 mm, "
+            "t 0.5-1 mm, E 5-40 MPa, r_b 5 mm); false: its results extrapolate the closed forms",
+        )
+    )
     return fields
 
 
@@ -131,12 +143,14 @@ def describe_schema(schema: pa.Schema) -> pd.DataFrame:
     rows = []
     for f in schema:
         meta = {k.decode(): v.decode() for k, v in (f.metadata or {}).items()}
-        rows.append({
-            "column": f.name,
-            "type": str(f.type),
-            "unit": meta.get("unit", ""),
-            "description": meta.get("description", ""),
-        })
+        rows.append(
+            {
+                "column": f.name,
+                "type": str(f.type),
+                "unit": meta.get("unit", ""),
+                "description": meta.get("description", ""),
+            }
+        )
     return pd.DataFrame(rows)
 
 

@@ -88,8 +88,15 @@ SHARED_VARIABLES = ("t", "t_lim", "E", "nu", "r_b", "t_ch")
 REQUIRED_VARIABLES = ("H", "U_L", "U_sep", "t", "t_lim")
 #: Physical unit of each variable, for messages and stored field metadata.
 VARIABLE_UNITS = {
-    "H": "mm", "U_L": "mm", "U_sep": "mm", "t": "mm", "t_lim": "mm",
-    "E": "MPa", "nu": "1", "r_b": "mm", "t_ch": "mm",
+    "H": "mm",
+    "U_L": "mm",
+    "U_sep": "mm",
+    "t": "mm",
+    "t_lim": "mm",
+    "E": "MPa",
+    "nu": "1",
+    "r_b": "mm",
+    "t_ch": "mm",
 }
 #: Values of ``compute.states`` (the state selections of
 #: :func:`dpfexplore.solvers.statics.solve_batch`).
@@ -326,9 +333,7 @@ class JobSpec:
         for name, (low, high, unit) in FITTED_RANGES.items():
             variable = self.space.variable(name)
             if variable.low < low or variable.high > high:
-                span = f"{variable.low:g}" + (
-                    f"-{variable.high:g}" if variable.sampled else ""
-                )
+                span = f"{variable.low:g}" + (f"-{variable.high:g}" if variable.sampled else "")
                 fitted = f"{low:g}" if low == high else f"{low:g}-{high:g}"
                 parts.append(f"{name} {span} {unit} (fitted {fitted} {unit})")
         return "; ".join(parts) if parts else None
@@ -400,7 +405,8 @@ def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
     _v.check_keys(data, "", required=("job", "space", "compute"), optional=())
     job = _v.table(data, "job")
     _v.check_keys(
-        job, "job",
+        job,
+        "job",
         required=("seed", "samples_per_n"),
         optional=("name", "description", "sampler", "chunk_size"),
     )
@@ -412,13 +418,15 @@ def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
     sampler = _v.choice(job, "job", "sampler", SAMPLERS, default="lhs")
     chunk_size = (
         _v.integer(job, "job", "chunk_size", low=1, high=MAX_SAMPLES_PER_N)
-        if "chunk_size" in job else None
+        if "chunk_size" in job
+        else None
     )
     description = _v.string(job, "job", "description", default="")
     if sampler == "sobol" and samples & (samples - 1):
         logger.warning(
             "job.samples_per_n = %d is not a power of 2: a scrambled Sobol' plan of that size "
-            "loses its balance properties (still a valid sample)", samples,
+            "loses its balance properties (still a valid sample)",
+            samples,
         )
     return JobSpec(
         name=name,
@@ -450,10 +458,12 @@ def _parse_space(space: Mapping[str, Any]) -> DesignSpace:
         preset = {"E": chosen.E, "nu": chosen.nu}
     variables_table = _v.table(space, "space", "variables")
     _v.check_keys(
-        variables_table, "space.variables",
+        variables_table,
+        "space.variables",
         required=REQUIRED_VARIABLES,
-        optional=tuple(v for v in (*PER_UNIT_VARIABLES, *SHARED_VARIABLES)
-                       if v not in REQUIRED_VARIABLES),
+        optional=tuple(
+            v for v in (*PER_UNIT_VARIABLES, *SHARED_VARIABLES) if v not in REQUIRED_VARIABLES
+        ),
     )
     if material_key is not None and "E" in variables_table:
         raise JobSpecError(
@@ -469,7 +479,9 @@ def _parse_space(space: Mapping[str, Any]) -> DesignSpace:
     if not isinstance(constraints, Mapping):
         raise JobSpecError(f"space.constraints = {constraints!r}: must be a table")
     _v.check_keys(
-        constraints, "space.constraints", required=(),
+        constraints,
+        "space.constraints",
+        required=(),
         optional=("heights", "equal_U_sep", "equal_U_L"),
     )
     return DesignSpace(
@@ -545,7 +557,9 @@ def _bound(name: str, key: str, value: Any) -> float:
 
 def _parse_compute(compute: Mapping[str, Any]) -> ComputeSpec:
     _v.check_keys(
-        compute, "compute", required=("states",),
+        compute,
+        "compute",
+        required=("states",),
         optional=("stiffness", "min_eig", "reset_times"),
     )
     load = None
@@ -567,8 +581,9 @@ def _parse_compute(compute: Mapping[str, Any]) -> ComputeSpec:
 
 def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
     key = "compute.reset_times"
-    _v.check_keys(table, key, required=("P0", "tau", "t_end"),
-                  optional=("method", "max_rel_halfwidth"))
+    _v.check_keys(
+        table, key, required=("P0", "tau", "t_end"), optional=("method", "max_rel_halfwidth")
+    )
     P0 = table["P0"]
     if isinstance(P0, bool) or not isinstance(P0, (int, float)):
         raise JobSpecError(f"{key}.P0 = {P0!r}: must be a number (MPa)")
@@ -592,7 +607,8 @@ def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
         from ..solvers.dynamics.simulate import METHODS
 
         batch_methods = [
-            name for name, info in METHODS.items()
+            name
+            for name, info in METHODS.items()
             if info.integrator >= 0 or info.model in ("release", "fast")
         ]
         if method not in batch_methods:
@@ -602,7 +618,12 @@ def _parse_load(table: Mapping[str, Any]) -> PressureLoad:
     width = None
     if "max_rel_halfwidth" in table:
         if method != "fast":
-            raise JobSpecError(f"{key}.max_rel_halfwidth: only with method = \"fast\"")
+            raise JobSpecError(f'{key}.max_rel_halfwidth: only with method = "fast"')
         width = _v.positive(table, key, "max_rel_halfwidth", "1")
-    return PressureLoad(P0=P0, tau=(tau[0], tau[1], tau[2], tau[3]), t_end=t_end, method=method,
-                        max_rel_halfwidth=width)
+    return PressureLoad(
+        P0=P0,
+        tau=(tau[0], tau[1], tau[2], tau[3]),
+        t_end=t_end,
+        method=method,
+        max_rel_halfwidth=width,
+    )

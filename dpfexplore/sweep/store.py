@@ -241,9 +241,13 @@ def write_chunk(
     target = root / relpath
     target.parent.mkdir(parents=True, exist_ok=True)
     identity = {
-        "n_units": n_units, "index": index, "start": start, "stop": stop,
-        "rows": table.num_rows, "content_sha256": table_digest(table),
-    }  # fmt: skip
+        "n_units": n_units,
+        "index": index,
+        "start": start,
+        "stop": stop,
+        "rows": table.num_rows,
+        "content_sha256": table_digest(table),
+    }
     metadata = dict(table.schema.metadata or {})
     metadata[CHUNK_KEY] = json.dumps(identity, sort_keys=True).encode()
     table = table.replace_schema_metadata(metadata)
@@ -253,8 +257,14 @@ def write_chunk(
     digest = hashlib.sha256(memoryview(buffer)).hexdigest()
     _atomic_write(target, memoryview(buffer))
     return ChunkRecord(
-        path=relpath, n_units=n_units, index=index, start=start, stop=stop,
-        rows=table.num_rows, bytes=buffer.size, sha256=digest,
+        path=relpath,
+        n_units=n_units,
+        index=index,
+        start=start,
+        stop=stop,
+        rows=table.num_rows,
+        bytes=buffer.size,
+        sha256=digest,
     )
 
 

@@ -204,12 +204,14 @@ class DesignVariables:
     def _ordered_slots(self, slots: tuple[_Slot, ...]) -> tuple[int, ...]:
         if self.heights == "free":
             return ()
-        ordered = (
-            range(1, self.n_units + 1) if self.ordered_units is None else self.ordered_units
-        )
+        ordered = range(1, self.n_units + 1) if self.ordered_units is None else self.ordered_units
         units = [int(u) - 1 for u in ordered]
-        if not units or units[0] < 0 or units[-1] >= self.n_units or \
-                any(b <= a for a, b in pairwise(units)):  # fmt: skip
+        if (
+            not units
+            or units[0] < 0
+            or units[-1] >= self.n_units
+            or any(b <= a for a, b in pairwise(units))
+        ):
             raise ValueError(
                 f"ordered_units = {self.ordered_units!r}: increasing units in 1..{self.n_units}"
             )
@@ -235,8 +237,9 @@ class DesignVariables:
         names += [name for name in _SHARED if self._bounds[name][1] > self._bounds[name][0]]
         return tuple(names)
 
-    def _effective_slots(self, slots: tuple[_Slot, ...], chain: tuple[int, ...]
-                         ) -> tuple[_Slot, ...]:  # fmt: skip
+    def _effective_slots(
+        self, slots: tuple[_Slot, ...], chain: tuple[int, ...]
+    ) -> tuple[_Slot, ...]:
         """Bounds of the chained slots narrowed to what the order and the steps leave them."""
         if not chain:
             return slots
@@ -325,8 +328,9 @@ class DesignVariables:
                 H[:, u] = slot_values[:, s]
                 jac[:, u, :] = slot_grad[:, s]
         params: dict[str, NDArray] = {"H": H}
-        for j, (name, shared) in enumerate((("U_L", self.shared_U_L),
-                                            ("U_sep", self.shared_U_sep))):  # fmt: skip
+        for j, (name, shared) in enumerate(
+            (("U_L", self.shared_U_L), ("U_sep", self.shared_U_sep))
+        ):
             low, high = self._bounds[name]
             rows = slice((j + 1) * n, (j + 2) * n)
             if high > low:
@@ -335,7 +339,7 @@ class DesignVariables:
                     jac[:, rows, col] = high - low
                     col += 1
                 else:
-                    params[name] = low + (high - low) * z[:, col:col + n]
+                    params[name] = low + (high - low) * z[:, col : col + n]
                     for k in range(n):
                         jac[:, (j + 1) * n + k, col + k] = high - low
                     col += n
@@ -438,7 +442,7 @@ class DesignVariables:
                     z[:, col] = scaled[:, 0]
                     col += 1
                 else:
-                    z[:, col:col + n] = scaled
+                    z[:, col : col + n] = scaled
                     col += n
         for name in _SHARED:
             low, high = self._bounds[name]
@@ -477,8 +481,9 @@ class DesignVariables:
         known = {f for f in cls.__dataclass_fields__ if not f.startswith("_") and f != "n_units"}
         for key in data:
             if key not in known:
-                raise ValueError(f"{key} = {data[key]!r}: unknown variable key; known: "
-                                 f"{sorted(known)}")  # fmt: skip
+                raise ValueError(
+                    f"{key} = {data[key]!r}: unknown variable key; known: {sorted(known)}"
+                )
         return cls(n_units=n_units, **dict(data))
 
 
@@ -491,6 +496,7 @@ def _height_bounds(value, n_units: int) -> list[tuple[float, float]]:
     """
     if isinstance(value, (str, bytes)):
         raise ValueError(f"H = {value!r}: give a number, [low, high] or one per unit")
+
     def scalar(v) -> bool:
         return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
 

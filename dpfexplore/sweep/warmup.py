@@ -25,10 +25,12 @@ logger = logging.getLogger(__name__)
 
 def tiny_batch() -> DesignBatch:
     """Two small valid designs: one all-bistable, one with a metastable tip unit (MODEL.md §4)."""
-    return DesignBatch.from_designs([
-        Design(H=[4.0, 4.5], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0),
-        Design(H=[4.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0),
-    ])
+    return DesignBatch.from_designs(
+        [
+            Design(H=[4.0, 4.5], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0),
+            Design(H=[4.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0),
+        ]
+    )
 
 
 def compile_kernels(compute: ComputeSpec | None = None) -> float:
@@ -57,8 +59,9 @@ def compile_kernels(compute: ComputeSpec | None = None) -> float:
 
         profile = PressureProfile(P0=0.7, tau=(0.0, 0.01, 0.02, 0.03))
         reset_times_batch(batch.take(np.array([1])), profile, t_end=0.04)
-    if compute is None or (compute.reset_times is not None
-                           and compute.reset_times.method == "fast"):  # fmt: skip
+    if compute is None or (
+        compute.reset_times is not None and compute.reset_times.method == "fast"
+    ):
         from ..solvers.dynamics.fast_reset import compile_fast_reset
 
         compile_fast_reset()

@@ -85,8 +85,19 @@ def test_bench_sweep_record(capsys, tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_bench_sensitivities_record(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    args = ["bench", "sensitivities", "--json", "--units", "2,3", "--designs", "4",
-            "--reference-designs", "2", "--no-compile", "--save"]  # fmt: skip
+    args = [
+        "bench",
+        "sensitivities",
+        "--json",
+        "--units",
+        "2,3",
+        "--designs",
+        "4",
+        "--reference-designs",
+        "2",
+        "--no-compile",
+        "--save",
+    ]
     assert main(args) == 0
     record = json.loads(capsys.readouterr().out)
     rows = record["by_n_units"]
@@ -107,8 +118,19 @@ def test_bench_sensitivities_record(capsys, tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_bench_surrogate_record_has_both_halves(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    argv = ["bench", "surrogate", "--json", "--samples-per-n", "120", "--kinds", "knn",
-            "--classifiers", "chain", "--reset-designs", "12"]
+    argv = [
+        "bench",
+        "surrogate",
+        "--json",
+        "--samples-per-n",
+        "120",
+        "--kinds",
+        "knn",
+        "--classifiers",
+        "chain",
+        "--reset-designs",
+        "12",
+    ]
     assert main(argv) == 0
     record = json.loads(capsys.readouterr().out)
     surrogates, reset = record["surrogates"], record["reset_model"]

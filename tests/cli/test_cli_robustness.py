@@ -62,8 +62,17 @@ def swept(tmp_path_factory):
 def test_ctrl_c_ends_a_sweep_with_one_line_and_exit_130(tmp_path):
     job = write_job(tmp_path / "job.toml", **{"job.samples_per_n": 120})
     out = tmp_path / "out"
-    command = [sys.executable, "-c", SLOW_CLI, "sweep", str(job), "--out", str(out),
-               "--chunk-size", "10"]  # fmt: skip
+    command = [
+        sys.executable,
+        "-c",
+        SLOW_CLI,
+        "sweep",
+        str(job),
+        "--out",
+        str(out),
+        "--chunk-size",
+        "10",
+    ]
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while committed(out) < 2:
@@ -88,8 +97,18 @@ def test_ctrl_c_ends_a_sweep_with_one_line_and_exit_130(tmp_path):
 def test_a_closed_stderr_does_not_stop_a_sweep(tmp_path):
     job = write_job(tmp_path / "job.toml")
     out = tmp_path / "out"
-    command = [sys.executable, "-m", "dpfexplore", "-v", "sweep", str(job), "--out", str(out),
-               "--chunk-size", "4"]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "dpfexplore",
+        "-v",
+        "sweep",
+        str(job),
+        "--out",
+        str(out),
+        "--chunk-size",
+        "4",
+    ]
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     proc.stderr.close()  # every progress and log line now meets a broken pipe
     stdout = proc.stdout.read()
@@ -112,14 +131,16 @@ def test_query_json_into_a_closed_pipe_is_quiet(swept):
 def test_simulate_on_a_directory_is_one_line(tmp_path, capsys):
     assert main(["simulate", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"dpfexplore simulate: error: {tmp_path}: is a directory, not a design file "
-                   "(TOML)"]  # fmt: skip
+    assert err == [
+        f"dpfexplore simulate: error: {tmp_path}: is a directory, not a design file (TOML)"
+    ]
 
 
 def test_every_output_file_gets_its_folder(swept, tmp_path, capsys):
     plot = tmp_path / "a" / "states.png"
-    assert main(["states", str(example_path("pickplace")), "--sequential", "--plot",
-                 str(plot)]) == 0  # fmt: skip
+    assert (
+        main(["states", str(example_path("pickplace")), "--sequential", "--plot", str(plot)]) == 0
+    )
     csv = tmp_path / "b" / "c" / "rows.csv"
     assert main(["query", str(swept / "out"), "--columns", "design_id", "--csv", str(csv)]) == 0
     png = tmp_path / "d" / "space.png"
@@ -131,11 +152,17 @@ def test_every_output_file_gets_its_folder(swept, tmp_path, capsys):
 
 def test_messages_print_numbers_as_numbers():
     batch = DesignBatch(
-        n_units=np.array([2]), H=np.pad([[4.0, 4.0]], ((0, 0), (0, 10)), constant_values=np.nan),
+        n_units=np.array([2]),
+        H=np.pad([[4.0, 4.0]], ((0, 0), (0, 10)), constant_values=np.nan),
         U_L=np.pad([[8.0, 8.0]], ((0, 0), (0, 10)), constant_values=np.nan),
         U_sep=np.pad([[1.0, 1.0]], ((0, 0), (0, 10)), constant_values=np.nan),
-        t=np.array([-0.83]), t_lim=np.array([1.0]), E=26.0, nu=0.35, r_b=5.0, t_ch=1.0,
-    )  # fmt: skip
+        t=np.array([-0.83]),
+        t_lim=np.array([1.0]),
+        E=26.0,
+        nu=0.35,
+        r_b=5.0,
+        t_ch=1.0,
+    )
     message = batch.problems()[1][0]
     assert message == "t = -0.83: must be finite and > 0 mm"
 
@@ -165,8 +192,16 @@ def test_a_rerun_of_an_incomplete_sweep_asks_for_resume(tmp_path, capsys):
 @pytest.mark.slow
 def test_verbose_prints_each_progress_line_once(tmp_path):
     job = write_job(tmp_path / "job.toml")
-    command = [sys.executable, "-m", "dpfexplore", "-v", "sweep", str(job), "--out",
-               str(tmp_path / "out")]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "dpfexplore",
+        "-v",
+        "sweep",
+        str(job),
+        "--out",
+        str(tmp_path / "out"),
+    ]
     stderr = subprocess.run(command, capture_output=True, text=True, timeout=300).stderr
     # progress lines and log records alike: the message after "sweep: ", once each
     said = [line.split(" sweep: ", 1)[1] for line in stderr.splitlines() if " sweep: " in line]
@@ -180,9 +215,12 @@ def test_a_first_compilation_is_announced(tmp_path):
     solve_batch(DesignBatch.from_designs([]), "all_inverted")  # compiled (or loaded) here
     assert compile_notice(["statics"]) is None
     # A fresh process with an empty cache has nothing compiled: it says so before compiling.
-    code = ("from dpfexplore.solvers.compilation import compile_notice; "
-            "print(compile_notice(['statics']))")  # fmt: skip
+    code = (
+        "from dpfexplore.solvers.compilation import compile_notice; "
+        "print(compile_notice(['statics']))"
+    )
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty-cache")}
-    said = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=env, timeout=300).stdout  # fmt: skip
+    said = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    ).stdout
     assert said.startswith("compiling the statics kernels for this machine (first run only")

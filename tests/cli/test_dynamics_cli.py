@@ -22,8 +22,19 @@ def main(monkeypatch):
 
 
 def test_simulate_json(main, capsys):
-    code = main(["simulate", str(example_path("pickplace")), "--P0", "0.7", "--tau",
-                 "0,1,5,5.1", "--t-end", "15", "--json"])  # fmt: skip
+    code = main(
+        [
+            "simulate",
+            str(example_path("pickplace")),
+            "--P0",
+            "0.7",
+            "--tau",
+            "0,1,5,5.1",
+            "--t-end",
+            "15",
+            "--json",
+        ]
+    )
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["final_state"] == "111100"
@@ -38,8 +49,21 @@ def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path):
     design = tmp_path / "weak.toml"
     design.write_text("[design]\nH = [4.0, 3.0]\nU_L = 6.0\nU_sep = 1.0\nt = 0.83\nt_lim = 1.0\n")
     png = tmp_path / "run.png"
-    code = main(["simulate", str(design), "--P0", "0.05", "--tau", "0,0.1,0.3,0.4", "--t-end",
-                 "1", "--json", "--plot", str(png)])  # fmt: skip
+    code = main(
+        [
+            "simulate",
+            str(design),
+            "--P0",
+            "0.05",
+            "--tau",
+            "0,0.1,0.3,0.4",
+            "--t-end",
+            "1",
+            "--json",
+            "--plot",
+            str(png),
+        ]
+    )
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["reset_times"] == [None, None] and out["classes"] == [None, None]
@@ -48,8 +72,18 @@ def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path):
 
 
 def test_simulate_text_and_profile(main, capsys):
-    code = main(["simulate", "pickplace", "--profile", "0:0,0.2:0.7,0.5:0.7,0.55:0",
-                 "--t-end", "3", "--method", "rodas4-overdamped"])  # fmt: skip
+    code = main(
+        [
+            "simulate",
+            "pickplace",
+            "--profile",
+            "0:0,0.2:0.7,0.5:0.7,0.55:0",
+            "--t-end",
+            "3",
+            "--method",
+            "rodas4-overdamped",
+        ]
+    )
     assert code == 0
     text = capsys.readouterr().out
     assert "rodas4-overdamped" in text and "final state" in text
@@ -90,8 +124,21 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path):
 def test_bench_dynamics_json(main, capsys, tmp_path, monkeypatch):
     """A tiny run of the benchmark: one record per method, the Radau baseline's time."""
     monkeypatch.chdir(tmp_path)
-    code = main(["bench", "dynamics", "--json", "--designs", "2", "--radau-designs", "1",
-                 "--explicit-designs", "0", "--no-compile", "--save"])  # fmt: skip
+    code = main(
+        [
+            "bench",
+            "dynamics",
+            "--json",
+            "--designs",
+            "2",
+            "--radau-designs",
+            "1",
+            "--explicit-designs",
+            "0",
+            "--no-compile",
+            "--save",
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     methods = {r["method"] for r in record["records"]}

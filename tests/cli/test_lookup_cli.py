@@ -23,8 +23,17 @@ matplotlib.use("Agg")
 def dataset(tmp_path_factory):
     """N = 3, 4, all units inverted, stiffness."""
     path = tmp_path_factory.mktemp("lookup-cli") / "inv"
-    run_sweep(make_job(**{"job.name": "inv", "job.samples_per_n": 80,
-                          "job.chunk_size": 20, "space.n_units": [3, 4]}), path)  # fmt: skip
+    run_sweep(
+        make_job(
+            **{
+                "job.name": "inv",
+                "job.samples_per_n": 80,
+                "job.chunk_size": 20,
+                "space.n_units": [3, 4],
+            }
+        ),
+        path,
+    )
     return path
 
 
@@ -49,36 +58,43 @@ def one_line_error(capsys, argv) -> str:
 
 def test_bad_input_is_one_line_and_exit_code_2(dataset, tmp_path, capsys):
     d = str(dataset)
-    assert "tip_z" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
-                                              "--columns", "tip_x,tip_z"])  # fmt: skip
+    assert "tip_z" in one_line_error(
+        capsys, ["lookup", d, "--target", "1,2", "--columns", "tip_x,tip_z"]
+    )
     assert "1 values for 2 columns" in one_line_error(capsys, ["lookup", d, "--target", "25"])
     assert "3 values for 2 columns" in one_line_error(capsys, ["lookup", d, "--target", "1,2,3"])
     assert "comma-separated" in one_line_error(capsys, ["lookup", d, "--target", "a,b"])
-    assert "no such dataset" in one_line_error(capsys, ["lookup", str(tmp_path / "none"),
-                                                        "--target", "1,2"])  # fmt: skip
+    assert "no such dataset" in one_line_error(
+        capsys, ["lookup", str(tmp_path / "none"), "--target", "1,2"]
+    )
     not_sweep = tmp_path / "plain"
     not_sweep.mkdir()
-    assert "not a sweep directory" in one_line_error(capsys, ["lookup", str(not_sweep),
-                                                              "--target", "1,2"])  # fmt: skip
+    assert "not a sweep directory" in one_line_error(
+        capsys, ["lookup", str(not_sweep), "--target", "1,2"]
+    )
     empty = copy_dataset(dataset, tmp_path / "empty")
     uncommit(empty, lambda r: False)
     assert "no usable rows" in one_line_error(capsys, ["lookup", str(empty), "--target", "1,2"])
     assert "no indexed rows match" in one_line_error(
-        capsys, ["lookup", d, "--target", "1,2", "--n-units", "6..8"])
+        capsys, ["lookup", d, "--target", "1,2", "--n-units", "6..8"]
+    )
     assert "n_units" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--n-units", "x"])
-    assert "--where" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
-                                                "--where", "stiffness >"])  # fmt: skip
-    assert "colour" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
-                                               "--where", "colour > 1"])  # fmt: skip
-    assert "constraint" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--refine",
-                                                   "--constraints", "heights"])  # fmt: skip
+    assert "--where" in one_line_error(
+        capsys, ["lookup", d, "--target", "1,2", "--where", "stiffness >"]
+    )
+    assert "colour" in one_line_error(
+        capsys, ["lookup", d, "--target", "1,2", "--where", "colour > 1"]
+    )
+    assert "constraint" in one_line_error(
+        capsys, ["lookup", d, "--target", "1,2", "--refine", "--constraints", "heights"]
+    )
     assert "state" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--state", "12"])
     assert "k = 0" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--k", "0"])
-    assert "constraints apply" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
-                                                          "--constraints", "t=0.7"])  # fmt: skip
+    assert "constraints apply" in one_line_error(
+        capsys, ["lookup", d, "--target", "1,2", "--constraints", "t=0.7"]
+    )
     assert "finite" in one_line_error(capsys, ["lookup", d, "--target", "nan,2"])
-    assert "scales" in one_line_error(capsys, ["lookup", d, "--target", "1,2",
-                                               "--scales", "1,-1"])  # fmt: skip
+    assert "scales" in one_line_error(capsys, ["lookup", d, "--target", "1,2", "--scales", "1,-1"])
 
 
 def test_stale_index_refused_with_no_rebuild(dataset, tmp_path, capsys):
@@ -88,8 +104,9 @@ def test_stale_index_refused_with_no_rebuild(dataset, tmp_path, capsys):
     manifest.chunks.pop(sorted(manifest.chunks)[-1])
     store.write_manifest(path, manifest)
     capsys.readouterr()
-    assert "stale" in one_line_error(capsys, ["lookup", str(path), "--target", "30,20",
-                                              "--no-rebuild"])  # fmt: skip
+    assert "stale" in one_line_error(
+        capsys, ["lookup", str(path), "--target", "30,20", "--no-rebuild"]
+    )
     assert main(["lookup", str(path), "--target", "30,20", "--json"]) == 0
     record = json.loads(capsys.readouterr().out)
     assert record["index"]["action"] == "rebuilt"
@@ -114,8 +131,20 @@ def test_incomplete_dataset_is_said_so(dataset, tmp_path, capsys):
 def test_write_round_trips_through_states(dataset, tmp_path, capsys):
     target = [31.0, 21.5]
     out_dir = tmp_path / "found"
-    code = main(["lookup", str(dataset), "--target", "31,21.5", "--k", "2", "--refine",
-                 "--json", "--write", str(out_dir)])  # fmt: skip
+    code = main(
+        [
+            "lookup",
+            str(dataset),
+            "--target",
+            "31,21.5",
+            "--k",
+            "2",
+            "--refine",
+            "--json",
+            "--write",
+            str(out_dir),
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     assert record["reachable"] is True and len(record["written"]) == 2
@@ -135,22 +164,50 @@ def test_write_round_trips_through_states(dataset, tmp_path, capsys):
 
 def test_unreachable_target_gets_nearest_design_and_plot(dataset, tmp_path, capsys):
     plot = tmp_path / "reach.png"
-    code = main(["lookup", str(dataset), "--target", "5,80", "--k", "2", "--refine",
-                 "--plot", str(plot), "--json"])  # fmt: skip
+    code = main(
+        [
+            "lookup",
+            str(dataset),
+            "--target",
+            "5,80",
+            "--k",
+            "2",
+            "--refine",
+            "--plot",
+            str(plot),
+            "--json",
+        ]
+    )
     assert code == 1
     record = json.loads(capsys.readouterr().out)
     assert record["reachable"] is False
     best = record["candidates"][0]
     assert best["status"] in ("not_met", "collapsed") and best["error_mm"] > 1.0
     assert best["error_mm"] <= record["candidates"][0]["source"]["distance"]
-    assert any("target not reached" in note and "nearest design" in note
-               for note in record["notes"])  # fmt: skip
+    assert any(
+        "target not reached" in note and "nearest design" in note for note in record["notes"]
+    )
     assert plot.exists() and plot.stat().st_size > 10_000
 
 
 def test_table_output(dataset, capsys):
-    assert main(["lookup", str(dataset), "--target", "30,20", "--k", "3", "--state",
-                 "all-inverted", "--n-units", "3..4"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "lookup",
+                str(dataset),
+                "--target",
+                "30,20",
+                "--k",
+                "3",
+                "--state",
+                "all-inverted",
+                "--n-units",
+                "3..4",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     lines = out.splitlines()
     assert lines[0].startswith(f"lookup {dataset}: tip_x = 30, tip_y = 20")
@@ -163,9 +220,28 @@ def test_table_output(dataset, capsys):
 def test_bench_lookup_record(dataset, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     path = copy_dataset(dataset, tmp_path / "data")
-    assert main(["bench", "lookup", "--dataset", str(path), "--builds", "1", "--queries", "8",
-                 "--targets", "3", "--tries", "2", "--no-sensitivities", "--json",
-                 "--save"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "bench",
+                "lookup",
+                "--dataset",
+                str(path),
+                "--builds",
+                "1",
+                "--queries",
+                "8",
+                "--targets",
+                "3",
+                "--tries",
+                "2",
+                "--no-sensitivities",
+                "--json",
+                "--save",
+            ]
+        )
+        == 0
+    )
     record = json.loads(capsys.readouterr().out)
     assert record["build"]["rows_read"] == 160 and record["build"]["build_s"] > 0
     for case in record["query"]["cases"].values():
@@ -192,9 +268,18 @@ def test_a_chunk_changed_after_its_commit_is_refused(dataset, tmp_path, capsys):
 
 def test_designs_outside_the_fitted_range_are_flagged(tmp_path, capsys):
     path = tmp_path / "low"
-    run_sweep(make_job(**{"job.name": "low", "job.samples_per_n": 30, "space.n_units": [2],
-                          "space.variables.H": {"min": 2.6, "max": 3.4},
-                          "space.variables.t": {"min": 0.5, "max": 0.7}}), path)  # fmt: skip
+    run_sweep(
+        make_job(
+            **{
+                "job.name": "low",
+                "job.samples_per_n": 30,
+                "space.n_units": [2],
+                "space.variables.H": {"min": 2.6, "max": 3.4},
+                "space.variables.t": {"min": 0.5, "max": 0.7},
+            }
+        ),
+        path,
+    )
     assert main(["lookup", str(path), "--target", "30,12", "--k", "8", "--json"]) == 0
     candidates = json.loads(capsys.readouterr().out)["candidates"]
     flags = {c["fitted_range"] for c in candidates}

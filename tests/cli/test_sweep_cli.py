@@ -45,8 +45,10 @@ def test_sweep_prints_summary_and_log_lines(tmp_path, capsys):
     # not a terminal: log lines with rate and ETA instead of a bar
     assert "designs/s" in captured.err and "ETA" in captured.err
     # what happens before the first chunk: a first compilation says so, a cached one loads
-    assert ("compiling the statics kernels" in captured.err
-            or "loading the compiled kernels" in captured.err)
+    assert (
+        "compiling the statics kernels" in captured.err
+        or "loading the compiled kernels" in captured.err
+    )
     assert store.read_manifest(tmp_path / "out").complete
 
 
@@ -111,8 +113,21 @@ def test_bad_flags_exit_2(swept, tmp_path, capsys):
 def test_query_json_csv_columns(swept, capsys, tmp_path):
     out = str(swept / "out")
     where = "n_units == 3 and status == 0 and curvature > 0.004"
-    assert main(["query", out, "--where", where, "--columns", "design_id,requested_bits",
-                 "curvature", "--json"]) == 0
+    assert (
+        main(
+            [
+                "query",
+                out,
+                "--where",
+                where,
+                "--columns",
+                "design_id,requested_bits",
+                "curvature",
+                "--json",
+            ]
+        )
+        == 0
+    )
     records = json.loads(capsys.readouterr().out)
     expected = store.read_results(out).query(where)
     assert len(records) == len(expected) > 0
@@ -193,8 +208,23 @@ def test_smoke_job_dask_engine_equals_local(tmp_path, capsys):
     # size, against the local engine.
     local, dask = tmp_path / "local", tmp_path / "dask"
     assert main(["sweep", str(JOBS / "smoke.toml"), "--out", str(local)]) == 0
-    assert main(["sweep", str(JOBS / "smoke.toml"), "--out", str(dask), "--engine", "dask",
-                 "--workers", "2", "--chunk-size", "7"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                str(JOBS / "smoke.toml"),
+                "--out",
+                str(dask),
+                "--engine",
+                "dask",
+                "--workers",
+                "2",
+                "--chunk-size",
+                "7",
+            ]
+        )
+        == 0
+    )
     assert "engine dask" in capsys.readouterr().out
     key = ["design_id", "requested"]
     a = store.read_results(local).sort_values(key).reset_index(drop=True)

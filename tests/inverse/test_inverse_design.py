@@ -26,8 +26,9 @@ from dpfexplore.solvers.statics import find_state
 from dpfexplore.sweep.variables import DesignVariables
 
 JOBS = Path(__file__).parents[2] / "jobs"
-GRIPPER = dict(H=[3.8187, 4.1549, 4.5246, 4.8239, 2.5], U_L=8.5773, U_sep=1.8232, t=0.8326,
-               t_lim=1.056)  # fmt: skip
+GRIPPER = dict(
+    H=[3.8187, 4.1549, 4.5246, 4.8239, 2.5], U_L=8.5773, U_sep=1.8232, t=0.8326, t_lim=1.056
+)
 BASE = {"theta_B_deg": -27.065, "base_L": 20.081}
 
 
@@ -46,8 +47,11 @@ def _value(v) -> str:
 def scene_text(data: dict) -> str:
     """TOML of a scene dict: root keys (e.g. ``targets``) first, then one table per dict."""
     root = [f"{k} = {_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
-    tables = [f"[{k}]\n" + "\n".join(f"{kk} = {_value(vv)}" for kk, vv in v.items())
-              for k, v in data.items() if isinstance(v, dict)]  # fmt: skip
+    tables = [
+        f"[{k}]\n" + "\n".join(f"{kk} = {_value(vv)}" for kk, vv in v.items())
+        for k, v in data.items()
+        if isinstance(v, dict)
+    ]
     return "\n".join(root + tables) + "\n"
 
 
@@ -55,13 +59,18 @@ def position_scene(points, *, n_units=(2, 3), kind="position", **objective) -> d
     return {
         "targets": [{"point": [float(x) for x in p]} for p in points],
         "scene": {"kind": kind, "name": "test", "material": "cheetah-95a", "seed": 3},
-        "variables": {"n_units": list(n_units), "H": {"min": 3.0, "max": 5.0},
-                      "U_L": {"min": 5.5, "max": 10.0}, "U_sep": {"min": 1.0, "max": 5.0},
-                      "t": {"min": 0.5, "max": 1.0}, "t_lim": {"min": 1.0, "max": 2.0},
-                      "heights": "descending"},
+        "variables": {
+            "n_units": list(n_units),
+            "H": {"min": 3.0, "max": 5.0},
+            "U_L": {"min": 5.5, "max": 10.0},
+            "U_sep": {"min": 1.0, "max": 5.0},
+            "t": {"min": 0.5, "max": 1.0},
+            "t_lim": {"min": 1.0, "max": 2.0},
+            "heights": "descending",
+        },
         "objective": {"tolerance": 1e-6, **objective},
         "optimiser": {"candidates_per_n": 24, "starts_per_n": 2, "max_iter": 40},
-    }  # fmt: skip
+    }
 
 
 def known_design() -> Design:
@@ -104,7 +113,8 @@ def test_unreachable_target_is_reported_with_nearest_tip_and_region(solved):
     assert row["objective"] == pytest.approx(math.dist(row["tip"], [80.0, 60.0]) ** 2)
     assert set(row["best_objective_per_n"]) == {"2", "3"}
     assert min(v for v in row["best_objective_per_n"].values()) == pytest.approx(
-        row["objective"], rel=1e-9)
+        row["objective"], rel=1e-9
+    )
     history = pd.read_parquet(solved["out"] / "history.parquet")
     tips = history[(history.target == 1) & (history.status == 0)][["tip_x", "tip_y"]].to_numpy()
     # no evaluated design got closer than the reported nearest tip
@@ -121,11 +131,17 @@ def test_every_evaluated_design_honours_bounds_and_constraints(solved):
         pad = np.full((len(part), 12 - n), np.nan)
         batch = DesignBatch(
             n_units=np.full(len(part), n),
-            **{name: np.hstack([part[[f"{name}_{k}" for k in range(1, n + 1)]].to_numpy(), pad])
-               for name in ("H", "U_L", "U_sep")},
-            t=part.t.to_numpy(), t_lim=part.t_lim.to_numpy(), E=part.E.to_numpy(), nu=0.35,
-            r_b=5.0, t_ch=1.0,
-        )  # fmt: skip
+            **{
+                name: np.hstack([part[[f"{name}_{k}" for k in range(1, n + 1)]].to_numpy(), pad])
+                for name in ("H", "U_L", "U_sep")
+            },
+            t=part.t.to_numpy(),
+            t_lim=part.t_lim.to_numpy(),
+            E=part.E.to_numpy(),
+            nu=0.35,
+            r_b=5.0,
+            t_ch=1.0,
+        )
         assert spec.design_variables(n).contains(batch).all()
         H = batch.H[:, :n]
         assert np.all(np.diff(H, axis=1) <= 1e-12)  # descending, unit 1 at the base
@@ -145,16 +161,23 @@ def test_design_toml_reproduces_the_reported_tip_through_states(solved, capsys):
 
 def test_json_output_and_files(solved, capsys):
     out = solved["out"]
-    for name in ("summary.json", "history.parquet", "target-01.toml", "target-02.toml",
-                 "objective.png", "targets.png"):  # fmt: skip
+    for name in (
+        "summary.json",
+        "history.parquet",
+        "target-01.toml",
+        "target-02.toml",
+        "objective.png",
+        "targets.png",
+    ):
         assert (out / name).is_file(), name
 
 
 def test_front_and_weighted_sum(tmp_path):
     design = known_design()
     tip = find_state(design, "111").tip
-    data = position_scene([tuple(tip)], n_units=(3,), kind="position_stiffness",
-                          front=[0.01, 0.3], weights=[1.0, 1.0])  # fmt: skip
+    data = position_scene(
+        [tuple(tip)], n_units=(3,), kind="position_stiffness", front=[0.01, 0.3], weights=[1.0, 1.0]
+    )
     data["targets"][0]["reference"] = {k: v for k, v in design.to_dict().items() if k != "name"}
     data["optimiser"] = {"candidates_per_n": 16, "starts_per_n": 1, "max_iter": 15}
     outcome = design_scene(parse_scene(data))
@@ -174,8 +197,10 @@ def test_front_and_weighted_sum(tmp_path):
     # stiffest rung's
     w = row["weighted"]
     stiffest = front[-1]
-    assert w["objective"] + 1.0 / w["stiffness"] ** 2 <= \
-        stiffest["objective"] + 1.0 / stiffest["stiffness"] ** 2 + 1e-9  # fmt: skip
+    assert (
+        w["objective"] + 1.0 / w["stiffness"] ** 2
+        <= stiffest["objective"] + 1.0 / stiffest["stiffness"] ** 2 + 1e-9
+    )
 
 
 def test_gripper_transform_reproduces_the_implementation_apertures():
@@ -185,15 +210,18 @@ def test_gripper_transform_reproduces_the_implementation_apertures():
     z, inside = problem.variables.encode(DesignBatch.from_designs([reference]))
     assert inside[0]
     (t0, t1), (b0, b1) = spec.gripper.theta_B_deg, spec.gripper.base_L
-    zz = np.append(z[0], [(BASE["theta_B_deg"] - t0) / (t1 - t0),
-                          (BASE["base_L"] - b0) / (b1 - b0)])
+    zz = np.append(
+        z[0], [(BASE["theta_B_deg"] - t0) / (t1 - t0), (BASE["base_L"] - b0) / (b1 - b0)]
+    )
     ev = problem.evaluate(zz[None], purpose="test", stiffness=True)
     apertures = ev.residual[0] + np.array(spec.gripper.apertures)
     # MODEL.md §7 and the README's states table: about 77.1, 60.0, 44.9, 35.0 mm
     np.testing.assert_allclose(apertures, [77.11, 59.95, 44.86, 35.04], atol=0.006)
     h = spring_constants(reference).h
-    direct = [gripper_aperture(find_state(reference, s).tip, h, BASE["base_L"],
-                               BASE["theta_B_deg"]) for s in spec.gripper.states]  # fmt: skip
+    direct = [
+        gripper_aperture(find_state(reference, s).tip, h, BASE["base_L"], BASE["theta_B_deg"])
+        for s in spec.gripper.states
+    ]
     np.testing.assert_allclose(apertures, direct, rtol=0, atol=1e-9)
     assert ev.stiffness[0] == pytest.approx(0.03972, abs=5e-6)
     # analytic derivatives in theta_B and Base_L against central differences of the transform
@@ -250,14 +278,27 @@ def test_gripper_scene_meets_apertures_and_its_toml_reproduces_them(tmp_path, ca
     assert len(windows) == 4 and row["pressure_windows_detail"]["computed"]
     if row["windows_ok"]:
         assert all(w[1] - w[0] >= 10.0 for w in windows)
-    assert max(abs(a - t) for a, t in zip(row["apertures"], [70, 60, 45, 35], strict=True)) \
-        <= 0.05  # fmt: skip
-    assert main(["states", str(out / "gripper.toml"), "--json", "--gripper",
-                 str(row["base_L"]), str(row["theta_B_deg"])]) == 0  # fmt: skip
+    assert max(abs(a - t) for a, t in zip(row["apertures"], [70, 60, 45, 35], strict=True)) <= 0.05
+    assert (
+        main(
+            [
+                "states",
+                str(out / "gripper.toml"),
+                "--json",
+                "--gripper",
+                str(row["base_L"]),
+                str(row["theta_B_deg"]),
+            ]
+        )
+        == 0
+    )
     states = {s["state"]: s for s in json.loads(capsys.readouterr().out)["states"]}
-    np.testing.assert_allclose([states[s]["aperture"] for s in
-                                ("10000", "11000", "11100", "11110")], row["apertures"],
-                               rtol=0, atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        [states[s]["aperture"] for s in ("10000", "11000", "11100", "11110")],
+        row["apertures"],
+        rtol=0,
+        atol=1e-9,
+    )
     assert states["11110"]["stiffness"] == pytest.approx(row["stiffness"], rel=1e-9)
     assert row["fitted_range"] is (min(row["design"]["H"]) >= 3.0)
 
@@ -295,8 +336,12 @@ def test_bad_scene_file_one_line_exit_2_nothing_written(tmp_path, capsys, change
 
 
 def test_shipped_scenes_validate():
-    for name in ("design-position-cheetah", "design-position-ninjaflex",
-                 "design-position-stiffness", "design-gripper"):  # fmt: skip
+    for name in (
+        "design-position-cheetah",
+        "design-position-ninjaflex",
+        "design-position-stiffness",
+        "design-gripper",
+    ):
         spec = load_scene(JOBS / f"{name}.toml")
         assert spec.name == name
     assert load_scene(JOBS / "design-position-ninjaflex.toml").variables["heights"] == "ascending"
@@ -306,14 +351,43 @@ def test_shipped_scenes_validate():
 @pytest.mark.slow
 def test_bench_design_record(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    code = main(["bench", "design", "--json", "--targets", "2", "--materials", "cheetah-95a",
-                 "--n-units", "2,3", "--tpe-budget", "12", "--gp-budget", "4", "--skip-gripper",
-                 "--skip-pickplace", "--skip-walker", "--no-seeded", "--save"])  # fmt: skip
+    code = main(
+        [
+            "bench",
+            "design",
+            "--json",
+            "--targets",
+            "2",
+            "--materials",
+            "cheetah-95a",
+            "--n-units",
+            "2,3",
+            "--tpe-budget",
+            "12",
+            "--gp-budget",
+            "4",
+            "--skip-gripper",
+            "--skip-pickplace",
+            "--skip-walker",
+            "--no-seeded",
+            "--save",
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     (row,) = record["rows"]
-    for key in ("scene", "target", "material", "ours_evals", "ours_wall_s", "ours_objective",
-                "best_baseline", "baseline_evals", "baseline_wall_s", "baseline_objective"):
+    for key in (
+        "scene",
+        "target",
+        "material",
+        "ours_evals",
+        "ours_wall_s",
+        "ours_objective",
+        "best_baseline",
+        "baseline_evals",
+        "baseline_wall_s",
+        "baseline_objective",
+    ):
         assert key in row
     # (25, 20) is reachable at N = 3 (MODEL.md §9): ours meets it and the paper's 0.056 mm²
     assert row["ours_objective"] <= 1e-6 and row["ours_evals"] <= row["ours_total_evals"]
@@ -334,9 +408,26 @@ def test_bench_design_seeded_row(capsys, tmp_path, monkeypatch):
         (jobs / path.name).write_text(text)
     monkeypatch.setattr(bench_design, "JOBS", jobs)
     monkeypatch.chdir(tmp_path)
-    code = main(["bench", "design", "--json", "--targets", "2", "--materials", "cheetah-95a",
-                 "--n-units", "2,3", "--tpe-budget", "2", "--gp-budget", "2", "--skip-gripper",
-                 "--skip-pickplace", "--skip-walker"])  # fmt: skip
+    code = main(
+        [
+            "bench",
+            "design",
+            "--json",
+            "--targets",
+            "2",
+            "--materials",
+            "cheetah-95a",
+            "--n-units",
+            "2,3",
+            "--tpe-budget",
+            "2",
+            "--gp-budget",
+            "2",
+            "--skip-gripper",
+            "--skip-pickplace",
+            "--skip-walker",
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     (row,) = record["rows"]
@@ -357,8 +448,7 @@ def test_pressure_windows_agree_with_a_slow_ramp_simulation():
     assert report["computed"] and report["in_order"]
     # A 2000 s ramp to 1 MPa: slow against the lattice's relaxation, so each unit's first
     # inversion lags the quasi-static snap by about a kPa (O(rate^(2/3)) at a fold).
-    run = simulate(design, PressureProfile([0.0, 2000.0], [0.0, 1.0]), t_end=2000.0,
-                   n_samples=0)  # fmt: skip
+    run = simulate(design, PressureProfile([0.0, 2000.0], [0.0, 1.0]), t_end=2000.0, n_samples=0)
     ramp_kpa = 1000.0 * run.snap_through / 2000.0
     for state, window in zip(states, report["windows"], strict=True):
         unit = state.rindex("1")  # the unit whose snap opens this grasp state's window
@@ -383,8 +473,9 @@ def test_pressure_windows_hold_their_states_in_the_full_model():
     # Raised slowly into the middle of a window and released, the finger keeps that state.
     for state, (low, high) in zip(states[:3], windows[:3], strict=True):
         P0 = 0.5e-3 * (low + high)
-        run = simulate(design, PressureProfile.pulse(P0, (0.0, 8.0, 9.0, 10.0)), t_end=11.0,
-                       n_samples=0)  # fmt: skip
+        run = simulate(
+            design, PressureProfile.pulse(P0, (0.0, 8.0, 9.0, 10.0)), t_end=11.0, n_samples=0
+        )
         assert run.final_state == state, (state, P0)
 
 
@@ -436,8 +527,9 @@ def test_seeds_that_are_not_a_dataset_are_refused(tmp_path, capsys):
     path = tmp_path / "scene.toml"
     path.write_text(scene_text(position_scene([(30.0, 30.0)])))
     capsys.readouterr()
-    code = main(["design", str(path), "--out", str(tmp_path / "out"), "--seeds",
-                 str(tmp_path / "nowhere")])  # fmt: skip
+    code = main(
+        ["design", str(path), "--out", str(tmp_path / "out"), "--seeds", str(tmp_path / "nowhere")]
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "--seeds" in err[0]
     assert not (tmp_path / "out").exists()

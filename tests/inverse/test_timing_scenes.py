@@ -85,9 +85,16 @@ def test_line_brackets_find_sign_changes_along_lines_only():
     z = np.array([[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 1.0], [1.0, 1.0]])
     value = np.array([0.5, 1.5, np.inf, 0.2, 0.4, np.nan])
     admissible = np.isfinite(value) | np.isinf(value)
-    ev = ResetEval(z=z, reset=np.zeros((6, 1)), classes=np.zeros((6, 1), int),
-                   final_state=np.zeros(6, int), status=np.zeros(6, np.int8), value=value,
-                   admissible=admissible, method="test")  # fmt: skip
+    ev = ResetEval(
+        z=z,
+        reset=np.zeros((6, 1)),
+        classes=np.zeros((6, 1), int),
+        final_state=np.zeros(6, int),
+        status=np.zeros(6, np.int8),
+        value=value,
+        admissible=admissible,
+        method="test",
+    )
     brackets = line_brackets(ev, (2, 3), 1.0, fitted=np.ones(6, bool), stiffness=np.ones(6))
     assert [(b.z_lo, b.z_hi) for b in brackets] == [((0.0, 0.0), (0.5, 0.0))]
     assert brackets[0].f_lo == pytest.approx(math.log(0.5))
@@ -96,12 +103,24 @@ def test_line_brackets_find_sign_changes_along_lines_only():
 def test_inverted_intervals_and_violation():
     class Run:
         design = Design(H=[3.0, 3.0], U_L=6.5, U_sep=1.0, t=0.8, t_lim=1.0)
-        events = np.array([[0.1, 1, 1], [0.2, 2, 1], [1.5, 1, -1], [1.6, 2, -1], [1.62, 2, 1],
-                           [2.0, 2, -1], [3.0, 1, 1]])  # fmt: skip
+        events = np.array(
+            [
+                [0.1, 1, 1],
+                [0.2, 2, 1],
+                [1.5, 1, -1],
+                [1.6, 2, -1],
+                [1.62, 2, 1],
+                [2.0, 2, -1],
+                [3.0, 1, 1],
+            ]
+        )
 
     assert inverted_intervals(Run(), 4.0) == [[(0.1, 1.5), (3.0, 4.0)], [(0.2, 1.6), (1.62, 2.0)]]
-    reqs = [{"met": True, "value": 1.0, "bound": 2.0}, {"met": False, "value": 0.5, "bound": 1.0},
-            {"met": False, "value": "monostable", "bound": "metastable"}]
+    reqs = [
+        {"met": True, "value": 1.0, "bound": 2.0},
+        {"met": False, "value": 0.5, "bound": 1.0},
+        {"met": False, "value": "monostable", "bound": "metastable"},
+    ]
     assert violation(reqs) == pytest.approx(1.5) and violation(reqs[:1]) == 0.0
 
 
@@ -121,8 +140,9 @@ def test_known_reset_time_is_recovered_and_verified(known_target, tmp_path, caps
     path = tmp_path / "scene.toml"
     path.write_text(pickplace_scene([1.0]))
     out = tmp_path / "out"
-    code = main(["design", str(path), "--out", str(out), "--json",
-                 "--target-reset", repr(known_target)])  # fmt: skip
+    code = main(
+        ["design", str(path), "--out", str(out), "--json", "--target-reset", repr(known_target)]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     (row,) = record["results"]
@@ -162,8 +182,10 @@ def test_paper_finger_reset_times_as_targets(tmp_path, capsys):
 
 
 def test_two_profile_difference_front_is_verified(tmp_path, capsys):
-    extra = ("[pickplace.difference]\nprofile = {P0 = 1.0, tau = [0.0, 1.0, 5.0, 5.1]}\n"
-             "max_reset = 6.0\nweights = [1.0, 1.0]")
+    extra = (
+        "[pickplace.difference]\nprofile = {P0 = 1.0, tau = [0.0, 1.0, 5.0, 5.1]}\n"
+        "max_reset = 6.0\nweights = [1.0, 1.0]"
+    )
     path = tmp_path / "scene.toml"
     path.write_text(pickplace_scene([], extra=extra, grid="{t = 4, H = 21}"))
     assert main(["design", str(path), "--out", str(tmp_path / "o"), "--json"]) == 0
@@ -174,8 +196,10 @@ def test_two_profile_difference_front_is_verified(tmp_path, capsys):
         design = Design.from_dict(point["design"])
         r1 = full_run(design)
         r2 = simulate(design, second, t_end=15.0, atol=TIGHT, n_samples=0)
-        last1, last2 = (float(np.nanmax(np.where(np.isinf(r.reset_time[4:]), np.nan,
-                                                 r.reset_time[4:]))) for r in (r1, r2))
+        last1, last2 = (
+            float(np.nanmax(np.where(np.isinf(r.reset_time[4:]), np.nan, r.reset_time[4:])))
+            for r in (r1, r2)
+        )
         assert last1 <= 6.0 and last2 <= 6.0
         assert r1.unit_class[:4] == ("bistable",) * 4 == r2.unit_class[:4]
         assert point["difference"] == pytest.approx(last2 - last1, abs=1e-5)
@@ -204,14 +228,17 @@ def test_target_reset_option_and_bad_pickplace_input(tmp_path, capsys):
     assert "only for pick-and-place scenes" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("change, key", [
-    (("targets = [1.0]", "targets = [20.0]"), "pickplace.targets"),
-    (("tied = [[5, 6]]", "tied = []"), "variables: free"),
-    (("[pickplace]", "[pickplace]\nreset_unit = 2"), "pickplace.reset_unit"),
-    (("[pickplace]", "[pickplace]\nscreening = 'magic'"), "pickplace.screening"),
-    (("[pickplace]", "[pickplace]\nhold_units = [1, 9]"), "pickplace.hold_units"),
-    (("[pickplace]", "[pickplace]\nfoo = 1"), "pickplace.foo = 1: unknown key"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        (("targets = [1.0]", "targets = [20.0]"), "pickplace.targets"),
+        (("tied = [[5, 6]]", "tied = []"), "variables: free"),
+        (("[pickplace]", "[pickplace]\nreset_unit = 2"), "pickplace.reset_unit"),
+        (("[pickplace]", "[pickplace]\nscreening = 'magic'"), "pickplace.screening"),
+        (("[pickplace]", "[pickplace]\nhold_units = [1, 9]"), "pickplace.hold_units"),
+        (("[pickplace]", "[pickplace]\nfoo = 1"), "pickplace.foo = 1: unknown key"),
+    ],
+)
 def test_bad_pickplace_scene_one_line_exit_2(tmp_path, capsys, change, key):
     path = tmp_path / "scene.toml"
     path.write_text(pickplace_scene([1.0]).replace(*change))
@@ -258,8 +285,13 @@ def test_walker_front_leg_meets_its_requirements_when_resimulated(walker):
     assert np.all((run.reset_time >= lo) & (run.reset_time <= hi))
     assert _unit(row, "purple", 1)["reset_time"] == pytest.approx(run.reset_time[0], rel=1e-6)
     action = Design.from_dict(row["design"]["action"])
-    turn = simulate(action, g.phase(2, pressure=g.turn_pressure), t_end=g.phase2[3] + 8.0,
-                    atol=TIGHT, n_samples=0)  # fmt: skip
+    turn = simulate(
+        action,
+        g.phase(2, pressure=g.turn_pressure),
+        t_end=g.phase2[3] + 8.0,
+        atol=TIGHT,
+        n_samples=0,
+    )
     assert turn.unit_class == ("metastable", None, None, None)
     assert turn.reset_time[0] >= req.front_action_min_reset
     walk = simulate(action, g.phase(2), t_end=g.phase2[3] + 2.0, atol=TIGHT, n_samples=0)
@@ -334,9 +366,21 @@ def test_shipped_timing_scenes_validate():
 @pytest.mark.slow
 def test_bench_design_timing_rows(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    code = main(["bench", "design", "--json", "--skip-position", "--skip-gripper",
-                 "--pickplace-targets", "1", "--timing-tpe-factor", "1",
-                 "--timing-min-seconds", "0.5"])  # fmt: skip
+    code = main(
+        [
+            "bench",
+            "design",
+            "--json",
+            "--skip-position",
+            "--skip-gripper",
+            "--pickplace-targets",
+            "1",
+            "--timing-tpe-factor",
+            "1",
+            "--timing-min-seconds",
+            "0.5",
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     rows = {r["scene"]: r for r in record["rows"]}

@@ -54,8 +54,20 @@ def test_rhs_matches_seed_implementation():
         knot_p = np.array([0.0, row.P0, row.P0, 0.0])
         pos, vel, work = _scratch(n_units)
         acc = np.empty_like(x)
-        pressure = kd.acceleration(x, v, float(row.t), params.unit_params, params.h, knot_t,
-                                   knot_p, _phys(n_units), pos, vel, work, acc)  # fmt: skip
+        pressure = kd.acceleration(
+            x,
+            v,
+            float(row.t),
+            params.unit_params,
+            params.h,
+            knot_t,
+            knot_p,
+            _phys(n_units),
+            pos,
+            vel,
+            work,
+            acc,
+        )
         checked.add(round(pressure / row.P0, 6))
         scale = np.abs(expected).max()
         np.testing.assert_allclose(acc, expected, rtol=0, atol=1e-12 * scale)
@@ -89,13 +101,27 @@ def test_full_jacobian_against_central_differences(t):
     n = x.size
     pos, vel, work = _scratch(design.n_units)
     jac = np.empty((2 * n, 2 * n))
-    kd.full_jacobian(x, v, t, params.unit_params, params.h, knot_t, knot_p, phys, pos, vel, work,
-                     np.empty((n, n)), jac)  # fmt: skip
+    kd.full_jacobian(
+        x,
+        v,
+        t,
+        params.unit_params,
+        params.h,
+        knot_t,
+        knot_p,
+        phys,
+        pos,
+        vel,
+        work,
+        np.empty((n, n)),
+        jac,
+    )
 
     def f(y):
         acc = np.empty(n)
-        kd.acceleration(y[:n], y[n:], t, params.unit_params, params.h, knot_t, knot_p, phys,
-                        pos, vel, work, acc)  # fmt: skip
+        kd.acceleration(
+            y[:n], y[n:], t, params.unit_params, params.h, knot_t, knot_p, phys, pos, vel, work, acc
+        )
         return np.concatenate([y[n:], acc])
 
     y = np.concatenate([x, v])
@@ -190,8 +216,9 @@ def test_pressure_faces_on_flat_finger():
 
 def test_pressure_profile_shapes():
     profile = PressureProfile.pulse(0.7, (0.0, 1.0, 5.0, 5.1))
-    np.testing.assert_allclose(profile([-1, 0, 0.5, 1, 3, 5, 5.05, 5.1, 9]),
-                               [0, 0, 0.35, 0.7, 0.7, 0.7, 0.35, 0, 0])  # fmt: skip
+    np.testing.assert_allclose(
+        profile([-1, 0, 0.5, 1, 3, 5, 5.05, 5.1, 9]), [0, 0, 0.35, 0.7, 0.7, 0.7, 0.35, 0, 0]
+    )
     assert profile.t_release == 5.1
     assert PressureProfile(P0=0.7, tau=(0.0, 1.0, 5.0, 5.1)) == profile
     assert PressureProfile.parse("0:0, 1:0.7, 5:0.7, 5.1:0") == profile
@@ -295,14 +322,31 @@ def test_stage_matrix_is_within_the_lattice_band():
     pos, vel, work = _scratch(design.n_units)
     stiff = np.empty((n, n))
     knot = np.array([0.0])
-    kd.stiffness_jacobian(x, v, 0.0, params.unit_params, params.h, knot, np.array([0.7]),
-                          _phys(12), pos, vel, work, stiff)  # fmt: skip
+    kd.stiffness_jacobian(
+        x,
+        v,
+        0.0,
+        params.unit_params,
+        params.h,
+        knot,
+        np.array([0.7]),
+        _phys(12),
+        pos,
+        vel,
+        work,
+        stiff,
+    )
     cmat = np.empty((n, n))
     kd.damping_matrix(pos, params.unit_params, params.h, 0.05, 0.01, work, cmat)
     outside = np.abs(np.subtract.outer(np.arange(n), np.arange(n))) > LATTICE_HALF_BANDWIDTH
     assert np.all(stiff[outside] == 0.0) and np.all(cmat[outside] == 0.0)
-    assert np.any(stiff[~outside & (np.abs(np.subtract.outer(np.arange(n), np.arange(n)))
-                                    == LATTICE_HALF_BANDWIDTH)] != 0.0)  # fmt: skip
+    assert np.any(
+        stiff[
+            ~outside
+            & (np.abs(np.subtract.outer(np.arange(n), np.arange(n))) == LATTICE_HALF_BANDWIDTH)
+        ]
+        != 0.0
+    )
 
 
 def _order(errors, steps):

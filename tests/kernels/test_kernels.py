@@ -284,9 +284,13 @@ def test_convexified_hessian_is_positive_semidefinite_with_the_true_gradient(n_u
     semi-definite, so the sum is too, at shapes far from rest (compressed springs, domes on
     their unstable branch); the gradient is the true one."""
     rng = np.random.default_rng(seed)
-    design = Design(H=list(rng.uniform(3, 5, n_units)), U_L=float(rng.uniform(5.5, 10)),
-                    U_sep=float(rng.uniform(1, 5)), t=float(rng.uniform(0.5, 1.0)),
-                    t_lim=float(rng.uniform(1, 2)))  # fmt: skip
+    design = Design(
+        H=list(rng.uniform(3, 5, n_units)),
+        U_L=float(rng.uniform(5.5, 10)),
+        U_sep=float(rng.uniform(1, 5)),
+        t=float(rng.uniform(0.5, 1.0)),
+        t_lim=float(rng.uniform(1, 2)),
+    )
     p = lattice_params(design)
     x = perturbed_guess(design, int(rng.integers(2**n_units)), rng, scale=0.5)
     g, hc = convexified_hessian(x, p)

@@ -34,8 +34,16 @@ def sweep(root, name, **changes):
 def sequential(tmp_path_factory):
     """N = 2, 3, 4, sequential states (several states per N), stiffness; 12 chunks."""
     root = tmp_path_factory.mktemp("lookup")
-    return sweep(root, "seq", **{"job.samples_per_n": 60, "job.chunk_size": 15,
-                                 "space.n_units": [2, 3, 4], "compute.states": "sequential"})
+    return sweep(
+        root,
+        "seq",
+        **{
+            "job.samples_per_n": 60,
+            "job.chunk_size": 15,
+            "space.n_units": [2, 3, 4],
+            "compute.states": "sequential",
+        },
+    )
 
 
 def copy_dataset(source, target):
@@ -53,8 +61,9 @@ def brute_force(frame, target, k, columns=("tip_x", "tip_y"), scales=(1.0, 1.0))
     scaled = frame[list(columns)].to_numpy(float) / np.asarray(scales)
     d = np.sqrt(((scaled - np.asarray(target) / np.asarray(scales)) ** 2).sum(axis=1))
     order = np.argsort(d, kind="stable")[:k]
-    return list(zip(frame["design_id"].to_numpy()[order], frame["requested"].to_numpy()[order],
-                    strict=True)), d[order]  # fmt: skip
+    return list(
+        zip(frame["design_id"].to_numpy()[order], frame["requested"].to_numpy()[order], strict=True)
+    ), d[order]
 
 
 @pytest.mark.parametrize("scan_rows", [0, 16384], ids=["tree-for-filters", "scan-small-sets"])

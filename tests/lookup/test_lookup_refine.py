@@ -19,8 +19,13 @@ from dpfexplore.lookup.query import designs_of, lookup
 from dpfexplore.sweep.driver import run_sweep
 from dpfexplore.sweep.variables import DesignVariables
 
-BOX = {"H": (3.0, 5.0), "U_L": (5.5, 10.0), "U_sep": (1.0, 5.0), "t": (0.5, 1.0),
-       "t_lim": (1.0, 2.0)}  # fmt: skip
+BOX = {
+    "H": (3.0, 5.0),
+    "U_L": (5.5, 10.0),
+    "U_sep": (1.0, 5.0),
+    "t": (0.5, 1.0),
+    "t_lim": (1.0, 2.0),
+}
 
 
 @pytest.fixture(scope="module")
@@ -37,8 +42,10 @@ def held_out_tip(n_units: int, seed: int) -> tuple[Design, np.ndarray]:
     rng = np.random.default_rng(seed)
     while True:
         design = Design(
-            H=rng.uniform(*BOX["H"], n_units), U_L=rng.uniform(*BOX["U_L"], n_units),
-            U_sep=rng.uniform(*BOX["U_sep"], n_units), t=rng.uniform(*BOX["t"]),
+            H=rng.uniform(*BOX["H"], n_units),
+            U_L=rng.uniform(*BOX["U_L"], n_units),
+            U_sep=rng.uniform(*BOX["U_sep"], n_units),
+            t=rng.uniform(*BOX["t"]),
             t_lim=rng.uniform(*BOX["t_lim"]),
         )
         result = find_state(design, "1" * n_units)
@@ -48,10 +55,12 @@ def held_out_tip(n_units: int, seed: int) -> tuple[Design, np.ndarray]:
 
 def in_box(design: Design) -> bool:
     return all(
-        all(BOX[name][0] - 1e-12 <= v <= BOX[name][1] + 1e-12 for v in np.atleast_1d(
-            getattr(design, name)))
+        all(
+            BOX[name][0] - 1e-12 <= v <= BOX[name][1] + 1e-12
+            for v in np.atleast_1d(getattr(design, name))
+        )
         for name in BOX
-    )  # fmt: skip
+    )
 
 
 @pytest.mark.parametrize("seed", [3, 4])
@@ -64,8 +73,13 @@ def test_target_from_a_known_design_is_met(inverted, seed):
     _, rows = result.index.query(target, 1)
     start = designs_of(result.index, rows).design(0)
     variables = variables_for(make_job(**{"space.n_units": [3, 4]}).space, start)
-    baseline = refine(start, int(result.index.requested[rows[0]]), target,
-                      variables=variables, sensitivities="central")  # fmt: skip
+    baseline = refine(
+        start,
+        int(result.index.requested[rows[0]]),
+        target,
+        variables=variables,
+        sensitivities="central",
+    )
     assert baseline.status == "ok" and baseline.error <= 1e-6
     best = result.best
     assert best.status == "ok" and best.met and best.refined and best.error <= 1e-6
@@ -81,8 +95,13 @@ def test_target_from_a_known_design_is_met(inverted, seed):
 def test_refinement_honours_bounds_and_constraints(inverted):
     spec, path = inverted
     _, target = held_out_tip(4, 11)
-    constraints = {"heights": "descending", "shared_U_L": True, "shared_U_sep": True,
-                   "t": [0.6, 0.7], "tied": [[3, 4]]}  # fmt: skip
+    constraints = {
+        "heights": "descending",
+        "shared_U_L": True,
+        "shared_U_sep": True,
+        "t": [0.6, 0.7],
+        "tied": [[3, 4]],
+    }
     result = lookup(path, target, k=4, n_units=(4,), refine=True, constraints=constraints)
     assert any(c.status == "ok" for c in result.candidates)
     for c in result.candidates:
@@ -102,8 +121,9 @@ def test_refinement_honours_bounds_and_constraints(inverted):
 
 
 def test_constraints_that_contradict_the_job_are_refused(tmp_path):
-    ascending = make_job(**{"space.constraints.heights": "ascending",
-                            "space.constraints.equal_U_L": True})  # fmt: skip
+    ascending = make_job(
+        **{"space.constraints.heights": "ascending", "space.constraints.equal_U_L": True}
+    )
     design = Design(H=[3.5, 4.0, 4.5], U_L=7.0, U_sep=2.0, t=0.8, t_lim=1.5)
     with pytest.raises(ValueError, match="contradicts the job's 'ascending'"):
         variables_for(ascending.space, design, {"heights": "descending"})
@@ -119,11 +139,24 @@ def test_constraints_that_contradict_the_job_are_refused(tmp_path):
 
 
 def test_parse_constraints():
-    parsed = parse_constraints(["heights=descending", "shared=U_L,U_sep", "t=0.6:0.9",
-                                "t_lim=1.5", "tied=5,6;7-8", "ordered_units=1-4"])  # fmt: skip
+    parsed = parse_constraints(
+        [
+            "heights=descending",
+            "shared=U_L,U_sep",
+            "t=0.6:0.9",
+            "t_lim=1.5",
+            "tied=5,6;7-8",
+            "ordered_units=1-4",
+        ]
+    )
     assert parsed == {
-        "heights": "descending", "shared_U_L": True, "shared_U_sep": True, "t": [0.6, 0.9],
-        "t_lim": 1.5, "tied": [[5, 6], [7, 8]], "ordered_units": [1, 2, 3, 4],
+        "heights": "descending",
+        "shared_U_L": True,
+        "shared_U_sep": True,
+        "t": [0.6, 0.9],
+        "t_lim": 1.5,
+        "tied": [[5, 6], [7, 8]],
+        "ordered_units": [1, 2, 3, 4],
     }
     for bad in ("heights", "shared=E", "t=a:b", "colour=red"):
         with pytest.raises(ValueError, match="constraint"):
@@ -136,8 +169,7 @@ FOLD = dict(U_L=7.0, U_sep=2.0, t=1.0, t_lim=1.5)
 
 def one_height(low: float, high: float) -> DesignVariables:
     """Only H_2 free, in [low, high]."""
-    return DesignVariables(n_units=2, H=[4.5, (low, high)], U_L=7.0, U_sep=2.0, t=1.0,
-                           t_lim=1.5)  # fmt: skip
+    return DesignVariables(n_units=2, H=[4.5, (low, high)], U_L=7.0, U_sep=2.0, t=1.0, t_lim=1.5)
 
 
 def tip_at(h2: float) -> np.ndarray:
@@ -177,8 +209,7 @@ def test_bounds_stop_the_refinement_short():
 
 
 def test_exact_and_central_difference_sensitivities_agree_with_wider_differences():
-    design = Design(H=[4.2, 3.9, 4.6], U_L=[6.0, 8.0, 7.0], U_sep=[2.0, 3.0, 1.5], t=0.7,
-                    t_lim=1.4)  # fmt: skip
+    design = Design(H=[4.2, 3.9, 4.6], U_L=[6.0, 8.0, 7.0], U_sep=[2.0, 3.0, 1.5], t=0.7, t_lim=1.4)
     batch = DesignBatch.from_designs([design])
     columns = ("tip_x", "tip_y", "stiffness")
     values, exact, status = _model_outputs(batch, 7, columns, derivatives=True)

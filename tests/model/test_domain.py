@@ -28,11 +28,20 @@ def batch_of(rows: list[dict]) -> DesignBatch:
         for name in per_unit:
             per_unit[name][i, :k] = row[name]
     return DesignBatch(
-        n_units=np.array([len(r["H"]) for r in rows]), **per_unit,
-        **{name: np.array([float(r.get(name, d)) for r in rows])
-           for name, d in (("t", 0.8), ("t_lim", 1.0), ("E", 26.0), ("nu", 0.35),
-                           ("r_b", 5.0), ("t_ch", 1.0))},
-    )  # fmt: skip
+        n_units=np.array([len(r["H"]) for r in rows]),
+        **per_unit,
+        **{
+            name: np.array([float(r.get(name, d)) for r in rows])
+            for name, d in (
+                ("t", 0.8),
+                ("t_lim", 1.0),
+                ("E", 26.0),
+                ("nu", 0.35),
+                ("r_b", 5.0),
+                ("t_ch", 1.0),
+            )
+        },
+    )
 
 
 def test_a_dome_taller_than_its_base_radius_is_rejected_naming_the_field():
@@ -45,8 +54,11 @@ def test_a_dome_taller_than_its_base_radius_is_rejected_naming_the_field():
 
 
 def test_a_dome_not_shorter_than_its_unit_is_rejected():
-    with pytest.raises(ValueError, match=r"H\[unit 2\] = 4\.5 mm: not shorter than its unit, "
-                                         r"U_L\[unit 2\] = 4\.5 mm"):
+    with pytest.raises(
+        ValueError,
+        match=r"H\[unit 2\] = 4\.5 mm: not shorter than its unit, "
+        r"U_L\[unit 2\] = 4\.5 mm",
+    ):
         Design(H=[4.0, 4.5], U_L=[6.0, 4.5], U_sep=1.0, t=0.8, t_lim=1.0)
 
 
@@ -129,12 +141,16 @@ def designs(draw):
     H = [r_b * draw(hs.floats(0.05, 12.0 if anywhere else 1.0)) for _ in range(n_units)]
     U_L = [h * draw(hs.floats(0.5 if anywhere else 1.01, 6.0)) for h in H]
     return dict(
-        H=H, U_L=U_L,
+        H=H,
+        U_L=U_L,
         U_sep=[draw(hs.floats(0.05, 10.0)) for _ in range(n_units)],
-        t=draw(hs.floats(0.1, 3.0)), t_lim=draw(hs.floats(0.1, 5.0)),
-        E=draw(hs.floats(1.0, 100.0)), nu=draw(hs.floats(0.0, 0.49)), r_b=r_b,
+        t=draw(hs.floats(0.1, 3.0)),
+        t_lim=draw(hs.floats(0.1, 5.0)),
+        E=draw(hs.floats(1.0, 100.0)),
+        nu=draw(hs.floats(0.0, 0.49)),
+        r_b=r_b,
         t_ch=draw(hs.floats(0.2, 3.0)),
-    )  # fmt: skip
+    )
 
 
 @settings(max_examples=100, deadline=None)

@@ -69,5 +69,8 @@ def test_job_files_refuse_the_same_pressures_with_the_same_reason(P0, key, reaso
 
 def test_job_tau_before_zero_is_refused_by_the_same_rule():
     with pytest.raises(JobSpecError, match=r"^compute\.reset_times\.tau\[0\] = -1\.0: must be"):
-        parse_job(job_dict(**{"compute.reset_times": {
-            "P0": 0.7, "tau": [-1.0, 1.0, 5.0, 5.1], "t_end": 9.0}}))  # fmt: skip
+        parse_job(
+            job_dict(
+                **{"compute.reset_times": {"P0": 0.7, "tau": [-1.0, 1.0, 5.0, 5.1], "t_end": 9.0}}
+            )
+        )

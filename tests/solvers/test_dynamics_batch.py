@@ -40,8 +40,14 @@ def batch_run():
 def test_contract_shapes_dtypes_and_invalid_rows(batch_run):
     batch, out = batch_run
     n = len(batch)
-    assert set(out) == {"status", "final_state", "reset_time", "snap_through", "snap_back",
-                        "unit_class"}  # fmt: skip
+    assert set(out) == {
+        "status",
+        "final_state",
+        "reset_time",
+        "snap_through",
+        "snap_back",
+        "unit_class",
+    }
     assert out["status"].dtype == np.int8 and out["status"].shape == (n,)
     assert out["final_state"].dtype == np.int64 and out["final_state"].shape == (n,)
     assert out["unit_class"].dtype == np.int8 and out["unit_class"].shape == (n, MAX_UNITS)
@@ -91,12 +97,12 @@ def test_empty_batch_and_bad_method():
 
 def test_overdamped_batch_agrees_with_full(batch_run):
     batch, out = batch_run
-    od = reset_times_batch(batch.take(np.arange(4)), PULSE, t_end=15.0,
-                           method="rodas4-overdamped")  # fmt: skip
+    od = reset_times_batch(batch.take(np.arange(4)), PULSE, t_end=15.0, method="rodas4-overdamped")
     np.testing.assert_array_equal(od["final_state"], out["final_state"][:4])
     finite = np.isfinite(out["reset_time"][:4])
-    np.testing.assert_allclose(od["reset_time"][:4][finite], out["reset_time"][:4][finite],
-                               rtol=2e-3)  # fmt: skip
+    np.testing.assert_allclose(
+        od["reset_time"][:4][finite], out["reset_time"][:4][finite], rtol=2e-3
+    )
 
 
 def test_release_model_error_within_its_claim():
@@ -106,8 +112,13 @@ def test_release_model_error_within_its_claim():
     these designs hold 4 s against relaxation rates of 1.2 /s and faster. The all-low finger is the
     hard case: its units reset in a cascade and one is pushed back through by its neighbours.
     """
-    designs = [Design(**PICKPLACE), Design(**GRIPPER), SMALL, ALL_LOW,
-               Design(H=[4.5, 2.8, 3.0], U_L=8.0, U_sep=1.5, t=0.85, t_lim=1.5)]  # fmt: skip
+    designs = [
+        Design(**PICKPLACE),
+        Design(**GRIPPER),
+        SMALL,
+        ALL_LOW,
+        Design(H=[4.5, 2.8, 3.0], U_L=8.0, U_sep=1.5, t=0.85, t_lim=1.5),
+    ]
     batch = DesignBatch.from_designs(designs)
     full = reset_times_batch(batch, PULSE, t_end=15.0, atol=1e-6)
     rel = reset_times_batch(batch, PULSE, t_end=15.0, method="release", atol=1e-4)
@@ -124,8 +135,9 @@ def test_release_model_error_within_its_claim():
     single = release_reset_times(SMALL, PULSE, t_end=15.0, atol=1e-4)
     np.testing.assert_array_equal(single["reset_time"], rel["reset_time"][2, :2])
     with pytest.raises(ValueError, match="one pulse"):
-        release_reset_times(SMALL, PressureProfile.pulses([(0.7, 0, 1, 2, 3), (0.7, 4, 5, 6, 7)]),
-                            t_end=15.0)  # fmt: skip
+        release_reset_times(
+            SMALL, PressureProfile.pulses([(0.7, 0, 1, 2, 3), (0.7, 4, 5, 6, 7)]), t_end=15.0
+        )
 
 
 @pytest.mark.parametrize("method", ["rodas4", "rodas4-overdamped", "fast"])
@@ -139,6 +151,5 @@ def test_early_stop_waits_for_a_unit_pushed_back_over_its_threshold(method):
     full = simulate(design, profile, t_end=6.0)
     down_up_down = [int(sign) for _, unit, sign in full.events if unit == 2]
     assert down_up_down[-3:] == [-1, 1, -1]  # the hard case is still what it was built to be
-    batch = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=6.0,
-                              method=method)
+    batch = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=6.0, method=method)
     np.testing.assert_allclose(batch["reset_time"][0, :2], full.reset_time, rtol=2e-3)

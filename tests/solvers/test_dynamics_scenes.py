@@ -42,8 +42,9 @@ def test_pickplace_reproduces_reference_run(pickplace_run):
     ext = ref[[f"ext{k}" for k in range(1, 7)]].to_numpy()
     assert np.abs(run.extensions - ext).max() < 1e-4
     # README: snap-through at 0.388, 0.675, 0.919, 1.214, 0.641, 1.109 s (3 decimals)
-    np.testing.assert_allclose(run.snap_through, [0.388, 0.675, 0.919, 1.214, 0.641, 1.109],
-                               atol=6e-4)  # fmt: skip
+    np.testing.assert_allclose(
+        run.snap_through, [0.388, 0.675, 0.919, 1.214, 0.641, 1.109], atol=6e-4
+    )
     assert run.final_state == "111100"
     assert run.unit_class == ("bistable",) * 4 + ("metastable",) * 2
     assert np.all(np.isinf(run.reset_time[:4]))
@@ -101,8 +102,16 @@ def test_static_equilibrium_is_a_fixed_point():
     assert state.stable
     zero = PressureProfile((0.0,), (0.0,))
     for method in ("rodas4", "rodas4-overdamped"):
-        run = simulate(design, zero, t_end=2.0, method=method, x0=state.x,
-                       v0=np.zeros_like(state.x), atol=1e-8, n_samples=21)  # fmt: skip
+        run = simulate(
+            design,
+            zero,
+            t_end=2.0,
+            method=method,
+            x0=state.x,
+            v0=np.zeros_like(state.x),
+            atol=1e-8,
+            n_samples=21,
+        )
         assert run.status == st.OK and run.events.shape[0] == 0
         assert np.abs(run.x - state.x).max() < 1e-8
         assert np.abs(run.final_v).max() < 1e-7
@@ -177,8 +186,18 @@ def test_undamped_unloaded_lattice_conserves_energy(method):
         e0 = _energy(params, x, v, 3)
         worst = 0.0
         for _ in range(20):  # 0.1 s; fastest period ~0.3 ms, slowest ~40 ms
-            run = simulate(design, zero, t_end=0.005, method=method, x0=x, v0=v, eta=0.0,
-                           eta_iso=0.0, atol=atol, n_samples=0)  # fmt: skip
+            run = simulate(
+                design,
+                zero,
+                t_end=0.005,
+                method=method,
+                x0=x,
+                v0=v,
+                eta=0.0,
+                eta_iso=0.0,
+                atol=atol,
+                n_samples=0,
+            )
             assert run.status == st.OK
             x, v = run.final_x, run.final_v
             worst = max(worst, abs(_energy(params, x, v, 3) - e0) / e0)
@@ -211,8 +230,13 @@ def _boundary_unit(eps, t=0.8):
     other spring at ``D_1`` is the post, perpendicular to the dome, so the dome's own ``α``
     decides. ``H`` is solved for ``α`` by ``brentq``.
     """
-    H = brentq(lambda H: dome_alpha(H, t, dome_radius(H, 5.0)) - (ALPHA_BISTABLE + eps), 2.5,
-               3.5, xtol=1e-14, rtol=1e-15)  # fmt: skip
+    H = brentq(
+        lambda H: dome_alpha(H, t, dome_radius(H, 5.0)) - (ALPHA_BISTABLE + eps),
+        2.5,
+        3.5,
+        xtol=1e-14,
+        rtol=1e-15,
+    )
     design = Design(H=[H], U_L=6.0, U_sep=1.0, t=t, t_lim=1.0)
     return design, lattice_params(design).scaled(COL_KT, 0.0)
 
@@ -231,8 +255,15 @@ def test_reset_time_diverges_like_inverse_square_root_near_bistable_boundary():
     for e in eps:
         design, lattice = _boundary_unit(e)
         horizon = 0.5 + 10.0 / math.sqrt(e) * 0.01
-        run = simulate(design, release, t_end=horizon, lattice=lattice, atol=1e-5, n_samples=0,
-                       stop_when_reset=True)  # fmt: skip
+        run = simulate(
+            design,
+            release,
+            t_end=horizon,
+            lattice=lattice,
+            atol=1e-5,
+            n_samples=0,
+            stop_when_reset=True,
+        )
         assert run.status == st.OK and run.stats["steps"] < 500  # never hangs
         assert run.unit_class[0] == "metastable"
         resets.append(run.reset_time[0])

@@ -52,9 +52,20 @@ def _residual(x, params, pressure):
     n = x.shape[0]
     nodes = 2 * params.n_units + 2
     out = np.empty(n)
-    kd.force_residual(x, np.zeros(n), 0.0, params.unit_params, params.h, np.zeros(1),
-                      np.full(1, pressure), np.zeros(kd.N_PHYS), np.empty((nodes, 2)),
-                      np.empty((nodes, 2)), np.empty(n), out)  # fmt: skip
+    kd.force_residual(
+        x,
+        np.zeros(n),
+        0.0,
+        params.unit_params,
+        params.h,
+        np.zeros(1),
+        np.full(1, pressure),
+        np.zeros(kd.N_PHYS),
+        np.empty((nodes, 2)),
+        np.empty((nodes, 2)),
+        np.empty(n),
+        out,
+    )
     return out
 
 
@@ -62,8 +73,7 @@ def _residual(x, params, pressure):
 def test_force_peak_extension_is_the_isolated_force_maximum(alpha):
     # the isolated dome's force per k_b d, maximised numerically on the rising branch
     force = lambda u: -(u * (1.0 + (1.0 - alpha) * (2.0 * u * u - 3.0 * u)))  # noqa: E731
-    found = so.minimize_scalar(force, bounds=(0.0, 0.5), method="bounded",
-                               options={"xatol": 1e-12})  # fmt: skip
+    found = so.minimize_scalar(force, bounds=(0.0, 0.5), method="bounded", options={"xatol": 1e-12})
     assert force_peak_extension(alpha) == pytest.approx(found.x, abs=1e-6)
 
 
@@ -78,8 +88,16 @@ def test_loaded_newton_matches_scipy_root(pickplace):
     x = np.empty(n)
     extension_guess(params.unit_params, params.h, np.full(pickplace.n_units, 1.3), x)
     start = x.copy()
-    code, n_iter = loaded_newton(x, params.unit_params, params.h, 0.7, FTOL, MAX_ITER, MAX_MOVE,
-                                 newton_scratch(pickplace.n_units))  # fmt: skip
+    code, n_iter = loaded_newton(
+        x,
+        params.unit_params,
+        params.h,
+        0.7,
+        FTOL,
+        MAX_ITER,
+        MAX_MOVE,
+        newton_scratch(pickplace.n_units),
+    )
     assert code == st.OK and 0 < n_iter < 20
     assert np.abs(_residual(x, params, 0.7)).max() < 1e-7
     root = so.root(_residual, start, args=(params, 0.7), method="hybr", tol=1e-13)
@@ -89,8 +107,9 @@ def test_loaded_newton_matches_scipy_root(pickplace):
 
 def _full_model_snapped(design, P0):
     """Units the full model has snapped by the end of the hold (ever inverted before τ3)."""
-    run = simulate(design, PressureProfile((0.0, 1.0, 5.0), (0.0, P0, P0)), t_end=5.0,
-                   n_samples=0, atol=1e-6)  # fmt: skip
+    run = simulate(
+        design, PressureProfile((0.0, 1.0, 5.0), (0.0, P0, P0)), t_end=5.0, n_samples=0, atol=1e-6
+    )
     return ~np.isnan(run.snap_through)
 
 
@@ -117,25 +136,55 @@ def test_release_matches_the_overdamped_full_model(pickplace):
     params = lattice_params(pickplace)
     n_units = pickplace.n_units
     x0 = np.empty(4 * n_units - 2)
-    code, _, _ = loaded_state(params.unit_params, params.h, 0.7, x0, np.empty(n_units),
-                              np.empty(n_units))  # fmt: skip
+    code, _, _ = loaded_state(
+        params.unit_params, params.h, 0.7, x0, np.empty(n_units), np.empty(n_units)
+    )
     assert code == st.OK
     # the full model from x0 under the release ramp alone (times shifted by τ3 = 5 s)
     ramp = PressureProfile((0.0, 0.1), (0.7, 0.0))
-    full = simulate(pickplace, ramp, t_end=10.0, x0=x0, method="rodas4-overdamped", atol=1e-9,
-                    n_samples=0, stop_when_reset=True)  # fmt: skip
+    full = simulate(
+        pickplace,
+        ramp,
+        t_end=10.0,
+        x0=x0,
+        method="rodas4-overdamped",
+        atol=1e-9,
+        n_samples=0,
+        stop_when_reset=True,
+    )
     errors = []
     for atol in (1e-3, 1e-6):
-        ctrl = controls(METHODS["rodas4-overdamped"], t_release=5.1, atol=atol, rtol=None,
-                        h_max=5.0, max_steps=100_000, stop_when_reset=True)  # fmt: skip
+        ctrl = controls(
+            METHODS["rodas4-overdamped"],
+            t_release=5.1,
+            atol=atol,
+            rtol=None,
+            h_max=5.0,
+            max_steps=100_000,
+            stop_when_reset=True,
+        )
         ctrl[CTRL_H_INIT] = 0.02
         ctrl[CTRL_H_MAX] = 5.0
         rec = np.empty((n_units, N_REC))
         stats = np.zeros(N_STATS, dtype=np.int64)
-        code = release_rodas3(x0.copy(), params.unit_params, params.h, PULSE.knots()[0],
-                              PULSE.knots()[1], kd.ETA_INTERNAL, kd.ETA_ISO, ctrl, 5.0, 15.0,
-                              rec, stats, np.empty((n_units, 2)), np.zeros(2, dtype=np.int64),
-                              release_workspace(n_units), workspace())  # fmt: skip
+        code = release_rodas3(
+            x0.copy(),
+            params.unit_params,
+            params.h,
+            PULSE.knots()[0],
+            PULSE.knots()[1],
+            kd.ETA_INTERNAL,
+            kd.ETA_ISO,
+            ctrl,
+            5.0,
+            15.0,
+            rec,
+            stats,
+            np.empty((n_units, 2)),
+            np.zeros(2, dtype=np.int64),
+            release_workspace(n_units),
+            workspace(),
+        )
         assert code == st.OK
         reset = rec[4:, REC_LAST_DOWN] - 5.1  # units 5 and 6 reset: last downward crossings
         errors.append(np.abs(reset / full.reset_time[4:] - 1.0).max())
@@ -149,8 +198,9 @@ def test_tree_ensemble_reproduces_scikit_learn(loss):
     rng = np.random.default_rng(3)
     x = rng.normal(size=(400, 5))
     y = np.sin(x[:, 0]) + 0.3 * x[:, 1] * x[:, 2] + 0.1 * rng.normal(size=400)
-    est = GradientBoostingRegressor(loss=loss, alpha=0.9, n_estimators=60, max_depth=3,
-                                    random_state=0).fit(x, y)  # fmt: skip
+    est = GradientBoostingRegressor(
+        loss=loss, alpha=0.9, n_estimators=60, max_depth=3, random_state=0
+    ).fit(x, y)
     trees = TreeEnsemble.from_gradient_boosting(est)
     probe = rng.normal(size=(200, 5))
     np.testing.assert_allclose(trees.predict(probe), est.predict(probe), rtol=0, atol=1e-12)
@@ -171,9 +221,17 @@ def test_model_file_round_trips_and_refuses_what_it_cannot_use(tmp_path):
         "version": ({**good, "format_version": 99}, "format_version"),
         "physics": ({**good, "model_version": "other"}, "model_version"),
         "features": ({**good, "features": ["H"]}, "features"),
-        "trees": ({**good, "correction": {**good["correction"], "left": [10**6]
-                                          * len(good["correction"]["left"])}}, "outside"),
-    }  # fmt: skip
+        "trees": (
+            {
+                **good,
+                "correction": {
+                    **good["correction"],
+                    "left": [10**6] * len(good["correction"]["left"]),
+                },
+            },
+            "outside",
+        ),
+    }
     for name, (data, message) in cases.items():
         path = tmp_path / f"{name}.json"
         path.write_text(json.dumps(data))
@@ -187,8 +245,9 @@ def test_model_file_round_trips_and_refuses_what_it_cannot_use(tmp_path):
 
 
 def test_pickplace_within_its_interval_and_2_percent(pickplace):
-    out = reset_times_batch(DesignBatch.from_designs([pickplace]), PULSE, t_end=T_END,
-                            method="fast")  # fmt: skip
+    out = reset_times_batch(
+        DesignBatch.from_designs([pickplace]), PULSE, t_end=T_END, method="fast"
+    )
     assert not out["fallback"][0]
     reset = out["reset_time"][0, 4:6]
     np.testing.assert_allclose(reset, PICKPLACE_RESETS, rtol=0.02)
@@ -271,8 +330,9 @@ def test_fallback_when_the_interval_is_wider_than_asked(pickplace):
 
 def test_invalid_design_keeps_its_status_without_fallback(pickplace):
     batch = DesignBatch.from_designs([pickplace])
-    bad = DesignBatch(**{**{k: getattr(batch, k) for k in batch.__dataclass_fields__},
-                         "t": np.array([-1.0])})  # fmt: skip
+    bad = DesignBatch(
+        **{**{k: getattr(batch, k) for k in batch.__dataclass_fields__}, "t": np.array([-1.0])}
+    )
     out = reset_times_batch(bad, PULSE, t_end=T_END, method="fast")
     assert out["status"][0] == st.INVALID_INPUT and not out["fallback"][0]
     assert np.isnan(out["reset_time"][0]).all()
@@ -318,13 +378,17 @@ def test_simulate_fast_json_gives_the_models_values(capsys, pickplace):
     code = main(["simulate", str(example_path("pickplace")), "--method", "fast", "--json"])
     assert code == 0
     out = json.loads(capsys.readouterr().out)
-    api = reset_times_batch(DesignBatch.from_designs([pickplace]), PULSE, t_end=T_END,
-                            method="fast")  # fmt: skip
+    api = reset_times_batch(
+        DesignBatch.from_designs([pickplace]), PULSE, t_end=T_END, method="fast"
+    )
     assert out["method"] == "fast" and out["fallback"] is False
     assert out["reset_times"][:4] == ["inf"] * 4
     assert out["reset_times"][4:] == pytest.approx(api["reset_time"][0, 4:6].tolist(), abs=1e-9)
-    assert out["reset_time_interval"][0][4] <= out["reset_times"][4] <= \
-        out["reset_time_interval"][1][4]  # fmt: skip
+    assert (
+        out["reset_time_interval"][0][4]
+        <= out["reset_times"][4]
+        <= out["reset_time_interval"][1][4]
+    )
     assert out["final_state"] == "111100" and out["classes"][4] == "metastable"
 
 
@@ -390,14 +454,29 @@ def test_sweep_fast_option_stores_the_models_values(tmp_path):
     from dpfexplore.sweep.driver import run_sweep
     from dpfexplore.sweep.sampling import sample_designs
 
-    load = {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0, "method": "fast",
-            "max_rel_halfwidth": 0.2}  # fmt: skip
-    variables = {"H": {"min": 2.8, "max": 4.0}, "U_sep": {"min": 1.0, "max": 2.0},
-                 "U_L": {"min": 5.5, "max": 10.0}, "t": {"min": 0.75, "max": 1.0},
-                 "t_lim": {"min": 1.0, "max": 2.0}}  # fmt: skip
-    spec = make_job(**{"job.samples_per_n": 12, "space.n_units": [3],
-                       "space.variables": variables, "compute.reset_times": load,
-                       "compute.stiffness": False})  # fmt: skip
+    load = {
+        "P0": 0.7,
+        "tau": [0.0, 1.0, 5.0, 5.1],
+        "t_end": 15.0,
+        "method": "fast",
+        "max_rel_halfwidth": 0.2,
+    }
+    variables = {
+        "H": {"min": 2.8, "max": 4.0},
+        "U_sep": {"min": 1.0, "max": 2.0},
+        "U_L": {"min": 5.5, "max": 10.0},
+        "t": {"min": 0.75, "max": 1.0},
+        "t_lim": {"min": 1.0, "max": 2.0},
+    }
+    spec = make_job(
+        **{
+            "job.samples_per_n": 12,
+            "space.n_units": [3],
+            "space.variables": variables,
+            "compute.reset_times": load,
+            "compute.stiffness": False,
+        }
+    )
     run_sweep(spec, tmp_path / "out", chunk_size=6)
     frame = store.read_results(tmp_path / "out").sort_values("sample").reset_index(drop=True)
     batch = sample_designs(spec, 3, 0, 12)
@@ -428,16 +507,35 @@ def test_reset_model_fit_writes_a_usable_model(tmp_path, capsys, pickplace):
     from dpfexplore.cli import main
 
     out = tmp_path / "tiny.json"
-    code = main(["reset-model", "fit", "--out", str(out), "--initial", "40", "--per-round", "10",
-                 "--rounds", "1", "--pool", "40", "--calibration", "40", "--test-designs",
-                 "0", "--json"])  # fmt: skip
+    code = main(
+        [
+            "reset-model",
+            "fit",
+            "--out",
+            str(out),
+            "--initial",
+            "40",
+            "--per-round",
+            "10",
+            "--rounds",
+            "1",
+            "--pool",
+            "40",
+            "--calibration",
+            "40",
+            "--test-designs",
+            "0",
+            "--json",
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     assert record["training_designs"] == 50 and record["calibration_designs"] == 40
     model = load_reset_model(out)
     assert isinstance(model, ResetModel) and math.isfinite(model.conformal_q)
-    fast = reset_times_batch(DesignBatch.from_designs([pickplace]), PULSE, t_end=T_END,
-                             method="fast", model=out)  # fmt: skip
+    fast = reset_times_batch(
+        DesignBatch.from_designs([pickplace]), PULSE, t_end=T_END, method="fast", model=out
+    )
     np.testing.assert_allclose(fast["reset_time"][0, 4:6], PICKPLACE_RESETS, rtol=0.02)
 
 
@@ -448,8 +546,15 @@ def test_bench_reset_model_record(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["bench", "reset-model", "--json", "--designs", "4", "--save"]) == 0
     record = json.loads(capsys.readouterr().out)
-    for key in ("us_per_design", "median_rel_err", "p95_rel_err", "max_rel_err",
-                "class_agreement", "coverage_90", "fallback_rate"):  # fmt: skip
+    for key in (
+        "us_per_design",
+        "median_rel_err",
+        "p95_rel_err",
+        "max_rel_err",
+        "class_agreement",
+        "coverage_90",
+        "fallback_rate",
+    ):
         assert np.isfinite(record[key])
     assert record["pickplace"]["within_2pct"] is True
     assert (tmp_path / "results" / "reports" / "bench-reset-model.json").exists()

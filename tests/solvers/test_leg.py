@@ -110,14 +110,14 @@ def test_sections_equal_single_finger_simulations(example_run):
     for run in result.sections:
         profile = leg.phases[run.section.phase]
         start = max(profile.zero_until(), 0.0)
-        alone = simulate(run.section.design, profile, t_end=leg.t_end, t_start=start,
-                         n_samples=leg.n_samples)  # fmt: skip
+        alone = simulate(
+            run.section.design, profile, t_end=leg.t_end, t_start=start, n_samples=leg.n_samples
+        )
         np.testing.assert_array_equal(run.result.x, alone.x)
         np.testing.assert_array_equal(run.result.reset_time, alone.reset_time)
         assert run.result.unit_class == alone.unit_class
         # starting at the phase instead of at 0 is exact up to the integration tolerance
-        from_zero = simulate(run.section.design, profile, t_end=leg.t_end,
-                             n_samples=leg.n_samples)  # fmt: skip
+        from_zero = simulate(run.section.design, profile, t_end=leg.t_end, n_samples=leg.n_samples)
         np.testing.assert_allclose(run.nodes, section_nodes(from_zero), atol=1e-3)
         np.testing.assert_allclose(run.result.reset_time, from_zero.reset_time, rtol=1e-4)
         assert run.result.unit_class == from_zero.unit_class
@@ -133,8 +133,9 @@ def test_example_leg_tip_path(example_run):
     np.testing.assert_allclose(path[:, 0], np.linspace(0, 5, 501), atol=1e-9)
     # the flat leg's tip, by hand (test_dpw_flat_sections_by_hand)
     r = math.hypot(P, H)
-    np.testing.assert_allclose(out["tip_start"], [2 * P + r + 4 * P * P / r, -4 * P * H / r, -H],
-                               atol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        out["tip_start"], [2 * P + r + 4 * P * P / r, -4 * P * H / r, -H], atol=1e-6
+    )
     # phase 1 moves the tip in the z = 0 plane (sections 1-2), phase 2 out of it
     before = result.t < 1.1
     np.testing.assert_array_equal(result.tip_path[before, 2], 0.0)
@@ -147,16 +148,25 @@ def test_example_leg_tip_path(example_run):
 
 def test_no_pressure_section_is_not_integrated():
     design = Design(H=[3.0, 3.0], U_L=6.5, U_sep=1.0, t=1.0, t_lim=1.0)
-    leg = Leg(sections=[Section("a", design, "on"), Section("b", design, "off")],
-              phases={"on": PressureProfile(P0=0.4, tau=(0.2, 0.3, 0.5, 0.6)),
-                      "off": PressureProfile.parse("0:0, 1:0")},
-              t_end=1.0, n_samples=11, composition="chain")  # fmt: skip
+    leg = Leg(
+        sections=[Section("a", design, "on"), Section("b", design, "off")],
+        phases={
+            "on": PressureProfile(P0=0.4, tau=(0.2, 0.3, 0.5, 0.6)),
+            "off": PressureProfile.parse("0:0, 1:0"),
+        },
+        t_end=1.0,
+        n_samples=11,
+        composition="chain",
+    )
     result = simulate_leg(leg)
     a, b = result.sections
     assert a.integrated and a.t_start == 0.2 and not b.integrated and b.t_start == 1.0
     np.testing.assert_allclose(b.nodes, flat(2, m=11), atol=1e-12)
     assert b.result.unit_class == (None, None) and result.to_dict()["evaluations"] == {
-        "sections_integrated": 1, "sections_at_rest": 1, "steps": a.result.stats["steps"]}
+        "sections_integrated": 1,
+        "sections_at_rest": 1,
+        "steps": a.result.stats["steps"],
+    }
     # before its phase, section a is exactly at rest too
     np.testing.assert_allclose(a.nodes[result.t < 0.2], flat(2, m=2), atol=1e-12)
 
@@ -164,8 +174,7 @@ def test_no_pressure_section_is_not_integrated():
 def test_simulate_t_start_needs_a_quiet_profile():
     design = Design(H=[3.0], U_L=6.5, U_sep=1.0, t=1.0, t_lim=1.0)
     with pytest.raises(ValueError, match=r"t_start = 0\.5 s: the pressure is not 0"):
-        simulate(design, PressureProfile(P0=0.4, tau=(0.2, 0.3, 0.5, 0.6)), t_end=1.0,
-                 t_start=0.5)  # fmt: skip
+        simulate(design, PressureProfile(P0=0.4, tau=(0.2, 0.3, 0.5, 0.6)), t_end=1.0, t_start=0.5)
     assert PressureProfile(P0=0.4, tau=(1.1, 1.2, 2.2, 2.3)).zero_until() == 1.1
     assert PressureProfile.parse("0:0, 1:0, 1:0.3, 2:0").zero_until() == 1.0
     assert PressureProfile.parse("0:0, 1:0").zero_until() == math.inf
@@ -179,8 +188,12 @@ def test_assignments():
     assert leg.section("purple").design.H == (2.5, 2.5)
     assert leg.section("action").design == other.section("action").design
     assert leg.section("green").design.t == 0.9
-    bad_ones = (("purple.H", "SECTION.KEY=VALUE"), ("foot.H=2", "no such section"),
-                ("purple.H=a", "numbers"), ("purple.X=1", "not a design key"))
+    bad_ones = (
+        ("purple.H", "SECTION.KEY=VALUE"),
+        ("foot.H=2", "no such section"),
+        ("purple.H=a", "numbers"),
+        ("purple.X=1", "not a design key"),
+    )
     for bad, message in bad_ones:
         with pytest.raises(ValueError, match=message):
             apply_assignments(leg, [bad])
@@ -227,13 +240,20 @@ design = {{ H = [3.0], U_L = 6.5, U_sep = 1.0, t = 1.0, t_lim = 1.0 }}
         (LEG.format(extra=""), "composition = 'dpw': needs exactly 3 sections"),
         (LEG.format(extra="[foo]\nx = 1"), "top level.foo: unknown key"),
         (LEG.format(extra="[[section]]\nphase = '2'\ndesign = {H = [3.0]}"), "section[2].design"),
-        (LEG.format(extra="").replace('phase = "1"', 'phase = "3"').replace(
-            "t_end = 2.0", "t_end = 2.0\ncomposition = 'chain'"),
-         "section[1].phase = '3': no such phase"),
-        (LEG.format(extra="").replace("t_end = 2.0", "t_end = 0.3\ncomposition = 'chain'"),
-         "t_end = 0.3: phase '1' ends at 0.6 s"),
-        (LEG.format(extra="").replace("tau = [0.0, 0.1, 0.5, 0.6]", "tau = [0.0, 0.1]"),
-         "phase.1.tau"),
+        (
+            LEG.format(extra="")
+            .replace('phase = "1"', 'phase = "3"')
+            .replace("t_end = 2.0", "t_end = 2.0\ncomposition = 'chain'"),
+            "section[1].phase = '3': no such phase",
+        ),
+        (
+            LEG.format(extra="").replace("t_end = 2.0", "t_end = 0.3\ncomposition = 'chain'"),
+            "t_end = 0.3: phase '1' ends at 0.6 s",
+        ),
+        (
+            LEG.format(extra="").replace("tau = [0.0, 0.1, 0.5, 0.6]", "tau = [0.0, 0.1]"),
+            "phase.1.tau",
+        ),
         (LEG.format(extra="").replace("t_end = 2.0", "t_end = 2.0\nmount = 3"), "[leg].mount"),
         ("[leg\n", "not valid TOML"),
     ],

@@ -59,22 +59,29 @@ def test_batch_codes_match_single_runs(mixed):
     np.testing.assert_allclose(out["reset_time"][0, :3], run.reset_time, rtol=1e-12)
     assert out["final_state"][0] == 0b100
     assert 3 not in out["unit_class"][1]  # a finger with contact everywhere is unchanged
-    assert out["unit_class"][1, :2].tolist() == [codes[c] for c in simulate(
-        plain, PULSE, t_end=15.0).unit_class]  # fmt: skip
+    assert out["unit_class"][1, :2].tolist() == [
+        codes[c] for c in simulate(plain, PULSE, t_end=15.0).unit_class
+    ]
 
 
 def test_release_model_classes_too(mixed):
     design, _ = mixed
-    out = reset_times_batch(DesignBatch.from_designs([design]), PULSE, t_end=15.0,
-                            method="release")  # fmt: skip
+    out = reset_times_batch(DesignBatch.from_designs([design]), PULSE, t_end=15.0, method="release")
     assert out["unit_class"][0, :3].tolist() == [0, 3, 1]
 
 
 def test_sweep_column_and_reset_maps_name_the_class():
     fields = {f.name: f for f in _dynamics_fields(2)}
     assert b"3 no contact" in fields["unit_class_1"].metadata[b"description"]
-    maps = reset_time_maps(H_values=(1.1, 3.0), t_at_H=1.0, t_values=(0.8,), hold_values=(1.0,),
-                           hold_H=(1.1,), hold_t=1.0, t_after=2.0)  # fmt: skip
+    maps = reset_time_maps(
+        H_values=(1.1, 3.0),
+        t_at_H=1.0,
+        t_values=(0.8,),
+        hold_values=(1.0,),
+        hold_H=(1.1,),
+        hold_t=1.0,
+        t_after=2.0,
+    )
     by_height = maps["H"].set_index("H")["unit_class"]
     assert by_height[1.1] == "no_contact" and by_height[3.0] != "no_contact"
     assert np.isnan(maps["H"].set_index("H")["reset_time"][1.1])

@@ -15,8 +15,9 @@ ACTION = Design(H=[3.4, 4.5, 4.5, 4.5], U_L=6.5, U_sep=1.0, t=1.0, t_lim=1.0)
 @pytest.fixture(scope="module")
 def pressures():
     batch = DesignBatch.from_designs([PURPLE, ACTION])
-    return inversion_pressures(batch), [ramp_snap_pressures(batch, duration=T)
-                                        for T in (40.0, 160.0, 640.0)]  # fmt: skip
+    return inversion_pressures(batch), [
+        ramp_snap_pressures(batch, duration=T) for T in (40.0, 160.0, 640.0)
+    ]
 
 
 def test_two_thirds_law_predicts_a_slower_ramp(pressures):
@@ -34,8 +35,12 @@ def test_holding_just_below_stays_flat_just_above_inverts(pressures, row, design
     P = pressures[0][row, 0]
     for factor, inverts in ((0.99, False), (1.01, True)):
         hold = factor * P
-        run = simulate(design, PressureProfile.parse(f"0:0, 10:{hold}, 100:{hold}, 100.1:0"),
-                       t_end=100.1, n_samples=0)  # fmt: skip
+        run = simulate(
+            design,
+            PressureProfile.parse(f"0:0, 10:{hold}, 100:{hold}, 100.1:0"),
+            t_end=100.1,
+            n_samples=0,
+        )
         assert np.isfinite(run.snap_through[0]) == inverts, (factor, run.snap_through)
 
 

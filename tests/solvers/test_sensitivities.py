@@ -55,11 +55,21 @@ REL = 1e-6
 
 def constants_at(values: dict) -> dict:
     c = _unit_constants(
-        values["H"], values["U_L"], values["U_sep"], values["t"], values["t_lim"],
-        values["E"], values["nu"], values["r_b"], values["t_ch"], domes=False,
-    )  # fmt: skip
-    return {name: np.asarray(c[name], float) for name in ("R", "k_b", "alpha", "d", "k_lim",
-                                                          "k_post", "k_t", "p", "h")}
+        values["H"],
+        values["U_L"],
+        values["U_sep"],
+        values["t"],
+        values["t_lim"],
+        values["E"],
+        values["nu"],
+        values["r_b"],
+        values["t_ch"],
+        domes=False,
+    )
+    return {
+        name: np.asarray(c[name], float)
+        for name in ("R", "k_b", "alpha", "d", "k_lim", "k_post", "k_t", "p", "h")
+    }
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -77,8 +87,9 @@ def test_constant_derivatives_equal_central_differences(seed):
         "r_b": 5.0,
         "t_ch": 1.0,
     }
-    analytic = constant_derivatives(*(values[k] for k in ("H", "U_L", "U_sep", "t", "t_lim",
-                                                          "E", "nu", "r_b", "t_ch")))
+    analytic = constant_derivatives(
+        *(values[k] for k in ("H", "U_L", "U_sep", "t", "t_lim", "E", "nu", "r_b", "t_ch"))
+    )
     clamped = constants_at(values)["d"] == 0.01
     assert 0 < clamped.sum() < n
     for param in DERIVATIVE_PARAMETERS:
@@ -89,8 +100,9 @@ def test_constant_derivatives_equal_central_differences(seed):
             shifted[param] = values[param] + m * step
             stencil[m] = constants_at(shifted)
         for name, table in analytic.items():
-            fd = (stencil[-2][name] - 8 * stencil[-1][name] + 8 * stencil[1][name]
-                  - stencil[2][name]) / (12 * step)  # fmt: skip
+            fd = (
+                stencil[-2][name] - 8 * stencil[-1][name] + 8 * stencil[1][name] - stencil[2][name]
+            ) / (12 * step)
             # skip the few points whose stencil crosses the d clamp (a kink)
             keep = np.ones(n, bool)
             if name == "d":
@@ -100,9 +112,12 @@ def test_constant_derivatives_equal_central_differences(seed):
             # round-off of the stencil: ~1e-16 of the constant over the step
             scale = np.abs(fd).max() + np.abs(stencil[1][name]).max()
             np.testing.assert_allclose(
-                table[param][keep], fd[keep], rtol=1e-8, atol=1e-9 * scale,
+                table[param][keep],
+                fd[keep],
+                rtol=1e-8,
+                atol=1e-9 * scale,
                 err_msg=f"d{name}/d{param}",
-            )  # fmt: skip
+            )
     # on the clamped branch d is a constant
     for param in DERIVATIVE_PARAMETERS:
         assert np.all(analytic["d"][param][clamped] == 0.0)
@@ -113,14 +128,22 @@ def test_kernel_derivative_table_equals_the_numpy_one():
     batch = random_batch(rng, 50, bad=False)
     tables = kernel_tables(batch, derivatives=True)
     c = constant_derivatives(
-        batch.H, batch.U_L, batch.U_sep,
+        batch.H,
+        batch.U_L,
+        batch.U_sep,
         *(getattr(batch, k)[:, None] for k in ("t", "t_lim", "E", "nu", "r_b", "t_ch")),
-    )  # fmt: skip
+    )
     active = np.arange(MAX_UNITS)[None, :] < batch.n_units[:, None]
     rows = {
-        "p": lay.COL_P, "k_b": lay.COL_KB, "alpha": lay.COL_ALPHA, "d": lay.COL_D,
-        "k_lim": lay.COL_KLIM, "k_post": lay.COL_KPOST, "k_t": lay.COL_KT, "h": 7,
-    }  # fmt: skip
+        "p": lay.COL_P,
+        "k_b": lay.COL_KB,
+        "alpha": lay.COL_ALPHA,
+        "d": lay.COL_D,
+        "k_lim": lay.COL_KLIM,
+        "k_post": lay.COL_KPOST,
+        "k_t": lay.COL_KT,
+        "h": 7,
+    }
     for name, row in rows.items():
         for j, param in enumerate(DERIVATIVE_PARAMETERS):
             got = tables.derivatives[..., row, j]
@@ -142,10 +165,13 @@ def random_batch(rng, n: int, *, bad: bool) -> DesignBatch:
         U_L[i, : N[i]] = rng.uniform(5.0, 10.0, N[i])
         U_sep[i, : N[i]] = rng.uniform(0.5, 5.0, N[i])
     shared = {
-        "t": rng.uniform(0.4, 1.2, n), "t_lim": rng.uniform(1.0, 2.0, n),
-        "E": rng.uniform(5, 40, n), "nu": np.full(n, 0.35), "r_b": np.full(n, 5.0),
+        "t": rng.uniform(0.4, 1.2, n),
+        "t_lim": rng.uniform(1.0, 2.0, n),
+        "E": rng.uniform(5, 40, n),
+        "nu": np.full(n, 0.35),
+        "r_b": np.full(n, 5.0),
         "t_ch": np.full(n, 1.0),
-    }  # fmt: skip
+    }
     if bad:
         rows = rng.choice(n, n // 3, replace=False)
         for i in rows:
@@ -172,12 +198,19 @@ def numpy_tables(batch: DesignBatch):
     c = batch_constants(batch, domes=False)
     u_barrier, u_second = dome_extrema(c["alpha"])
     columns = {
-        lay.COL_P: c["p"], lay.COL_KB: c["k_b"], lay.COL_ALPHA: c["alpha"], lay.COL_D: c["d"],
-        lay.COL_KLIM: c["k_lim"], lay.COL_KPOST: c["k_post"], lay.COL_KT: c["k_t"],
-        lay.COL_U_LO: -np.inf, lay.COL_U_HI: np.inf, lay.COL_PEN: 0.0,
+        lay.COL_P: c["p"],
+        lay.COL_KB: c["k_b"],
+        lay.COL_ALPHA: c["alpha"],
+        lay.COL_D: c["d"],
+        lay.COL_KLIM: c["k_lim"],
+        lay.COL_KPOST: c["k_post"],
+        lay.COL_KT: c["k_t"],
+        lay.COL_U_LO: -np.inf,
+        lay.COL_U_HI: np.inf,
+        lay.COL_PEN: 0.0,
         lay.COL_U_INV: inversion_threshold(u_barrier),
         lay.COL_U_HELD: np.where(np.isnan(u_second), 1.0, u_second),
-    }  # fmt: skip
+    }
     active = np.arange(MAX_UNITS)[None, :] < np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
     table = np.stack(
         [np.broadcast_to(columns[j], active.shape) for j in range(lay.N_COLS)], axis=-1
@@ -194,8 +227,16 @@ def test_compiled_tables_and_status_equal_the_numpy_model_exactly(seed):
     np.testing.assert_array_equal(tables.status, batch.status())
     # the same rules run as Python, as Design does
     shared = [getattr(batch, k) for k in ("t", "t_lim", "E", "nu", "r_b", "t_ch")]
-    python = [status_code(int(batch.n_units[i]), batch.H[i], batch.U_L[i], batch.U_sep[i],
-                          *(float(v[i]) for v in shared)) for i in range(len(batch))]  # fmt: skip
+    python = [
+        status_code(
+            int(batch.n_units[i]),
+            batch.H[i],
+            batch.U_L[i],
+            batch.U_sep[i],
+            *(float(v[i]) for v in shared),
+        )
+        for i in range(len(batch))
+    ]
     np.testing.assert_array_equal(python, tables.status)
     valid = tables.status == Status.OK
     # bit for bit, wherever the design is valid (invalid rows are never read)
@@ -210,10 +251,12 @@ def test_compiled_tables_and_status_equal_the_numpy_model_exactly(seed):
 def stable_design_and_shape(n_units: int, seed: int):
     rng = np.random.default_rng(seed)
     design = Design(
-        H=list(rng.uniform(3.0, 5.0, n_units)), U_L=list(rng.uniform(5.5, 10.0, n_units)),
-        U_sep=list(rng.uniform(1.0, 5.0, n_units)), t=rng.uniform(0.5, 1.0),
+        H=list(rng.uniform(3.0, 5.0, n_units)),
+        U_L=list(rng.uniform(5.5, 10.0, n_units)),
+        U_sep=list(rng.uniform(1.0, 5.0, n_units)),
+        t=rng.uniform(0.5, 1.0),
         t_lim=rng.uniform(1.0, 2.0),
-    )  # fmt: skip
+    )
     state = int(rng.integers(0, 2**n_units))
     result = find_state(design, state)
     assert result.status in (Status.OK, Status.COLLAPSED)
@@ -244,8 +287,12 @@ def test_third_derivative_contraction_equals_central_differences(n_units, seed):
     for i in range(x.size):
         e = np.zeros(x.size)
         e[i] = step
-        fd[i] = (-phi(x + 2 * e, up, h, r) + 8 * phi(x + e, up, h, r) - 8 * phi(x - e, up, h, r)
-                 + phi(x - 2 * e, up, h, r)) / (12 * step)  # fmt: skip
+        fd[i] = (
+            -phi(x + 2 * e, up, h, r)
+            + 8 * phi(x + e, up, h, r)
+            - 8 * phi(x - e, up, h, r)
+            + phi(x - 2 * e, up, h, r)
+        ) / (12 * step)
     np.testing.assert_allclose(w, fd, rtol=1e-7, atol=1e-7 * np.abs(fd).max())
 
 
@@ -300,8 +347,7 @@ def test_tangent_assembly_equals_differences_at_a_fixed_shape(n_units, seed):
         at = {m: energy_gradient_phi(perturbed(design, name, m * step)) for m in (-2, -1, 1, 2)}
         fd = (at[-2] - 8 * at[-1] + 8 * at[1] - at[2]) / (12 * step)
         ours = np.array([d_energy, d_phi, *dg])
-        np.testing.assert_allclose(ours, fd, rtol=1e-7, atol=1e-8 * np.abs(fd).max(),
-                                   err_msg=name)  # fmt: skip
+        np.testing.assert_allclose(ours, fd, rtol=1e-7, atol=1e-8 * np.abs(fd).max(), err_msg=name)
         if unit > 0:
             touches_l1 = unit == 1 and kind != 0
             hi = min(unit + 1, n_units) if touches_l1 else unit
@@ -334,8 +380,7 @@ def solver_outputs(design: Design, state: str) -> np.ndarray:
     r = find_state(design, state, options=TIGHT)
     assert r.found == state, f"the state changed under the step: {r.found} != {state}"
     stiffness = 0.0 if design.n_units == 1 else r.stiffness  # inf: the tip is clamped
-    return np.array([r.tip[0], r.tip[1], r.bend_angle, r.curvature, r.energy, stiffness,
-                     *r.x])  # fmt: skip
+    return np.array([r.tip[0], r.tip[1], r.bend_angle, r.curvature, r.energy, stiffness, *r.x])
 
 
 def solver_differences(design: Design, state: str, step: float = 1e-4) -> np.ndarray:
@@ -348,10 +393,13 @@ def solver_differences(design: Design, state: str, step: float = 1e-4) -> np.nda
     for name in parameter_names(design.n_units):
         h = step * (design.E if name == "E" else 1.0)
         d1, d2 = (
-            (solver_outputs(perturbed(design, name, e), state)
-             - solver_outputs(perturbed(design, name, -e), state)) / (2 * e)
+            (
+                solver_outputs(perturbed(design, name, e), state)
+                - solver_outputs(perturbed(design, name, -e), state)
+            )
+            / (2 * e)
             for e in (h, h / 2)
-        )  # fmt: skip
+        )
         columns.append((4 * d2 - d1) / 3)
     return np.array(columns).T
 
@@ -378,10 +426,13 @@ def check_against_solver(design: Design, state: str):
 
 def random_design(rng, n_units: int) -> Design:
     return Design(
-        H=list(rng.uniform(3.0, 5.0, n_units)), U_L=list(rng.uniform(5.5, 10.0, n_units)),
-        U_sep=list(rng.uniform(1.0, 5.0, n_units)), t=rng.uniform(0.5, 1.0),
-        t_lim=rng.uniform(1.0, 2.0), E=rng.choice([12.0, 26.0]),
-    )  # fmt: skip
+        H=list(rng.uniform(3.0, 5.0, n_units)),
+        U_L=list(rng.uniform(5.5, 10.0, n_units)),
+        U_sep=list(rng.uniform(1.0, 5.0, n_units)),
+        t=rng.uniform(0.5, 1.0),
+        t_lim=rng.uniform(1.0, 2.0),
+        E=rng.choice([12.0, 26.0]),
+    )
 
 
 @settings(max_examples=12, deadline=None)
@@ -451,8 +502,9 @@ def mixed_batch() -> DesignBatch:
     batch = DesignBatch.from_designs(designs)
     bad = DesignBatch.from_designs(designs[:1])
     bad = DesignBatch(**{**{k: getattr(bad, k) for k in bad.__dataclass_fields__}, "t": -1.0})
-    merged = {k: np.concatenate([getattr(batch, k), getattr(bad, k)])
-              for k in batch.__dataclass_fields__}  # fmt: skip
+    merged = {
+        k: np.concatenate([getattr(batch, k), getattr(bad, k)]) for k in batch.__dataclass_fields__
+    }
     return DesignBatch(**merged)
 
 
@@ -462,9 +514,7 @@ def test_serial_and_parallel_batches_are_identical(monkeypatch, with_sensitiviti
     runs = []
     for limit in (10**9, 0):
         monkeypatch.setattr(statics, "SERIAL_MAX_ROWS", limit)
-        runs.append(
-            solve_batch(batch, "sequential", shapes=True, sensitivities=with_sensitivities)
-        )
+        runs.append(solve_batch(batch, "sequential", shapes=True, sensitivities=with_sensitivities))
     serial, parallel = runs
     assert serial.keys() == parallel.keys()
     for name in serial:
@@ -507,8 +557,9 @@ def test_find_state_fast_path_equals_solve_batch(gripper):
 
 
 def test_a_collapsed_row_describes_the_state_it_collapsed_to():
-    design = Design(H=[4.0, 4.5, height_for_alpha(1 / 9 + 1e-4), 4.5], U_L=6.5, U_sep=1.2,
-                    t=0.83, t_lim=1.1)  # fmt: skip
+    design = Design(
+        H=[4.0, 4.5, height_for_alpha(1 / 9 + 1e-4), 4.5], U_L=6.5, U_sep=1.2, t=0.83, t_lim=1.1
+    )
     collapsed = find_state(design, "1111", sensitivities=True)
     assert collapsed.status == Status.COLLAPSED and collapsed.found == "1101"
     direct = find_state(design, "1101", sensitivities=True)

@@ -34,16 +34,25 @@ from dpfexplore.solvers.snap.continuation import (
 # (low domes: a unit with alpha >= 1/9 has no barrier; pressure carries it over u = 3/4).
 RANDOM = [
     dict(H=[3.7753, 3.6461], U_L=[6.1759, 9.1735], U_sep=[1.7589, 2.9575], t=0.795, t_lim=1.6051),
-    dict(H=[4.107, 4.991, 4.5853], U_L=[8.2998, 9.9503, 6.4689], U_sep=[1.3204, 2.2251, 1.0879],
-         t=0.5178, t_lim=1.5149),
+    dict(
+        H=[4.107, 4.991, 4.5853],
+        U_L=[8.2998, 9.9503, 6.4689],
+        U_sep=[1.3204, 2.2251, 1.0879],
+        t=0.5178,
+        t_lim=1.5149,
+    ),
     dict(H=[4.276, 4.3529], U_L=[6.1785, 7.4814], U_sep=[1.4791, 1.805], t=0.5484, t_lim=1.9678),
-]  # fmt: skip
+]
 CROSSING = [
-    dict(H=[2.0137, 2.8982, 3.1449], U_L=[6.5413, 5.7184, 7.2966], U_sep=[1.33, 1.4616, 1.4274],
-         t=0.9768, t_lim=1.1193),
-    dict(H=[2.7978, 2.0373], U_L=[9.2605, 7.3731], U_sep=[1.2461, 1.2225], t=0.8604,
-         t_lim=1.0478),
-]  # fmt: skip
+    dict(
+        H=[2.0137, 2.8982, 3.1449],
+        U_L=[6.5413, 5.7184, 7.2966],
+        U_sep=[1.33, 1.4616, 1.4274],
+        t=0.9768,
+        t_lim=1.1193,
+    ),
+    dict(H=[2.7978, 2.0373], U_L=[9.2605, 7.3731], U_sep=[1.2461, 1.2225], t=0.8604, t_lim=1.0478),
+]
 
 
 def _residual(params, x, pressure):
@@ -59,8 +68,9 @@ def gripper_up(gripper):
 
 def _slow_ramp(design, p_max, duration):
     """First upward crossing pressure of every unit under a linear ramp, and the final state."""
-    run = simulate(design, PressureProfile([0.0, duration], [0.0, p_max]), t_end=duration,
-                   n_samples=0)  # fmt: skip
+    run = simulate(
+        design, PressureProfile([0.0, duration], [0.0, p_max]), t_end=duration, n_samples=0
+    )
     assert run.status == Status.OK
     return run.snap_through * p_max / duration, run.final_state
 
@@ -83,8 +93,9 @@ def test_jacobian_is_the_derivative_of_the_residual_and_not_symmetric(which, gri
     for j in range(x.size):
         e = np.zeros_like(x)
         e[j] = step
-        fd[:, j] = (_residual(params, x + e, pressure)[0] - _residual(params, x - e, pressure)[0]) \
-            / (2 * step)  # fmt: skip
+        fd[:, j] = (
+            _residual(params, x + e, pressure)[0] - _residual(params, x - e, pressure)[0]
+        ) / (2 * step)
     scale = np.abs(jac).max()
     assert np.abs(fd - jac).max() < 1e-7 * scale
     # dR/dP = -f (the load at unit pressure), and the asymmetry is the follower load's
@@ -143,8 +154,12 @@ def _unit_cell_model(design):
         return dome + post + 0.5 * kt * (theta - math.pi / 2) ** 2
 
     def grad(z, step=1e-6):
-        return np.array([(energy(z + e) - energy(z - e)) / (2 * step)
-                         for e in (np.array([step, 0.0]), np.array([0.0, step]))])  # fmt: skip
+        return np.array(
+            [
+                (energy(z + e) - energy(z - e)) / (2 * step)
+                for e in (np.array([step, 0.0]), np.array([0.0, step]))
+            ]
+        )
 
     def load(z):
         # each face: P·length along its normal, half to each end; on D_1 from the dome face
@@ -172,8 +187,12 @@ def test_single_unit_fold_matches_an_independent_root_find():
         return grad(z) @ f / (f @ f)
 
     u_barrier = c.domes.u_barrier[0]
-    best = minimize_scalar(lambda xp: -pressure_at(xp), bounds=(p, p + u_barrier * d),
-                           method="bounded", options={"xatol": 1e-10})  # fmt: skip
+    best = minimize_scalar(
+        lambda xp: -pressure_at(xp),
+        bounds=(p, p + u_barrier * d),
+        method="bounded",
+        options={"xatol": 1e-10},
+    )
     fold = -best.fun
     seq = snap_pressures(design, P_max=2 * fold)
     snaps = seq.snaps
@@ -193,8 +212,12 @@ def test_single_unit_fold_matches_an_independent_root_find():
         force = dome_force(length - p, c.k_b[0], c.alpha[0], d)
         return (force * slope + kt * phi) / (h * h / 2 * math.cos(phi) - p * h / 2 * math.sin(phi))
 
-    rigid = minimize_scalar(lambda phi: -rigid_post(phi), bounds=(0.0, u_barrier * d / h),
-                            method="bounded", options={"xatol": 1e-12})  # fmt: skip
+    rigid = minimize_scalar(
+        lambda phi: -rigid_post(phi),
+        bounds=(0.0, u_barrier * d / h),
+        method="bounded",
+        options={"xatol": 1e-12},
+    )
     assert snaps[0].pressure == pytest.approx(-rigid.fun, rel=1e-3)
     assert abs(snaps[0].pressure + rigid.fun) > 1e-6  # ... but not to round-off: it is a model
 
@@ -208,8 +231,14 @@ def test_gripper_units_invert_base_first_and_release_into_the_grasp_states(gripp
     assert [e.kind for e in seq.events] == ["snap"] * 5
     assert [v.state for v in seq.visits] == ["00000", "00001", "10001", "11001", "11101", "11111"]
     # the metastable tip unit is inverted only under pressure: releases give MODEL.md §9's states
-    assert [v.released for v in seq.visits] == ["00000", "00000", "10000", "11000", "11100",
-                                                "11110"]  # fmt: skip
+    assert [v.released for v in seq.visits] == [
+        "00000",
+        "00000",
+        "10000",
+        "11000",
+        "11100",
+        "11110",
+    ]
     inv = seq.inversion_pressures()
     assert np.all(np.diff(inv[:4]) > 0.05)  # units 1-4 in order, windows > 50 kPa
     windows = seq.release_windows()
@@ -243,7 +272,9 @@ def test_gripper_snap_back_pressure_is_the_slow_release_limit(gripper):
     # the tip dome (alpha > 1/9, threshold u = 3/4) passes its threshold smoothly, then its
     # branch folds 0.8 kPa lower and it snaps back to the flat side
     assert [(e.kind, e.before, e.after) for e in down.events] == [
-        ("crossing", "11111", "11110"), ("snap", "11110", "11110")]
+        ("crossing", "11111", "11110"),
+        ("snap", "11110", "11110"),
+    ]
     assert 0.0 < down.events[0].pressure - down.events[1].pressure < 2e-3
     fold = down.events[0].pressure
     errors = []
@@ -305,8 +336,9 @@ def test_folds_are_singular_and_landings_are_stable_attractors(gripper, gripper_
         # and an attractor: perturbed, the full motion at that pressure comes back
         rng = np.random.default_rng(1)
         start = event.x_after + 0.05 * rng.standard_normal(event.x_after.size)
-        run = simulate(gripper, PressureProfile([0.0], [event.pressure]), t_end=40.0,
-                       x0=start, n_samples=0)  # fmt: skip
+        run = simulate(
+            gripper, PressureProfile([0.0], [event.pressure]), t_end=40.0, x0=start, n_samples=0
+        )
         assert np.abs(run.final_x - event.x_after).max() < 1e-3
 
 
@@ -315,9 +347,11 @@ def test_every_branch_point_is_stable_no_flutter(gripper, gripper_up):
     params = lattice_params(gripper)
     path = gripper_up.path
     last_of_segment = np.r_[path["segment"][1:] != path["segment"][:-1], True]
-    rates = [decay_rate(params, x, p, "rodas4")
-             for x, p, last in zip(_path_shapes(gripper_up), path["P"], last_of_segment,
-                                   strict=True) if not last]  # fmt: skip
+    rates = [
+        decay_rate(params, x, p, "rodas4")
+        for x, p, last in zip(_path_shapes(gripper_up), path["P"], last_of_segment, strict=True)
+        if not last
+    ]
     assert min(rates) > 0.0
 
 
@@ -344,8 +378,9 @@ def _path_shapes(seq):
 def test_landings_do_not_depend_on_the_kick_or_the_inertia(gripper, gripper_up):
     for kwargs in ({"kick": 0.01}, {"model": "rodas4-overdamped"}):
         other = snap_pressures(gripper, P_max=0.7, release=False, **kwargs)
-        assert [(e.before, e.after) for e in other.events] == \
-            [(e.before, e.after) for e in gripper_up.events]  # fmt: skip
+        assert [(e.before, e.after) for e in other.events] == [
+            (e.before, e.after) for e in gripper_up.events
+        ]
         for a, b in zip(other.events, gripper_up.events, strict=True):
             assert a.pressure == pytest.approx(b.pressure, abs=1e-9)
             assert np.abs(a.x_after - b.x_after).max() < 1e-6
@@ -353,10 +388,13 @@ def test_landings_do_not_depend_on_the_kick_or_the_inertia(gripper, gripper_up):
 
 # A 7-unit finger of the paper's box whose all-inverted branch folds at 0.374 MPa with no resting
 # place beyond: past the fold the follower load drives a slow relaxation oscillation.
-CURLING = dict(H=[4.7886, 4.9092, 3.5478, 4.6549, 3.3948, 3.1537, 4.243],
-               U_L=[7.5491, 9.78, 5.9609, 7.1977, 7.1207, 9.4887, 7.3205],
-               U_sep=[4.5692, 1.7296, 1.1845, 1.9319, 1.0992, 1.5032, 3.1766], t=0.5078,
-               t_lim=1.4805)  # fmt: skip
+CURLING = dict(
+    H=[4.7886, 4.9092, 3.5478, 4.6549, 3.3948, 3.1537, 4.243],
+    U_L=[7.5491, 9.78, 5.9609, 7.1977, 7.1207, 9.4887, 7.3205],
+    U_sep=[4.5692, 1.7296, 1.1845, 1.9319, 1.0992, 1.5032, 3.1766],
+    t=0.5078,
+    t_lim=1.4805,
+)
 
 
 def test_a_fold_without_a_resting_place_is_reported_unsettled():
@@ -369,8 +407,13 @@ def test_a_fold_without_a_resting_place_is_reported_unsettled():
     assert seq.visits[-1].state == "1111111" and seq.visits[-1].P_leave == last.pressure
     assert all(v.released is not None for v in seq.visits)  # the states before it still release
     # the motion 1 kPa past the fold keeps going: excursions of tens of mm, again and again
-    run = simulate(design, PressureProfile([0.0], [last.pressure + 1e-3]), t_end=3000.0,
-                   x0=last.x_before, n_samples=61)  # fmt: skip
+    run = simulate(
+        design,
+        PressureProfile([0.0], [last.pressure + 1e-3]),
+        t_end=3000.0,
+        x0=last.x_before,
+        n_samples=61,
+    )
     tip = run.tip[30:]  # the second half
     assert np.ptp(tip[:, 0]) > 20.0 and np.ptp(tip[:, 1]) > 20.0
 
@@ -454,8 +497,9 @@ def test_cli_json_and_plot(tmp_path, capsys):
     assert "10001" in text and "snap" in text
 
 
-@pytest.mark.parametrize("argv", [["nowhere.toml"], ["gripper", "--P-max", "-1"],
-                                  ["gripper", "--start", "2"]])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv", [["nowhere.toml"], ["gripper", "--P-max", "-1"], ["gripper", "--start", "2"]]
+)
 def test_cli_bad_input_exits_2(argv, capsys):
     assert main(["snap", *argv]) == 2
     err = capsys.readouterr().err
@@ -465,8 +509,23 @@ def test_cli_bad_input_exits_2(argv, capsys):
 @pytest.mark.slow
 def test_bench_snap_record(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    code = main(["bench", "snap", "--json", "--units", "2", "--designs", "2", "--ramp-designs",
-                 "1", "--rounds", "1", "--no-compile", "--save"])  # fmt: skip
+    code = main(
+        [
+            "bench",
+            "snap",
+            "--json",
+            "--units",
+            "2",
+            "--designs",
+            "2",
+            "--ramp-designs",
+            "1",
+            "--rounds",
+            "1",
+            "--no-compile",
+            "--save",
+        ]
+    )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     assert record["gripper"]["median_ms"] > 0 and record["by_n_units"][0]["n_units"] == 2

@@ -446,10 +446,18 @@ def _other_starts_find(design: Design, state: int, ws) -> bool:
     u_inv = p.unit_params[:, lay.COL_U_INV]
     holds = [None]
     for margin in (0.1, 0.25, 0.4):
-        holds.append((np.where(inverted, u_inv + margin, -np.inf),
-                      np.where(inverted, np.inf, u_inv - margin)))  # fmt: skip
-    holds.append((np.where(inverted, p.unit_params[:, lay.COL_U_HELD], -np.inf),
-                  np.where(inverted, np.inf, 0.0)))  # fmt: skip
+        holds.append(
+            (
+                np.where(inverted, u_inv + margin, -np.inf),
+                np.where(inverted, np.inf, u_inv - margin),
+            )
+        )
+    holds.append(
+        (
+            np.where(inverted, p.unit_params[:, lay.COL_U_HELD], -np.inf),
+            np.where(inverted, np.inf, 0.0),
+        )
+    )
     for c in (0.6, 1.0, 1.5):
         for hold in holds:
             x = np.empty(46)
@@ -465,9 +473,10 @@ def _other_starts_find(design: Design, state: int, ws) -> bool:
     return False
 
 
-@pytest.mark.parametrize(("n_units", "count", "states"),
-                         [(2, 80, "all"), (3, 40, "all"), (4, 20, "all"), (5, 60, "all_inverted"),
-                          (6, 8, "all")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("n_units", "count", "states"),
+    [(2, 80, "all"), (3, 40, "all"), (4, 20, "all"), (5, 60, "all_inverted"), (6, 8, "all")],
+)
 def test_collapsed_states_survive_a_multi_start_check(n_units, count, states):
     """No state reported as collapsing is reached by 15 other starts: every state of 2-4 and
     6 unit fingers (mixed inversion vectors included), the all-inverted one of 5-unit fingers.

@@ -38,8 +38,10 @@ from dpfexplore.sweep.driver import run_sweep
 OUTPUTS = ("tip_x", "tip_y", "curvature", "stiffness")
 #: Small and quick: a per-unit MLP of 32 x 32 (the residual it learns is smooth).
 SMALL_MLP = {"hidden_layer_sizes": (32, 32), "max_iter": 150, "batch_size": 128}
-FAST = {"chain": {**SMALL_MLP, "inner_params": {"max_iter": 30, "hidden_layer_sizes": (16,)}},
-        "classifier": {"max_iter": 30}}
+FAST = {
+    "chain": {**SMALL_MLP, "inner_params": {"max_iter": 30, "hidden_layer_sizes": (16,)}},
+    "classifier": {"max_iter": 30},
+}
 
 
 @pytest.fixture(scope="module")
@@ -59,8 +61,12 @@ def data(dataset):
 def sequential(tmp_path_factory):
     """Sequential states (mixed inverted and flat units), N = 2..4."""
     root = tmp_path_factory.mktemp("chain-seq") / "sweep"
-    run_sweep(make_job(**{"job.samples_per_n": 30, "space.n_units": [2, 3, 4],
-                          "compute.states": "sequential"}), root)
+    run_sweep(
+        make_job(
+            **{"job.samples_per_n": 30, "space.n_units": [2, 3, 4], "compute.states": "sequential"}
+        ),
+        root,
+    )
     return load_training_data(root, ("tip_x", "tip_y"))
 
 
@@ -74,9 +80,11 @@ def chain(data, split):
     train = split[0] & data.ok
     frame = data.frame[train]
     with threadpool_limits(limits=1):
-        return ChainSurrogate(outputs=OUTPUTS, params=SMALL_MLP,
-                              inner_params={"max_iter": 30, "hidden_layer_sizes": (16,)}).fit(
-            frame, frame[list(OUTPUTS)].to_numpy())
+        return ChainSurrogate(
+            outputs=OUTPUTS,
+            params=SMALL_MLP,
+            inner_params={"max_iter": 30, "hidden_layer_sizes": (16,)},
+        ).fit(frame, frame[list(OUTPUTS)].to_numpy())
 
 
 # ----------------------------------------------------------------------------- kinematics
@@ -84,8 +92,9 @@ def chain(data, split):
 
 def _exact(frame):
     batch = designs_from_rows(frame)
-    out = solve_batch(batch, frame["requested"].to_numpy(), stiffness=False, min_eig=False,
-                      shapes=True)
+    out = solve_batch(
+        batch, frame["requested"].to_numpy(), stiffness=False, min_eig=False, shapes=True
+    )
     return batch, out
 
 
@@ -104,7 +113,7 @@ def test_exact_per_unit_quantities_compose_to_the_exact_tip(data, sequential):
         found = out["status"] == 0
         assert found.all()
         p1 = batch.U_L[:, 0] + batch.t_ch + batch.U_sep[:, 0]
-        h = 7.5 + batch.t_lim + batch.t   # MODEL.md §2: UC/2 + t_lim + t with r_b = 5
+        h = 7.5 + batch.t_lim + batch.t  # MODEL.md §2: UC/2 + t_lim + t with r_b = 5
         rho, beta, ell = unit_kinematics(out["x"], batch.n_units, p1, h)
         composed = compose(rho, beta, ell, batch.n_units, h)
         for name in ("tip_x", "tip_y"):
@@ -118,8 +127,12 @@ def test_exact_per_unit_quantities_compose_to_the_exact_tip(data, sequential):
         assert np.isnan(rho[beyond]).all()
     # an inverted unit turns its post counter-clockwise (the finger curls toward +y)
     batch, out = _exact(data.frame[data.ok])
-    rho, _, _ = unit_kinematics(out["x"], batch.n_units, batch.U_L[:, 0] + 1 + batch.U_sep[:, 0],
-                                7.5 + batch.t_lim + batch.t)
+    rho, _, _ = unit_kinematics(
+        out["x"],
+        batch.n_units,
+        batch.U_L[:, 0] + 1 + batch.U_sep[:, 0],
+        7.5 + batch.t_lim + batch.t,
+    )
     inside = np.arange(MAX_UNITS)[None, :] < batch.n_units[:, None]
     assert np.median(rho[inside]) > 0.05
 
@@ -133,17 +146,21 @@ def test_unit_depends_on_itself_and_its_predecessor_only(data):
     for rows in (frame, changed):
         batch, out = _exact(rows)
         p1 = batch.U_L[:, 0] + 1 + batch.U_sep[:, 0]
-        quantities.append((unit_kinematics(out["x"], batch.n_units, p1,
-                                           7.5 + batch.t_lim + batch.t), out["status"] == 0))
+        quantities.append(
+            (
+                unit_kinematics(out["x"], batch.n_units, p1, 7.5 + batch.t_lim + batch.t),
+                out["status"] == 0,
+            )
+        )
     (before, ok0), (after, ok1) = quantities
     both = ok0 & ok1
     assert both.sum() >= 6
     rho0, rho1 = before[0][both], after[0][both]
     change = np.abs(rho1 - rho0)
-    assert np.all(change[:, :2] < 1e-5)           # units 1, 2: before the change
-    assert np.median(change[:, 2]) > 1e-2         # unit 3 itself
-    assert np.all(change[:, 3] < 1e-2)            # unit 4: through the shared post, small
-    assert np.all(change[:, 4] < 1e-5)            # unit 5: two units on
+    assert np.all(change[:, :2] < 1e-5)  # units 1, 2: before the change
+    assert np.median(change[:, 2]) > 1e-2  # unit 3 itself
+    assert np.all(change[:, 3] < 1e-2)  # unit 4: through the shared post, small
+    assert np.all(change[:, 4] < 1e-5)  # unit 5: two units on
 
 
 # ----------------------------------------------------------------------------- rigid unit cell
@@ -170,10 +187,20 @@ def test_rigid_unit_model_is_a_minimum_of_the_independent_energy(data):
     for i in np.flatnonzero(rigid.holds & rigid.inverted & (rigid.d > 0.1)):
         first = rigid.unit[i] == 0
         k_prev = 0.0 if first else rigid.k_t[i - 1]
-        args = (rigid.p[i], rigid.h[i], rigid.k_b[i], rigid.alpha[i], rigid.d[i], k_prev,
-                rigid.k_t[i])
-        energy = ((lambda v, a=args: _rigid_energy(0.0, v[0], *a)) if first
-                  else (lambda v, a=args: _rigid_energy(v[0], v[1], *a)))
+        args = (
+            rigid.p[i],
+            rigid.h[i],
+            rigid.k_b[i],
+            rigid.alpha[i],
+            rigid.d[i],
+            k_prev,
+            rigid.k_t[i],
+        )
+        energy = (
+            (lambda v, a=args: _rigid_energy(0.0, v[0], *a))
+            if first
+            else (lambda v, a=args: _rigid_energy(v[0], v[1], *a))
+        )
         x = np.array([rigid.rho[i]] if first else [rigid.beta[i], rigid.rho[i]])
         scale = rigid.k_b[i] * rigid.d[i] * rigid.h[i]
         # Small steps for the gradient (the dome's quartic energy has a large third
@@ -181,11 +208,19 @@ def test_rigid_unit_model_is_a_minimum_of_the_independent_energy(data):
         steps = np.eye(x.size) * 1e-6
         grad = np.array([(energy(x + e) - energy(x - e)) / 2e-6 for e in steps])
         steps = np.eye(x.size) * 1e-4
-        hess = np.array([[(energy(x + a + b) - energy(x + a - b) - energy(x - a + b)
-                           + energy(x - a - b)) / 4e-8 for b in steps] for a in steps])
+        hess = np.array(
+            [
+                [
+                    (energy(x + a + b) - energy(x + a - b) - energy(x - a + b) + energy(x - a - b))
+                    / 4e-8
+                    for b in steps
+                ]
+                for a in steps
+            ]
+        )
         assert np.abs(grad).max() < 1e-7 * scale
         assert np.linalg.eigvalsh(hess).min() > 0
-        assert rigid.u[i] > 0.75   # past the fold of the isolated dome: inverted
+        assert rigid.u[i] > 0.75  # past the fold of the isolated dome: inverted
         checked += 1
     assert checked >= 50
     # a dome with no inverted minimum of its own (alpha >= 1/9) cannot hold in its finger
@@ -195,16 +230,18 @@ def test_rigid_unit_model_is_a_minimum_of_the_independent_energy(data):
     assert np.mean((rigid.margin[inverted] > 0) == rigid.holds[inverted]) > 0.99
 
 
-def test_rigid_model_is_close_to_exact_and_the_learned_residual_closes_the_gap(data, split,
-                                                                                chain):
+def test_rigid_model_is_close_to_exact_and_the_learned_residual_closes_the_gap(data, split, chain):
     test = data.frame[split[1] & data.ok]
     truth = test[["tip_x", "tip_y"]].to_numpy()
     batch = designs_from_rows(test)
     rigid = rigid_units(batch, state_bits(test["requested"].to_numpy(), batch.n_units))
-    alone = compose(np.nan_to_num(rigid.grid(rigid.rho)),
-                    np.nan_to_num(rigid.grid(np.where(rigid.unit == 0, 0.0, rigid.beta))),
-                    np.nan_to_num(rigid.grid(rigid.p)), batch.n_units,
-                    rigid.grid(rigid.h)[:, 0])
+    alone = compose(
+        np.nan_to_num(rigid.grid(rigid.rho)),
+        np.nan_to_num(rigid.grid(np.where(rigid.unit == 0, 0.0, rigid.beta))),
+        np.nan_to_num(rigid.grid(rigid.p)),
+        batch.n_units,
+        rigid.grid(rigid.h)[:, 0],
+    )
     error_alone = np.hypot(alone["tip_x"] - truth[:, 0], alone["tip_y"] - truth[:, 1])
     predicted = chain.predict(test)
     error_chain = np.hypot(*(predicted[:, :2] - truth).T)
@@ -220,8 +257,8 @@ def test_chain_status_rule_agrees_with_the_exact_model(data, split):
     clf = ChainStatusClassifier().fit(data.frame[train], data.ok[train])
     held = data.frame[test]
     predicted = clf.predict(held)
-    assert np.mean(predicted == data.ok[test]) >= 0.98   # 99.985 % on 20,000 designs
-    assert 0 < data.ok[test].mean() < 1          # both classes present
+    assert np.mean(predicted == data.ok[test]) >= 0.98  # 99.985 % on 20,000 designs
+    assert 0 < data.ok[test].mean() < 1  # both classes present
     proba = clf.predict_proba(held)
     np.testing.assert_allclose(proba.sum(axis=1), 1.0)
     assert np.array_equal(proba[:, 1] > 0.5, predicted)
@@ -260,10 +297,10 @@ def test_unit_rows_of_a_design_stay_on_its_side_of_the_split(data, split, chain)
 def test_out_of_range_rows_are_flagged(data, chain):
     frame = data.frame[data.ok]
     probe = frame[frame["n_units"] == 3].iloc[:5].copy()
-    probe.loc[probe.index[0], "H_2"] = frame["H_2"].max() + 0.2     # outside the unit box
-    probe.loc[probe.index[1], "E"] = 40.0                           # fixed in training at 26
-    probe.loc[probe.index[2], "t"] = 1.2                            # outside the shared box
-    probe.loc[probe.index[3], "requested"] = 0b101                  # a flat unit: never seen
+    probe.loc[probe.index[0], "H_2"] = frame["H_2"].max() + 0.2  # outside the unit box
+    probe.loc[probe.index[1], "E"] = 40.0  # fixed in training at 26
+    probe.loc[probe.index[2], "t"] = 1.2  # outside the shared box
+    probe.loc[probe.index[3], "requested"] = 0b101  # a flat unit: never seen
     assert chain.in_range(probe).tolist() == [False, False, False, False, True]
     # an N not among the training designs' is flagged, but still predicted (units are local)
     six = probe.iloc[[4]].copy()
@@ -289,7 +326,8 @@ def test_fit_refuses_rows_it_cannot_reproduce(data):
     collapsed = data.frame[~data.ok].iloc[:3]
     with pytest.raises(ValueError, match="3 rows whose requested state the exact model"):
         ChainSurrogate(outputs=("tip_x",), params={"max_iter": 2}).fit(
-            collapsed, collapsed[["tip_x"]].to_numpy())
+            collapsed, collapsed[["tip_x"]].to_numpy()
+        )
     with pytest.raises(ValueError, match=r"y: shape \(30, 2\), need \(30, 1\)"):
         ChainSurrogate(outputs=("tip_x",)).fit(frame, y)
 
@@ -299,7 +337,8 @@ def test_mixed_states(sequential):
     frame = sequential.frame[sequential.ok]
     with threadpool_limits(limits=1):
         model = ChainSurrogate(outputs=("tip_x", "tip_y"), params=SMALL_MLP).fit(
-            frame, frame[["tip_x", "tip_y"]].to_numpy())
+            frame, frame[["tip_x", "tip_y"]].to_numpy()
+        )
     assert model.sides_ == (0, 1) and model.in_range(frame).all()
     error = np.hypot(*(model.predict(frame) - frame[["tip_x", "tip_y"]].to_numpy()).T)
     assert np.median(error) < 0.05
@@ -311,8 +350,14 @@ def test_mixed_states(sequential):
 
 
 def test_fit_report_save_load_round_trip(data, tmp_path):
-    fitted = fit_surrogates(data, kinds=["chain"], classifier_kind=["gbt", "chain"],
-                            params=FAST, test_fraction=0.25, seed=1)
+    fitted = fit_surrogates(
+        data,
+        kinds=["chain"],
+        classifier_kind=["gbt", "chain"],
+        params=FAST,
+        test_fraction=0.25,
+        seed=1,
+    )
     report = fitted.report
     assert report["kinds"] == ["chain"] and report["best"] == "chain"
     assert [r["kind"] for r in report["classifiers"]] == ["gbt", "chain"]
@@ -324,16 +369,20 @@ def test_fit_report_save_load_round_trip(data, tmp_path):
     path = store.save_surrogates(fitted, tmp_path / "chain-model")
     loaded = store.load_surrogates(path, dataset=data.root)
     frame = data.frame
-    np.testing.assert_array_equal(loaded.regressors["chain"].predict(frame),
-                                  fitted.regressors["chain"].predict(frame))
+    np.testing.assert_array_equal(
+        loaded.regressors["chain"].predict(frame), fitted.regressors["chain"].predict(frame)
+    )
     for kind in ("gbt", "chain"):
-        np.testing.assert_array_equal(loaded.classifiers[kind].predict_proba(frame),
-                                      fitted.classifiers[kind].predict_proba(frame))
+        np.testing.assert_array_equal(
+            loaded.classifiers[kind].predict_proba(frame),
+            fitted.classifiers[kind].predict_proba(frame),
+        )
     assert type(loaded.classifier) is type(fitted.classifier)
     pd.testing.assert_frame_equal(loaded.predict(frame), fitted.predict(frame))
     # the held-out table is the one held_out_errors gives for these predictions
-    test = data.frame[split_by_design(data.frame["design_id"].to_numpy(), test_fraction=0.25,
-                                      seed=1)[1] & data.ok]
+    test = data.frame[
+        split_by_design(data.frame["design_id"].to_numpy(), test_fraction=0.25, seed=1)[1] & data.ok
+    ]
     table = held_out_errors(test, fitted.regressors["chain"].predict(test), list(OUTPUTS))
     mine = table[(table["output"] == "tip") & (table["n_units"] == "all")]
     assert mine["median"].iloc[0] == pytest.approx(tip[tip["n_units"] == "all"]["median"].iloc[0])
@@ -341,14 +390,38 @@ def test_fit_report_save_load_round_trip(data, tmp_path):
 
 def test_cli_fits_the_chain_and_rejects_an_unknown_classifier(dataset, tmp_path, capsys):
     out = tmp_path / "cli-chain"
-    argv = ["surrogate", "fit", str(dataset), "--outputs", "tip_x,tip_y", "--out", str(out),
-            "--kinds", "chain", "--classifier", "chain", "--no-timing", "--params",
-            '{"chain": {"hidden_layer_sizes": [16], "max_iter": 20}}']
+    argv = [
+        "surrogate",
+        "fit",
+        str(dataset),
+        "--outputs",
+        "tip_x,tip_y",
+        "--out",
+        str(out),
+        "--kinds",
+        "chain",
+        "--classifier",
+        "chain",
+        "--no-timing",
+        "--params",
+        '{"chain": {"hidden_layer_sizes": [16], "max_iter": 20}}',
+    ]
     assert main(argv) == 0
     text = capsys.readouterr().out
     assert "status classifier (chain) (used)" in text and "chain" in text
-    bad = ["surrogate", "fit", str(dataset), "--outputs", "tip_x,tip_y", "--out",
-           str(tmp_path / "m2"), "--kinds", "chain", "--classifier", "chain,svm"]
+    bad = [
+        "surrogate",
+        "fit",
+        str(dataset),
+        "--outputs",
+        "tip_x,tip_y",
+        "--out",
+        str(tmp_path / "m2"),
+        "--kinds",
+        "chain",
+        "--classifier",
+        "chain,svm",
+    ]
     assert main(bad) == 2 and not (tmp_path / "m2").exists()
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "classifier kind 'svm'" in err

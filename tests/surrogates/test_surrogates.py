@@ -24,8 +24,12 @@ from dpfexplore.sweep.driver import run_sweep
 
 OUTPUTS = ("tip_x", "tip_y", "stiffness")
 SMALL = {"job.samples_per_n": 40, "compute.states": "sequential"}
-FAST = {"gbt": {"max_iter": 30}, "mlp": {"max_iter": 30, "hidden_layer_sizes": (16,)},
-        "gp": {"max_train": 60}, "classifier": {"max_iter": 30}}
+FAST = {
+    "gbt": {"max_iter": 30},
+    "mlp": {"max_iter": 30, "hidden_layer_sizes": (16,)},
+    "gp": {"max_train": 60},
+    "classifier": {"max_iter": 30},
+}
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +53,9 @@ def data(dataset):
 
 @pytest.fixture(scope="module")
 def fitted(data):
-    return fit_surrogates(data, kinds=["knn", "gbt", "mlp", "gp"], params=FAST,
-                          test_fraction=0.25, timing=False)
+    return fit_surrogates(
+        data, kinds=["knn", "gbt", "mlp", "gp"], params=FAST, test_fraction=0.25, timing=False
+    )
 
 
 @pytest.fixture(scope="module")
@@ -128,9 +133,9 @@ def test_out_of_range_rows_are_flagged(data):
     frame = data.frame[data.ok]
     model = DesignSurrogate(kind="knn").fit(frame, frame[list(OUTPUTS)].to_numpy())
     probe = frame.iloc[:4].copy()
-    probe.loc[probe.index[0], "H_1"] = frame["H_1"].max() + 0.1   # outside the training box
-    probe.loc[probe.index[1], "E"] = 40.0                          # fixed in training at 26
-    probe.loc[probe.index[2], "n_units"] = 5                       # an N never fitted
+    probe.loc[probe.index[0], "H_1"] = frame["H_1"].max() + 0.1  # outside the training box
+    probe.loc[probe.index[1], "E"] = 40.0  # fixed in training at 26
+    probe.loc[probe.index[2], "n_units"] = 5  # an N never fitted
     assert model.in_range(probe).tolist() == [False, False, False, True]
     assert np.isnan(model.predict(probe)[2]).all()
     assert np.isfinite(model.predict(probe)[[0, 1, 3]]).all()
@@ -159,8 +164,9 @@ def test_classifier_probabilities_and_validation(data):
 
 
 def test_held_out_errors_by_hand():
-    frame = pd.DataFrame({"n_units": [2, 2, 3, 3], "tip_x": [1.0, 2.0, 3.0, 4.0],
-                          "tip_y": [1.0, 1.0, 1.0, 1.0]})
+    frame = pd.DataFrame(
+        {"n_units": [2, 2, 3, 3], "tip_x": [1.0, 2.0, 3.0, 4.0], "tip_y": [1.0, 1.0, 1.0, 1.0]}
+    )
     offset = np.array([[0.3, 0.4], [0.3, 0.4], [0.6, 0.8], [0.0, 0.0]])
     pred = frame[["tip_x", "tip_y"]].to_numpy() + offset
     table = held_out_errors(frame, pred, ["tip_x", "tip_y"]).set_index(["output", "n_units"])
@@ -174,7 +180,7 @@ def test_report_compares_with_the_exact_model(fitted):
     report = fitted.report
     errors = pd.DataFrame(report["errors"])
     exact = errors[(errors["model"] == "exact") & (errors["output"] == "tip")]
-    assert exact["max"].max() < 1e-9   # same designs as the dataset, same solver
+    assert exact["max"].max() < 1e-9  # same designs as the dataset, same solver
     assert report["classifier"]["exact_model_agreement"] == 1.0
     assert set(report["kinds"]) == {"knn", "gbt", "mlp", "gp"}
     assert report["best"] in report["kinds"]
@@ -197,8 +203,9 @@ def test_save_load_round_trip(fitted, saved, data):
     frame = data.frame[data.ok]
     for kind, model in fitted.regressors.items():
         np.testing.assert_array_equal(loaded.regressors[kind].predict(frame), model.predict(frame))
-    np.testing.assert_array_equal(loaded.classifier.predict_proba(frame),
-                                  fitted.classifier.predict_proba(frame))
+    np.testing.assert_array_equal(
+        loaded.classifier.predict_proba(frame), fitted.classifier.predict_proba(frame)
+    )
     assert loaded.best == fitted.best and loaded.outputs == fitted.outputs
     assert loaded.report["split"] == json.loads(json.dumps(fitted.report["split"]))
     meta = json.loads((saved / store.META).read_text())
@@ -248,14 +255,24 @@ def _one_line_error(capsys, argv):
 
 def test_cli_fit_report_predict(dataset, tmp_path, capsys):
     out = tmp_path / "cli-model"
-    argv = ["surrogate", "fit", str(dataset), "--outputs", "tip_x,tip_y", "--out", str(out),
-            "--kinds", "knn", "--no-timing"]
+    argv = [
+        "surrogate",
+        "fit",
+        str(dataset),
+        "--outputs",
+        "tip_x,tip_y",
+        "--out",
+        str(out),
+        "--kinds",
+        "knn",
+        "--no-timing",
+    ]
     assert main(argv) == 0
     assert "held-out tip error" in capsys.readouterr().out
     assert main(["surrogate", "report", str(out)]) == 0
     assert "status classifier" in capsys.readouterr().out
     designs = pd.read_parquet(dataset).query("status_label == 'ok'").head(3).copy()
-    designs.loc[designs.index[0], "t"] = 1.5   # outside the training box
+    designs.loc[designs.index[0], "t"] = 1.5  # outside the training box
     path = tmp_path / "designs.parquet"
     designs.to_parquet(path)
     assert main(["surrogate", "predict", str(out), str(path), "--dataset", str(dataset)]) == 0
@@ -271,28 +288,36 @@ def test_cli_fit_report_predict(dataset, tmp_path, capsys):
 
 
 def test_cli_bad_input_one_line_exit_2(dataset, saved, other_dataset, tmp_path, capsys):
-    err = _one_line_error(capsys, ["surrogate", "fit", str(dataset), "--outputs", "tip_q",
-                                   "--out", str(tmp_path / "m")])
+    err = _one_line_error(
+        capsys,
+        ["surrogate", "fit", str(dataset), "--outputs", "tip_q", "--out", str(tmp_path / "m")],
+    )
     assert "output 'tip_q'" in err and not (tmp_path / "m").exists()
-    err = _one_line_error(capsys, ["surrogate", "fit", str(tmp_path), "--outputs", "tip_x",
-                                   "--out", str(tmp_path / "m")])
+    err = _one_line_error(
+        capsys,
+        ["surrogate", "fit", str(tmp_path), "--outputs", "tip_x", "--out", str(tmp_path / "m")],
+    )
     assert "not a sweep directory" in err
     err = _one_line_error(capsys, ["surrogate", "report", str(tmp_path / "missing")])
     assert "no saved surrogate" in err
-    err = _one_line_error(capsys, ["surrogate", "predict", str(tmp_path / "missing"),
-                                   str(tmp_path / "d.parquet")])
+    err = _one_line_error(
+        capsys, ["surrogate", "predict", str(tmp_path / "missing"), str(tmp_path / "d.parquet")]
+    )
     assert "no saved surrogate" in err
     text = tmp_path / "designs.parquet"
     text.write_text("n_units,H_1\n2,3.0\n")
     err = _one_line_error(capsys, ["surrogate", "predict", str(saved), str(text)])
     assert "not a Parquet file of designs" in err
     pd.DataFrame({"n_units": [2], "H_1": [3.5]}).to_parquet(tmp_path / "partial.parquet")
-    err = _one_line_error(capsys, ["surrogate", "predict", str(saved),
-                                   str(tmp_path / "partial.parquet")])
+    err = _one_line_error(
+        capsys, ["surrogate", "predict", str(saved), str(tmp_path / "partial.parquet")]
+    )
     assert "missing column 'H_2'" in err
-    err = _one_line_error(capsys, ["surrogate", "predict", str(saved), str(dataset),
-                                   "--dataset", str(other_dataset)])
+    err = _one_line_error(
+        capsys, ["surrogate", "predict", str(saved), str(dataset), "--dataset", str(other_dataset)]
+    )
     assert "not the one this surrogate was fitted on" in err
-    err = _one_line_error(capsys, ["surrogate", "predict", str(saved), str(dataset),
-                                   "--kind", "svm"])
+    err = _one_line_error(
+        capsys, ["surrogate", "predict", str(saved), str(dataset), "--kind", "svm"]
+    )
     assert "kind = 'svm'" in err

@@ -20,8 +20,12 @@ from dpfexplore.sweep.engines import DaskEngine, LocalEngine, make_engine
 
 # A sequential-states job; its N = 6 chunks of 300 designs take about 0.2 s on one core, long
 # enough to kill a worker in the middle of one.
-STATICS_JOB = {"job.samples_per_n": 600, "space.n_units": [5, 6],
-               "compute.states": "sequential", "compute.min_eig": True}
+STATICS_JOB = {
+    "job.samples_per_n": 600,
+    "space.n_units": [5, 6],
+    "compute.states": "sequential",
+    "compute.min_eig": True,
+}
 
 
 def read_sorted(path, by):
@@ -37,8 +41,9 @@ def local_reference(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def cluster():
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
         yield cluster
 
 
@@ -59,8 +64,9 @@ def test_dask_local_cluster_matches_local_engine(tmp_path, local_reference):
     summary = run_sweep(make_job(**STATICS_JOB), tmp_path / "out", engine=engine, chunk_size=100)
     assert summary.complete and summary.engine == "dask"
     assert {"compile_s", "cluster_start_s", "worker_warmup_s"} <= set(summary.timings)
-    pd.testing.assert_frame_equal(read_sorted(tmp_path / "out", ["design_id", "requested"]),
-                                  local_reference)
+    pd.testing.assert_frame_equal(
+        read_sorted(tmp_path / "out", ["design_id", "requested"]), local_reference
+    )
     # No oversubscription: 2 worker processes x Numba threads <= cores, one thread each.
     info = engine.worker_info
     assert len(info) == 2
@@ -80,8 +86,13 @@ def test_existing_scheduler_and_worker_count_invariance(tmp_path, cluster):
     one = tmp_path / "one"
     run_sweep(spec, one, engine=LocalEngine(), evaluator=UnitConstantsEvaluator(), chunk_size=200)
     two = tmp_path / "two"
-    summary = run_sweep(spec, two, engine=DaskEngine(scheduler=cluster.scheduler_address),
-                        evaluator=UnitConstantsEvaluator(), chunk_size=9)
+    summary = run_sweep(
+        spec,
+        two,
+        engine=DaskEngine(scheduler=cluster.scheduler_address),
+        evaluator=UnitConstantsEvaluator(),
+        chunk_size=9,
+    )
     assert summary.complete and summary.chunks_computed == 46
     by = ["design_id", "unit"]
     pd.testing.assert_frame_equal(read_sorted(one, by), read_sorted(two, by))
@@ -92,21 +103,27 @@ def test_threaded_worker_runs_chunks_one_at_a_time(tmp_path, local_reference):
     # process when two threads enter parallel kernels at once: the process lock of run_chunk
     # must serialise the chunks.
     env = {"NUMBA_THREADING_LAYER": "workqueue", "NUMBA_NUM_THREADS": "2"}
-    with LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
-                      dashboard_address=None, env=env) as threaded:
+    with LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None, env=env
+    ) as threaded:
         engine = DaskEngine(scheduler=threaded.scheduler_address)
-        summary = run_sweep(make_job(**STATICS_JOB), tmp_path / "out", engine=engine,
-                            chunk_size=150)
+        summary = run_sweep(
+            make_job(**STATICS_JOB), tmp_path / "out", engine=engine, chunk_size=150
+        )
         (info,) = engine.worker_info.values()
     assert info["threading_layer"] == "workqueue"
     assert summary.complete and not summary.failures
-    pd.testing.assert_frame_equal(read_sorted(tmp_path / "out", ["design_id", "requested"]),
-                                  local_reference)
+    pd.testing.assert_frame_equal(
+        read_sorted(tmp_path / "out", ["design_id", "requested"]), local_reference
+    )
 
 
 def _executing_chunks(dask_worker) -> list[str]:
-    return [str(ts.key) for ts in dask_worker.state.executing
-            if str(ts.key).startswith("dpfexplore-chunk")]
+    return [
+        str(ts.key)
+        for ts in dask_worker.state.executing
+        if str(ts.key).startswith("dpfexplore-chunk")
+    ]
 
 
 def test_worker_killed_mid_chunk(tmp_path, local_reference, cluster):
@@ -118,8 +135,9 @@ def test_worker_killed_mid_chunk(tmp_path, local_reference, cluster):
 
         def sweep():
             try:
-                outcome["summary"] = run_sweep(make_job(**STATICS_JOB), tmp_path / "out",
-                                               engine=engine, chunk_size=300)
+                outcome["summary"] = run_sweep(
+                    make_job(**STATICS_JOB), tmp_path / "out", engine=engine, chunk_size=300
+                )
             except BaseException as exc:  # reported by the assertion below
                 outcome["error"] = exc
 
@@ -161,8 +179,9 @@ def test_a_chunk_that_kills_every_worker_fails_alone(tmp_path):
     # and a resume with a sound evaluator completes the dataset.
     spec = make_job()
     engine = DaskEngine(n_workers=2, no_workers_timeout=60)
-    summary = run_sweep(spec, tmp_path / "out", engine=engine, evaluator=CrashingEvaluator(3),
-                        chunk_size=60)
+    summary = run_sweep(
+        spec, tmp_path / "out", engine=engine, evaluator=CrashingEvaluator(3), chunk_size=60
+    )
     failed = {f.task.path for f in summary.failures}
     assert "N03/part-000000.parquet" in failed
     error = summary.failures[0].error
@@ -170,8 +189,13 @@ def test_a_chunk_that_kills_every_worker_fails_alone(tmp_path):
     assert not summary.complete
     manifest = store.read_manifest(tmp_path / "out")
     assert set(manifest.chunks) == {"N02/part-000000.parquet"} - failed
-    resumed = run_sweep(spec, tmp_path / "out", resume=True, engine=LocalEngine(),
-                        evaluator=UnitConstantsEvaluator())
+    resumed = run_sweep(
+        spec,
+        tmp_path / "out",
+        resume=True,
+        engine=LocalEngine(),
+        evaluator=UnitConstantsEvaluator(),
+    )
     assert resumed.complete
     reference = tmp_path / "reference"
     run_sweep(spec, reference, evaluator=UnitConstantsEvaluator(), chunk_size=60)

@@ -52,8 +52,9 @@ def test_large_plans_are_replicated_latin_hypercubes(monkeypatch):
         assert_stratified(points[64 * block : 64 * (block + 1)])
     assert_stratified(points[192:])  # the last, shorter block on its own strata
     # Pooled, every 1/64 stratum of every dimension holds 3 points of the full blocks.
-    counts = np.stack([np.bincount(np.floor(points[:192, j] * 64).astype(int), minlength=64)
-                       for j in range(5)])
+    counts = np.stack(
+        [np.bincount(np.floor(points[:192, j] * 64).astype(int), minlength=64) for j in range(5)]
+    )
     assert np.all(counts == 3)
     sampling._lhs_block.cache_clear()
 
@@ -65,8 +66,9 @@ def test_chunks_equal_the_whole_plan(sampler, monkeypatch):
     n, d = 256, 7
     whole = unit_cube_sample(sampler, 5, 6, n, d, 0, n)
     for size in (1, 7, 33, 100, 256):
-        pieces = [unit_cube_sample(sampler, 5, 6, n, d, s, min(s + size, n))
-                  for s in range(0, n, size)]
+        pieces = [
+            unit_cube_sample(sampler, 5, 6, n, d, s, min(s + size, n)) for s in range(0, n, size)
+        ]
         np.testing.assert_array_equal(np.concatenate(pieces), whole)
     # and in any order (the cache must not leak state between chunks)
     np.testing.assert_array_equal(unit_cube_sample(sampler, 5, 6, n, d, 120, 130), whole[120:130])
@@ -78,8 +80,9 @@ def test_sobol_plan_is_one_scrambled_sobol_sequence():
     rng = np.random.default_rng(np.random.SeedSequence(2, spawn_key=(3,)))
     expected = qmc.Sobol(4, scramble=True, rng=rng).random_base2(7)
     np.testing.assert_array_equal(unit_cube_sample("sobol", 2, 3, 128, 4, 0, 128), expected)
-    np.testing.assert_array_equal(unit_cube_sample("sobol", 2, 3, 128, 4, 64, 100),
-                                  expected[64:100])
+    np.testing.assert_array_equal(
+        unit_cube_sample("sobol", 2, 3, 128, 4, 64, 100), expected[64:100]
+    )
 
 
 def test_reproducible_from_seed_and_seed_zero_is_a_seed():
@@ -93,17 +96,38 @@ def test_reproducible_from_seed_and_seed_zero_is_a_seed():
 def test_plan_dimensions_follow_constraints():
     free = make_job()
     labels = [d.label for d in plan_dimensions(free.space, 3)]
-    assert labels == ["H_1", "H_2", "H_3", "U_L_1", "U_L_2", "U_L_3", "U_sep_1", "U_sep_2",
-                      "U_sep_3", "t", "t_lim"]
-    equal = make_job(**{"space.constraints.equal_U_sep": True,
-                        "space.constraints.equal_U_L": True, "space.variables.t": 0.8})
+    assert labels == [
+        "H_1",
+        "H_2",
+        "H_3",
+        "U_L_1",
+        "U_L_2",
+        "U_L_3",
+        "U_sep_1",
+        "U_sep_2",
+        "U_sep_3",
+        "t",
+        "t_lim",
+    ]
+    equal = make_job(
+        **{
+            "space.constraints.equal_U_sep": True,
+            "space.constraints.equal_U_L": True,
+            "space.variables.t": 0.8,
+        }
+    )
     labels = [d.label for d in plan_dimensions(equal.space, 3)]
     assert labels == ["H_1", "H_2", "H_3", "U_L", "U_sep", "t_lim"]
 
 
 def test_designs_respect_bounds_fixed_values_and_equal_constraints():
-    spec = make_job(**{"space.constraints.equal_U_sep": True, "space.variables.t": 0.8,
-                       "job.samples_per_n": 200})
+    spec = make_job(
+        **{
+            "space.constraints.equal_U_sep": True,
+            "space.variables.t": 0.8,
+            "job.samples_per_n": 200,
+        }
+    )
     batch = sample_designs(spec, 3, 0, 200)
     assert len(batch) == 200 and np.all(batch.n_units == 3)
     assert np.all((batch.H[:, :3] >= 3.0) & (batch.H[:, :3] <= 5.0))

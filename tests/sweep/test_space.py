@@ -48,15 +48,30 @@ def test_valid_job_defaults_and_counts():
         ({"space.constraints.heights": "sorted"}, "space.constraints.heights"),
         ({"space.constraints.equal_U_L": "yes"}, "space.constraints.equal_U_L"),
         ({"compute.states": "everything"}, "compute.states"),
-        ({"compute.reset_times": {"P0": 0.7, "tau": [0, 1, 5], "t_end": 9.0}},
-         "compute.reset_times.tau"),
-        ({"compute.reset_times": {"P0": 0.7, "tau": [0, 1, 5, 5.1], "t_end": 5.0}},
-         "compute.reset_times.t_end"),
-        ({"compute.reset_times": {"P0": 0.0, "tau": [0, 1, 5, 5.1], "t_end": 9.0}},
-         "compute.reset_times.P0"),
+        (
+            {"compute.reset_times": {"P0": 0.7, "tau": [0, 1, 5], "t_end": 9.0}},
+            "compute.reset_times.tau",
+        ),
+        (
+            {"compute.reset_times": {"P0": 0.7, "tau": [0, 1, 5, 5.1], "t_end": 5.0}},
+            "compute.reset_times.t_end",
+        ),
+        (
+            {"compute.reset_times": {"P0": 0.0, "tau": [0, 1, 5, 5.1], "t_end": 9.0}},
+            "compute.reset_times.P0",
+        ),
         ({"compute.reset_times": True}, "compute.reset_times"),
-        ({"compute.reset_times": {"P0": 0.7, "tau": [0, 1, 5, 5.1], "t_end": 9.0,
-                                  "method": "euler"}}, "compute.reset_times.method"),
+        (
+            {
+                "compute.reset_times": {
+                    "P0": 0.7,
+                    "tau": [0, 1, 5, 5.1],
+                    "t_end": 9.0,
+                    "method": "euler",
+                }
+            },
+            "compute.reset_times.method",
+        ),
         ({"job.name": "a/b"}, "job.name"),
     ],
 )
@@ -69,21 +84,24 @@ def test_bad_job_names_the_key_in_one_line(changes, key):
 
 
 def test_to_dict_round_trips():
-    spec = make_job(**{
-        "space.constraints.heights": "descending",
-        "space.constraints.equal_U_L": True,
-        "space.variables.E": 12.0,
-        "space.material": DELETE,
-        "compute.reset_times": {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0},
-        "job.chunk_size": 10,
-    })
+    spec = make_job(
+        **{
+            "space.constraints.heights": "descending",
+            "space.constraints.equal_U_L": True,
+            "space.variables.E": 12.0,
+            "space.material": DELETE,
+            "compute.reset_times": {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0},
+            "job.chunk_size": 10,
+        }
+    )
     assert parse_job(spec.to_dict()) == spec
 
 
 def test_fingerprint_covers_results_only():
     base = make_job()
-    assert make_job(**{"job.name": "renamed", "job.chunk_size": 5}).fingerprint() == \
-        base.fingerprint()
+    assert (
+        make_job(**{"job.name": "renamed", "job.chunk_size": 5}).fingerprint() == base.fingerprint()
+    )
     for changes in (
         {"job.seed": 8},
         {"job.samples_per_n": 61},
@@ -122,8 +140,13 @@ def test_shipped_jobs():
     paper = load_job(JOBS / "paper-design-space.toml")
     assert paper.space.n_units == (2, 3, 4, 5, 6, 7)
     assert paper.samples_per_n == 1500
-    expected = {"H": (3.0, 5.0), "U_sep": (1.0, 5.0), "U_L": (5.5, 10.0), "t": (0.5, 1.0),
-                "t_lim": (1.0, 2.0)}
+    expected = {
+        "H": (3.0, 5.0),
+        "U_sep": (1.0, 5.0),
+        "U_L": (5.5, 10.0),
+        "t": (0.5, 1.0),
+        "t_lim": (1.0, 2.0),
+    }
     for name, bounds in expected.items():
         variable = paper.space.variable(name)
         assert (variable.low, variable.high) == bounds
@@ -148,6 +171,14 @@ def test_sobol_plan_size_warns_unless_power_of_two(caplog):
 
 
 def test_reset_time_method_accepted():
-    spec = make_job(**{"compute.reset_times": {"P0": 0.7, "tau": [0, 1, 5, 5.1], "t_end": 9.0,
-                                               "method": "rodas4-overdamped"}})
+    spec = make_job(
+        **{
+            "compute.reset_times": {
+                "P0": 0.7,
+                "tau": [0, 1, 5, 5.1],
+                "t_end": 9.0,
+                "method": "rodas4-overdamped",
+            }
+        }
+    )
     assert spec.compute.reset_times.method == "rodas4-overdamped"

@@ -77,7 +77,9 @@ def test_write_chunk_is_atomic_and_deterministic(tmp_path, spec, schema):
     again = store.write_chunk(tmp_path, 2, 0, 0, 10, table)
     assert again == first
     assert sorted(p.name for p in (tmp_path / "N02").iterdir()) == [
-        "part-000000.parquet", "part-000001.parquet"]
+        "part-000000.parquet",
+        "part-000001.parquet",
+    ]
 
 
 def test_file_carries_schema_metadata(tmp_path, spec, schema):
@@ -89,9 +91,13 @@ def test_file_carries_schema_metadata(tmp_path, spec, schema):
 
 def _manifest(spec, records):
     return Manifest(
-        fingerprint=spec.fingerprint(), job=spec.to_dict(),
-        result_defining=spec.result_defining(), model_version=MODEL_VERSION, versions={},
-        plan={2: 60, 3: 60}, chunk_sizes={2: 10, 3: 10},
+        fingerprint=spec.fingerprint(),
+        job=spec.to_dict(),
+        result_defining=spec.result_defining(),
+        model_version=MODEL_VERSION,
+        versions={},
+        plan={2: 60, 3: 60},
+        chunk_sizes={2: 10, 3: 10},
         chunks={r.path: r for r in records},
     )
 
@@ -170,8 +176,9 @@ def test_table_from_columns_requires_every_field(schema):
 
 def test_status_labels_are_dictionary_encoded():
     schema = pa.schema([store.column("status_label", store.STATUS_TYPE, "1", "x")])
-    table = store.table_from_columns(schema, {"status_label": np.array([0, 4, 1])},
-                                     n_units=np.ones(3))
+    table = store.table_from_columns(
+        schema, {"status_label": np.array([0, 4, 1])}, n_units=np.ones(3)
+    )
     assert table.column(0).to_pylist() == ["ok", "collapsed", "invalid_input"]
 
 

@@ -42,8 +42,9 @@ def test_a_rewritten_chunk_with_changed_values_is_caught_unless_asked_not_to(swe
     before = store.read_results(swept)
     table = pq.read_table(path)
     k_b = table.column("k_b")
-    table = table.set_column(table.column_names.index("k_b"), "k_b",
-                             pc.multiply(k_b, pa.scalar(1.5)))  # fmt: skip
+    table = table.set_column(
+        table.column_names.index("k_b"), "k_b", pc.multiply(k_b, pa.scalar(1.5))
+    )
     pq.write_table(table, path, compression="zstd")
     with pytest.raises(store.StoreError, match=rf"chunk {path}: size \d+ != \d+ bytes"):
         store.read_results(swept, columns=["k_b"])
@@ -60,8 +61,9 @@ def test_a_rewritten_chunk_with_changed_values_is_caught_unless_asked_not_to(swe
 
 def test_intact_chunks_read_the_same_with_and_without_verification(swept):
     verified = store.read_results(swept, where="unit == 2", columns=["design_id", "k_b"])
-    unverified = store.read_results(swept, where="unit == 2", columns=["design_id", "k_b"],
-                                    verify=False)  # fmt: skip
+    unverified = store.read_results(
+        swept, where="unit == 2", columns=["design_id", "k_b"], verify=False
+    )
     assert verified.equals(unverified) and len(verified) > 0
 
 

@@ -110,8 +110,8 @@ def test_resume_recomputes_only_missing_or_damaged_chunks(tmp_path):
     out = tmp_path / "out"
     run(spec, out, chunk_size=10)
     manifest = store.read_manifest(out)
-    lost = "N02/part-000001.parquet"       # committed, then deleted
-    damaged = "N03/part-000004.parquet"    # committed, then corrupted
+    lost = "N02/part-000001.parquet"  # committed, then deleted
+    damaged = "N03/part-000004.parquet"  # committed, then corrupted
     uncommitted = "N03/part-000000.parquet"  # renamed into place, manifest never updated
     (out / lost).unlink()
     data = bytearray((out / damaged).read_bytes())
@@ -150,8 +150,10 @@ def test_failed_chunk_is_reported_and_resumed(tmp_path):
     spec = make_job()
     summary = run(spec, tmp_path / "out", chunk_size=30, evaluator=Flaky())
     assert not summary.complete
-    assert [f.task.path for f in summary.failures] == ["N03/part-000000.parquet",
-                                                      "N03/part-000001.parquet"]
+    assert [f.task.path for f in summary.failures] == [
+        "N03/part-000000.parquet",
+        "N03/part-000001.parquet",
+    ]
     assert "boom" in summary.failures[0].error
     assert len(read_sorted(tmp_path / "out")) == 2 * 60  # the N = 2 chunks are committed
     resumed = run(spec, tmp_path / "out", resume=True)
@@ -162,8 +164,9 @@ def test_failed_chunk_is_reported_and_resumed(tmp_path):
 
 
 def test_statics_sweep_matches_solve_batch(tmp_path):
-    spec = make_job(**{"job.samples_per_n": 30, "compute.states": "sequential",
-                       "compute.min_eig": True})
+    spec = make_job(
+        **{"job.samples_per_n": 30, "compute.states": "sequential", "compute.min_eig": True}
+    )
     summary = run_sweep(spec, tmp_path / "out", chunk_size=12)
     assert summary.complete
     frame = store.read_results(tmp_path / "out")
@@ -191,8 +194,14 @@ def test_only_requested_outputs_are_stored(tmp_path):
 
 def test_invalid_designs_keep_their_rows(tmp_path):
     # Thick, shallow domes leave the closed forms' domain (k_b <= 0 or alpha outside (0, 1)).
-    spec = make_job(**{"job.samples_per_n": 40, "space.variables.H": {"min": 0.6, "max": 4.0},
-                       "space.variables.t": {"min": 0.5, "max": 1.6}, "space.n_units": [3]})
+    spec = make_job(
+        **{
+            "job.samples_per_n": 40,
+            "space.variables.H": {"min": 0.6, "max": 4.0},
+            "space.variables.t": {"min": 0.5, "max": 1.6},
+            "space.n_units": [3],
+        }
+    )
     summary = run_sweep(spec, tmp_path / "out", chunk_size=16)
     frame = store.read_results(tmp_path / "out")
     assert sorted(frame["design_id"]) == list(range(40))  # one row per design, valid or not
@@ -221,16 +230,21 @@ def test_reset_times_for_every_valid_design(tmp_path):
     from dpfexplore.solvers.dynamics.simulate import PressureProfile, reset_times_batch
 
     load = {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0}
-    spec = make_job(**{"job.samples_per_n": 40, "space.n_units": [3],
-                       "compute.reset_times": load, "compute.stiffness": False,
-                       "compute.states": "sequential"})
+    spec = make_job(
+        **{
+            "job.samples_per_n": 40,
+            "space.n_units": [3],
+            "compute.reset_times": load,
+            "compute.stiffness": False,
+            "compute.states": "sequential",
+        }
+    )
     run_sweep(spec, tmp_path / "out", chunk_size=16)
     frame = store.read_results(tmp_path / "out")
     designs = frame.drop_duplicates("design_id").sort_values("sample").reset_index(drop=True)
     batch = sample_designs(spec, 3, 0, 40)
     assert (batch.status() == st.OK).all()
-    direct = reset_times_batch(batch, PressureProfile(P0=0.7, tau=(0.0, 1.0, 5.0, 5.1)),
-                               t_end=15.0)
+    direct = reset_times_batch(batch, PressureProfile(P0=0.7, tau=(0.0, 1.0, 5.0, 5.1)), t_end=15.0)
     np.testing.assert_array_equal(designs["dyn_status"], direct["status"])
     np.testing.assert_array_equal(designs["final_state"], direct["final_state"])
     for k in range(1, 4):

@@ -21,10 +21,16 @@ from dpfexplore.sweep.space import load_job
 
 # 3 x 8 chunks of 50 designs, sequential states: tens of milliseconds per chunk, a few seconds
 # in all, so that kills land while chunks are being computed and committed.
-JOB = job_dict(**{
-    "job.name": "kill", "job.samples_per_n": 400, "job.chunk_size": 50,
-    "space.n_units": [5, 6, 7], "compute.states": "sequential", "compute.min_eig": True,
-})
+JOB = job_dict(
+    **{
+        "job.name": "kill",
+        "job.samples_per_n": 400,
+        "job.chunk_size": 50,
+        "space.n_units": [5, 6, 7],
+        "compute.states": "sequential",
+        "compute.min_eig": True,
+    }
+)
 KEY = ["design_id", "requested"]
 
 
@@ -39,8 +45,13 @@ def start_sweep(job: Path, out: Path, *, resume: bool) -> subprocess.Popen:
     command = [sys.executable, "-m", "dpfexplore", "sweep", str(job), "--out", str(out)]
     if resume:
         command.append("--resume")
-    return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    return subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
 
 
 def kill_after(proc: subprocess.Popen, out: Path, chunks: int | None, delay: float) -> bool:

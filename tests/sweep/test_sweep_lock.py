@@ -52,8 +52,9 @@ def write_job(tmp_path: Path) -> Path:
 
 def start_holder(job: Path, out: Path) -> subprocess.Popen:
     code = HOLDER.format(tests=str(TESTS), job=str(job), out=str(out), go=str(out.parent / "go"))
-    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)  # fmt: skip
+    return subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
 
 
 def wait_for(condition, proc: subprocess.Popen, timeout: float = 120.0) -> None:
@@ -80,7 +81,9 @@ def test_a_second_sweep_refuses_while_the_first_runs_then_the_lock_is_gone(tmp_p
     files_before = store.part_files(out)
     second = subprocess.run(
         [sys.executable, "-m", "dpfexplore", "sweep", str(job), "--out", str(out), "--resume"],
-        capture_output=True, text=True, timeout=300,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert holder.poll() is None, "the holder finished before the second sweep tried"
     assert second.returncode == 2, second.stderr

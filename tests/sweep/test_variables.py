@@ -8,15 +8,30 @@ from hypothesis import strategies as hs
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.sweep.variables import DesignVariables, parameter_names
 
-GRIPPER = dict(n_units=5, H=[(3.0, 5.0)] * 4 + [(2.0, 5.0)], heights="ascending",
-               ordered_units=(1, 2, 3, 4), U_L=(5.5, 10.0), U_sep=(1.0, 5.0), t=(0.5, 1.0),
-               t_lim=(1.0, 2.0))  # fmt: skip
-PICKPLACE = dict(n_units=6, H=[4.0, 4.5, 5.0, 5.0, (2.5, 5.0), (2.5, 5.0)], tied=[(5, 6)],
-                 U_L=6.0, U_sep=1.0, t=(0.5, 1.0), t_lim=1.0)  # fmt: skip
+GRIPPER = dict(
+    n_units=5,
+    H=[(3.0, 5.0)] * 4 + [(2.0, 5.0)],
+    heights="ascending",
+    ordered_units=(1, 2, 3, 4),
+    U_L=(5.5, 10.0),
+    U_sep=(1.0, 5.0),
+    t=(0.5, 1.0),
+    t_lim=(1.0, 2.0),
+)
+PICKPLACE = dict(
+    n_units=6,
+    H=[4.0, 4.5, 5.0, 5.0, (2.5, 5.0), (2.5, 5.0)],
+    tied=[(5, 6)],
+    U_L=6.0,
+    U_sep=1.0,
+    t=(0.5, 1.0),
+    t_lim=1.0,
+)
 CASES = {
     "descending": dict(n_units=5, heights="descending"),
-    "ascending-per-unit": dict(n_units=4, heights="ascending", shared_U_L=False,
-                               shared_U_sep=False),
+    "ascending-per-unit": dict(
+        n_units=4, heights="ascending", shared_U_L=False, shared_U_sep=False
+    ),
     "gripper": GRIPPER,
     "pickplace": PICKPLACE,
     "free-N1": dict(n_units=1),
@@ -24,8 +39,13 @@ CASES = {
 
 
 def _z(variables, data):
-    return np.array(data.draw(hs.lists(hs.floats(0.0, 1.0), min_size=variables.n_variables,
-                                       max_size=variables.n_variables)))  # fmt: skip
+    return np.array(
+        data.draw(
+            hs.lists(
+                hs.floats(0.0, 1.0), min_size=variables.n_variables, max_size=variables.n_variables
+            )
+        )
+    )
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
@@ -78,8 +98,9 @@ def test_jacobian_equals_central_differences(case):
 
     def params(zz):
         b = variables.designs(zz)
-        return np.hstack([b.H[:, :n], b.U_L[:, :n], b.U_sep[:, :n], b.t[:, None],
-                          b.t_lim[:, None], b.E[:, None]])  # fmt: skip
+        return np.hstack(
+            [b.H[:, :n], b.U_L[:, :n], b.U_sep[:, :n], b.t[:, None], b.t_lim[:, None], b.E[:, None]]
+        )
 
     eps = 1e-6
     for j in range(variables.n_variables):
@@ -93,10 +114,28 @@ def test_names_and_parameter_order():
     variables = DesignVariables(**PICKPLACE)
     assert variables.names == ("H_5=6", "t")
     assert variables.parameters == parameter_names(6)
-    assert parameter_names(2) == ("H_1", "H_2", "U_L_1", "U_L_2", "U_sep_1", "U_sep_2", "t",
-                                  "t_lim", "E")  # fmt: skip
+    assert parameter_names(2) == (
+        "H_1",
+        "H_2",
+        "U_L_1",
+        "U_L_2",
+        "U_sep_1",
+        "U_sep_2",
+        "t",
+        "t_lim",
+        "E",
+    )
     assert DesignVariables(n_units=3, shared_U_L=False).names == (
-        "H_1", "H_2", "H_3", "U_L_1", "U_L_2", "U_L_3", "U_sep", "t", "t_lim")
+        "H_1",
+        "H_2",
+        "H_3",
+        "U_L_1",
+        "U_L_2",
+        "U_L_3",
+        "U_sep",
+        "t",
+        "t_lim",
+    )
 
 
 def test_contains_rejects_designs_that_break_a_constraint():
@@ -107,22 +146,26 @@ def test_contains_rejects_designs_that_break_a_constraint():
     outside = good.replace(t=1.2)
     other_n = Design(H=[4.5, 4.0], U_L=7.0, U_sep=2.0, t=0.8, t_lim=1.5)
     other_E = good.replace(E=12.0)
-    inside = variables.contains(DesignBatch.from_designs([good, rising, unequal, outside,
-                                                          other_n, other_E]))  # fmt: skip
+    inside = variables.contains(
+        DesignBatch.from_designs([good, rising, unequal, outside, other_n, other_E])
+    )
     np.testing.assert_array_equal(inside, [True, False, False, False, False, False])
 
 
-@pytest.mark.parametrize(("kwargs", "message"), [
-    (dict(n_units=0), "n_units"),
-    (dict(n_units=3, heights="up"), "heights"),
-    (dict(n_units=3, H=[3.0, 4.0, 4.5, 5.0]), "H ="),
-    (dict(n_units=3, H=[3.0, "4"]), "H"),
-    (dict(n_units=3, t=(1.0, 0.5)), "t ="),
-    (dict(n_units=3, tied=[(1, 4)]), "tied"),
-    (dict(n_units=3, tied=[(1, 2), (2, 3)]), "tied"),
-    (dict(n_units=2, H=[(4.0, 5.0), (3.0, 3.5)], heights="ascending"), "no ascending design"),
-    (dict(n_units=3, heights="ascending", ordered_units=(2, 1)), "ordered_units"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        (dict(n_units=0), "n_units"),
+        (dict(n_units=3, heights="up"), "heights"),
+        (dict(n_units=3, H=[3.0, 4.0, 4.5, 5.0]), "H ="),
+        (dict(n_units=3, H=[3.0, "4"]), "H"),
+        (dict(n_units=3, t=(1.0, 0.5)), "t ="),
+        (dict(n_units=3, tied=[(1, 4)]), "tied"),
+        (dict(n_units=3, tied=[(1, 2), (2, 3)]), "tied"),
+        (dict(n_units=2, H=[(4.0, 5.0), (3.0, 3.5)], heights="ascending"), "no ascending design"),
+        (dict(n_units=3, heights="ascending", ordered_units=(2, 1)), "ordered_units"),
+    ],
+)
 def test_bad_variables_are_refused_naming_the_field(kwargs, message):
     with pytest.raises(ValueError, match=message):
         DesignVariables(**kwargs)
@@ -138,8 +181,13 @@ def test_z_outside_the_box_is_refused():
 @settings(max_examples=40, deadline=None)
 @given(data=hs.data())
 def test_minimum_step_between_ordered_heights_holds_everywhere(heights, data):
-    variables = DesignVariables(n_units=5, heights=heights, ordered_units=(1, 2, 3, 4),
-                                min_step=0.4, H=[(3.0, 5.0)] * 4 + [(2.0, 3.0)])  # fmt: skip
+    variables = DesignVariables(
+        n_units=5,
+        heights=heights,
+        ordered_units=(1, 2, 3, 4),
+        min_step=0.4,
+        H=[(3.0, 5.0)] * 4 + [(2.0, 3.0)],
+    )
     z = _z(variables, data)
     H = np.array(variables.design(z).H)
     steps = np.diff(H[:4]) * (1 if heights == "ascending" else -1)

@@ -69,7 +69,7 @@ def central_differences(
     up[idx, cols] = np.minimum(z[cols] + step, 1.0)
     down[idx, cols] = np.maximum(z[cols] - step, 0.0)
     values = func(np.vstack([up, down]))
-    f_up, f_down = values[: cols.size], values[cols.size:]
+    f_up, f_down = values[: cols.size], values[cols.size :]
     ok_up = np.all(np.isfinite(f_up), axis=1)
     ok_down = np.all(np.isfinite(f_down), axis=1)
     h_up = up[idx, cols] - z[cols]

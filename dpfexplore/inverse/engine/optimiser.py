@@ -122,14 +122,17 @@ def latin_candidates(dim: int, n: int, seed: int) -> NDArray:
     return qmc.LatinHypercube(d=dim, rng=np.random.default_rng(seed)).random(n)
 
 
-def screen(problems: Sequence[Problem], points: Sequence[NDArray], *, stiffness: bool = False
-           ) -> list[Evaluation]:  # fmt: skip
+def screen(
+    problems: Sequence[Problem], points: Sequence[NDArray], *, stiffness: bool = False
+) -> list[Evaluation]:
     """Evaluate points of several problems (e.g. every N) in one batch of the exact model."""
     requests = [p.requests(z, stiffness=stiffness) for p, z in zip(problems, points, strict=True)]
     n_states = {r[1].size for r in requests}
     if len(n_states) != 1:  # different state counts: one call per problem
-        return [p.evaluate(z, purpose="candidate", stiffness=stiffness)
-                for p, z in zip(problems, points, strict=True)]  # fmt: skip
+        return [
+            p.evaluate(z, purpose="candidate", stiffness=stiffness)
+            for p, z in zip(problems, points, strict=True)
+        ]
     batch = _concat([r[0] for r in requests])
     states = np.vstack([np.broadcast_to(r[1], (len(r[0]), r[1].size)) for r in requests])
     want = requests[0][2]
@@ -137,7 +140,7 @@ def screen(problems: Sequence[Problem], points: Sequence[NDArray], *, stiffness:
     out = evaluator.solve(batch, states, stiffness=want)
     evaluations, start = [], 0
     for p, z, (b, _, _) in zip(problems, points, requests, strict=True):
-        part = {k: v[start:start + len(b)] for k, v in out.items()}
+        part = {k: v[start : start + len(b)] for k, v in out.items()}
         ev = p.finish(z, b, part)
         p.record(b, ev, "candidate")
         evaluations.append(ev)
@@ -145,8 +148,9 @@ def screen(problems: Sequence[Problem], points: Sequence[NDArray], *, stiffness:
     return evaluations
 
 
-def _candidates(problems: Sequence[PositionProblem], spec, evaluator: Evaluator
-                ) -> list[Evaluation]:  # fmt: skip
+def _candidates(
+    problems: Sequence[PositionProblem], spec, evaluator: Evaluator
+) -> list[Evaluation]:
     """Candidates of every N: the scene's dataset seeds, else a screened Latin hypercube.
 
     The N a seeds dataset lacks (or a scene without one) get the Latin hypercube, screened in
@@ -158,18 +162,23 @@ def _candidates(problems: Sequence[PositionProblem], spec, evaluator: Evaluator
         seeded = seed_candidates(list(problems), settings.seeds, settings.seeds_per_n, evaluator)
     missing = [i for i, ev in enumerate(seeded) if ev is None]
     points = [
-        latin_candidates(problems[i].dim, settings.candidates_per_n,
-                         spec.seed + 7919 * problems[i].n_units)
+        latin_candidates(
+            problems[i].dim, settings.candidates_per_n, spec.seed + 7919 * problems[i].n_units
+        )
         for i in missing
-    ]  # fmt: skip
+    ]
     for i, ev in zip(missing, screen([problems[i] for i in missing], points), strict=True):
         seeded[i] = ev
     return seeded  # type: ignore[return-value]
 
 
 def _concat(batches: Sequence[DesignBatch]) -> DesignBatch:
-    return DesignBatch(**{name: np.concatenate([getattr(b, name) for b in batches])
-                          for name in DesignBatch.__dataclass_fields__})  # fmt: skip
+    return DesignBatch(
+        **{
+            name: np.concatenate([getattr(b, name) for b in batches])
+            for name in DesignBatch.__dataclass_fields__
+        }
+    )
 
 
 def _distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> list[int]:
@@ -263,9 +272,18 @@ def refine(
         if problem.dim == 0:
             fun(np.zeros(0))
         else:
-            result = least_squares(fun, np.clip(z0, 0.0, 1.0), jac=jac, bounds=(0.0, 1.0),
-                                   method="trf", x_scale=1.0, ftol=FTOL, xtol=1e-12,
-                                   gtol=1e-15, max_nfev=max_iter)  # fmt: skip
+            result = least_squares(
+                fun,
+                np.clip(z0, 0.0, 1.0),
+                jac=jac,
+                bounds=(0.0, 1.0),
+                method="trf",
+                x_scale=1.0,
+                ftol=FTOL,
+                xtol=1e-12,
+                gtol=1e-15,
+                max_nfev=max_iter,
+            )
             iterations = int(result.nfev)
     except _Reached as hit:
         best.update(value=float(hit.ev.objective[0]), z=hit.z, ev=hit.ev)
@@ -276,8 +294,14 @@ def refine(
         best.update(z=np.clip(z0, 0, 1), ev=ev)
     ev = best["ev"]
     objective = float(ev.objective[0])
-    return Refinement(problem=problem, z=best["z"], evaluation=ev, objective=objective,
-                      iterations=iterations, reached=objective <= goal)  # fmt: skip
+    return Refinement(
+        problem=problem,
+        z=best["z"],
+        evaluation=ev,
+        objective=objective,
+        iterations=iterations,
+        reached=objective <= goal,
+    )
 
 
 # ----------------------------------------------------------------------------- front
@@ -311,9 +335,12 @@ def maximise_stiffness(
             cache[key] = ev
             # SLSQP meets active constraints to rounding: a relative slack of 1e-9 accepts its
             # end point without moving a reported design measurably.
-            if ev.ok[0] and ev.objective[0] <= tol2 * (1 + 1e-9) and \
-                    ev.stiffness[0] > best["k"] and \
-                    all(c["fun"](z) >= -1e-9 for c in extra_constraints):  # fmt: skip
+            if (
+                ev.ok[0]
+                and ev.objective[0] <= tol2 * (1 + 1e-9)
+                and ev.stiffness[0] > best["k"]
+                and all(c["fun"](z) >= -1e-9 for c in extra_constraints)
+            ):
                 best.update(k=float(ev.stiffness[0]), z=z.copy(), ev=ev)
         return cache[key]
 
@@ -321,8 +348,11 @@ def maximise_stiffness(
         ev = at(z)
         key = ("jac", np.clip(z, 0.0, 1.0).tobytes())
         if key not in cache:
-            cache[key] = problem.jacobian(ev, stiffness=True) if ev.ok[0] else (
-                np.zeros((problem.n_residuals, problem.dim)), np.zeros(problem.dim))
+            cache[key] = (
+                problem.jacobian(ev, stiffness=True)
+                if ev.ok[0]
+                else (np.zeros((problem.n_residuals, problem.dim)), np.zeros(problem.dim))
+            )
         return cache[key]
 
     def objective(z: NDArray) -> float:
@@ -344,11 +374,18 @@ def maximise_stiffness(
 
     at(z0)
     if problem.dim:
-        out = minimize(objective, np.clip(z0, 0.0, 1.0), jac=objective_grad, method="SLSQP",
-                       bounds=[(0.0, 1.0)] * problem.dim,
-                       constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_grad},
-                                    *extra_constraints],
-                       options={"maxiter": max_iter, "ftol": 1e-10})  # fmt: skip
+        out = minimize(
+            objective,
+            np.clip(z0, 0.0, 1.0),
+            jac=objective_grad,
+            method="SLSQP",
+            bounds=[(0.0, 1.0)] * problem.dim,
+            constraints=[
+                {"type": "ineq", "fun": constraint, "jac": constraint_grad},
+                *extra_constraints,
+            ],
+            options={"maxiter": max_iter, "ftol": 1e-10},
+        )
         logger.debug("SLSQP: %s after %d iterations", out.message, out.nit)
     return best["z"], best["ev"]
 
@@ -359,12 +396,15 @@ def maximise_stiffness(
 def position_problems(spec, target_index: int, evaluator: Evaluator) -> list[PositionProblem]:
     """One problem per N of the scene for one target."""
     target = spec.targets[target_index].point
-    return [PositionProblem(spec.design_variables(n), target, spec.state, evaluator, target_index)
-            for n in spec.n_units]  # fmt: skip
+    return [
+        PositionProblem(spec.design_variables(n), target, spec.state, evaluator, target_index)
+        for n in spec.n_units
+    ]
 
 
-def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
-                          exhaustive: bool = False) -> TargetResult:  # fmt: skip
+def solve_position_target(
+    spec, target_index: int, evaluator: Evaluator, *, exhaustive: bool = False
+) -> TargetResult:
     """Meet one target of a position scene (and its front or weighted sum when asked).
 
     Parameters
@@ -383,14 +423,21 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
     stiff_scene = spec.kind == "position_stiffness"
     goal = GOAL_FRACTION * spec.tolerance
     candidates = _candidates(problems, spec, evaluator)
-    starts = {p.n_units: _distinct_starts(ev, settings.starts_per_n)
-              for p, ev in zip(problems, candidates, strict=True)}  # fmt: skip
-    best_candidate = {p.n_units: float(np.min(ev.objective))
-                      for p, ev in zip(problems, candidates, strict=True)}  # fmt: skip
+    starts = {
+        p.n_units: _distinct_starts(ev, settings.starts_per_n)
+        for p, ev in zip(problems, candidates, strict=True)
+    }
+    best_candidate = {
+        p.n_units: float(np.min(ev.objective)) for p, ev in zip(problems, candidates, strict=True)
+    }
     order = sorted(range(len(problems)), key=lambda i: best_candidate[problems[i].n_units])
-    result = TargetResult(target_index=target_index, target=spec.targets[target_index].point,
-                          best=None, reachable=False,
-                          per_n={n: v for n, v in best_candidate.items()})  # fmt: skip
+    result = TargetResult(
+        target_index=target_index,
+        target=spec.targets[target_index].point,
+        best=None,
+        reachable=False,
+        per_n={n: v for n, v in best_candidate.items()},
+    )
     reached_n: set[int] = set()
     # Rounds: first a short refinement from the best start of every N (most reachable targets
     # are met there), then that refinement continued with the full budget from the N nearest
@@ -440,8 +487,14 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
     if result.best is None:  # no design had the targeted state: report the best candidate
         i = order[0]
         j = int(np.argmin(candidates[i].objective))
-        result.best = Refinement(problems[i], candidates[i].z[j], candidates[i],
-                                 float(candidates[i].objective[j]), 0, False)  # fmt: skip
+        result.best = Refinement(
+            problems[i],
+            candidates[i].z[j],
+            candidates[i],
+            float(candidates[i].objective[j]),
+            0,
+            False,
+        )
     if stiff_scene and result.reachable:
         result.front = _front(spec, result, reached_n)
     if stiff_scene and spec.weights is not None and result.best is not None:
@@ -449,8 +502,10 @@ def solve_position_target(spec, target_index: int, evaluator: Evaluator, *,
         # optimum lies on the front's side of the trade-off.
         seeds = [(r.problem, r.z) for r in _best_per_n(result.starts)]
         seeds += [(p.problem, p.z) for p in result.front if p.z is not None]
-        runs = [refine(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
-                for problem, z in seeds]  # fmt: skip
+        runs = [
+            refine(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
+            for problem, z in seeds
+        ]
         result.weighted = min(runs, key=lambda r: _weighted(r, spec.weights))
     result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
     result.wall_s = evaluator.wall_s - wall0
@@ -481,8 +536,10 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
     """
     met = [run for run in result.starts if run.objective <= spec.tolerance]
     # The front grows from the stiffest exact solutions (one stiffness solve each).
-    stiffness = [float(r.problem.evaluate(r.z[None, :], purpose="front", stiffness=True)
-                       .stiffness[0]) for r in met]  # fmt: skip
+    stiffness = [
+        float(r.problem.evaluate(r.z[None, :], purpose="front", stiffness=True).stiffness[0])
+        for r in met
+    ]
     order = np.argsort(-np.nan_to_num(np.array(stiffness), nan=-np.inf))
     met = [met[i] for i in order[:FRONT_STARTS]]
     problems = {id(run.problem): run.problem for run in met}
@@ -514,4 +571,3 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
 def designs_of(problem: Problem, z: NDArray) -> Design:
     """The finger design of one box point."""
     return problem.designs(np.atleast_2d(z)).design(0)
-

@@ -89,8 +89,9 @@ def open_seeds(dataset: str | Path, n_units: tuple[int, ...] = ()) -> SeedSet:
     return seeds
 
 
-def seed_candidates(problems: list[PositionProblem], dataset: str | Path, per_n: int,
-                    evaluator: Evaluator) -> list[Evaluation | None]:  # fmt: skip
+def seed_candidates(
+    problems: list[PositionProblem], dataset: str | Path, per_n: int, evaluator: Evaluator
+) -> list[Evaluation | None]:
     """Per problem (one per N), up to ``per_n`` dataset designs nearest its target.
 
     Returns, for each problem, an :class:`Evaluation` of the usable seeds (their ``z``, the
@@ -120,9 +121,13 @@ def seed_candidates(problems: list[PositionProblem], dataset: str | Path, per_n:
             continue
         tips = index.points[rows[keep]]
         evaluator.count("seeds", int(keep.size))
-        out.append(Evaluation(
-            z=z[keep], ok=np.ones(keep.size, dtype=bool), residual=tips - problem.target,
-            stiffness=np.full(keep.size, np.nan),
-            columns={"design_id": index.design_id[rows[keep]]},
-        ))  # fmt: skip
+        out.append(
+            Evaluation(
+                z=z[keep],
+                ok=np.ones(keep.size, dtype=bool),
+                residual=tips - problem.target,
+                stiffness=np.full(keep.size, np.nan),
+                columns={"design_id": index.design_id[rows[keep]]},
+            )
+        )
     return out

@@ -200,8 +200,14 @@ class GaitSpec:
     t_end: float
     cycles: int
 
-    def phase(self, number: int, *, pressure: float | None = None, cycles: int = 1,
-              raised_first: bool = False) -> PressureProfile:  # fmt: skip
+    def phase(
+        self,
+        number: int,
+        *,
+        pressure: float | None = None,
+        cycles: int = 1,
+        raised_first: bool = False,
+    ) -> PressureProfile:
         """Profile of phase ``number`` (1 or 2) over ``cycles`` cycles.
 
         ``pressure`` defaults to the walking pressure; ``raised_first`` runs the first cycle at
@@ -217,9 +223,15 @@ class GaitSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready."""
-        return {"walk_pressure": self.walk_pressure, "turn_pressure": self.turn_pressure,
-                "phase1": list(self.phase1), "phase2": list(self.phase2),
-                "period": self.period, "t_end": self.t_end, "cycles": self.cycles}  # fmt: skip
+        return {
+            "walk_pressure": self.walk_pressure,
+            "turn_pressure": self.turn_pressure,
+            "phase1": list(self.phase1),
+            "phase2": list(self.phase2),
+            "period": self.period,
+            "t_end": self.t_end,
+            "cycles": self.cycles,
+        }
 
 
 @dataclass(frozen=True)
@@ -287,15 +299,18 @@ def _pulse(value: Any, where: str, default: dict[str, Any]) -> PulseSpec:
 
 
 def _units(value: Any, where: str, n: int) -> tuple[int, ...]:
-    if not isinstance(value, list) or not all(
-        isinstance(u, int) and not isinstance(u, bool) and 1 <= u <= n for u in value
-    ) or len(set(value)) != len(value):  # fmt: skip
+    if (
+        not isinstance(value, list)
+        or not all(isinstance(u, int) and not isinstance(u, bool) and 1 <= u <= n for u in value)
+        or len(set(value)) != len(value)
+    ):
         raise SceneSpecError(f"{where} = {value!r}: need distinct unit numbers in 1..{n}")
     return tuple(value)
 
 
-def _integer(table: Mapping[str, Any], where: str, key: str, default: int, low: int,
-             high: int) -> int:  # fmt: skip
+def _integer(
+    table: Mapping[str, Any], where: str, key: str, default: int, low: int, high: int
+) -> int:
     value = table.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         raise SceneSpecError(f"{where}.{key} = {value!r}: an integer in [{low}, {high}]")
@@ -317,13 +332,31 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
     if "pickplace" not in data:
         raise SceneSpecError("pickplace: missing [pickplace] table")
     p = _table(data, "pickplace")
-    _keys(p, "pickplace", required=(),
-          optional=("profile", "hold_units", "reset_unit", "targets", "unit_targets",
-                    "tolerance", "grasp_state", "screening", "grid", "search_atol",
-                    "verify_atol", "prefer_fitted", "difference"))  # fmt: skip
+    _keys(
+        p,
+        "pickplace",
+        required=(),
+        optional=(
+            "profile",
+            "hold_units",
+            "reset_unit",
+            "targets",
+            "unit_targets",
+            "tolerance",
+            "grasp_state",
+            "screening",
+            "grid",
+            "search_atol",
+            "verify_atol",
+            "prefer_fitted",
+            "difference",
+        ),
+    )
     if len(fields["n_units"]) != 1:
-        raise SceneSpecError(f"variables.n_units = {list(fields['n_units'])}: the pick-and-place "
-                             "scene needs one number of units")  # fmt: skip
+        raise SceneSpecError(
+            f"variables.n_units = {list(fields['n_units'])}: the pick-and-place "
+            "scene needs one number of units"
+        )
     n = fields["n_units"][0]
     variables = DesignVariables(n_units=n, E=fields["E"], nu=fields["nu"], **fields["variables"])
     names = variables.names
@@ -335,15 +368,23 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
     pulse = _pulse(p.get("profile", {}), "pickplace.profile", _PULSE)
     hold = _units(p.get("hold_units", list(range(1, n - 1))), "pickplace.hold_units", n)
     reset_unit = p.get("reset_unit", "last")
-    if reset_unit != "last" and (isinstance(reset_unit, bool) or not isinstance(reset_unit, int)
-                                 or not 1 <= reset_unit <= n or reset_unit in hold):
-        raise SceneSpecError(f"pickplace.reset_unit = {reset_unit!r}: 'last' or a unit in 1..{n} "
-                             "that is not a hold unit")  # fmt: skip
+    if reset_unit != "last" and (
+        isinstance(reset_unit, bool)
+        or not isinstance(reset_unit, int)
+        or not 1 <= reset_unit <= n
+        or reset_unit in hold
+    ):
+        raise SceneSpecError(
+            f"pickplace.reset_unit = {reset_unit!r}: 'last' or a unit in 1..{n} "
+            "that is not a hold unit"
+        )
     targets = _numbers(p.get("targets", [1.0]), "pickplace.targets", length=None, unit="s")
     for v in targets:
         if not 0 < v < pulse.horizon:
-            raise SceneSpecError(f"pickplace.targets = {list(targets)}: each target must be in "
-                                 f"(0, {pulse.horizon:g}) s (the horizon after the release)")
+            raise SceneSpecError(
+                f"pickplace.targets = {list(targets)}: each target must be in "
+                f"(0, {pulse.horizon:g}) s (the horizon after the release)"
+            )
     unit_targets = []
     raw = p.get("unit_targets", [])
     if not isinstance(raw, list) or not all(isinstance(e, Mapping) for e in raw):
@@ -353,17 +394,21 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
         _keys(entry, where, required=("units", "reset"), optional=())
         units = _units(entry["units"], f"{where}.units", n)
         if len(units) != 2 or set(units) & set(hold):
-            raise SceneSpecError(f"{where}.units = {list(units)}: two units that are not hold "
-                                 "units (two reset times fix the two variables)")  # fmt: skip
+            raise SceneSpecError(
+                f"{where}.units = {list(units)}: two units that are not hold "
+                "units (two reset times fix the two variables)"
+            )
         reset = _numbers(entry["reset"], f"{where}.reset", length=len(units), unit="s")
         if any(not 0 < v < pulse.horizon for v in reset):
             raise SceneSpecError(f"{where}.reset = {list(reset)}: each in (0, {pulse.horizon:g}) s")
         unit_targets.append(UnitTarget(units, reset))
     if not targets and not unit_targets and "difference" not in p:
-        raise SceneSpecError("pickplace.targets = []: give a target, a unit target or a "
-                             "difference objective")  # fmt: skip
-    grasp = _string(p, "pickplace", "grasp_state",
-                    "".join("1" if k + 1 in hold else "0" for k in range(n)))  # fmt: skip
+        raise SceneSpecError(
+            "pickplace.targets = []: give a target, a unit target or a difference objective"
+        )
+    grasp = _string(
+        p, "pickplace", "grasp_state", "".join("1" if k + 1 in hold else "0" for k in range(n))
+    )
     if len(grasp) != n or set(grasp) - {"0", "1"}:
         raise SceneSpecError(f"pickplace.grasp_state = {grasp!r}: need {n} characters 0/1")
     screening = _string(p, "pickplace", "screening", "fast")
@@ -378,33 +423,45 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
         d = p["difference"]
         if not isinstance(d, Mapping):
             raise SceneSpecError(f"pickplace.difference = {d!r}: must be a table")
-        _keys(d, "pickplace.difference", required=("profile",),
-              optional=("max_reset", "weights"))  # fmt: skip
-        second = _pulse(d["profile"], "pickplace.difference.profile",
-                        {**_PULSE, "tau": list(pulse.tau), "t_end": pulse.t_end})  # fmt: skip
-        max_reset = _positive(d, "pickplace.difference", "max_reset",
-                              min(pulse.horizon, second.horizon) / 2)  # fmt: skip
+        _keys(d, "pickplace.difference", required=("profile",), optional=("max_reset", "weights"))
+        second = _pulse(
+            d["profile"],
+            "pickplace.difference.profile",
+            {**_PULSE, "tau": list(pulse.tau), "t_end": pulse.t_end},
+        )
+        max_reset = _positive(
+            d, "pickplace.difference", "max_reset", min(pulse.horizon, second.horizon) / 2
+        )
         if max_reset >= min(pulse.horizon, second.horizon):
-            raise SceneSpecError(f"pickplace.difference.max_reset = {max_reset}: must be below "
-                                 "both profiles' horizons")  # fmt: skip
+            raise SceneSpecError(
+                f"pickplace.difference.max_reset = {max_reset}: must be below "
+                "both profiles' horizons"
+            )
         weights = None
         if "weights" in d:
             w = _numbers(d["weights"], "pickplace.difference.weights", length=2, unit="")
             if any(v < 0 for v in w) or not any(v > 0 for v in w):
-                raise SceneSpecError(f"pickplace.difference.weights = {list(w)}: need w >= 0, "
-                                     "not both 0")  # fmt: skip
+                raise SceneSpecError(
+                    f"pickplace.difference.weights = {list(w)}: need w >= 0, not both 0"
+                )
             weights = (w[0], w[1])
         difference = DifferenceSpec(second, max_reset, weights)
     spec = PickPlaceSpec(
-        pulse=pulse, hold_units=hold, reset_unit=reset_unit, targets=tuple(targets),
+        pulse=pulse,
+        hold_units=hold,
+        reset_unit=reset_unit,
+        targets=tuple(targets),
         unit_targets=tuple(unit_targets),
-        tolerance=_positive(p, "pickplace", "tolerance", 0.01), grasp_state=grasp,
-        screening=screening, grid_t=_integer(grid, "pickplace.grid", "t", 11, 2, 1000),
+        tolerance=_positive(p, "pickplace", "tolerance", 0.01),
+        grasp_state=grasp,
+        screening=screening,
+        grid_t=_integer(grid, "pickplace.grid", "t", 11, 2, 1000),
         grid_H=_integer(grid, "pickplace.grid", "H", 41, 3, 10000),
         search_atol=_positive(p, "pickplace", "search_atol", 1e-6),
         verify_atol=_positive(p, "pickplace", "verify_atol", 1e-7),
-        prefer_fitted=_bool(p, "pickplace", "prefer_fitted", True), difference=difference,
-    )  # fmt: skip
+        prefer_fitted=_bool(p, "pickplace", "prefer_fitted", True),
+        difference=difference,
+    )
     return {"pickplace": spec}
 
 
@@ -416,14 +473,18 @@ def with_target_reset(spec, target: float):
     scene of another kind or a target outside the horizon.
     """
     if spec.kind != "pickplace":
-        raise ValueError(f"--target-reset {target}: only for pick-and-place scenes "
-                         f"(scene.kind = {spec.kind!r})")  # fmt: skip
+        raise ValueError(
+            f"--target-reset {target}: only for pick-and-place scenes (scene.kind = {spec.kind!r})"
+        )
     p = spec.pickplace
     if not (math.isfinite(target) and 0 < target < p.pulse.horizon):
-        raise ValueError(f"--target-reset {target}: must be in (0, {p.pulse.horizon:g}) s "
-                         "(the horizon after the release)")  # fmt: skip
-    return replace(spec, pickplace=replace(p, targets=(float(target),), unit_targets=(),
-                                           difference=None))  # fmt: skip
+        raise ValueError(
+            f"--target-reset {target}: must be in (0, {p.pulse.horizon:g}) s "
+            "(the horizon after the release)"
+        )
+    return replace(
+        spec, pickplace=replace(p, targets=(float(target),), unit_targets=(), difference=None)
+    )
 
 
 # ----------------------------------------------------------------------------- walker
@@ -433,8 +494,9 @@ def _leg(value: Any, where: str) -> tuple[Leg, str]:
     from ...examples import NAMES, example_path
 
     if not isinstance(value, str) or not value:
-        raise SceneSpecError(f"{where} = {value!r}: an example name ({', '.join(NAMES)}) or a "
-                             "leg file")  # fmt: skip
+        raise SceneSpecError(
+            f"{where} = {value!r}: an example name ({', '.join(NAMES)}) or a leg file"
+        )
     path = example_path(value) if value in NAMES else Path(value)
     if not path.is_file():
         raise SceneSpecError(f"{where} = {value!r}: no such leg file or example")
@@ -444,8 +506,10 @@ def _leg(value: Any, where: str) -> tuple[Leg, str]:
         raise SceneSpecError(f"{where} = {value!r}: {exc}") from None
     names = tuple(s.name for s in leg.sections)
     if names != LEG_ROLES or leg.composition != "dpw":
-        raise SceneSpecError(f"{where} = {value!r}: need the walker's three sections "
-                             f"{', '.join(LEG_ROLES)} (composition 'dpw'), got {list(names)}")
+        raise SceneSpecError(
+            f"{where} = {value!r}: need the walker's three sections "
+            f"{', '.join(LEG_ROLES)} (composition 'dpw'), got {list(names)}"
+        )
     return leg, value
 
 
@@ -457,8 +521,11 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
     def bound(v: Any, key: str):
         if isinstance(v, Mapping):
             return _range(v, key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
-                math.isfinite(v) and v > 0):  # fmt: skip
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float))
+            or not (math.isfinite(v) and v > 0)
+        ):
             raise SceneSpecError(f"{key} = {v!r}: give a number or {{min, max}}")
         return float(v)
 
@@ -467,9 +534,18 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
     n = design.n_units
     heights = [H, *design.H[1:]] if role == "action" else [H] * n
     try:
-        return DesignVariables(n_units=n, H=heights, U_L=design.U_L[0], U_sep=design.U_sep[0],
-                               t=t, t_lim=design.t_lim, E=design.E, nu=design.nu,
-                               r_b=design.r_b, t_ch=design.t_ch)  # fmt: skip
+        return DesignVariables(
+            n_units=n,
+            H=heights,
+            U_L=design.U_L[0],
+            U_sep=design.U_sep[0],
+            t=t,
+            t_lim=design.t_lim,
+            E=design.E,
+            nu=design.nu,
+            r_b=design.r_b,
+            t_ch=design.t_ch,
+        )
     except ValueError as exc:
         raise SceneSpecError(f"{where}: {exc}") from None
 
@@ -479,30 +555,49 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
     if "walker" not in data:
         raise SceneSpecError("walker: missing [walker] table")
     w = _table(data, "walker")
-    _keys(w, "walker", required=("gait", "variables"),
-          optional=("leg", "monostable_leg", "legs", "requirements", "search"))  # fmt: skip
+    _keys(
+        w,
+        "walker",
+        required=("gait", "variables"),
+        optional=("leg", "monostable_leg", "legs", "requirements", "search"),
+    )
     leg, source = _leg(w.get("leg", "walker-leg"), "walker.leg")
     mono, mono_source = _leg(w.get("monostable_leg", "walker-leg"), "walker.monostable_leg")
     # The scene's material: every section of both legs.
-    sections = tuple(replace(s, design=s.design.replace(E=fields["E"], nu=fields["nu"]))
-                     for s in leg.sections)  # fmt: skip
+    sections = tuple(
+        replace(s, design=s.design.replace(E=fields["E"], nu=fields["nu"])) for s in leg.sections
+    )
     leg = replace(leg, sections=sections)
-    mono = replace(mono, sections=tuple(replace(s, design=s.design.replace(E=fields["E"],
-                                                                          nu=fields["nu"]))
-                                        for s in mono.sections))  # fmt: skip
+    mono = replace(
+        mono,
+        sections=tuple(
+            replace(s, design=s.design.replace(E=fields["E"], nu=fields["nu"]))
+            for s in mono.sections
+        ),
+    )
     legs = w.get("legs", list(LEG_KINDS))
-    if not isinstance(legs, list) or not legs or any(k not in LEG_KINDS for k in legs) or \
-            len(set(legs)) != len(legs):  # fmt: skip
+    if (
+        not isinstance(legs, list)
+        or not legs
+        or any(k not in LEG_KINDS for k in legs)
+        or len(set(legs)) != len(legs)
+    ):
         raise SceneSpecError(f"walker.legs = {legs!r}: distinct entries of {', '.join(LEG_KINDS)}")
     g = _table(w, "gait")
     where = "walker.gait"
-    _keys(g, where, required=("walk_pressure", "phase1", "phase2", "period"),
-          optional=("turn_pressure", "t_end", "cycles"))  # fmt: skip
+    _keys(
+        g,
+        where,
+        required=("walk_pressure", "phase1", "phase2", "period"),
+        optional=("turn_pressure", "t_end", "cycles"),
+    )
     walk = _positive(g, where, "walk_pressure", 0.2)
     turn = _positive(g, where, "turn_pressure", walk)
     if "front" in legs and turn <= walk:
-        raise SceneSpecError(f"{where}.turn_pressure = {turn}: must be above walk_pressure = "
-                             f"{walk} for a front leg (raising a phase turns the walker)")
+        raise SceneSpecError(
+            f"{where}.turn_pressure = {turn}: must be above walk_pressure = "
+            f"{walk} for a front leg (raising a phase turns the walker)"
+        )
     phases = []
     for key in ("phase1", "phase2"):
         tau = _numbers(g[key], f"{where}.{key}", length=4, unit="s")
@@ -524,21 +619,30 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
         raise SceneSpecError(f"{where}: {exc}") from None
     v = _table(w, "variables")
     _keys(v, "walker.variables", required=LEG_ROLES, optional=())
-    variables = {role: _section_variables(v[role], f"walker.variables.{role}",
-                                          leg.section(role).design, role)
-                 for role in LEG_ROLES}  # fmt: skip
+    variables = {
+        role: _section_variables(
+            v[role], f"walker.variables.{role}", leg.section(role).design, role
+        )
+        for role in LEG_ROLES
+    }
     requirements = _requirements(w.get("requirements", {}), gait)
     search = w.get("search", {})
     if not isinstance(search, Mapping):
         raise SceneSpecError(f"walker.search = {search!r}: must be a table")
     _keys(search, "walker.search", required=(), optional=("t_lines", "atol", "verify_atol"))
     spec = WalkerSpec(
-        leg=leg, leg_source=source, monostable_leg=mono, monostable_source=mono_source,
-        legs=tuple(legs), gait=gait, variables=variables, requirements=requirements,
+        leg=leg,
+        leg_source=source,
+        monostable_leg=mono,
+        monostable_source=mono_source,
+        legs=tuple(legs),
+        gait=gait,
+        variables=variables,
+        requirements=requirements,
         t_lines=_integer(search, "walker.search", "t_lines", 4, 1, 100),
         atol=_positive(search, "walker.search", "atol", 1e-5),
         verify_atol=_positive(search, "walker.search", "verify_atol", 1e-7),
-    )  # fmt: skip
+    )
     n_max = max(s.design.n_units for s in leg.sections)
     return {"walker": spec, "n_units": (n_max,)}
 
@@ -549,15 +653,22 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
         raise SceneSpecError(f"{where} = {value!r}: must be a table")
     names = WalkerRequirements.__dataclass_fields__
     _keys(value, where, required=(), optional=tuple(names))
-    base = WalkerRequirements(front_action_min_reset=gait.period,
-                              front_action_aim=1.2 * gait.period)  # fmt: skip
+    base = WalkerRequirements(
+        front_action_min_reset=gait.period, front_action_aim=1.2 * gait.period
+    )
     out: dict[str, Any] = {}
-    for key in ("pressure_margin_kPa", "front_action_min_reset", "front_action_aim",
-                "middle_action_max_reset", "min_stride_ratio"):  # fmt: skip
+    for key in (
+        "pressure_margin_kPa",
+        "front_action_min_reset",
+        "front_action_aim",
+        "middle_action_max_reset",
+        "min_stride_ratio",
+    ):
         out[key] = _positive(value, where, key, getattr(base, key), allow_zero=True)
     for key in ("purple_reset", "purple_aim"):
-        pair = _numbers(value.get(key, list(getattr(base, key))), f"{where}.{key}", length=2,
-                        unit="s")  # fmt: skip
+        pair = _numbers(
+            value.get(key, list(getattr(base, key))), f"{where}.{key}", length=2, unit="s"
+        )
         if any(v <= 0 for v in pair):
             raise SceneSpecError(f"{where}.{key} = {list(pair)}: need times > 0 s")
         out[key] = (pair[0], pair[1])
@@ -565,11 +676,15 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
     if low > high:
         raise SceneSpecError(f"{where}.purple_reset = {[low, high]}: min above max")
     if not all(low <= a <= high for a in out["purple_aim"]):
-        raise SceneSpecError(f"{where}.purple_aim = {list(out['purple_aim'])}: must lie in "
-                             f"purple_reset = {[low, high]}")  # fmt: skip
+        raise SceneSpecError(
+            f"{where}.purple_aim = {list(out['purple_aim'])}: must lie in "
+            f"purple_reset = {[low, high]}"
+        )
     if out["front_action_aim"] < out["front_action_min_reset"]:
-        raise SceneSpecError(f"{where}.front_action_aim = {out['front_action_aim']}: below "
-                             f"front_action_min_reset = {out['front_action_min_reset']}")
+        raise SceneSpecError(
+            f"{where}.front_action_aim = {out['front_action_aim']}: below "
+            f"front_action_min_reset = {out['front_action_min_reset']}"
+        )
     green = _string(value, where, "green_class", base.green_class)
     if green not in ("monostable", "metastable", "any"):
         raise SceneSpecError(f"{where}.green_class = {green!r}: monostable, metastable or any")

@@ -214,15 +214,16 @@ class SimulationResult:
         }
 
 
-def controls(info: MethodInfo, *, t_release: float, atol, rtol, h_max, max_steps,
-              stop_when_reset: bool) -> NDArray[np.float64]:  # fmt: skip
+def controls(
+    info: MethodInfo, *, t_release: float, atol, rtol, h_max, max_steps, stop_when_reset: bool
+) -> NDArray[np.float64]:
     """Integrator control vector (``kev.CTRL_*``) from a method's defaults and overrides."""
     ctrl = np.zeros(kev.N_CTRL)
     ctrl[kev.CTRL_RTOL] = 0.0 if rtol is None else positive_number("rtol", rtol, allow_zero=True)
     ctrl[kev.CTRL_ATOL] = info.atol if atol is None else positive_number("atol", atol)
     ctrl[kev.CTRL_H_MAX] = info.h_max if h_max is None else positive_number("h_max", h_max)
-    ctrl[kev.CTRL_MAX_STEPS] = info.max_steps if max_steps is None else positive_number(
-        "max_steps", max_steps
+    ctrl[kev.CTRL_MAX_STEPS] = (
+        info.max_steps if max_steps is None else positive_number("max_steps", max_steps)
     )
     ctrl[kev.CTRL_TAU_END] = t_release
     ctrl[kev.CTRL_STOP_WHEN_RESET] = 1.0 if stop_when_reset else 0.0
@@ -253,20 +254,29 @@ def check_horizon(t_end: float, profile: PressureProfile) -> float:
     return t_end
 
 
-def build_result(design, profile, method, status, params, t_out, x_out, rec, log, stats, final_x,
-            final_v, t_end) -> SimulationResult:  # fmt: skip
+def build_result(
+    design, profile, method, status, params, t_out, x_out, rec, log, stats, final_x, final_v, t_end
+) -> SimulationResult:
     """Assemble a :class:`SimulationResult` from a run's arrays."""
     n_units = design.n_units
     reset = np.empty(n_units)
     snap_through = np.empty(n_units)
     snap_back = np.empty(n_units)
     classes = np.empty(n_units, dtype=np.int64)
-    state = summarise_units(rec, profile.t_release, int(status), reset, snap_through, snap_back,
-                            classes)  # fmt: skip
+    state = summarise_units(
+        rec, profile.t_release, int(status), reset, snap_through, snap_back, classes
+    )
     no_contact = dome_reach(design.H, design.t, design.U_sep, design.t_ch)[1]
     states = np.array([state], dtype=np.int64)
-    mark_no_contact(no_contact[None], np.array([n_units]), states, reset[None],
-                    snap_through[None], snap_back[None], classes[None])  # fmt: skip
+    mark_no_contact(
+        no_contact[None],
+        np.array([n_units]),
+        states,
+        reset[None],
+        snap_through[None],
+        snap_back[None],
+        classes[None],
+    )
     state = int(states[0])
     tip, ext = _tip_and_extensions(params, x_out)
     n_events = int(min(stats[kev.STAT_EVENTS], log.shape[0]))
@@ -317,8 +327,9 @@ def _tip_and_extensions(params, x_out: NDArray) -> tuple[NDArray, NDArray]:
     return tip, ext
 
 
-def mark_no_contact(no_contact, n_units, final_state, reset, snap_through, snap_back,
-                    unit_class) -> None:  # fmt: skip
+def mark_no_contact(
+    no_contact, n_units, final_state, reset, snap_through, snap_back, unit_class
+) -> None:
     """Class the no-contact units of simulated designs, in place.
 
     A unit whose reach ``d`` was clamped (MODEL.md §3) crosses its threshold a few µm from
@@ -375,8 +386,15 @@ def run_reset_batch(batch, profile, info, atol, max_steps, launch) -> dict[str, 
     unit_params, h, n_units = pack_batch(batch)
     valid = status == st.OK
     knot_t, knot_p = profile.knots()
-    ctrl = controls(info, t_release=profile.t_release, atol=atol, rtol=None, h_max=None,
-                     max_steps=max_steps, stop_when_reset=True)  # fmt: skip
+    ctrl = controls(
+        info,
+        t_release=profile.t_release,
+        atol=atol,
+        rtol=None,
+        h_max=None,
+        max_steps=max_steps,
+        stop_when_reset=True,
+    )
     codes = np.zeros(n, dtype=np.int64)
     previous = numba.set_parallel_chunksize(1)
     try:
@@ -386,6 +404,13 @@ def run_reset_batch(batch, profile, info, atol, max_steps, launch) -> dict[str, 
     status[valid] = codes[valid].astype(np.int8)
     with np.errstate(invalid="ignore"):
         no_contact = dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
-    mark_no_contact(no_contact & valid[:, None], n_units, out["final_state"], out["reset_time"],
-                    out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
+    mark_no_contact(
+        no_contact & valid[:, None],
+        n_units,
+        out["final_state"],
+        out["reset_time"],
+        out["snap_through"],
+        out["snap_back"],
+        out["unit_class"],
+    )
     return out

@@ -121,15 +121,26 @@ SCENE_RTOL = 1e-9
 
 def _single_pulse(profile: PressureProfile) -> tuple[float, tuple[float, ...]] | None:
     times, pressures = profile.times, profile.pressures
-    if len(times) != 4 or pressures[0] != 0.0 or pressures[3] != 0.0 \
-            or pressures[1] != pressures[2] or pressures[1] <= 0.0:  # fmt: skip
+    if (
+        len(times) != 4
+        or pressures[0] != 0.0
+        or pressures[3] != 0.0
+        or pressures[1] != pressures[2]
+        or pressures[1] <= 0.0
+    ):
         return None
     return pressures[1], tuple(times)
 
 
-def fast_reset_core(batch: DesignBatch, profile: PressureProfile, *, t_end: float,
-                    atol: float, rows: NDArray | None = None,
-                    status: NDArray | None = None) -> dict[str, NDArray]:  # fmt: skip
+def fast_reset_core(
+    batch: DesignBatch,
+    profile: PressureProfile,
+    *,
+    t_end: float,
+    atol: float,
+    rows: NDArray | None = None,
+    status: NDArray | None = None,
+) -> dict[str, NDArray]:
     """The physical core (no fit) on the valid rows of a batch (``rows``: a subset of those).
 
     Parameters
@@ -166,26 +177,53 @@ def fast_reset_core(batch: DesignBatch, profile: PressureProfile, *, t_end: floa
     unit_params, h, n_units = pack_batch(batch)
     out["alpha"] = unit_params[:, :, COL_ALPHA].copy()
     knot_t, knot_p = profile.knots()
-    ctrl = controls(METHODS["rodas4-overdamped"], t_release=profile.t_release, atol=atol,
-                    rtol=None, h_max=CORE_H_MAX, max_steps=CORE_MAX_STEPS,
-                    stop_when_reset=True)  # fmt: skip
+    ctrl = controls(
+        METHODS["rodas4-overdamped"],
+        t_release=profile.t_release,
+        atol=atol,
+        rtol=None,
+        h_max=CORE_H_MAX,
+        max_steps=CORE_MAX_STEPS,
+        stop_when_reset=True,
+    )
     ctrl[CTRL_H_INIT] = CORE_H_INIT
     ctrl[CTRL_H_MAX] = CORE_H_MAX
     codes = np.zeros(len(batch), dtype=np.int64)
     previous = numba.set_parallel_chunksize(1)  # rows differ in cost by 10x or more
     try:
-        fast_reset_batch(unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL,
-                         kdyn.ETA_ISO, ctrl, float(t_end), codes, out["final_state"],
-                         out["reset_time"], out["snap_back"], out["unit_class"], out["unit_diag"],
-                         out["design_diag"])  # fmt: skip
+        fast_reset_batch(
+            unit_params,
+            h,
+            n_units,
+            valid,
+            knot_t,
+            knot_p,
+            kdyn.ETA_INTERNAL,
+            kdyn.ETA_ISO,
+            ctrl,
+            float(t_end),
+            codes,
+            out["final_state"],
+            out["reset_time"],
+            out["snap_back"],
+            out["unit_class"],
+            out["unit_diag"],
+            out["design_diag"],
+        )
     finally:
         numba.set_parallel_chunksize(previous)
     out["status"][valid] = codes[valid].astype(np.int8)
     # No inversion without dome contact (MODEL.md §3): as in the full model, so that core and
     # reference agree on what a reset is when the correction is trained.
-    mark_no_contact(_no_contact(batch) & valid[:, None], batch.n_units, out["final_state"],
-                    out["reset_time"], out["snap_through"], out["snap_back"],
-                    out["unit_class"])  # fmt: skip
+    mark_no_contact(
+        _no_contact(batch) & valid[:, None],
+        batch.n_units,
+        out["final_state"],
+        out["reset_time"],
+        out["snap_through"],
+        out["snap_back"],
+        out["unit_class"],
+    )
     return out
 
 
@@ -195,8 +233,9 @@ def _no_contact(batch: DesignBatch) -> NDArray[np.bool_]:
         return dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
 
 
-def unit_features(batch: DesignBatch, core: dict[str, NDArray],
-                  units: NDArray[np.bool_]) -> NDArray[np.float64]:  # fmt: skip
+def unit_features(
+    batch: DesignBatch, core: dict[str, NDArray], units: NDArray[np.bool_]
+) -> NDArray[np.float64]:
     """The :data:`FEATURES` rows of the units where ``units`` (shape ``(n, MAX_UNITS)``) is True.
 
     Rows are in C order of ``np.nonzero(units)``.
@@ -319,16 +358,29 @@ def fast_reset_times_batch(
     fast = valid & (reason == 0)
     horizon = t_end - profile.t_release
     if fast.any():
-        core = fast_reset_core(batch, profile, t_end=profile.t_release + horizon * (
-            1.0 + HORIZON_SLACK), atol=model.atol, rows=np.flatnonzero(fast),
-            status=status)  # fmt: skip
+        core = fast_reset_core(
+            batch,
+            profile,
+            t_end=profile.t_release + horizon * (1.0 + HORIZON_SLACK),
+            atol=model.atol,
+            rows=np.flatnonzero(fast),
+            status=status,
+        )
     else:
         core = _empty_core(batch, status)
-    out = {key: core[key] for key in ("status", "final_state", "reset_time", "snap_through",
-                                      "snap_back", "unit_class")}  # fmt: skip
+    out = {
+        key: core[key]
+        for key in (
+            "status",
+            "final_state",
+            "reset_time",
+            "snap_through",
+            "snap_back",
+            "unit_class",
+        )
+    }
     reason[fast & (core["status"] != st.OK)] |= FALLBACK_CORE
-    reason[fast & ~(core["design_diag"][:, DD_LOAD_MARGIN] >= model.margin_min)] |= (
-        FALLBACK_LOADING)  # fmt: skip
+    reason[fast & ~(core["design_diag"][:, DD_LOAD_MARGIN] >= model.margin_min)] |= FALLBACK_LOADING
     reason[fast & raced_release(core)] |= FALLBACK_RACE
     fast &= reason == 0
     lo, hi, width = _predict(model, batch, core, fast, out)
@@ -343,14 +395,22 @@ def fast_reset_times_batch(
     hi[beyond] = np.inf
     if max_rel_halfwidth is not None:
         reason[fast & (np.nan_to_num(width, nan=0.0) > max_rel_halfwidth).any(axis=1)] |= (
-            FALLBACK_WIDTH)  # fmt: skip
+            FALLBACK_WIDTH
+        )
     fast &= reason == 0
     _summarise(out, batch, fast)
     # Units with a clamped reach have no inversion in this model (MODEL.md §3): the same class
     # as the full model gives them (fallback rows get it from the full model itself).
     no_contact = _no_contact(batch) & fast[:, None]
-    mark_no_contact(no_contact, batch.n_units, out["final_state"], out["reset_time"],
-                    out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
+    mark_no_contact(
+        no_contact,
+        batch.n_units,
+        out["final_state"],
+        out["reset_time"],
+        out["snap_through"],
+        out["snap_back"],
+        out["unit_class"],
+    )
     lo[no_contact] = hi[no_contact] = np.nan
     out["reset_time_lo"] = np.where(fast[:, None], lo, out["reset_time"])
     out["reset_time_hi"] = np.where(fast[:, None], hi, out["reset_time"])
@@ -358,8 +418,14 @@ def fast_reset_times_batch(
     if fallback.any():
         rows = np.flatnonzero(fallback)
         full = full_model(batch.take(rows), profile, t_end=t_end)
-        for key in ("status", "final_state", "reset_time", "snap_through", "snap_back",
-                    "unit_class"):  # fmt: skip
+        for key in (
+            "status",
+            "final_state",
+            "reset_time",
+            "snap_through",
+            "snap_back",
+            "unit_class",
+        ):
             out[key][rows] = full[key]
         out["reset_time_lo"][rows] = full["reset_time"]
         out["reset_time_hi"][rows] = full["reset_time"]
@@ -398,8 +464,13 @@ def _empty_core(batch: DesignBatch, status: NDArray | None) -> dict[str, NDArray
     return out
 
 
-def _predict(model: ResetModel, batch: DesignBatch, core: dict[str, NDArray],
-             fast: NDArray[np.bool_], out: dict[str, NDArray]):  # fmt: skip
+def _predict(
+    model: ResetModel,
+    batch: DesignBatch,
+    core: dict[str, NDArray],
+    fast: NDArray[np.bool_],
+    out: dict[str, NDArray],
+):
     """Correct the core's times of the ``fast`` rows in ``out``; return the interval.
 
     Returns ``lo``, ``hi`` (s) and the relative half-width of metastable units (NaN elsewhere),
@@ -431,14 +502,20 @@ def _summarise(out: dict[str, NDArray], batch: DesignBatch, fast: NDArray[np.boo
     reset = out["reset_time"][fast]
     active = np.arange(MAX_UNITS)[None, :] < batch.n_units[fast][:, None]
     with np.errstate(invalid="ignore"):
-        cls = np.where(np.isnan(reset), CLASS_NEVER_INVERTED,
-                       np.where(np.isinf(reset), CLASS_BISTABLE,
-                                np.where(reset >= METASTABLE_MIN_RESET, CLASS_METASTABLE,
-                                         CLASS_MONOSTABLE)))  # fmt: skip
+        cls = np.where(
+            np.isnan(reset),
+            CLASS_NEVER_INVERTED,
+            np.where(
+                np.isinf(reset),
+                CLASS_BISTABLE,
+                np.where(reset >= METASTABLE_MIN_RESET, CLASS_METASTABLE, CLASS_MONOSTABLE),
+            ),
+        )
     out["unit_class"][fast] = np.where(active, cls, CLASS_NEVER_INVERTED).astype(np.int8)
     # unit 1 is the most significant bit: bit k of unit k+1 has weight 2^(N-1-k)
-    weights = np.where(active, 2.0 ** (batch.n_units[fast][:, None] - 1 - np.arange(MAX_UNITS)),
-                       0.0)  # fmt: skip
+    weights = np.where(
+        active, 2.0 ** (batch.n_units[fast][:, None] - 1 - np.arange(MAX_UNITS)), 0.0
+    )
     out["final_state"][fast] = (np.isinf(reset) * weights).sum(axis=1).astype(np.int64)
 
 
@@ -446,9 +523,9 @@ def compile_fast_reset() -> None:
     """Compile (or load from Numba's cache) the kernels of the fast model, on a tiny design."""
     from ...model.design import Design
 
-    batch = DesignBatch.from_designs([Design(H=[4.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83,
-                                             t_lim=1.0)])  # fmt: skip
-    core = fast_reset_core(batch, PressureProfile.pulse(0.7, (0.0, 0.01, 0.02, 0.03)),
-                           t_end=0.05, atol=1e-2)  # fmt: skip
+    batch = DesignBatch.from_designs([Design(H=[4.0, 3.0], U_L=6.0, U_sep=1.0, t=0.83, t_lim=1.0)])
+    core = fast_reset_core(
+        batch, PressureProfile.pulse(0.7, (0.0, 0.01, 0.02, 0.03)), t_end=0.05, atol=1e-2
+    )
     unit_features(batch, core, np.isfinite(core["reset_time"]))
     load_reset_model().correction.predict(np.zeros((1, len(FEATURES))))

@@ -36,9 +36,13 @@ RAMP_DURATION = 40.0
 _DELAY_EXPONENT = 2.0 / 3.0
 
 
-def ramp_snap_pressures(batch: DesignBatch, *, P_max: float = RAMP_P_MAX,
-                        duration: float = RAMP_DURATION,
-                        method: str = "rodas4") -> NDArray[np.float64]:  # fmt: skip
+def ramp_snap_pressures(
+    batch: DesignBatch,
+    *,
+    P_max: float = RAMP_P_MAX,
+    duration: float = RAMP_DURATION,
+    method: str = "rodas4",
+) -> NDArray[np.float64]:
     """Pressure (MPa) at each unit's first snap-through under one linear ramp (not extrapolated).
 
     Parameters
@@ -66,9 +70,13 @@ def ramp_snap_pressures(batch: DesignBatch, *, P_max: float = RAMP_P_MAX,
     return pressure
 
 
-def inversion_pressures(batch: DesignBatch, *, P_max: float = RAMP_P_MAX,
-                        duration: float = RAMP_DURATION,
-                        method: str = "rodas4") -> NDArray[np.float64]:  # fmt: skip
+def inversion_pressures(
+    batch: DesignBatch,
+    *,
+    P_max: float = RAMP_P_MAX,
+    duration: float = RAMP_DURATION,
+    method: str = "rodas4",
+) -> NDArray[np.float64]:
     """Quasi-static inversion pressure (MPa) of each unit: two ramps, extrapolated.
 
     Parameters are those of :func:`ramp_snap_pressures` (``duration`` is the shorter ramp).

@@ -39,16 +39,21 @@ __all__ = ["release_reset_times", "release_reset_times_batch"]
 
 
 def _single_pulse(profile) -> None:
-    if len(profile.times) != 4 or profile.pressures[0] != 0.0 or profile.pressures[3] != 0.0 \
-            or profile.pressures[1] != profile.pressures[2]:  # fmt: skip
+    if (
+        len(profile.times) != 4
+        or profile.pressures[0] != 0.0
+        or profile.pressures[3] != 0.0
+        or profile.pressures[1] != profile.pressures[2]
+    ):
         raise ValueError(
             f"profile = {profile!r}: the release model needs one pulse (0, P0, P0, 0) at "
             "(tau1, tau2, tau3, tau4)"
         )
 
 
-def release_reset_times_batch(batch: DesignBatch, profile, *, t_end: float,
-                              atol: float | None = None) -> dict[str, NDArray]:  # fmt: skip
+def release_reset_times_batch(
+    batch: DesignBatch, profile, *, t_end: float, atol: float | None = None
+) -> dict[str, NDArray]:
     """Reset times of the release model for a batch.
 
     Same contract as :func:`dpfexplore.solvers.dynamics.simulate.reset_times_batch`; the
@@ -58,18 +63,34 @@ def release_reset_times_batch(batch: DesignBatch, profile, *, t_end: float,
     t_end = check_horizon(t_end, profile)
 
     def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
-        release_batch(unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL,
-                      kdyn.ETA_ISO, ctrl, t_end, codes, out["final_state"], out["reset_time"],
-                      out["snap_through"], out["snap_back"], out["unit_class"])  # fmt: skip
+        release_batch(
+            unit_params,
+            h,
+            n_units,
+            valid,
+            knot_t,
+            knot_p,
+            kdyn.ETA_INTERNAL,
+            kdyn.ETA_ISO,
+            ctrl,
+            t_end,
+            codes,
+            out["final_state"],
+            out["reset_time"],
+            out["snap_through"],
+            out["snap_back"],
+            out["unit_class"],
+        )
 
     return run_reset_batch(batch, profile, METHODS["release"], atol, None, launch)
 
 
-def release_reset_times(design: Design, profile, *, t_end: float,
-                        atol: float | None = None) -> dict[str, NDArray]:  # fmt: skip
+def release_reset_times(
+    design: Design, profile, *, t_end: float, atol: float | None = None
+) -> dict[str, NDArray]:
     """The release model for one design: the batch contract's arrays for a single row."""
-    out = release_reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=t_end,
-                                    atol=atol)  # fmt: skip
+    out = release_reset_times_batch(
+        DesignBatch.from_designs([design]), profile, t_end=t_end, atol=atol
+    )
     n_units = design.n_units
-    return {key: value[0, :n_units] if value.ndim == 2 else value[0]
-            for key, value in out.items()}  # fmt: skip
+    return {key: value[0, :n_units] if value.ndim == 2 else value[0] for key, value in out.items()}

@@ -93,8 +93,17 @@ class TreeEnsemble:
         """Sum over the trees for each row of ``x`` (shape ``(n_rows, n_features)``)."""
         x = np.ascontiguousarray(x, dtype=np.float64)
         out = np.empty(x.shape[0])
-        tree_ensemble_predict(x, self.feature, self.threshold, self.left, self.right, self.value,
-                              self.roots, self.bias, out)  # fmt: skip
+        tree_ensemble_predict(
+            x,
+            self.feature,
+            self.threshold,
+            self.left,
+            self.right,
+            self.value,
+            self.roots,
+            self.bias,
+            out,
+        )
         return out
 
     @classmethod
@@ -120,23 +129,34 @@ class TreeEnsemble:
             offset += tree.node_count
         bias = float(np.ravel(estimator.init_.predict(np.zeros((1, estimator.n_features_in_))))[0])
         return cls(
-            np.concatenate(feature).astype(np.int64), np.concatenate(threshold),
-            np.concatenate(left).astype(np.int64), np.concatenate(right).astype(np.int64),
-            np.concatenate(value), np.array(roots, dtype=np.int64), bias,
-        )  # fmt: skip
+            np.concatenate(feature).astype(np.int64),
+            np.concatenate(threshold),
+            np.concatenate(left).astype(np.int64),
+            np.concatenate(right).astype(np.int64),
+            np.concatenate(value),
+            np.array(roots, dtype=np.int64),
+            bias,
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
-        return {"feature": self.feature.tolist(), "threshold": self.threshold.tolist(),
-                "left": self.left.tolist(), "right": self.right.tolist(),
-                "value": self.value.tolist(), "roots": self.roots.tolist(),
-                "bias": self.bias}  # fmt: skip
+        return {
+            "feature": self.feature.tolist(),
+            "threshold": self.threshold.tolist(),
+            "left": self.left.tolist(),
+            "right": self.right.tolist(),
+            "value": self.value.tolist(),
+            "roots": self.roots.tolist(),
+            "bias": self.bias,
+        }
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TreeEnsemble:
         """Inverse of :meth:`to_dict`; ``ValueError`` if the arrays do not form trees."""
-        arrays = {key: np.asarray(data[key]) for key in ("feature", "threshold", "left",
-                                                         "right", "value", "roots")}  # fmt: skip
+        arrays = {
+            key: np.asarray(data[key])
+            for key in ("feature", "threshold", "left", "right", "value", "roots")
+        }
         n = arrays["feature"].shape[0]
         if any(a.ndim != 1 or (a.shape[0] != n and key != "roots") for key, a in arrays.items()):
             raise ValueError("tree ensemble: arrays of unequal length")
@@ -146,10 +166,15 @@ class TreeEnsemble:
                 raise ValueError(f"tree ensemble: {key} points outside the {n} nodes")
         if arrays["roots"].size and (arrays["roots"].min() < 0 or arrays["roots"].max() >= n):
             raise ValueError("tree ensemble: a root outside the nodes")
-        return cls(arrays["feature"].astype(np.int64), arrays["threshold"].astype(float),
-                   arrays["left"].astype(np.int64), arrays["right"].astype(np.int64),
-                   arrays["value"].astype(float), arrays["roots"].astype(np.int64),
-                   float(data["bias"]))  # fmt: skip
+        return cls(
+            arrays["feature"].astype(np.int64),
+            arrays["threshold"].astype(float),
+            arrays["left"].astype(np.int64),
+            arrays["right"].astype(np.int64),
+            arrays["value"].astype(float),
+            arrays["roots"].astype(np.int64),
+            float(data["bias"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -205,15 +230,24 @@ class ResetModel:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (with the format tag and the physics version)."""
         return {
-            "format": MODEL_FORMAT, "format_version": FORMAT_VERSION,
+            "format": MODEL_FORMAT,
+            "format_version": FORMAT_VERSION,
             "model_version": MODEL_VERSION,
-            "scene": {"P0": self.P0, "tau": list(self.tau)}, "horizon_max": self.horizon_max,
-            "domain": self.domain, "atol": self.atol, "features": list(self.features),
-            "correction": self.correction.to_dict(), "scale": self.scale.to_dict(),
-            "conformal_q": self.conformal_q, "coverage": self.coverage,
-            "scale_floor": self.scale_floor, "small_T": self.small_T,
-            "abs_halfwidth": self.abs_halfwidth, "margin_min": self.margin_min, "info": self.info,
-        }  # fmt: skip
+            "scene": {"P0": self.P0, "tau": list(self.tau)},
+            "horizon_max": self.horizon_max,
+            "domain": self.domain,
+            "atol": self.atol,
+            "features": list(self.features),
+            "correction": self.correction.to_dict(),
+            "scale": self.scale.to_dict(),
+            "conformal_q": self.conformal_q,
+            "coverage": self.coverage,
+            "scale_floor": self.scale_floor,
+            "small_T": self.small_T,
+            "abs_halfwidth": self.abs_halfwidth,
+            "margin_min": self.margin_min,
+            "info": self.info,
+        }
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ResetModel:
@@ -221,8 +255,10 @@ class ResetModel:
         if data.get("format") != MODEL_FORMAT:
             raise ValueError(f"format = {data.get('format')!r}: not a {MODEL_FORMAT} file")
         if data.get("format_version") != FORMAT_VERSION:
-            raise ValueError(f"format_version = {data.get('format_version')!r}: this dpfexplore "
-                             f"reads version {FORMAT_VERSION}")  # fmt: skip
+            raise ValueError(
+                f"format_version = {data.get('format_version')!r}: this dpfexplore "
+                f"reads version {FORMAT_VERSION}"
+            )
         if data.get("model_version") != MODEL_VERSION:
             raise ValueError(
                 f"model_version = {data.get('model_version')!r}: trained on another physics "
@@ -233,16 +269,31 @@ class ResetModel:
         tau = tuple(float(v) for v in data["scene"]["tau"])
         if len(tau) != 4:
             raise ValueError(f"scene.tau = {list(tau)!r}: need 4 times")
-        numbers = {key: float(data[key]) for key in ("horizon_max", "atol", "conformal_q",
-                                                     "coverage", "scale_floor", "small_T",
-                                                     "abs_halfwidth", "margin_min")}  # fmt: skip
+        numbers = {
+            key: float(data[key])
+            for key in (
+                "horizon_max",
+                "atol",
+                "conformal_q",
+                "coverage",
+                "scale_floor",
+                "small_T",
+                "abs_halfwidth",
+                "margin_min",
+            )
+        }
         for key, value in numbers.items():
             if not math.isfinite(value) or value < 0.0:
                 raise ValueError(f"{key} = {value!r}: must be a finite number >= 0")
-        return cls(P0=float(data["scene"]["P0"]), tau=tau, domain=dict(data["domain"]),
-                   correction=TreeEnsemble.from_dict(data["correction"]),
-                   scale=TreeEnsemble.from_dict(data["scale"]), info=dict(data.get("info", {})),
-                   **numbers)  # fmt: skip
+        return cls(
+            P0=float(data["scene"]["P0"]),
+            tau=tau,
+            domain=dict(data["domain"]),
+            correction=TreeEnsemble.from_dict(data["correction"]),
+            scale=TreeEnsemble.from_dict(data["scale"]),
+            info=dict(data.get("info", {})),
+            **numbers,
+        )
 
     def save(self, path: str | Path) -> Path:
         """Write the model as JSON; returns the path."""

@@ -64,14 +64,17 @@ class ResetMapSpec:
     """
 
     n_units: int = 1
-    H_values: Sequence[float] = field(default_factory=lambda: tuple(np.round(
-        np.arange(2.50, 3.2001, 0.025), 4)))  # fmt: skip
+    H_values: Sequence[float] = field(
+        default_factory=lambda: tuple(np.round(np.arange(2.50, 3.2001, 0.025), 4))
+    )
     t_at_H: float = 0.8
-    t_values: Sequence[float] = field(default_factory=lambda: tuple(np.round(
-        np.arange(0.70, 1.0001, 0.0125), 4)))  # fmt: skip
+    t_values: Sequence[float] = field(
+        default_factory=lambda: tuple(np.round(np.arange(0.70, 1.0001, 0.0125), 4))
+    )
     H_at_t: float = 3.0
-    hold_values: Sequence[float] = field(default_factory=lambda: tuple(np.round(
-        np.logspace(-2, 1, 16), 5)))  # fmt: skip
+    hold_values: Sequence[float] = field(
+        default_factory=lambda: tuple(np.round(np.logspace(-2, 1, 16), 5))
+    )
     hold_H: Sequence[float] = (2.8, 2.9, 3.0)
     hold_t: float = 0.8
     P0: float = 0.7
@@ -93,8 +96,9 @@ class ResetMapSpec:
 
     def design(self, H: float, t: float) -> Design:
         """A finger of ``n_units`` equal units of dome height ``H`` and thickness ``t``."""
-        return Design(H=[H] * self.n_units, U_L=self.U_L, U_sep=self.U_sep, t=t,
-                      t_lim=self.t_lim, E=self.E)  # fmt: skip
+        return Design(
+            H=[H] * self.n_units, U_L=self.U_L, U_sep=self.U_sep, t=t, t_lim=self.t_lim, E=self.E
+        )
 
 
 def _rows(spec, name, designs, values, profile, extra) -> pd.DataFrame:
@@ -105,23 +109,25 @@ def _rows(spec, name, designs, values, profile, extra) -> pd.DataFrame:
     rows = []
     for i, design in enumerate(designs):
         for k in range(design.n_units):
-            rows.append({
-                "map": name,
-                "value": values[i],
-                "H": design.H[0],
-                "t": design.t,
-                "hold": extra["hold"],
-                "n_units": design.n_units,
-                "unit": k + 1,
-                "reset_time": out["reset_time"][i, k],
-                "snap_through": out["snap_through"][i, k],
-                "snap_back": out["snap_back"][i, k],
-                "unit_class": CLASS_NAMES[int(out["unit_class"][i, k])] or "never_inverted",
-                "status": st.Status(int(out["status"][i])).label,
-                "horizon": spec.t_after,
-                "P0": spec.P0,
-                "method": spec.method,
-            })
+            rows.append(
+                {
+                    "map": name,
+                    "value": values[i],
+                    "H": design.H[0],
+                    "t": design.t,
+                    "hold": extra["hold"],
+                    "n_units": design.n_units,
+                    "unit": k + 1,
+                    "reset_time": out["reset_time"][i, k],
+                    "snap_through": out["snap_through"][i, k],
+                    "snap_back": out["snap_back"][i, k],
+                    "unit_class": CLASS_NAMES[int(out["unit_class"][i, k])] or "never_inverted",
+                    "status": st.Status(int(out["status"][i])).label,
+                    "horizon": spec.t_after,
+                    "P0": spec.P0,
+                    "method": spec.method,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -136,16 +142,36 @@ def reset_time_maps(spec: ResetMapSpec | None = None, **changes) -> dict[str, pd
     spec = replace(spec or ResetMapSpec(), **changes)
     maps = {}
     H_values = [float(v) for v in spec.H_values]
-    maps["H"] = _rows(spec, "H", [spec.design(H, spec.t_at_H) for H in H_values], H_values,
-                      spec.profile(), {"hold": spec.hold})  # fmt: skip
+    maps["H"] = _rows(
+        spec,
+        "H",
+        [spec.design(H, spec.t_at_H) for H in H_values],
+        H_values,
+        spec.profile(),
+        {"hold": spec.hold},
+    )
     t_values = [float(v) for v in spec.t_values]
-    maps["t"] = _rows(spec, "t", [spec.design(spec.H_at_t, t) for t in t_values], t_values,
-                      spec.profile(), {"hold": spec.hold})  # fmt: skip
+    maps["t"] = _rows(
+        spec,
+        "t",
+        [spec.design(spec.H_at_t, t) for t in t_values],
+        t_values,
+        spec.profile(),
+        {"hold": spec.hold},
+    )
     frames = []
     designs = [spec.design(float(H), spec.hold_t) for H in spec.hold_H]
     for hold in spec.hold_values:
-        frames.append(_rows(spec, "hold", designs, [float(hold)] * len(designs),
-                            spec.profile(float(hold)), {"hold": float(hold)}))  # fmt: skip
+        frames.append(
+            _rows(
+                spec,
+                "hold",
+                designs,
+                [float(hold)] * len(designs),
+                spec.profile(float(hold)),
+                {"hold": float(hold)},
+            )
+        )
     maps["hold"] = pd.concat(frames, ignore_index=True)
     for name, frame in maps.items():
         logger.info("reset map %s: %d rows", name, len(frame))

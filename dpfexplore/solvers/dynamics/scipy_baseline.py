@@ -58,8 +58,15 @@ class _Model:
         self.max_nfev = 0  # 0: no cap
 
     def _damping(self, x):
-        kdyn.damping_matrix(self.pos, self.params.unit_params, self.params.h,
-                            kdyn.ETA_INTERNAL, kdyn.ETA_ISO, self.work, self.cmat)  # fmt: skip
+        kdyn.damping_matrix(
+            self.pos,
+            self.params.unit_params,
+            self.params.h,
+            kdyn.ETA_INTERNAL,
+            kdyn.ETA_ISO,
+            self.work,
+            self.cmat,
+        )
         return self.cmat.copy()
 
     def rhs(self, t, y):
@@ -71,14 +78,36 @@ class _Model:
         if not self.overdamped:
             out = np.empty(2 * n)
             out[:n] = y[n:]
-            kdyn.acceleration(y[:n], np.ascontiguousarray(y[n:]), t, p.unit_params, p.h,
-                              self.knot_t, self.knot_p, self.phys, self.pos, self.vel,
-                              self.work, out[n:])  # fmt: skip
+            kdyn.acceleration(
+                y[:n],
+                np.ascontiguousarray(y[n:]),
+                t,
+                p.unit_params,
+                p.h,
+                self.knot_t,
+                self.knot_p,
+                self.phys,
+                self.pos,
+                self.vel,
+                self.work,
+                out[n:],
+            )
             return out
         force = np.empty(n)
-        kdyn.force_residual(np.ascontiguousarray(y), np.zeros(n), t, p.unit_params, p.h,
-                            self.knot_t, self.knot_p, self.phys, self.pos, self.vel, self.work,
-                            force)  # fmt: skip
+        kdyn.force_residual(
+            np.ascontiguousarray(y),
+            np.zeros(n),
+            t,
+            p.unit_params,
+            p.h,
+            self.knot_t,
+            self.knot_p,
+            self.phys,
+            self.pos,
+            self.vel,
+            self.work,
+            force,
+        )
         return lu_solve(lu_factor(self._damping(y)), force)
 
     def jac(self, t, y):
@@ -87,21 +116,43 @@ class _Model:
         n = self.n
         if not self.overdamped:
             out = np.empty((2 * n, 2 * n))
-            kdyn.full_jacobian(np.ascontiguousarray(y[:n]), np.ascontiguousarray(y[n:]), t,
-                               p.unit_params, p.h, self.knot_t, self.knot_p, self.phys,
-                               self.pos, self.vel, self.work, self.cmat, out)  # fmt: skip
+            kdyn.full_jacobian(
+                np.ascontiguousarray(y[:n]),
+                np.ascontiguousarray(y[n:]),
+                t,
+                p.unit_params,
+                p.h,
+                self.knot_t,
+                self.knot_p,
+                self.phys,
+                self.pos,
+                self.vel,
+                self.work,
+                self.cmat,
+                out,
+            )
             return out
         xdot = self.rhs(t, y)
         stiff = np.empty((n, n))
-        kdyn.stiffness_jacobian(np.ascontiguousarray(y), xdot, t, p.unit_params, p.h,
-                                self.knot_t, self.knot_p, self.phys, self.pos, self.vel,
-                                self.work, stiff)  # fmt: skip
+        kdyn.stiffness_jacobian(
+            np.ascontiguousarray(y),
+            xdot,
+            t,
+            p.unit_params,
+            p.h,
+            self.knot_t,
+            self.knot_p,
+            self.phys,
+            self.pos,
+            self.vel,
+            self.work,
+            stiff,
+        )
         return lu_solve(lu_factor(self._damping(y)), stiff)
 
     def event(self, k):
         def margin(t, y):
-            kev.margins(np.ascontiguousarray(y[: self.n]), self.params.unit_params,
-                        self.margins)  # fmt: skip
+            kev.margins(np.ascontiguousarray(y[: self.n]), self.params.unit_params, self.margins)
             return self.margins[k]
 
         return margin
@@ -166,8 +217,17 @@ def simulate_scipy(
         if t_b <= t_a:
             continue
         try:
-            sol = solve_ivp(model.rhs, (t_a, t_b), y, method=method, jac=model.jac, rtol=rtol,
-                            atol=atol, events=events, dense_output=True)  # fmt: skip
+            sol = solve_ivp(
+                model.rhs,
+                (t_a, t_b),
+                y,
+                method=method,
+                jac=model.jac,
+                rtol=rtol,
+                atol=atol,
+                events=events,
+                dense_output=True,
+            )
         except _EvaluationCap:
             code = st.STEP_LIMIT
             break
@@ -198,5 +258,18 @@ def simulate_scipy(
     log_arr = np.array(log, dtype=float).reshape(-1, 3)
     final_x = y[:n].copy()
     final_v = y[n:].copy() if not overdamped else model.rhs(t_end, y)
-    return build_result(design, profile, f"scipy-{method.lower()}", st.Status(code), model.params,
-                   t_out, x_out, rec, log_arr, stats, final_x, final_v, t_end)  # fmt: skip
+    return build_result(
+        design,
+        profile,
+        f"scipy-{method.lower()}",
+        st.Status(code),
+        model.params,
+        t_out,
+        x_out,
+        rec,
+        log_arr,
+        stats,
+        final_x,
+        final_v,
+        t_end,
+    )

@@ -171,17 +171,22 @@ def simulate(
         raise ValueError(f"n_samples = {n_samples!r}: must be >= 0")
     t_start = _quiet_start(t_start, profile, t_end)
     if info.name == "radau":
-        custom = {"x0": x0 is not None, "v0": v0 is not None, "lattice": lattice is not None,
-                  "t_start": t_start != 0.0,
-                  "eta": eta != kdyn.ETA_INTERNAL or eta_iso != kdyn.ETA_ISO}  # fmt: skip
+        custom = {
+            "x0": x0 is not None,
+            "v0": v0 is not None,
+            "lattice": lattice is not None,
+            "t_start": t_start != 0.0,
+            "eta": eta != kdyn.ETA_INTERNAL or eta_iso != kdyn.ETA_ISO,
+        }
         if any(custom.values()):
             raise ValueError(
                 f"method = 'radau': the SciPy baseline runs the standard scene only; drop "
                 f"{', '.join(k for k, v in custom.items() if v)}"
             )
 
-        return simulate_scipy(design, profile, t_end=t_end, n_samples=n_samples,
-                              atol=atol, rtol=rtol)  # fmt: skip
+        return simulate_scipy(
+            design, profile, t_end=t_end, n_samples=n_samples, atol=atol, rtol=rtol
+        )
     if info.model in ("release", "fast"):
         raise ValueError(
             f"method = {info.name!r}: this model gives reset times only; use "
@@ -193,13 +198,22 @@ def simulate(
         raise ValueError(f"lattice: has {params.n_units} units, the design {n_units}")
     n = 4 * n_units - 2
     knot_t, knot_p = profile.knots()
-    ctrl = controls(info, t_release=profile.t_release, atol=atol, rtol=rtol, h_max=h_max,
-                     max_steps=max_steps, stop_when_reset=stop_when_reset)  # fmt: skip
-    phys = np.array([
-        positive_number("eta", eta, allow_zero=True),
-        positive_number("eta_iso", eta_iso, allow_zero=True),
-        kdyn.node_mass(n_units),
-    ])
+    ctrl = controls(
+        info,
+        t_release=profile.t_release,
+        atol=atol,
+        rtol=rtol,
+        h_max=h_max,
+        max_steps=max_steps,
+        stop_when_reset=stop_when_reset,
+    )
+    phys = np.array(
+        [
+            positive_number("eta", eta, allow_zero=True),
+            positive_number("eta_iso", eta_iso, allow_zero=True),
+            kdyn.node_mass(n_units),
+        ]
+    )
     if info.model == "overdamped":
         if eta == 0.0 and eta_iso == 0.0:
             raise ValueError("eta = eta_iso = 0: the overdamped model needs damping")
@@ -210,21 +224,50 @@ def simulate(
         if value is not None:
             value = np.asarray(value, dtype=float)
             if value.shape != (n,) or not np.all(np.isfinite(value)):
-                raise ValueError(f"{name}: need {n} finite values (4N - 2), got shape "
-                                 f"{value.shape}")  # fmt: skip
+                raise ValueError(
+                    f"{name}: need {n} finite values (4N - 2), got shape {value.shape}"
+                )
             y[part] = value
     t_out = np.linspace(0.0, t_end, n_samples) if n_samples else np.empty(0)
     x_out = np.full((n_samples, n), np.nan)
     rec = np.empty((n_units, kev.N_REC))
     log = np.zeros((event_capacity, 3))
     stats = np.zeros(kev.N_STATS, dtype=np.int64)
-    code = integrate(info.integrator, y, t_start, t_end, params.unit_params, params.h, knot_t,
-                     knot_p, phys, ctrl, t_out, x_out, rec, log, stats)  # fmt: skip
+    code = integrate(
+        info.integrator,
+        y,
+        t_start,
+        t_end,
+        params.unit_params,
+        params.h,
+        knot_t,
+        knot_p,
+        phys,
+        ctrl,
+        t_out,
+        x_out,
+        rec,
+        log,
+        stats,
+    )
     status = st.Status(code)
     if status != st.OK:
         logger.warning("simulate(%s, method=%s): %s", design.name or "design", method, status.label)
-    return build_result(design, profile, info.name, status, params, t_out, x_out, rec, log, stats,
-                   y[:n].copy(), y[n:].copy(), t_end)  # fmt: skip
+    return build_result(
+        design,
+        profile,
+        info.name,
+        status,
+        params,
+        t_out,
+        x_out,
+        rec,
+        log,
+        stats,
+        y[:n].copy(),
+        y[n:].copy(),
+        t_end,
+    )
 
 
 def _quiet_start(t_start, profile: PressureProfile, t_end: float) -> float:
@@ -305,8 +348,14 @@ def reset_times_batch(
                 "method = 'fast': its tolerances are the model's; drop atol, max_steps"
             )
         full = functools.partial(reset_times_batch, method=DEFAULT_METHOD)
-        return fast_reset_times_batch(batch, profile, t_end=t_end, full_model=full,
-                                      max_rel_halfwidth=max_rel_halfwidth, model=model)
+        return fast_reset_times_batch(
+            batch,
+            profile,
+            t_end=t_end,
+            full_model=full,
+            max_rel_halfwidth=max_rel_halfwidth,
+            model=model,
+        )
     if info.model == "release":
         return release_reset_times_batch(batch, profile, t_end=t_end, atol=atol)
     if info.integrator < 0:
@@ -314,12 +363,24 @@ def reset_times_batch(
 
     def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
         reset_times_kernel(
-            unit_params, h, n_units, valid, knot_t, knot_p, kdyn.ETA_INTERNAL, kdyn.ETA_ISO,
-            info.model == "overdamped", info.integrator, ctrl, t_end, codes,
-            out["final_state"], out["reset_time"], out["snap_through"], out["snap_back"],
+            unit_params,
+            h,
+            n_units,
+            valid,
+            knot_t,
+            knot_p,
+            kdyn.ETA_INTERNAL,
+            kdyn.ETA_ISO,
+            info.model == "overdamped",
+            info.integrator,
+            ctrl,
+            t_end,
+            codes,
+            out["final_state"],
+            out["reset_time"],
+            out["snap_through"],
+            out["snap_back"],
             out["unit_class"],
-        )  # fmt: skip
+        )
 
     return run_reset_batch(batch, profile, info, atol, max_steps, launch)
-
-

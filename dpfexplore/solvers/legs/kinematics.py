@@ -58,15 +58,18 @@ def _rot2(angle: NDArray) -> NDArray:
 def _rot_z(angle: NDArray) -> NDArray:
     c, s = np.cos(angle), np.sin(angle)
     zero, one = np.zeros_like(c), np.ones_like(c)
-    return np.stack([np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1),
-                     np.stack([zero, zero, one], -1)], -2)  # fmt: skip
+    return np.stack(
+        [np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)],
+        -2,
+    )
 
 
 def _rot_x(degrees: float) -> NDArray:
     # Exact entries at multiples of 90° (MATLAB's cosd(90) is 0 exactly; cos(π/2) is not).
     quarter = {0.0: (1.0, 0.0), 90.0: (0.0, 1.0), 180.0: (-1.0, 0.0), 270.0: (0.0, -1.0)}
-    c, s = quarter.get(float(degrees) % 360.0, (np.cos(np.radians(degrees)),
-                                                np.sin(np.radians(degrees))))  # fmt: skip
+    c, s = quarter.get(
+        float(degrees) % 360.0, (np.cos(np.radians(degrees)), np.sin(np.radians(degrees)))
+    )
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
@@ -158,8 +161,9 @@ def compose_chain(sections: Sequence[NDArray], mounts_deg: Sequence[float]) -> l
     return placed
 
 
-def compose(composition: str, sections: Sequence[NDArray],
-            mounts_deg: Sequence[float] | None = None) -> list[NDArray]:  # fmt: skip
+def compose(
+    composition: str, sections: Sequence[NDArray], mounts_deg: Sequence[float] | None = None
+) -> list[NDArray]:
     """Dispatch to :func:`compose_dpw` or :func:`compose_chain` by name."""
     if composition == "dpw":
         return compose_dpw(sections)

@@ -132,16 +132,25 @@ class Leg:
                 f"{len(self.sections)}"
             )
         t_end = self.t_end
-        if isinstance(t_end, bool) or not isinstance(t_end, (int, float)) \
-                or not math.isfinite(t_end) or t_end <= 0:  # fmt: skip
+        if (
+            isinstance(t_end, bool)
+            or not isinstance(t_end, (int, float))
+            or not math.isfinite(t_end)
+            or t_end <= 0
+        ):
             raise ValueError(f"t_end = {t_end!r}: must be a time > 0 s")
-        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) \
-                or self.n_samples < 2:  # fmt: skip
+        if (
+            isinstance(self.n_samples, bool)
+            or not isinstance(self.n_samples, int)
+            or self.n_samples < 2
+        ):
             raise ValueError(f"n_samples = {self.n_samples!r}: must be an integer >= 2")
         info = method_info(self.method)
         if info.model == "release" or info.integrator < 0:
-            raise ValueError(f"method = {self.method!r}: a leg needs a Numba integrator that "
-                             "gives trajectories (rodas4, rodas4-overdamped, dopri5, ...)")
+            raise ValueError(
+                f"method = {self.method!r}: a leg needs a Numba integrator that "
+                "gives trajectories (rodas4, rodas4-overdamped, dopri5, ...)"
+            )
         seen = set()
         for i, section in enumerate(self.sections):
             where = f"section[{i + 1}]"
@@ -151,8 +160,10 @@ class Leg:
                 raise ValueError(f"{where}.name = {section.name!r}: used twice")
             seen.add(section.name)
             if section.phase not in self.phases:
-                raise ValueError(f"{where}.phase = {section.phase!r}: no such phase; phases: "
-                                 f"{', '.join(sorted(self.phases)) or 'none'}")  # fmt: skip
+                raise ValueError(
+                    f"{where}.phase = {section.phase!r}: no such phase; phases: "
+                    f"{', '.join(sorted(self.phases)) or 'none'}"
+                )
             profile = self.phases[section.phase]
             if profile.t_release > t_end:
                 raise ValueError(
@@ -160,8 +171,9 @@ class Leg:
                     "after it (reset times are measured from a phase's end)"
                 )
             if section.mount_deg != 0.0 and self.composition != "chain":
-                raise ValueError(f"{where}.mount_deg = {section.mount_deg!r}: only for "
-                                 "composition = 'chain'")  # fmt: skip
+                raise ValueError(
+                    f"{where}.mount_deg = {section.mount_deg!r}: only for composition = 'chain'"
+                )
 
     @classmethod
     def from_dict(cls, document: Mapping[str, Any]) -> Leg:
@@ -194,8 +206,11 @@ class Leg:
             except ValueError as exc:
                 raise ValueError(f"{where}.design: {exc}") from None
             mount = table.get("mount_deg", 0.0)
-            if isinstance(mount, bool) or not isinstance(mount, (int, float)) \
-                    or not math.isfinite(mount):  # fmt: skip
+            if (
+                isinstance(mount, bool)
+                or not isinstance(mount, (int, float))
+                or not math.isfinite(mount)
+            ):
                 raise ValueError(f"{where}.mount_deg = {mount!r}: must be a number of degrees")
             sections.append(Section(name, design, str(table["phase"]), float(mount)))
         return cls(
@@ -214,15 +229,16 @@ class Leg:
         for s in self.sections:
             if s.name == name:
                 return s
-        raise ValueError(f"section {name!r}: no such section; sections: "
-                         f"{', '.join(s.name for s in self.sections)}")  # fmt: skip
+        raise ValueError(
+            f"section {name!r}: no such section; sections: "
+            f"{', '.join(s.name for s in self.sections)}"
+        )
 
     def with_design(self, name: str, **changes: Any) -> Leg:
         """Copy with design keys of section ``name`` changed (e.g. ``H=[2.5, 2.5]``)."""
         target = self.section(name)
         design = target.design.replace(**changes)
-        sections = tuple(replace(s, design=design) if s.name == name else s
-                         for s in self.sections)  # fmt: skip
+        sections = tuple(replace(s, design=design) if s.name == name else s for s in self.sections)
         return replace(self, sections=sections)
 
     def times(self) -> NDArray[np.float64]:
@@ -303,12 +319,19 @@ class SectionRun:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary: the section's :meth:`SimulationResult.to_dict` plus leg keys."""
-        out = {"name": self.section.name, "phase": self.section.phase,
-               "n_units": self.section.design.n_units}  # fmt: skip
+        out = {
+            "name": self.section.name,
+            "phase": self.section.phase,
+            "n_units": self.section.design.n_units,
+        }
         out.update(self.result.to_dict())
-        out.update({"integrated_from": self.t_start if self.integrated else None,
-                    "fitted_range": self.fitted_range,
-                    "fitted_range_note": self.fitted_range_note})  # fmt: skip
+        out.update(
+            {
+                "integrated_from": self.t_start if self.integrated else None,
+                "fitted_range": self.fitted_range,
+                "fitted_range_note": self.fitted_range_note,
+            }
+        )
         return out
 
 
@@ -378,8 +401,10 @@ class LegResult:
         ``tip_path`` rows are ``[t, x, y, z]`` (s, mm relative to the start; None past the stop
         of a section that failed).
         """
-        rows = [[None if not np.isfinite(v) else v for v in row]
-                for row in np.round(np.column_stack([self.t, self.tip_path]), digits).tolist()]
+        rows = [
+            [None if not np.isfinite(v) else v for v in row]
+            for row in np.round(np.column_stack([self.t, self.tip_path]), digits).tolist()
+        ]
         return {
             "leg": self.leg.name,
             "composition": self.leg.composition,
@@ -410,16 +435,29 @@ def section_nodes(result: SimulationResult) -> NDArray[np.float64]:
     return out
 
 
-def simulate_section(section: Section, profile: PressureProfile, *, t_end: float,
-                     n_samples: int, method: str = DEFAULT_METHOD,
-                     atol: float | None = None) -> tuple[SimulationResult, float]:  # fmt: skip
+def simulate_section(
+    section: Section,
+    profile: PressureProfile,
+    *,
+    t_end: float,
+    n_samples: int,
+    method: str = DEFAULT_METHOD,
+    atol: float | None = None,
+) -> tuple[SimulationResult, float]:
     """Simulate one section from rest, integrating only from its phase's start (module doc).
 
     Returns the result (samples on ``linspace(0, t_end, n_samples)``) and the start time.
     """
     t_start = min(max(profile.zero_until(), 0.0), float(t_end))
-    result = simulate(section.design, profile, t_end=t_end, t_start=t_start, method=method,
-                      n_samples=n_samples, atol=atol)  # fmt: skip
+    result = simulate(
+        section.design,
+        profile,
+        t_end=t_end,
+        t_start=t_start,
+        method=method,
+        n_samples=n_samples,
+        atol=atol,
+    )
     return result, t_start
 
 
@@ -440,17 +478,30 @@ def simulate_leg(leg: Leg, *, method: str | None = None, atol: float | None = No
     atol = leg.atol if atol is None else atol
     runs = []
     for section in leg.sections:
-        result, t_start = simulate_section(section, leg.phases[section.phase], t_end=leg.t_end,
-                                           n_samples=leg.n_samples, method=method,
-                                           atol=atol)  # fmt: skip
+        result, t_start = simulate_section(
+            section,
+            leg.phases[section.phase],
+            t_end=leg.t_end,
+            n_samples=leg.n_samples,
+            method=method,
+            atol=atol,
+        )
         design = section.design
-        runs.append(SectionRun(section, result, t_start, section_nodes(result),
-                               design.in_fitted_range, design.fitted_range_note))
-    placed = compose(leg.composition, [run.nodes for run in runs],
-                     [s.mount_deg for s in leg.sections])  # fmt: skip
+        runs.append(
+            SectionRun(
+                section,
+                result,
+                t_start,
+                section_nodes(result),
+                design.in_fitted_range,
+                design.fitted_range_note,
+            )
+        )
+    placed = compose(
+        leg.composition, [run.nodes for run in runs], [s.mount_deg for s in leg.sections]
+    )
     last = leg.sections[-1].design.n_units
-    notes = [f"{run.section.name}: {run.fitted_range_note}" for run in runs
-             if not run.fitted_range]  # fmt: skip
+    notes = [f"{run.section.name}: {run.fitted_range_note}" for run in runs if not run.fitted_range]
     return LegResult(
         leg=leg,
         t=leg.times(),
@@ -474,8 +525,9 @@ def parse_assignment(text: str) -> tuple[str, str, Any]:
     try:
         values = [float(v) for v in value_text.split(",")]
     except ValueError:
-        raise ValueError(f"--set {text!r}: VALUE must be a number or comma-separated numbers") \
-            from None  # fmt: skip
+        raise ValueError(
+            f"--set {text!r}: VALUE must be a number or comma-separated numbers"
+        ) from None
     return section, key.strip(), values[0] if len(values) == 1 else values
 
 

@@ -108,8 +108,11 @@ EVENT_CAPACITY = 4 * MAX_UNITS
 #: Branch points kept per walk (for plots).
 PATH_CAPACITY = 5_000
 
-_KIND_NAMES = {ksnap.KIND_SNAP: "snap", ksnap.KIND_CROSSING: "crossing",
-               ksnap.KIND_UNSETTLED: "unsettled"}  # fmt: skip
+_KIND_NAMES = {
+    ksnap.KIND_SNAP: "snap",
+    ksnap.KIND_CROSSING: "crossing",
+    ksnap.KIND_UNSETTLED: "unsettled",
+}
 
 
 def _pressure(name: str, value) -> float:
@@ -137,16 +140,34 @@ def _model(model: str, n_units: int) -> tuple[NDArray, NDArray]:
     if model not in LANDING_MODELS:
         raise ValueError(f"model = {model!r}: choose one of {LANDING_MODELS}")
     mass = 0.0 if model == "rodas4-overdamped" else node_mass(n_units)
-    ctrl = controls(METHODS[model], t_release=0.0, atol=LANDING_ATOL, rtol=None,
-                    h_max=LANDING_H_MAX, max_steps=None, stop_when_reset=False)  # fmt: skip
+    ctrl = controls(
+        METHODS[model],
+        t_release=0.0,
+        atol=LANDING_ATOL,
+        rtol=None,
+        h_max=LANDING_H_MAX,
+        max_steps=None,
+        stop_when_reset=False,
+    )
     return np.array([ETA_INTERNAL, ETA_ISO, mass]), ctrl
 
 
 class _Walk:
     """One kernel walk's raw outputs."""
 
-    def __init__(self, params: LatticeParams, x0, p0, p_end, sign, phys, ctrl, kick, *,
-                 path_rows: int = PATH_CAPACITY):  # fmt: skip
+    def __init__(
+        self,
+        params: LatticeParams,
+        x0,
+        p0,
+        p_end,
+        sign,
+        phys,
+        ctrl,
+        kick,
+        *,
+        path_rows: int = PATH_CAPACITY,
+    ):
         n = n_free(params.n_units)
         self.ev = np.empty((EVENT_CAPACITY, ksnap.N_EV))
         self.ev_x = np.empty((EVENT_CAPACITY, 2, n))
@@ -156,9 +177,26 @@ class _Walk:
         self.x_start = np.array(x0, dtype=float)
         self.p_start = float(p0)
         self.sign = sign
-        self.status = st.Status(int(ksnap.follow(
-            params.unit_params, params.h, self.x_start, self.p_start, float(p_end), sign, phys,
-            ctrl, float(kick), self.ev, self.ev_x, self.path, self.counts, self.x_final)))
+        self.status = st.Status(
+            int(
+                ksnap.follow(
+                    params.unit_params,
+                    params.h,
+                    self.x_start,
+                    self.p_start,
+                    float(p_end),
+                    sign,
+                    phys,
+                    ctrl,
+                    float(kick),
+                    self.ev,
+                    self.ev_x,
+                    self.path,
+                    self.counts,
+                    self.x_final,
+                )
+            )
+        )
         self.n_events = int(min(self.counts[ksnap.CNT_EVENTS], EVENT_CAPACITY))
         self.n_path = int(min(self.counts[ksnap.CNT_PATH], path_rows))
 
@@ -188,8 +226,9 @@ def decay_rate(params: LatticeParams, x: NDArray, pressure: float, model: str) -
     n_units = params.n_units
     n = n_free(n_units)
     ws = kcont.workspace(n_units)
-    kcont.residual(np.asarray(x, dtype=float), float(pressure), params.unit_params, params.h,
-                   ws, True)  # fmt: skip
+    kcont.residual(
+        np.asarray(x, dtype=float), float(pressure), params.unit_params, params.h, ws, True
+    )
     k = ws[3].copy()
     c = np.empty((n, n))
     damping_matrix(ws[0], params.unit_params, params.h, ETA_INTERNAL, ETA_ISO, np.empty(n), c)
@@ -211,8 +250,18 @@ def _after(row: NDArray, n_units: int) -> str:
     return state_string(after, n_units) if after >= 0 else ""
 
 
-def _collect(walk: _Walk, n_units: int, direction: str, params, model, verify, events, visits,
-             path_parts, segment_offset):  # fmt: skip
+def _collect(
+    walk: _Walk,
+    n_units: int,
+    direction: str,
+    params,
+    model,
+    verify,
+    events,
+    visits,
+    path_parts,
+    segment_offset,
+):
     """Append a walk's events, visits and path to the running lists; returns its segments."""
     state = _state(params, walk.x_start)
     entered = "turn" if visits else "start"  # a cycle's falling walk goes on from the top
@@ -238,11 +287,11 @@ def _collect(walk: _Walk, n_units: int, direction: str, params, model, verify, e
         )
         events.append(event)
         last = visits[-1]
-        visits[-1] = StateVisit(last.state, last.direction, last.P_enter, event.pressure,
-                                last.entered_by, kind)  # fmt: skip
+        visits[-1] = StateVisit(
+            last.state, last.direction, last.P_enter, event.pressure, last.entered_by, kind
+        )
         if event.after:
-            visits.append(StateVisit(event.after, direction, event.pressure, math.nan, kind,
-                                     None))  # fmt: skip
+            visits.append(StateVisit(event.after, direction, event.pressure, math.nan, kind, None))
     rows = walk.path[: walk.n_path]
     path_parts.append((rows, segment_offset))
     return int(rows[-1, ksnap.PATH_SEGMENT]) + 1 if len(rows) else 0
@@ -361,12 +410,25 @@ def snap_pressures(
     for p_end, sign in legs[direction]:
         walk = _Walk(params, x, p0, p_end, sign, phys, ctrl, kick)
         stats["walks"] += 1
-        for key, col in (("steps", ksnap.CNT_STEPS), ("rejected", ksnap.CNT_REJECTED),
-                         ("landing_steps", ksnap.CNT_LANDING_STEPS)):  # fmt: skip
+        for key, col in (
+            ("steps", ksnap.CNT_STEPS),
+            ("rejected", ksnap.CNT_REJECTED),
+            ("landing_steps", ksnap.CNT_LANDING_STEPS),
+        ):
             stats[key] += int(walk.counts[col])
         first_visit = len(visits)
-        segment += _collect(walk, n_units, "up" if sign > 0 else "down", params, model, verify,
-                            events, visits, path_parts, segment)  # fmt: skip
+        segment += _collect(
+            walk,
+            n_units,
+            "up" if sign > 0 else "down",
+            params,
+            model,
+            verify,
+            events,
+            visits,
+            path_parts,
+            segment,
+        )
         if sign > 0 and release:
             _release(params, walk, visits, first_visit, P_min, phys, ctrl, kick, stats)
         if walk.status != st.OK:
@@ -378,36 +440,71 @@ def snap_pressures(
     path = _path_columns(path_parts, n_units)
     stats["events"] = len(events)
     return SnapSequence(
-        design=design, direction=direction, P_start=P_start, P_max=P_max, P_min=P_min,
-        status=status, events=tuple(events), visits=tuple(visits), path=path, final_x=x,
-        model=model, fitted_range=design.in_fitted_range,
-        no_contact=tuple(bool(v) for v in spring_constants(design).no_contact), stats=stats,
-    )  # fmt: skip
+        design=design,
+        direction=direction,
+        P_start=P_start,
+        P_max=P_max,
+        P_min=P_min,
+        status=status,
+        events=tuple(events),
+        visits=tuple(visits),
+        path=path,
+        final_x=x,
+        model=model,
+        fitted_range=design.in_fitted_range,
+        no_contact=tuple(bool(v) for v in spring_constants(design).no_contact),
+        stats=stats,
+    )
 
 
-def _release(params, walk: _Walk, visits: list[StateVisit], first: int, p_min: float, phys,
-             ctrl, kick, stats) -> None:  # fmt: skip
+def _release(
+    params, walk: _Walk, visits: list[StateVisit], first: int, p_min: float, phys, ctrl, kick, stats
+) -> None:
     """Fill ``released`` and ``P_release_leave`` of the visits of a rising walk."""
     m = len(visits) - first  # the visits: one per event but an unsettled last one, and the start
     rel_status = np.zeros(m, dtype=np.int64)
     rel_state = np.full(m, -1, dtype=np.int64)
     rel_p = np.full(m, np.nan)
-    ksnap.release_walks(params.unit_params, params.h, walk.x_start, walk.p_start, walk.ev,
-                        walk.ev_x, m - 1, p_min, phys, ctrl, float(kick), rel_status,
-                        rel_state, rel_p)  # fmt: skip
+    ksnap.release_walks(
+        params.unit_params,
+        params.h,
+        walk.x_start,
+        walk.p_start,
+        walk.ev,
+        walk.ev_x,
+        m - 1,
+        p_min,
+        phys,
+        ctrl,
+        float(kick),
+        rel_status,
+        rel_state,
+        rel_p,
+    )
     for j in range(m):
         v = visits[first + j]
         released = state_string(int(rel_state[j]), params.n_units) if rel_state[j] >= 0 else None
-        visits[first + j] = StateVisit(v.state, v.direction, v.P_enter, v.P_leave, v.entered_by,
-                                       v.left_by, released, float(rel_p[j]))  # fmt: skip
+        visits[first + j] = StateVisit(
+            v.state,
+            v.direction,
+            v.P_enter,
+            v.P_leave,
+            v.entered_by,
+            v.left_by,
+            released,
+            float(rel_p[j]),
+        )
     stats["release_walks"] = stats.get("release_walks", 0) + m
 
 
 def _path_columns(parts, n_units: int) -> dict[str, NDArray]:
     rows = [r for r, _ in parts]
     table = np.concatenate(rows) if rows else np.zeros((0, ksnap.N_PATH_FIXED + n_units))
-    segment = np.concatenate([r[:, ksnap.PATH_SEGMENT] + off for r, off in parts]) if rows \
-        else np.zeros(0)  # fmt: skip
+    segment = (
+        np.concatenate([r[:, ksnap.PATH_SEGMENT] + off for r, off in parts])
+        if rows
+        else np.zeros(0)
+    )
     return {
         "P": table[:, ksnap.PATH_P].copy(),
         "segment": segment.astype(np.int64),
@@ -417,15 +514,19 @@ def _path_columns(parts, n_units: int) -> dict[str, NDArray]:
     }
 
 
-def inversion_pressure(design: Design, unit: int, *, P_max: float = DEFAULT_P_MAX,
-                       model: str = "rodas4") -> float:  # fmt: skip
+def inversion_pressure(
+    design: Design, unit: int, *, P_max: float = DEFAULT_P_MAX, model: str = "rodas4"
+) -> float:
     """Pressure (MPa) at which ``unit`` (1-based) first inverts under a slow ramp from flat.
 
     ``inf`` if it does not invert by ``P_max``. Raises ``ValueError`` for a bad unit, and
     ``RuntimeError`` if the walk fails before the unit inverts.
     """
-    if isinstance(unit, bool) or not isinstance(unit, (int, np.integer)) \
-            or not 1 <= unit <= design.n_units:  # fmt: skip
+    if (
+        isinstance(unit, bool)
+        or not isinstance(unit, (int, np.integer))
+        or not 1 <= unit <= design.n_units
+    ):
         raise ValueError(f"unit = {unit!r}: must be an integer in 1..{design.n_units}")
     seq = snap_pressures(design, P_max=P_max, release=False, model=model)
     value = float(seq.inversion_pressures()[unit - 1])
@@ -497,10 +598,27 @@ def snap_pressures_batch(
         # at a time as they free up rather than a fixed share each.
         previous = numba.set_parallel_chunksize(1)
         try:
-            ksnap.snap_batch(unit_params, h, n_units, valid, P_max, P_min, bool(release),
-                             ETA_INTERNAL, ETA_ISO, model == "rodas4-overdamped", MASS_PER_UNIT,
-                             ctrl, float(kick), status, n_events, events, rel_status, rel_state,
-                             rel_p)  # fmt: skip
+            ksnap.snap_batch(
+                unit_params,
+                h,
+                n_units,
+                valid,
+                P_max,
+                P_min,
+                bool(release),
+                ETA_INTERNAL,
+                ETA_ISO,
+                model == "rodas4-overdamped",
+                MASS_PER_UNIT,
+                ctrl,
+                float(kick),
+                status,
+                n_events,
+                events,
+                rel_status,
+                rel_state,
+                rel_p,
+            )
         finally:
             numba.set_parallel_chunksize(previous)
     slot = np.arange(EVENT_CAPACITY)[None, :] < n_events[:, None]
@@ -520,7 +638,8 @@ def snap_pressures_batch(
         "release_pressure": rel_p,
         "fitted_range": valid & batch.in_fitted_range(),
         "no_contact": np.asarray(batch_constants(batch, domes=False)["no_contact"], dtype=bool)
-        & (np.arange(MAX_UNITS)[None, :] < n_units[:, None]) & valid[:, None],
+        & (np.arange(MAX_UNITS)[None, :] < n_units[:, None])
+        & valid[:, None],
     }
     out["inversion_pressure"] = _inversion_from_events(out, n_units, valid)
     return out
@@ -548,8 +667,9 @@ def _inversion_from_events(out, n_units, valid) -> NDArray:
     return result
 
 
-def inversion_pressures_batch(batch: DesignBatch, *, P_max: float = DEFAULT_P_MAX,
-                              model: str = "rodas4") -> NDArray[np.float64]:  # fmt: skip
+def inversion_pressures_batch(
+    batch: DesignBatch, *, P_max: float = DEFAULT_P_MAX, model: str = "rodas4"
+) -> NDArray[np.float64]:
     """First inversion pressure (MPa) of every unit of many designs, shape ``(n, 12)``.
 
     See :func:`snap_pressures_batch` (its ``inversion_pressure``; no release walks).

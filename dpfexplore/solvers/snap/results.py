@@ -68,16 +68,22 @@ class SnapEvent:
         """Units (1-based) inverted by this event."""
         if not self.after:
             return ()
-        return tuple(k + 1 for k, (a, b) in enumerate(zip(self.before, self.after, strict=True))
-                     if a == "0" and b == "1")  # fmt: skip
+        return tuple(
+            k + 1
+            for k, (a, b) in enumerate(zip(self.before, self.after, strict=True))
+            if a == "0" and b == "1"
+        )
 
     @property
     def reverted(self) -> tuple[int, ...]:
         """Units (1-based) that snapped back in this event."""
         if not self.after:
             return ()
-        return tuple(k + 1 for k, (a, b) in enumerate(zip(self.before, self.after, strict=True))
-                     if a == "1" and b == "0")  # fmt: skip
+        return tuple(
+            k + 1
+            for k, (a, b) in enumerate(zip(self.before, self.after, strict=True))
+            if a == "1" and b == "0"
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no shapes)."""
@@ -255,8 +261,6 @@ class SnapSequence:
             "events": [e.to_dict() for e in self.events],
             "states": [v.to_dict() for v in self.visits],
             "inversion_pressures": [json_number(v) for v in self.inversion_pressures()],
-            "release_windows": {
-                k: [list(w) for w in v] for k, v in self.release_windows().items()
-            },
+            "release_windows": {k: [list(w) for w in v] for k, v in self.release_windows().items()},
             "stats": dict(self.stats),
         }

@@ -95,7 +95,7 @@ def _screen(problem: GripperProblem, z_finger: NDArray) -> Evaluation:
     batch, states, want = problem.requests(z, stiffness=False)
     out = problem.evaluator.solve(batch, states, stiffness=want)
     first = problem.finish(z, batch, out)
-    z[:, problem.n_finger:] = _best_base(problem, first)
+    z[:, problem.n_finger :] = _best_base(problem, first)
     ev = problem.finish(z, batch, out)
     problem.record(batch, ev, "candidate")
     return ev
@@ -122,11 +122,17 @@ def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:
         return g
 
     return [
-        {"type": "ineq", "fun": lambda z: alpha_of(problem, z) - low,
-         "jac": lambda z: grad(z, 1.0)},
-        {"type": "ineq", "fun": lambda z: high - alpha_of(problem, z),
-         "jac": lambda z: grad(z, -1.0)},
-    ]  # fmt: skip
+        {
+            "type": "ineq",
+            "fun": lambda z: alpha_of(problem, z) - low,
+            "jac": lambda z: grad(z, 1.0),
+        },
+        {
+            "type": "ineq",
+            "fun": lambda z: high - alpha_of(problem, z),
+            "jac": lambda z: grad(z, -1.0),
+        },
+    ]
 
 
 def _window_constraints(problem: GripperProblem, evaluator: Evaluator) -> list[dict]:
@@ -149,8 +155,14 @@ def _window_constraints(problem: GripperProblem, evaluator: Evaluator) -> list[d
             out[i] = (widths(up)[j] - widths(down)[j]) / (up[i] - down[i])
         return out
 
-    return [{"type": "ineq", "fun": lambda z, j=j: widths(z)[j] - g.min_window_kPa,
-             "jac": lambda z, j=j: grad(z, j)} for j in range(len(g.states))]  # fmt: skip
+    return [
+        {
+            "type": "ineq",
+            "fun": lambda z, j=j: widths(z)[j] - g.min_window_kPa,
+            "jac": lambda z, j=j: grad(z, j),
+        }
+        for j in range(len(g.states))
+    ]
 
 
 def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
@@ -163,15 +175,21 @@ def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
     others = [i for i in range(design.n_units) if i != k and g.activated[i] == "1"]
     others_stay = all(math.isinf(float(run.reset_time[i])) for i in others)
     ok = run.status.label == "ok" and np.isfinite(reset) and reset >= g.min_reset_s and others_stay
-    return {"ok": bool(ok), "reset_time_s": reset, "status": run.status.label,
-            "final_state": run.final_state, "classes": list(run.unit_class),
-            "others_stay_inverted": bool(others_stay)}  # fmt: skip
+    return {
+        "ok": bool(ok),
+        "reset_time_s": reset,
+        "status": run.status.label,
+        "final_state": run.final_state,
+        "classes": list(run.unit_class),
+        "others_stay_inverted": bool(others_stay),
+    }
 
 
 def windows_ok(windows: dict, min_window_kPa: float) -> bool:
     """Every targeted state met in order, each window at least ``min_window_kPa`` wide."""
     return bool(windows.get("in_order")) and all(
-        w is not None and w[1] - w[0] >= min_window_kPa for w in windows["windows"])
+        w is not None and w[1] - w[0] >= min_window_kPa for w in windows["windows"]
+    )
 
 
 def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
@@ -185,8 +203,13 @@ def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult
     candidates = _screen(problem, zf)
     tol = g.aperture_tol
     goal = (1e-3 * tol) ** 2
-    result = TargetResult(target_index=0, target=tuple(g.apertures), best=None, reachable=False,
-                          per_n={problem.n_units: float(np.min(candidates.objective))})  # fmt: skip
+    result = TargetResult(
+        target_index=0,
+        target=tuple(g.apertures),
+        best=None,
+        reachable=False,
+        per_n={problem.n_units: float(np.min(candidates.objective))},
+    )
     for i in _distinct_starts(candidates, settings.starts_per_n):
         run = refine(problem, candidates.z[i], goal=goal, max_iter=settings.max_iter)
         result.starts.append(run)
@@ -203,17 +226,26 @@ def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult
         finalist["windows_ok"] = windows_ok(windows, g.min_window_kPa)
         finalists.append(finalist)
     # Metastable and with its windows first, then metastable, then the rest; stiffest wins.
-    pool = [f for f in finalists if f["checks"]["ok"] and f["windows_ok"]] or \
-        [f for f in finalists if f["checks"]["ok"]] or finalists  # fmt: skip
+    pool = (
+        [f for f in finalists if f["checks"]["ok"] and f["windows_ok"]]
+        or [f for f in finalists if f["checks"]["ok"]]
+        or finalists
+    )
     if pool:
         best = max(pool, key=lambda f: f["stiffness"])
         result.best = best["refinement"]
-        result.extra = {"metastability": best["checks"], "alpha_band": best["band"],
-                        "windows": best["windows"],
-                        "finalists": [{"stiffness": f["stiffness"], "checks": f["checks"],
-                                       "windows_ok": f["windows_ok"]} for f in finalists]}
+        result.extra = {
+            "metastability": best["checks"],
+            "alpha_band": best["band"],
+            "windows": best["windows"],
+            "finalists": [
+                {"stiffness": f["stiffness"], "checks": f["checks"], "windows_ok": f["windows_ok"]}
+                for f in finalists
+            ],
+        }
     result.reachable = result.best is not None and bool(
-        np.max(np.abs(np.nan_to_num(result.best.evaluation.residual[0], nan=np.inf))) <= tol)
+        np.max(np.abs(np.nan_to_num(result.best.evaluation.residual[0], nan=np.inf))) <= tol
+    )
     if result.best is not None and "windows" not in result.extra:
         design = problem.designs(np.atleast_2d(result.best.z)).design(0)
         result.extra["windows"] = pressure_windows(design, g.states, evaluator)
@@ -260,14 +292,21 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
         order = _window_constraints(problem, evaluator)
     for _ in range(_ROUNDS):
         band = _alpha_band(problem, low, high) + order
-        z_new, ev_new = maximise_stiffness(problem, z, tol, max_iter=spec.optimiser.max_iter,
-                                           extra_constraints=band)  # fmt: skip
+        z_new, ev_new = maximise_stiffness(
+            problem, z, tol, max_iter=spec.optimiser.max_iter, extra_constraints=band
+        )
         if z_new is not None:
             z, ev = z_new, ev_new
         checks = metastability(problem.designs(np.atleast_2d(z)).design(0), g, evaluator)
         alpha = alpha_of(problem, z)
-        logger.info("gripper finalist: alpha %.4f in [%.4f, %.4f], reset %s s, stiffness %.5f",
-                    alpha, low, high, checks["reset_time_s"], ev.stiffness[0])
+        logger.info(
+            "gripper finalist: alpha %.4f in [%.4f, %.4f], reset %s s, stiffness %.5f",
+            alpha,
+            low,
+            high,
+            checks["reset_time_s"],
+            ev.stiffness[0],
+        )
         if checks["ok"]:
             break
         if np.isfinite(checks["reset_time_s"]):  # resets too soon: below this alpha
@@ -277,7 +316,17 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
         low, high = _next_band(a_lo, a_hi)
     if not np.isfinite(ev.stiffness[0]):
         ev = problem.evaluate(np.atleast_2d(z), purpose="front", stiffness=True)
-    refinement = Refinement(problem=problem, z=z, evaluation=ev, objective=float(ev.objective[0]),
-                            iterations=0, reached=True)  # fmt: skip
-    return {"refinement": refinement, "stiffness": float(ev.stiffness[0]), "checks": checks,
-            "band": [low, high]}  # fmt: skip
+    refinement = Refinement(
+        problem=problem,
+        z=z,
+        evaluation=ev,
+        objective=float(ev.objective[0]),
+        iterations=0,
+        reached=True,
+    )
+    return {
+        "refinement": refinement,
+        "stiffness": float(ev.stiffness[0]),
+        "checks": checks,
+        "band": [low, high],
+    }

@@ -36,8 +36,9 @@ __all__ = ["METHOD", "pressure_windows", "window_widths"]
 METHOD = "quasi-static continuation with release (dpfexplore.solvers.snap.continuation)"
 
 
-def pressure_windows(design: Design, states: Sequence[str], evaluator: Evaluator,
-                     *, P_max: float = 1.0) -> dict:  # fmt: skip
+def pressure_windows(
+    design: Design, states: Sequence[str], evaluator: Evaluator, *, P_max: float = 1.0
+) -> dict:
     """Windows ``[P_enter, P_leave]`` (kPa) from which a slow release leaves each of ``states``.
 
     Returns
@@ -67,11 +68,15 @@ def pressure_windows(design: Design, states: Sequence[str], evaluator: Evaluator
         notes.append(f"the last window is open above (to {1000 * P_max:g} kPa)")
     if seq.status.label != "ok":
         notes.append(f"the continuation ended early ({seq.status.label})")
-    return {"computed": seq.status.label == "ok", "method": METHOD,
-            "unit_pressures_kPa": [1000.0 * p if np.isfinite(p) else None for p in pressures],
-            "sequence": [v.state for v in seq.visits if v.direction == "up"],
-            "windows": windows, "in_order": bool(in_order),
-            "note": "; ".join(notes)}  # fmt: skip
+    return {
+        "computed": seq.status.label == "ok",
+        "method": METHOD,
+        "unit_pressures_kPa": [1000.0 * p if np.isfinite(p) else None for p in pressures],
+        "sequence": [v.state for v in seq.visits if v.direction == "up"],
+        "windows": windows,
+        "in_order": bool(in_order),
+        "note": "; ".join(notes),
+    }
 
 
 def window_widths(design: Design, states: Sequence[str], evaluator: Evaluator) -> list[float]:

@@ -36,8 +36,14 @@ def solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> 
     v1, v2 = screen.ev.value, screen.second.value
     cap = d.max_reset
     with np.errstate(invalid="ignore"):
-        ok = screen.ev.admissible & screen.second.admissible & (v1 >= 0.05) & (v1 <= cap) & \
-            (v2 >= 0.05) & (v2 <= cap)  # fmt: skip
+        ok = (
+            screen.ev.admissible
+            & screen.second.admissible
+            & (v1 >= 0.05)
+            & (v1 <= cap)
+            & (v2 >= 0.05)
+            & (v2 <= cap)
+        )
     with np.errstate(invalid="ignore"):
         diff = np.where(ok, v2 - v1, np.nan).reshape(screen.shape)
     ok = ok.reshape(screen.shape)
@@ -49,8 +55,14 @@ def solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> 
 
     def both(x: float, zt: float) -> tuple[float, float]:
         e1 = problem.resets([[x, zt]], purpose="difference", method="rodas4", atol=p.search_atol)
-        e2 = problem.resets([[x, zt]], purpose="difference", method="rodas4", atol=p.search_atol,
-                            pulse=d.pulse, profile_index=2)  # fmt: skip
+        e2 = problem.resets(
+            [[x, zt]],
+            purpose="difference",
+            method="rodas4",
+            atol=p.search_atol,
+            pulse=d.pulse,
+            profile_index=2,
+        )
         return float(e1.value[0]), float(e2.value[0])
 
     for j in lines:
@@ -63,6 +75,7 @@ def solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> 
             hi += 1
         x_lo, x_hi = zh[lo], zh[hi]
         if hi < len(zh) - 1:  # the cap RT <= max_reset lies between hi and hi + 1: locate it
+
             def over(x: float, zt: float = zt) -> float:
                 r1, r2 = both(x, zt)
                 worst = max(r1, r2) if np.isfinite(r1) and np.isfinite(r2) else math.inf
@@ -79,33 +92,63 @@ def solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> 
             return -(r2 - r1) if good else 1e3
 
         if x_hi > x_lo:
-            found = minimize_scalar(negative, bounds=(x_lo, x_hi), method="bounded",
-                                    options={"xatol": 1e-5})  # fmt: skip
+            found = minimize_scalar(
+                negative, bounds=(x_lo, x_hi), method="bounded", options={"xatol": 1e-5}
+            )
             x = float(found.x)
         else:
             x = float(x_lo)
         design = problem.design([x, zt])
         c1 = check_design(problem, design, atol=p.verify_atol)
         c2 = check_design(problem, design, pulse=d.pulse, atol=p.verify_atol)
-        good = c1["admissible"] and c2["admissible"] and all(
-            np.isfinite(c["value"]) and 0.05 <= c["value"] <= cap for c in (c1, c2))
+        good = (
+            c1["admissible"]
+            and c2["admissible"]
+            and all(np.isfinite(c["value"]) and 0.05 <= c["value"] <= cap for c in (c1, c2))
+        )
         stiffness = float(problem.grasp_stiffness(np.array([[x, zt]]), purpose="difference")[0])
-        points.append({"z": [x, zt], "design": design, "checks": [c1, c2], "ok": bool(good),
-                       "difference": c2["value"] - c1["value"], "stiffness": stiffness})
+        points.append(
+            {
+                "z": [x, zt],
+                "design": design,
+                "checks": [c1, c2],
+                "ok": bool(good),
+                "difference": c2["value"] - c1["value"],
+                "stiffness": stiffness,
+            }
+        )
     front = _non_dominated([q for q in points if q["ok"]])
     weighted = None
     if d.weights is not None and front:
         w1, w2 = d.weights
-        weighted = min(front, key=lambda q: w1 / q["stiffness"] ** 2 + w2 / q["difference"]
-                       if q["difference"] > 0 else math.inf)  # fmt: skip
+        weighted = min(
+            front,
+            key=lambda q: (
+                w1 / q["stiffness"] ** 2 + w2 / q["difference"] if q["difference"] > 0 else math.inf
+            ),
+        )
     best = max(front, key=lambda q: q["difference"]) if front else None
-    return {"kind": "difference", "target": None, "best": best, "front": front,
-            "lines": points, "weighted": weighted, "problem": problem}  # fmt: skip
+    return {
+        "kind": "difference",
+        "target": None,
+        "best": best,
+        "front": front,
+        "lines": points,
+        "weighted": weighted,
+        "problem": problem,
+    }
 
 
 def _non_dominated(points: list[dict]) -> list[dict]:
     """Points not beaten in both difference and stiffness, by difference descending."""
-    out = [q for q in points if not any(
-        o["difference"] >= q["difference"] and o["stiffness"] >= q["stiffness"] and
-        (o["difference"] > q["difference"] or o["stiffness"] > q["stiffness"]) for o in points)]
+    out = [
+        q
+        for q in points
+        if not any(
+            o["difference"] >= q["difference"]
+            and o["stiffness"] >= q["stiffness"]
+            and (o["difference"] > q["difference"] or o["stiffness"] > q["stiffness"])
+            for o in points
+        )
+    ]
     return sorted(out, key=lambda q: -q["difference"])

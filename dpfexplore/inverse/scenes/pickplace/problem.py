@@ -44,8 +44,16 @@ from ...evaluation import Evaluator
 from ...problem import Evaluation, Problem
 from ..timing_spec import PickPlaceSpec, PulseSpec
 
-__all__ = ["Bracket", "ResetEval", "ResetProblem", "finite_log", "grow_bracket", "line_brackets",
-           "root_on_line", "screening_method"]  # fmt: skip
+__all__ = [
+    "Bracket",
+    "ResetEval",
+    "ResetProblem",
+    "finite_log",
+    "grow_bracket",
+    "line_brackets",
+    "root_on_line",
+    "screening_method",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -72,12 +80,15 @@ def screening_method(preferred: str, pulse: PulseSpec) -> tuple[str, str]:
     except (OSError, ValueError) as exc:
         return "release", f"release (the fast model is not available: {exc})"
     if not in_scene(model, pulse.profile, pulse.t_end):
-        return "release", ("release (the pulse or horizon is outside the fast model's trained "
-                           f"scene: P0 = {model.P0} MPa, tau = {list(model.tau)} s)")  # fmt: skip
-    domain = ", ".join(f"{k} {v[0]:g}-{v[1]:g}" for k, v in model.domain.items()
-                       if k in ("H", "t"))  # fmt: skip
-    return "fast", ("fast inside its trained domain (" + domain + "), release outside it (the "
-                    "scene's pulse is the fast model's trained scene)")  # fmt: skip
+        return "release", (
+            "release (the pulse or horizon is outside the fast model's trained "
+            f"scene: P0 = {model.P0} MPa, tau = {list(model.tau)} s)"
+        )
+    domain = ", ".join(f"{k} {v[0]:g}-{v[1]:g}" for k, v in model.domain.items() if k in ("H", "t"))
+    return "fast", (
+        "fast inside its trained domain (" + domain + "), release outside it (the "
+        "scene's pulse is the fast model's trained scene)"
+    )
 
 
 @dataclass
@@ -161,8 +172,9 @@ class ResetProblem(Problem):
         self.target_index = target_index
         n = self.variables.n_units
         self.hold = np.array([k - 1 for k in self.p.hold_units], dtype=np.int64)
-        self.others = np.array([k for k in range(n) if k + 1 not in self.p.hold_units],
-                               dtype=np.int64)  # fmt: skip
+        self.others = np.array(
+            [k for k in range(n) if k + 1 not in self.p.hold_units], dtype=np.int64
+        )
         self.grasp = int(self.p.grasp_state, 2)
 
     # ------------------------------------------------------------------ designs and statics
@@ -183,16 +195,27 @@ class ResetProblem(Problem):
         """Grasp stiffness (N/mm) where the grasp state exists; the reset residual is not static."""
         ok = out["status"][:, 0] == st.OK
         k = np.where(ok, out["stiffness"][:, 0], np.nan)
-        columns = {"state": np.full(len(z), self.p.grasp_state), "status": out["status"][:, 0],
-                   "tip_x": out["tip_x"][:, 0], "tip_y": out["tip_y"][:, 0]}  # fmt: skip
-        return Evaluation(z=z, ok=ok, residual=np.full((len(z), 1), np.nan), stiffness=k,
-                          columns=columns)  # fmt: skip
+        columns = {
+            "state": np.full(len(z), self.p.grasp_state),
+            "status": out["status"][:, 0],
+            "tip_x": out["tip_x"][:, 0],
+            "tip_y": out["tip_y"][:, 0],
+        }
+        return Evaluation(
+            z=z, ok=ok, residual=np.full((len(z), 1), np.nan), stiffness=k, columns=columns
+        )
 
     def record(self, batch: DesignBatch, ev: Evaluation, purpose: str) -> None:
         """History rows of grasp-stiffness solves (no reset objective: they are statics)."""
         columns = {k: v for k, v in ev.columns.items() if not k.startswith("_")}
-        self.evaluator.record(batch, target=self.target_index, purpose=purpose,
-                              objective=np.nan, stiffness=ev.stiffness, **columns)  # fmt: skip
+        self.evaluator.record(
+            batch,
+            target=self.target_index,
+            purpose=purpose,
+            objective=np.nan,
+            stiffness=ev.stiffness,
+            **columns,
+        )
 
     def grasp_stiffness(self, z: NDArray, *, purpose: str) -> NDArray:
         """Tip stiffness (N/mm) of the grasp state at box points (NaN where it does not exist)."""
@@ -200,8 +223,9 @@ class ResetProblem(Problem):
 
     # ------------------------------------------------------------------ dynamics
 
-    def objective_value(self, reset: NDArray, classes: NDArray, status: NDArray
-                        ) -> tuple[NDArray, NDArray]:  # fmt: skip
+    def objective_value(
+        self, reset: NDArray, classes: NDArray, status: NDArray
+    ) -> tuple[NDArray, NDArray]:
         """The objective reset time of each row and whether the row is admissible."""
         ok = (status == st.OK) & np.all(classes[:, self.hold] == CLASS_BISTABLE, axis=1)
         others_cls = classes[:, self.others]
@@ -223,9 +247,17 @@ class ResetProblem(Problem):
         counted = [k for k in self.others if classes[k] in _RESETTING]
         return int(max(counted, key=lambda k: reset[k]) + 1) if counted else 0
 
-    def resets(self, z: NDArray, *, purpose: str, method: str, pulse: PulseSpec | None = None,
-               atol: float | None = None, objective_target: float | None = None,
-               profile_index: int = 1) -> ResetEval:  # fmt: skip
+    def resets(
+        self,
+        z: NDArray,
+        *,
+        purpose: str,
+        method: str,
+        pulse: PulseSpec | None = None,
+        atol: float | None = None,
+        objective_target: float | None = None,
+        profile_index: int = 1,
+    ) -> ResetEval:
         """Reset times of box points under the scene's pulse (or ``pulse``), recorded.
 
         ``objective_target``: record ``|value / target - 1|`` as the history's objective for
@@ -237,20 +269,30 @@ class ResetProblem(Problem):
         if method == "fast":
             out, methods = self._fast_or_release(batch, pulse)
         else:
-            out = self.evaluator.reset_times(batch, pulse.profile, t_end=pulse.t_end,
-                                             method=method, atol=atol)  # fmt: skip
+            out = self.evaluator.reset_times(
+                batch, pulse.profile, t_end=pulse.t_end, method=method, atol=atol
+            )
             methods = np.full(len(z), method)
         n = self.variables.n_units
         reset, classes = out["reset_time"][:, :n], out["unit_class"][:, :n].astype(np.int64)
         value, ok = self.objective_value(reset, classes, out["status"])
-        ev = ResetEval(z=z, reset=reset, classes=classes, final_state=out["final_state"],
-                       status=out["status"], value=value, admissible=ok, method=method)  # fmt: skip
+        ev = ResetEval(
+            z=z,
+            reset=reset,
+            classes=classes,
+            final_state=out["final_state"],
+            status=out["status"],
+            value=value,
+            admissible=ok,
+            method=method,
+        )
         ev.extra["methods"] = methods
         self._record(batch, ev, purpose, objective_target, profile_index)
         return ev
 
-    def _fast_or_release(self, batch: DesignBatch, pulse: PulseSpec
-                         ) -> tuple[dict[str, NDArray], NDArray]:  # fmt: skip
+    def _fast_or_release(
+        self, batch: DesignBatch, pulse: PulseSpec
+    ) -> tuple[dict[str, NDArray], NDArray]:
         """The fast model on the rows inside its trained domain, ``release`` on the others.
 
         (Outside its domain the fast model would run the full model instead: far slower than
@@ -265,8 +307,12 @@ class ResetProblem(Problem):
         for name in ("fast", "release"):
             rows = np.flatnonzero(methods == name)
             if rows.size:
-                parts[name] = (rows, self.evaluator.reset_times(
-                    batch.take(rows), pulse.profile, t_end=pulse.t_end, method=name))
+                parts[name] = (
+                    rows,
+                    self.evaluator.reset_times(
+                        batch.take(rows), pulse.profile, t_end=pulse.t_end, method=name
+                    ),
+                )
         out: dict[str, NDArray] = {}
         for key in ("status", "final_state", "reset_time", "unit_class"):
             first = next(iter(parts.values()))[1][key]
@@ -279,29 +325,50 @@ class ResetProblem(Problem):
             methods[rows[fell_back]] = "fast (fallback: rodas4)"
         return out, methods
 
-    def _record(self, batch: DesignBatch, ev: ResetEval, purpose: str, target: float | None,
-                profile_index: int) -> None:  # fmt: skip
+    def _record(
+        self,
+        batch: DesignBatch,
+        ev: ResetEval,
+        purpose: str,
+        target: float | None,
+        profile_index: int,
+    ) -> None:
         exact = ev.method not in ("fast", "release")
         objective = np.full(len(ev.z), np.nan)
         if target is not None and exact:  # screening rows are never the answer
             with np.errstate(invalid="ignore"):
                 objective = np.where(ev.admissible, np.abs(ev.value / target - 1.0), np.nan)
         columns = {f"reset_{k + 1}": ev.reset[:, k] for k in range(ev.reset.shape[1])}
-        columns.update({f"class_{k + 1}": ev.classes[:, k].astype(np.int8)
-                        for k in range(ev.classes.shape[1])})  # fmt: skip
-        self.evaluator.record(batch, target=self.target_index, purpose=purpose,
-                              method=ev.extra.get("methods", ev.method),
-                              profile=profile_index, objective=objective,
-                              reset_objective=ev.value, admissible=ev.admissible,
-                              status=ev.status, final_state=ev.final_state,
-                              **columns)  # fmt: skip
+        columns.update(
+            {f"class_{k + 1}": ev.classes[:, k].astype(np.int8) for k in range(ev.classes.shape[1])}
+        )
+        self.evaluator.record(
+            batch,
+            target=self.target_index,
+            purpose=purpose,
+            method=ev.extra.get("methods", ev.method),
+            profile=profile_index,
+            objective=objective,
+            reset_objective=ev.value,
+            admissible=ev.admissible,
+            status=ev.status,
+            final_state=ev.final_state,
+            **columns,
+        )
 
-    def simulate(self, design: Design, *, pulse: PulseSpec | None = None, atol: float,
-                 kind: str = "verifications"):  # fmt: skip
+    def simulate(
+        self,
+        design: Design,
+        *,
+        pulse: PulseSpec | None = None,
+        atol: float,
+        kind: str = "verifications",
+    ):
         """One full-model run to the horizon (no early stop): the verification of a design."""
         pulse = self.p.pulse if pulse is None else pulse
-        return self.evaluator.simulate(design, pulse.profile, t_end=pulse.t_end, atol=atol,
-                                       kind=kind)  # fmt: skip
+        return self.evaluator.simulate(
+            design, pulse.profile, t_end=pulse.t_end, atol=atol, kind=kind
+        )
 
 
 @dataclass(frozen=True)
@@ -316,8 +383,9 @@ class Bracket:
     stiffness: float
 
 
-def line_brackets(ev: ResetEval, shape: tuple[int, int], target: float, *,
-                  fitted: NDArray, stiffness: NDArray) -> list[Bracket]:  # fmt: skip
+def line_brackets(
+    ev: ResetEval, shape: tuple[int, int], target: float, *, fitted: NDArray, stiffness: NDArray
+) -> list[Bracket]:
     """Sign changes of ``log(objective / target)`` between neighbours along each line of a grid.
 
     Parameters
@@ -344,9 +412,16 @@ def line_brackets(ev: ResetEval, shape: tuple[int, int], target: float, *,
             if not (np.isfinite(a) and np.isfinite(b)) or (a < 0) == (b < 0):
                 continue
             r0, r1 = j * shape[1] + i, j * shape[1] + i + 1
-            out.append(Bracket(tuple(ev.z[r0]), tuple(ev.z[r1]), float(a), float(b),
-                               bool(fitted[r0] and fitted[r1]),
-                               float(np.nanmean([stiffness[r0], stiffness[r1]]))))  # fmt: skip
+            out.append(
+                Bracket(
+                    tuple(ev.z[r0]),
+                    tuple(ev.z[r1]),
+                    float(a),
+                    float(b),
+                    bool(fitted[r0] and fitted[r1]),
+                    float(np.nanmean([stiffness[r0], stiffness[r1]])),
+                )
+            )
     return out
 
 
@@ -355,8 +430,17 @@ class _Hit(Exception):
         self.x = x
 
 
-def root_on_line(func, x_lo: float, x_hi: float, f_lo: float, f_hi: float, *, ftol: float,
-                 xtol: float = 1e-10, max_iter: int = 80) -> tuple[float, int]:  # fmt: skip
+def root_on_line(
+    func,
+    x_lo: float,
+    x_hi: float,
+    f_lo: float,
+    f_hi: float,
+    *,
+    ftol: float,
+    xtol: float = 1e-10,
+    max_iter: int = 80,
+) -> tuple[float, int]:
     """Root of ``func`` (a log ratio) in ``[x_lo, x_hi]`` by Brent's method; early stop at ``ftol``.
 
     ``func`` returns ``±`` :data:`_LOG_INF` where the objective is infinite or negative (a
@@ -419,9 +503,9 @@ def finite_log(value: float, target: float) -> float:
     return math.log(value / target)
 
 
-
-def grow_bracket(func, x0: float, *, lo: float = 0.0, hi: float = 1.0, step: float = 0.01,
-                 limit: int = 12) -> tuple[float, float, float, float] | None:  # fmt: skip
+def grow_bracket(
+    func, x0: float, *, lo: float = 0.0, hi: float = 1.0, step: float = 0.01, limit: int = 12
+) -> tuple[float, float, float, float] | None:
     """A sign change of ``func`` near ``x0`` in ``[lo, hi]``: steps doubling on either side.
 
     Returns ``(a, b, f(a), f(b))`` with ``a < b``, or None (no finite ``f(x0)`` or no sign

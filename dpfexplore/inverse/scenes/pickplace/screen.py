@@ -67,10 +67,17 @@ def _grid(spec) -> tuple[NDArray, tuple[int, int]]:
 
 def _empty_eval(z: NDArray, n: int) -> ResetEval:
     m = len(z)
-    return ResetEval(z=z, reset=np.full((m, n), np.nan), classes=np.full((m, n), -1, np.int64),
-                     final_state=np.full(m, -1, np.int64), status=np.zeros(m, np.int8),
-                     value=np.full(m, np.nan), admissible=np.zeros(m, bool), method="",
-                     extra={"methods": np.full(m, "", dtype=object)})  # fmt: skip
+    return ResetEval(
+        z=z,
+        reset=np.full((m, n), np.nan),
+        classes=np.full((m, n), -1, np.int64),
+        final_state=np.full(m, -1, np.int64),
+        status=np.zeros(m, np.int8),
+        value=np.full(m, np.nan),
+        admissible=np.zeros(m, bool),
+        method="",
+        extra={"methods": np.full(m, "", dtype=object)},
+    )
 
 
 def _fill(full: ResetEval, rows: NDArray, part: ResetEval) -> None:
@@ -107,8 +114,9 @@ def screen_pickplace(spec, evaluator: Evaluator, *, complete: bool = False) -> S
             _fill(ev, rows, problem.resets(z[rows], purpose="screening", method=method))
         ev.method = method
         stiffness = problem.grasp_stiffness(z, purpose="screening")
-        screen = Screen(problem, shape, ev, first.copy(), stiffness, batch.in_fitted_range(),
-                        method, note, 0.0)  # fmt: skip
+        screen = Screen(
+            problem, shape, ev, first.copy(), stiffness, batch.in_fitted_range(), method, note, 0.0
+        )
         screen.wall_s = time.perf_counter() - started
         evaluator.cache["pickplace-screen"] = screen
     if complete and not screen.complete:
@@ -130,8 +138,13 @@ def second_screen(spec, evaluator: Evaluator) -> Screen:
         started = time.perf_counter()
         p = spec.pickplace
         method, _ = screening_method(p.screening, p.difference.pulse)
-        screen.second = screen.problem.resets(screen.ev.z, purpose="screening", method=method,
-                                              pulse=p.difference.pulse, profile_index=2)
+        screen.second = screen.problem.resets(
+            screen.ev.z,
+            purpose="screening",
+            method=method,
+            pulse=p.difference.pulse,
+            profile_index=2,
+        )
         screen.second_method = method
         screen.wall_s += time.perf_counter() - started
     return screen
@@ -148,8 +161,9 @@ def reachable_range(spec, evaluator: Evaluator) -> dict:
     return screen.ranges
 
 
-def check_design(problem: ResetProblem, design: Design, *, pulse: PulseSpec | None = None,
-                 atol: float) -> dict:  # fmt: skip
+def check_design(
+    problem: ResetProblem, design: Design, *, pulse: PulseSpec | None = None, atol: float
+) -> dict:
     """Full-model run of a design to the horizon at ``atol``: reset times, classes, objective."""
     from ....solvers.dynamics.common import CLASS_NAMES
 
@@ -158,11 +172,17 @@ def check_design(problem: ResetProblem, design: Design, *, pulse: PulseSpec | No
     classes = np.array([[codes[c] for c in run.unit_class]], dtype=np.int64)
     reset = run.reset_time[None, :]
     value, ok = problem.objective_value(reset, classes, np.array([int(run.status)]))
-    return {"reset_times": run.reset_time.copy(), "classes": list(run.unit_class),
-            "final_state": run.final_state, "status": run.status.label,
-            "value": float(value[0]), "admissible": bool(ok[0]),
-            "objective_unit": problem.objective_unit(run.reset_time, classes[0]),
-            "atol": atol, "t_end": run.t_end}  # fmt: skip
+    return {
+        "reset_times": run.reset_time.copy(),
+        "classes": list(run.unit_class),
+        "final_state": run.final_state,
+        "status": run.status.label,
+        "value": float(value[0]),
+        "admissible": bool(ok[0]),
+        "objective_unit": problem.objective_unit(run.reset_time, classes[0]),
+        "atol": atol,
+        "t_end": run.t_end,
+    }
 
 
 def _reachable_range(spec, screen: Screen, evaluator: Evaluator) -> dict:
@@ -171,14 +191,24 @@ def _reachable_range(spec, screen: Screen, evaluator: Evaluator) -> dict:
     problem = screen.problem
     n = ev.reset.shape[1]
     rows = np.arange(len(ev.z))
-    units = np.array([problem.objective_unit(ev.reset[i], ev.classes[i]) if ev.admissible[i]
-                      else 0 for i in rows])  # fmt: skip
+    units = np.array(
+        [
+            problem.objective_unit(ev.reset[i], ev.classes[i]) if ev.admissible[i] else 0
+            for i in rows
+        ]
+    )
     meta = ev.admissible & np.isfinite(ev.value) & (units > 0)
-    meta &= np.array([units[i] > 0 and ev.classes[i, units[i] - 1] == CLASS_METASTABLE
-                      for i in rows])  # fmt: skip
-    out: dict = {"method": screen.method, "grid": {"t": p.grid_t, "H": p.grid_H},
-                 "designs": len(ev.z), "admissible": int(ev.admissible.sum()),
-                 "metastable": int(meta.sum()), "n_units": n}  # fmt: skip
+    meta &= np.array(
+        [units[i] > 0 and ev.classes[i, units[i] - 1] == CLASS_METASTABLE for i in rows]
+    )
+    out: dict = {
+        "method": screen.method,
+        "grid": {"t": p.grid_t, "H": p.grid_H},
+        "designs": len(ev.z),
+        "admissible": int(ev.admissible.sum()),
+        "metastable": int(meta.sum()),
+        "n_units": n,
+    }
     for key, mask in (("all", meta), ("fitted_range", meta & screen.fitted)):
         if not mask.any():
             out[key] = None

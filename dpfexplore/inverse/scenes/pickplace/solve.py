@@ -75,13 +75,22 @@ _DIVERGED = 40.0
 
 
 def _order(brackets: list[Bracket], prefer_fitted: bool) -> list[Bracket]:
-    return sorted(brackets, key=lambda b: (prefer_fitted and not b.in_fitted_range,
-                                           -np.nan_to_num(b.stiffness, nan=-np.inf)))  # fmt: skip
+    return sorted(
+        brackets,
+        key=lambda b: (
+            prefer_fitted and not b.in_fitted_range,
+            -np.nan_to_num(b.stiffness, nan=-np.inf),
+        ),
+    )
 
 
 def _brackets(screen: Screen, target: float, prefer_fitted: bool) -> list[Bracket]:
-    return _order(line_brackets(screen.ev, screen.shape, target, fitted=screen.fitted,
-                                stiffness=screen.stiffness), prefer_fitted)  # fmt: skip
+    return _order(
+        line_brackets(
+            screen.ev, screen.shape, target, fitted=screen.fitted, stiffness=screen.stiffness
+        ),
+        prefer_fitted,
+    )
 
 
 def _solve_target(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
@@ -100,10 +109,23 @@ def _solve_target(spec, index: int, evaluator: Evaluator, screen: Screen) -> dic
         design = problem.design([x, zt])
         check = check_design(problem, design, atol=p.verify_atol)
         error = abs(check["value"] / target - 1.0) if check["admissible"] else math.inf
-        attempts.append({"z": [x, zt], "design": design, "check": check, "error": error,
-                         "root_evaluations": calls, "bracket": bracket})  # fmt: skip
-        logger.info("pickplace target %.4g s: bracket t-line %.4f -> reset %.5g s (error %.2e)",
-                    target, zt, check["value"], error)
+        attempts.append(
+            {
+                "z": [x, zt],
+                "design": design,
+                "check": check,
+                "error": error,
+                "root_evaluations": calls,
+                "bracket": bracket,
+            }
+        )
+        logger.info(
+            "pickplace target %.4g s: bracket t-line %.4f -> reset %.5g s (error %.2e)",
+            target,
+            zt,
+            check["value"],
+            error,
+        )
         if error <= p.tolerance:
             break
     best = min(attempts, key=lambda a: a["error"]) if attempts else None
@@ -112,12 +134,19 @@ def _solve_target(spec, index: int, evaluator: Evaluator, screen: Screen) -> dic
         nearest = _nearest(problem, screen, target)
         if nearest is not None and (best is None or nearest["error"] < best["error"]):
             best = nearest
-    return {"kind": "target", "target": target, "best": best, "attempts": attempts,
-            "brackets": len(brackets), "problem": problem}  # fmt: skip
+    return {
+        "kind": "target",
+        "target": target,
+        "best": best,
+        "attempts": attempts,
+        "brackets": len(brackets),
+        "problem": problem,
+    }
 
 
-def _close_bracket(problem: ResetProblem, screen: Screen, bracket: Bracket, target: float,
-                   ftol: float) -> tuple[float, dict]:  # fmt: skip
+def _close_bracket(
+    problem: ResetProblem, screen: Screen, bracket: Bracket, target: float, ftol: float
+) -> tuple[float, dict]:
     """The root of a bracket: first on the screening model, then polished on the full model.
 
     The screening model is cheap and (the fast model) within about 0.1 % of the full model
@@ -128,8 +157,10 @@ def _close_bracket(problem: ResetProblem, screen: Screen, bracket: Bracket, targ
     """
     p = problem.p
     zt = bracket.z_lo[1]
-    rows = [int(np.argmin(np.sum((screen.ev.z - np.array(z)) ** 2, axis=1)))
-            for z in (bracket.z_lo, bracket.z_hi)]  # fmt: skip
+    rows = [
+        int(np.argmin(np.sum((screen.ev.z - np.array(z)) ** 2, axis=1)))
+        for z in (bracket.z_lo, bracket.z_hi)
+    ]
     methods = {str(screen.ev.extra["methods"][r]) for r in rows}
     surrogate = "fast" if methods <= {"fast"} else "release"
     full_cache: dict[float, float] = {}
@@ -140,8 +171,13 @@ def _close_bracket(problem: ResetProblem, screen: Screen, bracket: Bracket, targ
 
     def full(x: float) -> float:
         if x not in full_cache:
-            ev = problem.resets([[x, zt]], purpose="root", method="rodas4", atol=p.search_atol,
-                                objective_target=target)  # fmt: skip
+            ev = problem.resets(
+                [[x, zt]],
+                purpose="root",
+                method="rodas4",
+                atol=p.search_atol,
+                objective_target=target,
+            )
             full_cache[x] = float(ev.log_ratio(target)[0])
         return full_cache[x]
 
@@ -153,8 +189,9 @@ def _close_bracket(problem: ResetProblem, screen: Screen, bracket: Bracket, targ
     step = 1e-4 * (hi - lo)
     if np.isfinite(f_s):
         d = 1e-3 * (hi - lo)
-        slope = (sur(min(x_s + d, hi)) - sur(max(x_s - d, lo))) / (min(x_s + d, hi) -
-                                                                  max(x_s - d, lo))
+        slope = (sur(min(x_s + d, hi)) - sur(max(x_s - d, lo))) / (
+            min(x_s + d, hi) - max(x_s - d, lo)
+        )
         n_sur += 2
         if np.isfinite(slope) and slope != 0:
             step = float(np.clip(1.5 * abs(f_s / slope), 1e-9, hi - lo))
@@ -175,8 +212,14 @@ def _nearest(problem: ResetProblem, screen: Screen, target: float) -> dict | Non
     design = problem.design(screen.ev.z[i])
     check = check_design(problem, design, atol=problem.p.verify_atol)
     error = abs(check["value"] / target - 1.0) if check["admissible"] else math.inf
-    return {"z": list(screen.ev.z[i]), "design": design, "check": check, "error": error,
-            "root_evaluations": 0, "bracket": None}  # fmt: skip
+    return {
+        "z": list(screen.ev.z[i]),
+        "design": design,
+        "check": check,
+        "error": error,
+        "root_evaluations": 0,
+        "bracket": None,
+    }
 
 
 # ----------------------------------------------------------------------------- two units
@@ -218,8 +261,10 @@ def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict
         key = (x, zt)
         if key not in cache:
             ev = problem.resets([[x, zt]], purpose="root", method="rodas4", atol=p.search_atol)
-            cache[key] = (float(ev.unit_log_ratio(u1, t1, hold)[0]),
-                          float(ev.unit_log_ratio(u2, t2, hold)[0]))  # fmt: skip
+            cache[key] = (
+                float(ev.unit_log_ratio(u1, t1, hold)[0]),
+                float(ev.unit_log_ratio(u2, t2, hold)[0]),
+            )
         return cache[key]
 
     inner_at: dict[float, float] = {}
@@ -252,8 +297,15 @@ def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict
     # the paper's finger: its two tip units keep their ratio of reset times along the curve).
     known = [(j, e) for j, e in enumerate(estimates) if e is not None]
     if not known:
-        return {"kind": "unit_target", "target": list(goal.reset), "units": list(goal.units),
-                "best": None, "attempts": [], "brackets": 0, "problem": problem}  # fmt: skip
+        return {
+            "kind": "unit_target",
+            "target": list(goal.reset),
+            "units": list(goal.units),
+            "best": None,
+            "attempts": [],
+            "brackets": 0,
+            "problem": problem,
+        }
     near = sorted(known, key=lambda je: abs(je[1][1]))[:CANDIDATE_LINES]
     exact = {}
     for j, (x0, _) in sorted(near):
@@ -266,8 +318,7 @@ def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict
         if b == a + 1 and (exact[a] < 0) != (exact[b] < 0):
             za, zb, ga, gb = float(lines[a]), float(lines[b]), exact[a], exact[b]
             try:
-                zt = brentq(_finite_or, za, zb, args=(outer, ga, gb, za, zb), xtol=1e-9,
-                            maxiter=60)  # fmt: skip
+                zt = brentq(_finite_or, za, zb, args=(outer, ga, gb, za, zb), xtol=1e-9, maxiter=60)
                 solutions.append(zt)
             except ValueError:
                 pass
@@ -277,9 +328,12 @@ def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict
         j = min(exact, key=lambda k: abs(exact[k]))
         step = float(lines[1] - lines[0]) if len(lines) > 1 else 0.0
         lo, hi = max(0.0, float(lines[j]) - step), min(1.0, float(lines[j]) + step)
-        found = minimize_scalar(lambda v: abs(np.nan_to_num(outer(v), nan=1e3)),
-                                bounds=(lo, hi), method="bounded",
-                                options={"xatol": 1e-6, "maxiter": 30})  # fmt: skip
+        found = minimize_scalar(
+            lambda v: abs(np.nan_to_num(outer(v), nan=1e3)),
+            bounds=(lo, hi),
+            method="bounded",
+            options={"xatol": 1e-6, "maxiter": 30},
+        )
         solutions.append(float(found.x))
     attempts = []
     for zt in solutions:
@@ -294,15 +348,35 @@ def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict
         errors = [abs(r[u1 - 1] / t1 - 1.0), abs(r[u2 - 1] / t2 - 1.0)]
         ok = check["admissible"] and all(np.isfinite(errors))
         error = max(errors) if ok else math.inf
-        attempts.append({"z": [x, zt], "design": design, "check": check, "error": error,
-                         "unit_errors": errors, "root_evaluations": len(cache)})  # fmt: skip
+        attempts.append(
+            {
+                "z": [x, zt],
+                "design": design,
+                "check": check,
+                "error": error,
+                "unit_errors": errors,
+                "root_evaluations": len(cache),
+            }
+        )
     # Inside the fitted range first among those that meet the tolerance, then the smallest error.
-    best = min(attempts, key=lambda a: (a["error"] > p.tolerance,
-                                        p.prefer_fitted and not a["design"].in_fitted_range,
-                                        a["error"]), default=None)  # fmt: skip
-    return {"kind": "unit_target", "target": list(goal.reset), "units": list(goal.units),
-            "best": best, "attempts": attempts, "brackets": len(solutions),
-            "problem": problem}  # fmt: skip
+    best = min(
+        attempts,
+        key=lambda a: (
+            a["error"] > p.tolerance,
+            p.prefer_fitted and not a["design"].in_fitted_range,
+            a["error"],
+        ),
+        default=None,
+    )
+    return {
+        "kind": "unit_target",
+        "target": list(goal.reset),
+        "units": list(goal.units),
+        "best": best,
+        "attempts": attempts,
+        "brackets": len(solutions),
+        "problem": problem,
+    }
 
 
 def _finite_or(v: float, outer, ga: float, gb: float, a: float, b: float) -> float:
@@ -329,15 +403,22 @@ def solve_pickplace(spec, target_index: int, evaluator: Evaluator) -> TargetResu
     if target_index < len(p.targets):
         outcome = _solve_target(spec, target_index, evaluator, screen_pickplace(spec, evaluator))
     elif target_index < len(p.targets) + len(p.unit_targets):
-        outcome = _solve_units(spec, target_index, evaluator,
-                               screen_pickplace(spec, evaluator, complete=True))  # fmt: skip
+        outcome = _solve_units(
+            spec, target_index, evaluator, screen_pickplace(spec, evaluator, complete=True)
+        )
     else:
         outcome = solve_difference(spec, target_index, evaluator, second_screen(spec, evaluator))
     best = outcome["best"]
-    reachable = best is not None and (best.get("ok", False) if outcome["kind"] == "difference"
-                                      else best["error"] <= p.tolerance)  # fmt: skip
-    result = TargetResult(target_index=target_index, target=outcome["target"], best=None,
-                          reachable=bool(reachable), extra=outcome)  # fmt: skip
+    reachable = best is not None and (
+        best.get("ok", False) if outcome["kind"] == "difference" else best["error"] <= p.tolerance
+    )
+    result = TargetResult(
+        target_index=target_index,
+        target=outcome["target"],
+        best=None,
+        reachable=bool(reachable),
+        extra=outcome,
+    )
     result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
     result.wall_s = evaluator.wall_s - wall0
     return result

@@ -34,8 +34,9 @@ def inversion_method() -> str:
     return METHOD
 
 
-def unit_inversion_pressures(designs: Sequence[Design], evaluator: Evaluator, *,
-                             P_max: float = 1.0) -> NDArray[np.float64]:  # fmt: skip
+def unit_inversion_pressures(
+    designs: Sequence[Design], evaluator: Evaluator, *, P_max: float = 1.0
+) -> NDArray[np.float64]:
     """First inversion pressure (MPa) of every unit under a slowly rising pressure.
 
     Parameters

@@ -44,71 +44,131 @@ def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str,
     """The verified ``--json`` row of one designed leg."""
     extra = result.extra
     kind = extra["kind"]
-    row: dict[str, Any] = {"leg": kind, "target": kind, "gait": spec.walker.gait.to_dict(),
-                           "inversion_method": extra["inversion_method"],
-                           "evaluations": dict(result.counts), "wall_s": result.wall_s}  # fmt: skip
+    row: dict[str, Any] = {
+        "leg": kind,
+        "target": kind,
+        "gait": spec.walker.gait.to_dict(),
+        "inversion_method": extra["inversion_method"],
+        "evaluations": dict(result.counts),
+        "wall_s": result.wall_s,
+    }
     purple, green, action = extra["purple"]["best"], extra["green"], extra["action"]["best"]
     if purple is None or action is None:
         missing = "purple zone" if purple is None else "action unit"
-        row.update({"reachable": False, "design": None, "objective": None, "stride": None,
-                    "fitted_range": None, "fitted_range_note": None,
-                    "proof": f"no {missing} meeting its timing was found on the t lines "
-                             f"searched ({spec.walker.t_lines})"})  # fmt: skip
+        row.update(
+            {
+                "reachable": False,
+                "design": None,
+                "objective": None,
+                "stride": None,
+                "fitted_range": None,
+                "fitted_range_note": None,
+                "proof": f"no {missing} meeting its timing was found on the t lines "
+                f"searched ({spec.walker.t_lines})",
+            }
+        )
         return row
     parts = {"purple": purple, "green": green, "action": action}
-    profiles = {"purple": ("phase 1", spec.walker.gait.walk_pressure),
-                "green": ("phase 2", spec.walker.gait.walk_pressure),
-                "action": ("phase 2", spec.walker.gait.turn_pressure if kind == "front"
-                           else spec.walker.gait.walk_pressure)}  # fmt: skip
+    profiles = {
+        "purple": ("phase 1", spec.walker.gait.walk_pressure),
+        "green": ("phase 2", spec.walker.gait.walk_pressure),
+        "action": (
+            "phase 2",
+            spec.walker.gait.turn_pressure if kind == "front" else spec.walker.gait.walk_pressure,
+        ),
+    }
     units = []
     for role in _ROLES:
         d, check, p_inv = parts[role]["design"], parts[role]["check"], parts[role]["inversion"]
         for k in range(d.n_units):
-            units.append({"section": role, "unit": k + 1, "H": d.H[k], "t": d.t,
-                          "class": check["classes"][k],
-                          "reset_time": json_times([check["reset"][k]])[0],
-                          "inversion_pressure_MPa": json_number(p_inv[k]),
-                          "phase": profiles[role][0], "pressure_MPa": profiles[role][1]})
+            units.append(
+                {
+                    "section": role,
+                    "unit": k + 1,
+                    "H": d.H[k],
+                    "t": d.t,
+                    "class": check["classes"][k],
+                    "reset_time": json_times([check["reset"][k]])[0],
+                    "inversion_pressure_MPa": json_number(p_inv[k]),
+                    "phase": profiles[role][0],
+                    "pressure_MPa": profiles[role][1],
+                }
+            )
     walk, mono = extra["walk"], extra["monostable"]
-    requirements = [{**r, "value": _value(r["value"]), "bound": _value(r["bound"])}
-                    for r in extra["requirements"]]  # fmt: skip
-    notes = [f"{role}: {parts[role]['design'].fitted_range_note}" for role in _ROLES
-             if not parts[role]["design"].in_fitted_range]  # fmt: skip
-    row.update({
-        "reachable": bool(result.reachable), "objective": violation(extra["requirements"]),
-        "design": {role: parts[role]["design"].to_dict() for role in _ROLES},
-        "heights": {role: list(parts[role]["design"].H) for role in _ROLES},
-        "units": units, "requirements": requirements,
-        "requirements_met": all(r["met"] for r in extra["requirements"]),
-        "stride": walk.stride, "extent": walk.extent.tolist(),
-        "monostable_stride": mono.stride, "monostable_extent": mono.extent.tolist(),
-        "stride_ratio": json_number(extra["stride_ratio"]),
-        "monostable_leg": spec.walker.monostable_source,
-        "monostable_sections": [{"name": r.section.name, "H": list(r.section.design.H),
-                                 "t": r.section.design.t, "classes": list(r.result.unit_class),
-                                 "reset_times": json_times(r.result.reset_time)}
-                                for r in mono.sections],
-        "fitted_range": not notes, "fitted_range_note": "; ".join(notes) or None,
-        "verification": {"method": VERIFIED_BY.format(atol=spec.walker.verify_atol),
-                         "sections": "each under the phase of its requirement; the leg composed "
-                                     "from section runs at the leg's own tolerance"},
-        "tip_path": _path_rows(walk), "monostable_tip_path": _path_rows(mono),
-    })  # fmt: skip
+    requirements = [
+        {**r, "value": _value(r["value"]), "bound": _value(r["bound"])}
+        for r in extra["requirements"]
+    ]
+    notes = [
+        f"{role}: {parts[role]['design'].fitted_range_note}"
+        for role in _ROLES
+        if not parts[role]["design"].in_fitted_range
+    ]
+    row.update(
+        {
+            "reachable": bool(result.reachable),
+            "objective": violation(extra["requirements"]),
+            "design": {role: parts[role]["design"].to_dict() for role in _ROLES},
+            "heights": {role: list(parts[role]["design"].H) for role in _ROLES},
+            "units": units,
+            "requirements": requirements,
+            "requirements_met": all(r["met"] for r in extra["requirements"]),
+            "stride": walk.stride,
+            "extent": walk.extent.tolist(),
+            "monostable_stride": mono.stride,
+            "monostable_extent": mono.extent.tolist(),
+            "stride_ratio": json_number(extra["stride_ratio"]),
+            "monostable_leg": spec.walker.monostable_source,
+            "monostable_sections": [
+                {
+                    "name": r.section.name,
+                    "H": list(r.section.design.H),
+                    "t": r.section.design.t,
+                    "classes": list(r.result.unit_class),
+                    "reset_times": json_times(r.result.reset_time),
+                }
+                for r in mono.sections
+            ],
+            "fitted_range": not notes,
+            "fitted_range_note": "; ".join(notes) or None,
+            "verification": {
+                "method": VERIFIED_BY.format(atol=spec.walker.verify_atol),
+                "sections": "each under the phase of its requirement; the leg composed "
+                "from section runs at the leg's own tolerance",
+            },
+            "tip_path": _path_rows(walk),
+            "monostable_tip_path": _path_rows(mono),
+        }
+    )
     if kind == "front":
         turn = extra["turn"]
         action_run = turn.sections[2].result
-        row["turning"] = {"stride": turn.stride, "extent": turn.extent.tolist(),
-                          "action_inverts": action_run.unit_class[0] is not None,
-                          "action_inverted_at_end": bool(np.isinf(action_run.reset_time[0])),
-                          "t_end": turn.leg.t_end, "tip_path": _path_rows(turn)}  # fmt: skip
+        row["turning"] = {
+            "stride": turn.stride,
+            "extent": turn.extent.tolist(),
+            "action_inverts": action_run.unit_class[0] is not None,
+            "action_inverted_at_end": bool(np.isinf(action_run.reset_time[0])),
+            "t_end": turn.leg.t_end,
+            "tip_path": _path_rows(turn),
+        }
     row["candidates"] = {
-        role: [{"H": list(c["design"].H), "t": c["design"].t,
+        role: [
+            {
+                "H": list(c["design"].H),
+                "t": c["design"].t,
                 "met": all(r["met"] for r in c.get("requirements", [])),
-                "stride": c.get("stride")} for c in extra[role]["candidates"]]
+                "stride": c.get("stride"),
+            }
+            for c in extra[role]["candidates"]
+        ]
         for role in ("purple", "action")
-    }  # fmt: skip
-    row["_legs"] = {"walk": walk, "monostable": mono, "turn": extra.get("turn"),
-                    "timing": extra["timing"]}  # fmt: skip
+    }
+    row["_legs"] = {
+        "walk": walk,
+        "monostable": mono,
+        "turn": extra.get("turn"),
+        "timing": extra["timing"],
+    }
     return row
 
 
@@ -132,26 +192,52 @@ def inverted_intervals(result, t_end: float) -> list[list[tuple[float, float]]]:
 
 def _leg_toml(row: dict[str, Any], spec, title: str) -> str:
     g = spec.walker.gait
-    lines = [f"# {title}", "# Written by dpfexplore design: run it with dpfexplore simulate-leg "
-             "(the walking gait, one cycle).", "", "[leg]", 'composition = "dpw"',
-             f"t_end = {g.t_end!r}", "n_samples = 501", "",
-             "[phase.1]", f"P0 = {g.walk_pressure!r}", f"tau = {toml_value(list(g.phase1))}",
-             "", "[phase.2]", f"P0 = {g.walk_pressure!r}",
-             f"tau = {toml_value(list(g.phase2))}"]  # fmt: skip
+    lines = [
+        f"# {title}",
+        "# Written by dpfexplore design: run it with dpfexplore simulate-leg "
+        "(the walking gait, one cycle).",
+        "",
+        "[leg]",
+        'composition = "dpw"',
+        f"t_end = {g.t_end!r}",
+        "n_samples = 501",
+        "",
+        "[phase.1]",
+        f"P0 = {g.walk_pressure!r}",
+        f"tau = {toml_value(list(g.phase1))}",
+        "",
+        "[phase.2]",
+        f"P0 = {g.walk_pressure!r}",
+        f"tau = {toml_value(list(g.phase2))}",
+    ]
     for role, phase in (("purple", "1"), ("green", "2"), ("action", "2")):
         d = row["design"][role]
         body = ", ".join(f"{k} = {toml_value(v)}" for k, v in d.items() if k != "name")
-        lines += ["", "[[section]]", f'name = "{role}"', f'phase = "{phase}"',
-                  f"design = {{ {body} }}"]  # fmt: skip
+        lines += [
+            "",
+            "[[section]]",
+            f'name = "{role}"',
+            f'phase = "{phase}"',
+            f"design = {{ {body} }}",
+        ]
     lines += ["", "# Result (not read by simulate-leg):"]
-    lines += [f"# stride {row['stride']:.4f} mm, {row['stride_ratio']:.3f} x the monostable "
-              f"leg's ({row['monostable_stride']:.4f} mm); requirements met: "
-              f"{row['requirements_met']}; fitted range: {row['fitted_range']}"]  # fmt: skip
+    lines += [
+        f"# stride {row['stride']:.4f} mm, {row['stride_ratio']:.3f} x the monostable "
+        f"leg's ({row['monostable_stride']:.4f} mm); requirements met: "
+        f"{row['requirements_met']}; fitted range: {row['fitted_range']}"
+    ]
     return "\n".join(lines) + "\n"
 
 
-def write_walker_report(spec, rows: list[dict[str, Any]], evaluator: Evaluator, out: Path,
-                        *, wall_s: float, plot: bool = False) -> list[Path]:  # fmt: skip
+def write_walker_report(
+    spec,
+    rows: list[dict[str, Any]],
+    evaluator: Evaluator,
+    out: Path,
+    *,
+    wall_s: float,
+    plot: bool = False,
+) -> list[Path]:
     """Summary, history, leg TOMLs and, with ``plot``, tip paths and timing diagrams (paths)."""
     out = Path(out)
     written = write_summary(spec, rows, evaluator, out, wall_s=wall_s)
@@ -189,8 +275,10 @@ def _figures(spec, rows, out: Path) -> list[Path]:
             labels.insert(1, f"designed {kind} leg, turning (phase 2 raised)")
         fig, axes = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
         plot_tip_paths(results, axes, labels=labels)
-        fig.suptitle(f"{spec.name}: {kind} leg, stride {row['stride']:.2f} mm vs "
-                     f"{row['monostable_stride']:.2f} mm (monostable)")  # fmt: skip
+        fig.suptitle(
+            f"{spec.name}: {kind} leg, stride {row['stride']:.2f} mm vs "
+            f"{row['monostable_stride']:.2f} mm (monostable)"
+        )
         path = out / f"tip-path-{kind}.png"
         fig.savefig(path, dpi=120)
         plt.close(fig)
@@ -202,8 +290,11 @@ def _figures(spec, rows, out: Path) -> list[Path]:
             for run in leg.sections:
                 intervals = inverted_intervals(run.result, leg.t[-1])
                 for k in range(run.section.design.n_units):
-                    cls = next(u["class"] for u in row["units"]
-                               if u["section"] == run.section.name and u["unit"] == k + 1)
+                    cls = next(
+                        u["class"]
+                        for u in row["units"]
+                        if u["section"] == run.section.name and u["unit"] == k + 1
+                    )
                     if cls == "no_contact":
                         intervals[k] = []
                     label = f"{run.section.name} {k + 1}"
@@ -212,8 +303,14 @@ def _figures(spec, rows, out: Path) -> list[Path]:
                     units.append((label, intervals[k], cls))
             marks = [(c * g.period, f"cycle {c + 1}") for c in range(g.cycles)]
             what = "walking" if mode == "walk" else "turning: phase 2 raised in cycle 1"
-            plot_gait_timing(phases, units, t_end=float(leg.t[-1]), marks=marks, ax=ax,
-                             title=f"{kind} leg, {what} ({g.cycles} cycles)")  # fmt: skip
+            plot_gait_timing(
+                phases,
+                units,
+                t_end=float(leg.t[-1]),
+                marks=marks,
+                ax=ax,
+                title=f"{kind} leg, {what} ({g.cycles} cycles)",
+            )
             path = out / f"timing-{kind}-{mode}.png"
             fig.savefig(path, dpi=120)
             plt.close(fig)

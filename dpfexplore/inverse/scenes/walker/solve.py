@@ -102,33 +102,60 @@ class WalkerSearch(LegComposer):
         """End of a run ``after`` s past the profile's release."""
         return profile.t_release + after
 
-    def run(self, design: Design, profile: PressureProfile, after: float, *, atol: float,
-            purpose: str, role: str, target: int = -1,
-            kind: str = "simulations") -> dict:  # fmt: skip
+    def run(
+        self,
+        design: Design,
+        profile: PressureProfile,
+        after: float,
+        *,
+        atol: float,
+        purpose: str,
+        role: str,
+        target: int = -1,
+        kind: str = "simulations",
+    ) -> dict:
         """One section under one phase, the whole horizon: reset times and classes (recorded)."""
-        result = self.evaluator.simulate(design, profile, t_end=self.horizon(profile, after),
-                                         atol=atol, kind=kind)  # fmt: skip
-        out = {"reset": result.reset_time.copy(), "classes": list(result.unit_class),
-               "final_state": result.final_state, "status": result.status.label,
-               "atol": atol, "t_end": result.t_end}  # fmt: skip
+        result = self.evaluator.simulate(
+            design, profile, t_end=self.horizon(profile, after), atol=atol, kind=kind
+        )
+        out = {
+            "reset": result.reset_time.copy(),
+            "classes": list(result.unit_class),
+            "final_state": result.final_state,
+            "status": result.status.label,
+            "atol": atol,
+            "t_end": result.t_end,
+        }
         columns = {f"reset_{k + 1}": float(result.reset_time[k]) for k in range(design.n_units)}
         columns.update({f"class_{k + 1}": _code(c) for k, c in enumerate(result.unit_class)})
-        self.evaluator.record(DesignBatch.from_designs([design]), target=target, purpose=purpose,
-                              section=role, pressure=float(np.max(profile.pressures)),
-                              objective=np.nan, **columns)  # fmt: skip
+        self.evaluator.record(
+            DesignBatch.from_designs([design]),
+            target=target,
+            purpose=purpose,
+            section=role,
+            pressure=float(np.max(profile.pressures)),
+            objective=np.nan,
+            **columns,
+        )
         return out
 
-    def scan(self, designs: list[Design], profile: PressureProfile, after: float, *,
-             role: str) -> dict:  # fmt: skip
+    def scan(
+        self, designs: list[Design], profile: PressureProfile, after: float, *, role: str
+    ) -> dict:
         """Reset times of many designs in one parallel batch (for brackets only)."""
         batch = DesignBatch.from_designs(designs)
         out = self.evaluator.reset_times(batch, profile, t_end=self.horizon(profile, after))
         n = designs[0].n_units
-        self.evaluator.record(batch, target=-1, purpose="scan", section=role,
-                              pressure=float(np.max(profile.pressures)), objective=np.nan,
-                              **{f"reset_{k + 1}": out["reset_time"][:, k] for k in range(n)},
-                              **{f"class_{k + 1}": out["unit_class"][:, k]
-                                 for k in range(n)})  # fmt: skip
+        self.evaluator.record(
+            batch,
+            target=-1,
+            purpose="scan",
+            section=role,
+            pressure=float(np.max(profile.pressures)),
+            objective=np.nan,
+            **{f"reset_{k + 1}": out["reset_time"][:, k] for k in range(n)},
+            **{f"class_{k + 1}": out["unit_class"][:, k] for k in range(n)},
+        )
         return {"reset": out["reset_time"][:, :n], "classes": out["unit_class"][:, :n]}
 
     def pressures(self, designs: list[Design]) -> NDArray:
@@ -175,11 +202,15 @@ class WalkerSearch(LegComposer):
         after = 2.0 * req.purple_reset[1] + 0.5
         ts = self.t_values("purple")
         grid = np.linspace(lo, hi, _SCAN)
-        scan = self.scan([self.section("purple", [h, h], t) for t in ts for h in grid],
-                         self.walk1, after, role="purple")  # fmt: skip
+        scan = self.scan(
+            [self.section("purple", [h, h], t) for t in ts for h in grid],
+            self.walk1,
+            after,
+            role="purple",
+        )
         candidates = []
         for j, t in enumerate(ts):
-            cls = scan["classes"][j * _SCAN:(j + 1) * _SCAN]
+            cls = scan["classes"][j * _SCAN : (j + 1) * _SCAN]
             edges = []
             for k in range(2):
                 meta = np.flatnonzero(cls[:, k] == CLASS_METASTABLE)
@@ -192,8 +223,15 @@ class WalkerSearch(LegComposer):
         checked = []
         for H1, H2, t in candidates:
             design = self.section("purple", [H1, H2], t)
-            check = self.run(design, self.walk1, after, atol=w.verify_atol, purpose="verify",
-                             role="purple", kind="verifications")  # fmt: skip
+            check = self.run(
+                design,
+                self.walk1,
+                after,
+                atol=w.verify_atol,
+                purpose="verify",
+                role="purple",
+                kind="verifications",
+            )
             checked.append({"design": design, "check": check})
         if checked:
             p_inv = self.pressures([c["design"] for c in checked])
@@ -204,8 +242,9 @@ class WalkerSearch(LegComposer):
         pool = ok or checked
         if len(pool) > 1:  # the walking stride decides (front leg: the action unit stays flat)
             for c in pool:
-                c["stride"] = self.leg(c["design"], self.green()["design"],
-                                       self.base["action"], self.walk_phases()).stride
+                c["stride"] = self.leg(
+                    c["design"], self.green()["design"], self.base["action"], self.walk_phases()
+                ).stride
             best = max(pool, key=lambda c: c["stride"])
         else:
             best = pool[0] if pool else None
@@ -222,8 +261,14 @@ class WalkerSearch(LegComposer):
         def f(H1: float, H2: float) -> tuple[float, float]:
             key = (H1, H2)
             if key not in cache:
-                r = self.run(self.section("purple", [H1, H2], t), self.walk1, after, atol=atol,
-                             purpose="root", role="purple")  # fmt: skip
+                r = self.run(
+                    self.section("purple", [H1, H2], t),
+                    self.walk1,
+                    after,
+                    atol=atol,
+                    purpose="root",
+                    role="purple",
+                )
                 vals = []
                 for k in range(2):
                     ok = r["classes"][k] in ("metastable", "monostable", "bistable")
@@ -267,16 +312,42 @@ class WalkerSearch(LegComposer):
         out = []
         for k in range(2):
             r = float(check["reset"][k])
-            out.append(_req("purple", f"unit {k + 1} class at {g.walk_pressure:g} MPa",
-                            check["classes"][k], "metastable",
-                            check["classes"][k] == "metastable"))  # fmt: skip
-            out.append(_req("purple", f"unit {k + 1} reset >= {low:g} s (lifted through phase "
-                            "2's hold)", r, low, np.isfinite(r) and r >= low))  # fmt: skip
-            out.append(_req("purple", f"unit {k + 1} reset <= {high:g} s (down before phase 1 "
-                            "rises again)", r, high, np.isfinite(r) and r <= high))  # fmt: skip
-            out.append(_req("purple", f"unit {k + 1} inverts below walking pressure - margin",
-                            float(p_inv[k]), g.walk_pressure - req.margin,
-                            bool(p_inv[k] <= g.walk_pressure - req.margin)))  # fmt: skip
+            out.append(
+                _req(
+                    "purple",
+                    f"unit {k + 1} class at {g.walk_pressure:g} MPa",
+                    check["classes"][k],
+                    "metastable",
+                    check["classes"][k] == "metastable",
+                )
+            )
+            out.append(
+                _req(
+                    "purple",
+                    f"unit {k + 1} reset >= {low:g} s (lifted through phase 2's hold)",
+                    r,
+                    low,
+                    np.isfinite(r) and r >= low,
+                )
+            )
+            out.append(
+                _req(
+                    "purple",
+                    f"unit {k + 1} reset <= {high:g} s (down before phase 1 rises again)",
+                    r,
+                    high,
+                    np.isfinite(r) and r <= high,
+                )
+            )
+            out.append(
+                _req(
+                    "purple",
+                    f"unit {k + 1} inverts below walking pressure - margin",
+                    float(p_inv[k]),
+                    g.walk_pressure - req.margin,
+                    bool(p_inv[k] <= g.walk_pressure - req.margin),
+                )
+            )
         return out
 
     # ------------------------------------------------------------------ green zone
@@ -289,10 +360,14 @@ class WalkerSearch(LegComposer):
         lo, hi = self.heights("green")
         ts = self.t_values("green")
         grid = np.linspace(lo, hi, _SCAN)
-        scan = self.scan([self.section("green", [h], t) for t in ts for h in grid], self.walk2,
-                         1.0, role="green")  # fmt: skip
-        wanted = {"monostable": [CLASS_MONOSTABLE], "metastable": [CLASS_METASTABLE],
-                  "any": [CLASS_MONOSTABLE, CLASS_METASTABLE]}[req.green_class]  # fmt: skip
+        scan = self.scan(
+            [self.section("green", [h], t) for t in ts for h in grid], self.walk2, 1.0, role="green"
+        )
+        wanted = {
+            "monostable": [CLASS_MONOSTABLE],
+            "metastable": [CLASS_METASTABLE],
+            "any": [CLASS_MONOSTABLE, CLASS_METASTABLE],
+        }[req.green_class]
         rows = np.flatnonzero(np.isin(scan["classes"][:, 0], wanted))
         order = sorted(rows, key=lambda i: -grid[i % _SCAN])[:6]
         designs = [self.section("green", [grid[i % _SCAN]], ts[i // _SCAN]) for i in order]
@@ -304,11 +379,22 @@ class WalkerSearch(LegComposer):
                 break
         if best is None:
             best = designs[0] if designs else self.base["green"]
-        check = self.run(best, self.walk2, 1.0, atol=self.w.verify_atol, purpose="verify",
-                         role="green", kind="verifications")  # fmt: skip
+        check = self.run(
+            best,
+            self.walk2,
+            1.0,
+            atol=self.w.verify_atol,
+            purpose="verify",
+            role="green",
+            kind="verifications",
+        )
         p = self.pressures([best])[0]
-        out = {"design": best, "check": check, "inversion": p,
-               "requirements": self.green_requirements(check, p)}  # fmt: skip
+        out = {
+            "design": best,
+            "check": check,
+            "inversion": p,
+            "requirements": self.green_requirements(check, p),
+        }
         self.sections["green"] = out
         return out
 
@@ -317,12 +403,22 @@ class WalkerSearch(LegComposer):
         req, g = self.req, self.gait
         cls = check["classes"][0]
         return [
-            _req("green", f"unit 1 class at {g.walk_pressure:g} MPa", cls, req.green_class,
-                 cls == req.green_class or (req.green_class == "any" and cls in
-                                            ("monostable", "metastable"))),
-            _req("green", "unit 1 inverts below walking pressure - margin", float(p_inv[0]),
-                 g.walk_pressure - req.margin, bool(p_inv[0] <= g.walk_pressure - req.margin)),
-        ]  # fmt: skip
+            _req(
+                "green",
+                f"unit 1 class at {g.walk_pressure:g} MPa",
+                cls,
+                req.green_class,
+                cls == req.green_class
+                or (req.green_class == "any" and cls in ("monostable", "metastable")),
+            ),
+            _req(
+                "green",
+                "unit 1 inverts below walking pressure - margin",
+                float(p_inv[0]),
+                g.walk_pressure - req.margin,
+                bool(p_inv[0] <= g.walk_pressure - req.margin),
+            ),
+        ]
 
     # ------------------------------------------------------------------ action unit
 
@@ -336,28 +432,44 @@ class WalkerSearch(LegComposer):
         after = self.action_after("front")
         ts = self.t_values("action")
         grid = np.linspace(lo, hi, _SCAN)
-        scan = self.scan([self.section("action", h, t) for t in ts for h in grid], self.turn2,
-                         after, role="action")  # fmt: skip
+        scan = self.scan(
+            [self.section("action", h, t) for t in ts for h in grid],
+            self.turn2,
+            after,
+            role="action",
+        )
         candidates = []
         for j, t in enumerate(ts):
-            cls = scan["classes"][j * _SCAN:(j + 1) * _SCAN, 0]
-            reset = scan["reset"][j * _SCAN:(j + 1) * _SCAN, 0]
-            f = np.array([finite_log(float(r), aim) if c in (0, 1, 2) else math.nan
-                          for r, c in zip(reset, cls, strict=True)])  # fmt: skip
-            brackets = [i for i in range(_SCAN - 1) if np.isfinite(f[i]) and np.isfinite(f[i + 1])
-                        and f[i] < 0 <= f[i + 1]]  # fmt: skip
+            cls = scan["classes"][j * _SCAN : (j + 1) * _SCAN, 0]
+            reset = scan["reset"][j * _SCAN : (j + 1) * _SCAN, 0]
+            f = np.array(
+                [
+                    finite_log(float(r), aim) if c in (0, 1, 2) else math.nan
+                    for r, c in zip(reset, cls, strict=True)
+                ]
+            )
+            brackets = [
+                i
+                for i in range(_SCAN - 1)
+                if np.isfinite(f[i]) and np.isfinite(f[i + 1]) and f[i] < 0 <= f[i + 1]
+            ]
             if not brackets:
                 continue
             i = brackets[-1]
 
             def func(h: float, t: float = float(t)) -> float:
-                r = self.run(self.section("action", h, t), self.turn2, after, atol=w.atol,
-                             purpose="root", role="action")  # fmt: skip
+                r = self.run(
+                    self.section("action", h, t),
+                    self.turn2,
+                    after,
+                    atol=w.atol,
+                    purpose="root",
+                    role="action",
+                )
                 ok = r["classes"][0] in ("metastable", "monostable", "bistable")
                 return finite_log(float(r["reset"][0]), aim) if ok else math.nan
 
-            h, _ = root_on_line(func, grid[i], grid[i + 1], f[i], f[i + 1], ftol=1e-3,
-                                xtol=1e-9)  # fmt: skip
+            h, _ = root_on_line(func, grid[i], grid[i + 1], f[i], f[i + 1], ftol=1e-3, xtol=1e-9)
             candidates.append(self.section("action", h, t))
         checked = self._action_checks(candidates, "front", after)
         out = self._pick_action(checked, "front")
@@ -374,13 +486,17 @@ class WalkerSearch(LegComposer):
         after = self.action_after("middle")
         ts = self.t_values("action")
         grid = np.linspace(lo, hi, _SCAN)
-        scan = self.scan([self.section("action", h, t) for t in ts for h in grid], self.walk2,
-                         after, role="action")  # fmt: skip
+        scan = self.scan(
+            [self.section("action", h, t) for t in ts for h in grid],
+            self.walk2,
+            after,
+            role="action",
+        )
         aim = _MIDDLE_AIM * cap
         candidates = []
         for j, t in enumerate(ts):
-            cls = scan["classes"][j * _SCAN:(j + 1) * _SCAN, 0]
-            reset = scan["reset"][j * _SCAN:(j + 1) * _SCAN, 0]
+            cls = scan["classes"][j * _SCAN : (j + 1) * _SCAN, 0]
+            reset = scan["reset"][j * _SCAN : (j + 1) * _SCAN, 0]
             below = np.flatnonzero((cls == CLASS_MONOSTABLE) & (reset < aim))
             if not below.size:
                 continue
@@ -390,8 +506,14 @@ class WalkerSearch(LegComposer):
                 continue
 
             def func(h: float, t: float = float(t)) -> float:
-                r = self.run(self.section("action", h, t), self.walk2, after, atol=w.atol,
-                             purpose="root", role="action")  # fmt: skip
+                r = self.run(
+                    self.section("action", h, t),
+                    self.walk2,
+                    after,
+                    atol=w.atol,
+                    purpose="root",
+                    role="action",
+                )
                 c = r["classes"][0]
                 if c == "monostable":
                     return float(r["reset"][0]) - aim
@@ -416,19 +538,39 @@ class WalkerSearch(LegComposer):
         purple = self.purple()["best"] if kind == "front" else None
         purple_max = float(np.max(purple["inversion"])) if purple else math.nan
         for design, p in zip(designs, p_inv, strict=True):
-            check = self.run(design, profile, after, atol=self.w.verify_atol, purpose="verify",
-                             role="action", kind="verifications")  # fmt: skip
-            checked.append({"design": design, "check": check, "inversion": p,
-                            "requirements": self.action_requirements(check, p, kind,
-                                                                     purple_max)})
+            check = self.run(
+                design,
+                profile,
+                after,
+                atol=self.w.verify_atol,
+                purpose="verify",
+                role="action",
+                kind="verifications",
+            )
+            checked.append(
+                {
+                    "design": design,
+                    "check": check,
+                    "inversion": p,
+                    "requirements": self.action_requirements(check, p, kind, purple_max),
+                }
+            )
         return checked
 
     def action_after(self, kind: str) -> float:
         """Seconds simulated after the action section's phase (its reset horizon)."""
         return 2.0 * self.req.front_action_aim + 0.5 if kind == "front" else 1.0
 
-    def assess(self, purple: Design, green: Design, action: Design, kind: str, *,
-               purpose: str = "baseline", target: int = -1) -> list[dict]:  # fmt: skip
+    def assess(
+        self,
+        purple: Design,
+        green: Design,
+        action: Design,
+        kind: str,
+        *,
+        purpose: str = "baseline",
+        target: int = -1,
+    ) -> list[dict]:
         """Every requirement of one whole leg, at the search tolerance (a black-box objective).
 
         The benchmark's baselines minimise :func:`violation` of this; our search meets the
@@ -437,14 +579,28 @@ class WalkerSearch(LegComposer):
         atol = self.w.atol
         after_p = 2.0 * self.req.purple_reset[1] + 0.5
         checks = [
-            self.run(purple, self.walk1, after_p, atol=atol, purpose=purpose, role="purple",
-                     target=target),
-            self.run(green, self.walk2, 1.0, atol=atol, purpose=purpose, role="green",
-                     target=target),
-            self.run(action, self.turn2 if kind == "front" else self.walk2,
-                     self.action_after(kind), atol=atol, purpose=purpose, role="action",
-                     target=target),
-        ]  # fmt: skip
+            self.run(
+                purple,
+                self.walk1,
+                after_p,
+                atol=atol,
+                purpose=purpose,
+                role="purple",
+                target=target,
+            ),
+            self.run(
+                green, self.walk2, 1.0, atol=atol, purpose=purpose, role="green", target=target
+            ),
+            self.run(
+                action,
+                self.turn2 if kind == "front" else self.walk2,
+                self.action_after(kind),
+                atol=atol,
+                purpose=purpose,
+                role="action",
+                target=target,
+            ),
+        ]
         p_inv = self.pressures([purple, green, action])
         out = self.purple_requirements(checks[0], p_inv[0][:2])
         out += self.green_requirements(checks[1], p_inv[1][:1])
@@ -454,11 +610,24 @@ class WalkerSearch(LegComposer):
         ratio = walk.stride / mono.stride if mono.stride > 0 else math.inf
         if kind == "front":
             flat = walk.sections[2].result.unit_class[0] is None
-            out.append(_req("action", "action unit flat while walking (leg run at the walking "
-                            "gait)", flat, True, flat))  # fmt: skip
-        out.append(_req("leg", f"stride >= {self.req.min_stride_ratio:g} x the monostable "
-                        "leg's at the same gait", ratio, self.req.min_stride_ratio,
-                        ratio >= self.req.min_stride_ratio))  # fmt: skip
+            out.append(
+                _req(
+                    "action",
+                    "action unit flat while walking (leg run at the walking gait)",
+                    flat,
+                    True,
+                    flat,
+                )
+            )
+        out.append(
+            _req(
+                "leg",
+                f"stride >= {self.req.min_stride_ratio:g} x the monostable leg's at the same gait",
+                ratio,
+                self.req.min_stride_ratio,
+                ratio >= self.req.min_stride_ratio,
+            )
+        )
         return out
 
     def _pick_action(self, checked: list[dict], kind: str) -> dict:
@@ -469,18 +638,24 @@ class WalkerSearch(LegComposer):
             return {"best": None, "candidates": [], "met": False}
         if kind == "front":
             # The largest pressure margin on both sides: flat while walking, inverted on command.
-            best = max(pool, key=lambda c: min(c["inversion"][0] - g.walk_pressure,
-                                               g.turn_pressure - c["inversion"][0]))
+            best = max(
+                pool,
+                key=lambda c: min(
+                    c["inversion"][0] - g.walk_pressure, g.turn_pressure - c["inversion"][0]
+                ),
+            )
         else:
             purple = self.purple()["best"]["design"]
             for c in pool:
-                c["stride"] = self.leg(purple, self.green()["design"], c["design"],
-                                       self.walk_phases()).stride
+                c["stride"] = self.leg(
+                    purple, self.green()["design"], c["design"], self.walk_phases()
+                ).stride
             best = max(pool, key=lambda c: c["stride"])
         return {"best": best, "candidates": checked, "met": bool(ok)}
 
-    def action_requirements(self, check: dict, p_inv: NDArray, kind: str,
-                            purple_max: float = math.nan) -> list[dict]:  # fmt: skip
+    def action_requirements(
+        self, check: dict, p_inv: NDArray, kind: str, purple_max: float = math.nan
+    ) -> list[dict]:
         """Requirements of a front or middle leg's action section (verified run, pressures).
 
         ``purple_max``: the highest inversion pressure of the purple zone (MPa, front legs).
@@ -492,36 +667,93 @@ class WalkerSearch(LegComposer):
         first_rest = float(np.nanmin(p_inv[1:])) if np.any(np.isfinite(p_inv[1:])) else math.inf
         if kind == "front":
             return [
-                _req("action", f"action unit class at {g.turn_pressure:g} MPa (raised phase)",
-                     cls, "metastable", cls == "metastable"),
-                _req("action", f"action unit reset >= {req.front_action_min_reset:g} s (a gait "
-                     "cycle)", r, req.front_action_min_reset,
-                     np.isfinite(r) and r >= req.front_action_min_reset),
-                _req("action", "action unit inverts above walking pressure + margin (flat "
-                     "while walking)", float(p_inv[0]), g.walk_pressure + m,
-                     bool(p_inv[0] >= g.walk_pressure + m)),
-                _req("action", "action unit inverts below turning pressure - margin",
-                     float(p_inv[0]), g.turn_pressure - m, bool(p_inv[0] <= g.turn_pressure - m)),
-                _req("action", "action unit inverts above every purple unit",
-                     float(p_inv[0]), purple_max, bool(p_inv[0] > purple_max)),
-                _req("action", "units after it flat at the turning pressure (run)",
-                     rest_flat, True, rest_flat),
-                _req("action", "units after it invert above turning pressure + margin",
-                     first_rest, g.turn_pressure + m, bool(first_rest >= g.turn_pressure + m)),
-            ]  # fmt: skip
+                _req(
+                    "action",
+                    f"action unit class at {g.turn_pressure:g} MPa (raised phase)",
+                    cls,
+                    "metastable",
+                    cls == "metastable",
+                ),
+                _req(
+                    "action",
+                    f"action unit reset >= {req.front_action_min_reset:g} s (a gait cycle)",
+                    r,
+                    req.front_action_min_reset,
+                    np.isfinite(r) and r >= req.front_action_min_reset,
+                ),
+                _req(
+                    "action",
+                    "action unit inverts above walking pressure + margin (flat while walking)",
+                    float(p_inv[0]),
+                    g.walk_pressure + m,
+                    bool(p_inv[0] >= g.walk_pressure + m),
+                ),
+                _req(
+                    "action",
+                    "action unit inverts below turning pressure - margin",
+                    float(p_inv[0]),
+                    g.turn_pressure - m,
+                    bool(p_inv[0] <= g.turn_pressure - m),
+                ),
+                _req(
+                    "action",
+                    "action unit inverts above every purple unit",
+                    float(p_inv[0]),
+                    purple_max,
+                    bool(p_inv[0] > purple_max),
+                ),
+                _req(
+                    "action",
+                    "units after it flat at the turning pressure (run)",
+                    rest_flat,
+                    True,
+                    rest_flat,
+                ),
+                _req(
+                    "action",
+                    "units after it invert above turning pressure + margin",
+                    first_rest,
+                    g.turn_pressure + m,
+                    bool(first_rest >= g.turn_pressure + m),
+                ),
+            ]
         return [
-            _req("action", f"action unit class at {g.walk_pressure:g} MPa", cls, "monostable",
-                 cls == "monostable"),
-            _req("action", f"action unit reset <= {req.middle_action_max_reset:g} s", r,
-                 req.middle_action_max_reset,
-                 np.isfinite(r) and r <= req.middle_action_max_reset),
-            _req("action", "action unit inverts below walking pressure - margin",
-                 float(p_inv[0]), g.walk_pressure - m, bool(p_inv[0] <= g.walk_pressure - m)),
-            _req("action", "units after it flat at the walking pressure (run)", rest_flat, True,
-                 rest_flat),
-            _req("action", "units after it invert above walking pressure + margin", first_rest,
-                 g.walk_pressure + m, bool(first_rest >= g.walk_pressure + m)),
-        ]  # fmt: skip
+            _req(
+                "action",
+                f"action unit class at {g.walk_pressure:g} MPa",
+                cls,
+                "monostable",
+                cls == "monostable",
+            ),
+            _req(
+                "action",
+                f"action unit reset <= {req.middle_action_max_reset:g} s",
+                r,
+                req.middle_action_max_reset,
+                np.isfinite(r) and r <= req.middle_action_max_reset,
+            ),
+            _req(
+                "action",
+                "action unit inverts below walking pressure - margin",
+                float(p_inv[0]),
+                g.walk_pressure - m,
+                bool(p_inv[0] <= g.walk_pressure - m),
+            ),
+            _req(
+                "action",
+                "units after it flat at the walking pressure (run)",
+                rest_flat,
+                True,
+                rest_flat,
+            ),
+            _req(
+                "action",
+                "units after it invert above walking pressure + margin",
+                first_rest,
+                g.walk_pressure + m,
+                bool(first_rest >= g.walk_pressure + m),
+            ),
+        ]
 
 
 def search_of(spec, evaluator: Evaluator) -> WalkerSearch:
@@ -539,8 +771,13 @@ def solve_walker(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
     search = search_of(spec, evaluator)
     purple, green = search.purple(), search.green()
     action = search.front_action() if kind == "front" else search.middle_action()
-    extra = {"kind": kind, "purple": purple, "green": green, "action": action,
-             "inversion_method": search.method}  # fmt: skip
+    extra = {
+        "kind": kind,
+        "purple": purple,
+        "green": green,
+        "action": action,
+        "inversion_method": search.method,
+    }
     ok = purple["best"] is not None and action["best"] is not None
     if ok:
         designs = (purple["best"]["design"], green["design"], action["best"]["design"])
@@ -548,32 +785,50 @@ def solve_walker(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
         mono = search.monostable()
         extra["walk"], extra["monostable"] = walk, mono
         ratio = walk.stride / mono.stride if mono.stride > 0 else math.inf
-        requirements = (purple["best"]["requirements"] + green["requirements"]
-                        + action["best"]["requirements"])  # fmt: skip
+        requirements = (
+            purple["best"]["requirements"] + green["requirements"] + action["best"]["requirements"]
+        )
         if kind == "front":
             flat = walk.sections[2].result.unit_class[0] is None
-            requirements.append(_req("action", "action unit flat while walking (leg run at the "
-                                     "walking gait)", flat, True, flat))  # fmt: skip
+            requirements.append(
+                _req(
+                    "action",
+                    "action unit flat while walking (leg run at the walking gait)",
+                    flat,
+                    True,
+                    flat,
+                )
+            )
             extra["turn"] = search.leg(*designs, search.turn_phases())
-        requirements.append(_req("leg", f"stride >= {search.req.min_stride_ratio:g} x the "
-                                 "monostable leg's at the same gait", ratio,
-                                 search.req.min_stride_ratio,
-                                 ratio >= search.req.min_stride_ratio))  # fmt: skip
+        requirements.append(
+            _req(
+                "leg",
+                f"stride >= {search.req.min_stride_ratio:g} x the "
+                "monostable leg's at the same gait",
+                ratio,
+                search.req.min_stride_ratio,
+                ratio >= search.req.min_stride_ratio,
+            )
+        )
         extra["requirements"] = requirements
         extra["stride_ratio"] = ratio
         cycles = search.gait.cycles
         t_diag = search.gait.period * cycles + 2.0
         extra["timing"] = {"walk": search.leg(*designs, search.walk_phases(cycles), t_end=t_diag)}
         if kind == "front":
-            extra["timing"]["turn"] = search.leg(*designs, search.turn_phases(cycles),
-                                                 t_end=t_diag)  # fmt: skip
+            extra["timing"]["turn"] = search.leg(*designs, search.turn_phases(cycles), t_end=t_diag)
     reachable = ok and all(r["met"] for r in extra.get("requirements", []))
     if ok:  # the leg's objective in the history: 0 once every requirement is met
-        evaluator.record(DesignBatch.from_designs([designs[0]]), target=target_index,
-                         purpose="result", section="leg",
-                         objective=violation(extra["requirements"]))  # fmt: skip
-    result = TargetResult(target_index=target_index, target=(kind,), best=None,
-                          reachable=bool(reachable), extra=extra)  # fmt: skip
+        evaluator.record(
+            DesignBatch.from_designs([designs[0]]),
+            target=target_index,
+            purpose="result",
+            section="leg",
+            objective=violation(extra["requirements"]),
+        )
+    result = TargetResult(
+        target_index=target_index, target=(kind,), best=None, reachable=bool(reachable), extra=extra
+    )
     result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
     result.wall_s = evaluator.wall_s - wall0
     return result

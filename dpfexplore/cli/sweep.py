@@ -5,7 +5,7 @@
   ``results/<job name>``), with a progress bar on a terminal and log lines otherwise. Rerun on
   a complete directory of the same job, it prints the summary and computes nothing.
 * ``query DIR --where "n_units == 5 and stiffness > 0.1" [--columns ...] [--csv FILE | --json]
-  [--no-verify]`` selects committed rows with a :meth:`pandas.DataFrame.query` expression.
+  [--no-verify]`` selects committed rows with a filter (:mod:`dpfexplore.sweep.row_filter`).
 * ``plot-space DIR [--out FILE]`` draws the paper's design-space maps (Fig. S design space).
 
 Exit codes: 0 done, 1 some chunks failed (``--resume`` retries them), 2 bad input or a
@@ -80,7 +80,11 @@ def register(subparsers) -> None:
         "over its columns (units in the dataset schema; see README).",
     )
     query.add_argument("dir", type=Path, help="sweep dataset directory")
-    query.add_argument("--where", help='filter, e.g. "n_units == 5 and stiffness > 0.1"')
+    query.add_argument(
+        "--where",
+        help='rows for which this condition holds, e.g. "n_units == 5 and stiffness > 0.1" '
+        "(columns, numbers, comparisons, and/or/not, + - * /, abs/sqrt/hypot/isnan)",
+    )
     query.add_argument(
         "--columns",
         nargs="+",

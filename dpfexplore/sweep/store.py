@@ -65,6 +65,7 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
+from .row_filter import parse_filter
 from .schema import (  # the schema lives in schema.py; importable from here as before
     FORMAT,
     METADATA_KEY,
@@ -510,11 +511,6 @@ def open_dataset(root: str | Path, *, verify: bool = True) -> pads.Dataset:
     return pads.dataset(files, schema=read_schema(root), format="parquet")
 
 
-def _referenced_columns(where: str, names: Sequence[str]) -> list[str]:
-    tokens = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", where))
-    return [name for name in names if name in tokens]
-
-
 def iter_results(
     root: str | Path,
     *,
@@ -522,7 +518,11 @@ def iter_results(
     where: str | None = None,
     verify: bool = True,
 ) -> Iterator[pd.DataFrame]:
-    """Committed rows chunk by chunk, filtered with ``DataFrame.query(where)``.
+    """Committed rows chunk by chunk, those for which the filter ``where`` is true.
+
+    ``where`` is a condition over the columns (``"n_units == 5 and stiffness > 0.05"``), parsed
+    and checked by :func:`~dpfexplore.sweep.row_filter.parse_filter` before any row is read and
+    evaluated by Arrow on the columns: it is never run as Python code.
 
     Memory stays bounded by one chunk (plus what the caller keeps). With ``verify`` (the
     default) each chunk's bytes are checked against the manifest's size and SHA-256 before
@@ -535,8 +535,8 @@ def iter_results(
         changed after it was committed, naming the chunk.
     KeyError
         For a column that is not in the dataset.
-    ValueError
-        For a ``where`` expression pandas cannot evaluate on these columns.
+    FilterError
+        (a ValueError) For a ``where`` that is not an allowed condition over these columns.
     """
     root = Path(root)
     _existing_directory(root)
@@ -546,21 +546,18 @@ def iter_results(
     unknown = [c for c in wanted if c not in names]
     if unknown:
         raise KeyError(f"unknown column {unknown[0]!r}; columns: {', '.join(names)}")
-    needed = list(dict.fromkeys([*wanted, *(_referenced_columns(where, names) if where else [])]))
+    row_filter = parse_filter(where, schema) if where else None
+    needed = list(dict.fromkeys([*wanted, *(row_filter.columns if row_filter else ())]))
     manifest = read_manifest(root)
     for record in sorted(manifest.chunks.values(), key=lambda r: (r.n_units, r.index)):
         if verify:  # decode from the very bytes that were checked
             source = pa.BufferReader(chunk_bytes(root, record))
         else:
             source = root / record.path
-        frame = pq.read_table(source, columns=needed, schema=schema).to_pandas()
-        if where:
-            try:
-                frame = frame.query(where)
-            except Exception as exc:  # pandas raises many types for bad expressions
-                message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-                raise ValueError(f"--where {where!r}: {message}") from None
-        yield frame[wanted]
+        table = pq.read_table(source, columns=needed, schema=schema)
+        if row_filter is not None:
+            table = row_filter.apply(table)
+        yield table.select(wanted).to_pandas()
 
 
 def read_results(

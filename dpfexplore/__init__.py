@@ -31,42 +31,48 @@ Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 
 from __future__ import annotations
 
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _distribution_version
-
-from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
-from .model.status import Status
-from .solvers.dynamics.simulate import (
-    PressureProfile,
-    SimulationResult,
-    reset_times_batch,
-    simulate,
-)
-from .solvers.lattice import spring_constants
-from .solvers.legs.leg import load_leg, simulate_leg
-from .solvers.sensitivities import Sensitivities
-from .solvers.snap.continuation import (
-    SnapSequence,
-    inversion_pressure,
-    snap_pressures,
-    snap_pressures_batch,
-)
-from .solvers.statics import (
-    SolverOptions,
-    StateResult,
-    enumerate_states,
-    find_state,
-    sequential_states,
-    solve_batch,
-)
-from .sweep.driver import run_sweep
-from .sweep.space import load_job
-from .sweep.store import read_results
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = _distribution_version("dpfexplore")
 except PackageNotFoundError:  # running from a source tree without installing
     __version__ = "0+unknown"
+
+#: Public name -> the module that defines it. Imported on first use (PEP 562), so that
+#: ``import dpfexplore`` (and every ``dpfexplore`` command's start-up) does not load Numba,
+#: SciPy and pandas before they are needed.
+_EXPORTS = {
+    "Design": ".model.design",
+    "DesignBatch": ".model.design",
+    "MATERIALS": ".model.design",
+    "Material": ".model.design",
+    "PressureProfile": ".solvers.dynamics.simulate",
+    "Sensitivities": ".solvers.sensitivities",
+    "SimulationResult": ".solvers.dynamics.simulate",
+    "SnapSequence": ".solvers.snap.continuation",
+    "SolverOptions": ".solvers.statics",
+    "StateResult": ".solvers.statics",
+    "Status": ".model.status",
+    "enumerate_states": ".solvers.statics",
+    "find_state": ".solvers.statics",
+    "inversion_pressure": ".solvers.snap.continuation",
+    "load_design": ".model.design",
+    "load_job": ".sweep.space",
+    "load_leg": ".solvers.legs.leg",
+    "read_results": ".sweep.store",
+    "reset_times_batch": ".solvers.dynamics.simulate",
+    "run_sweep": ".sweep.driver",
+    "sequential_states": ".solvers.statics",
+    "simulate": ".solvers.dynamics.simulate",
+    "simulate_leg": ".solvers.legs.leg",
+    "snap_pressures": ".solvers.snap.continuation",
+    "snap_pressures_batch": ".solvers.snap.continuation",
+    "solve_batch": ".solvers.statics",
+    "spring_constants": ".solvers.lattice",
+}
 
 __all__ = [
     "MATERIALS",
@@ -97,3 +103,47 @@ __all__ = [
     "solve_batch",
     "spring_constants",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'dpfexplore' has no attribute {name!r}")
+    value = getattr(import_module(module, __name__), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])
+
+
+if TYPE_CHECKING:  # static tools see the real imports
+    from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
+    from .model.status import Status
+    from .solvers.dynamics.simulate import (
+        PressureProfile,
+        SimulationResult,
+        reset_times_batch,
+        simulate,
+    )
+    from .solvers.lattice import spring_constants
+    from .solvers.legs.leg import load_leg, simulate_leg
+    from .solvers.sensitivities import Sensitivities
+    from .solvers.snap.continuation import (
+        SnapSequence,
+        inversion_pressure,
+        snap_pressures,
+        snap_pressures_batch,
+    )
+    from .solvers.statics import (
+        SolverOptions,
+        StateResult,
+        enumerate_states,
+        find_state,
+        sequential_states,
+        solve_batch,
+    )
+    from .sweep.driver import run_sweep
+    from .sweep.space import load_job
+    from .sweep.store import read_results

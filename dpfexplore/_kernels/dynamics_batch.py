@@ -38,13 +38,11 @@ from .events import (
     REC_INVERTED,
     REC_LAST_DOWN,
 )
+from .integrator_ids import INTEGRATOR_RODAS4
 from .integrators_explicit import dopri5
 from .integrators_rosenbrock import rodas4
 from .lattice import pack_free, rest_nodes
 from .layout import n_free, n_nodes
-
-INTEGRATOR_RODAS4 = 0
-INTEGRATOR_DOPRI5 = 1
 
 #: Shortest reset time (s) of a metastable unit; quicker ones are monostable (MODEL.md §8).
 METASTABLE_MIN_RESET = 0.05

@@ -13,8 +13,9 @@ What every command gets from :func:`main`:
   validation, instead of argparse's "expected one argument";
 * Ctrl-C ends with one line and exit code 130 (``sweep`` says what was committed and how to
   resume);
-* a reader that goes away (``dpfexplore query DIR --json | head``) ends the command quietly,
-  and a closed stderr never stops a computation: output that cannot be written is dropped.
+* a reader that goes away (``dpfexplore query DIR --json | head``, ``design ... 2>&1 | head
+  -1``) or a closed stream (``2>&-``) never changes what a command computes, writes or
+  returns: output that cannot be written is dropped (:class:`~._output.TolerantStream`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,14 @@ import re
 import sys
 from collections.abc import Sequence
 
-from ._output import SafeStreamHandler, UsageError, discard, error_line
+from ._output import (
+    SafeStreamHandler,
+    TolerantStream,
+    UsageError,
+    discard,
+    ensure_streams,
+    error_line,
+)
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
 COMMAND_MODULES = (
@@ -104,9 +112,25 @@ def attach_dash_values(argv: Sequence[str], parser: argparse.ArgumentParser) -> 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (``sys.exit(main())`` in the console script)."""
-    parser = build_parser()
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(attach_dash_values(argv, parser))
+    ensure_streams()
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = TolerantStream(sys.stdout), TolerantStream(sys.stderr)
+    try:
+        return _run(argv)
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            stream.flush()
+        sys.stdout, sys.stderr = streams
+
+
+def _run(argv: Sequence[str] | None) -> int:
+    try:  # importing the commands takes a moment: Ctrl-C there is one line too
+        parser = build_parser()
+        argv = list(sys.argv[1:] if argv is None else argv)
+        args = parser.parse_args(attach_dash_values(argv, parser))
+    except KeyboardInterrupt:
+        error_line("dpfexplore: interrupted")
+        return EXIT_INTERRUPTED
     handler = SafeStreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, handlers=[handler])

@@ -6,30 +6,87 @@ import logging
 import os
 import sys
 from pathlib import Path
+from typing import TextIO
 
 
 class UsageError(Exception):
     """Bad input from the user: printed as one line, exit code 2."""
 
 
-def discard(stream_name: str) -> None:
-    """Point ``sys.<stream_name>`` (and its file descriptor) at /dev/null.
+def _to_devnull(stream: TextIO | None) -> TextIO:
+    """A stream on ``stream``'s descriptor after pointing that descriptor at /dev/null.
 
-    Called once its reader has gone: later writes, and the flush at interpreter exit, then
-    succeed silently instead of raising ``BrokenPipeError``.
+    Used once a stream's reader has gone: later writes, and the flush at interpreter exit, then
+    succeed silently instead of raising ``BrokenPipeError`` (and exit code 120).
     """
-    stream = getattr(sys, stream_name)
     try:
-        fd = stream.fileno()
-    except (OSError, ValueError):
+        fd = stream.fileno() if stream is not None else None
+    except (OSError, ValueError, AttributeError):
         fd = None
     devnull = os.open(os.devnull, os.O_WRONLY)
-    if fd is not None:
-        os.dup2(devnull, fd)
-        os.close(devnull)
-        setattr(sys, stream_name, os.fdopen(fd, "w", closefd=False))
-    else:
-        setattr(sys, stream_name, os.fdopen(devnull, "w"))
+    if fd is None:
+        return os.fdopen(devnull, "w")
+    os.dup2(devnull, fd)
+    os.close(devnull)
+    return os.fdopen(fd, "w", closefd=False)
+
+
+def discard(stream_name: str) -> None:
+    """Point ``sys.<stream_name>`` (and its file descriptor) at /dev/null."""
+    setattr(sys, stream_name, _to_devnull(getattr(sys, stream_name)))
+
+
+def ensure_streams() -> None:
+    """Give a closed standard stream (``2>&-``, ``>&-``) a /dev/null to write to.
+
+    Python sets ``sys.stderr`` to None when descriptor 2 is closed at start-up, and a command
+    then died on its first message with exit code 1 and nothing said. Writing into nothing is
+    what the user asked for; the computation and its exit code must not change.
+    """
+    for number, name in ((1, "stdout"), (2, "stderr")):
+        stream = getattr(sys, name)
+        try:
+            os.fstat(number)
+            usable = stream is not None
+        except OSError:
+            usable = False
+        if not usable:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            if devnull != number:
+                os.dup2(devnull, number)
+                os.close(devnull)
+            setattr(sys, name, os.fdopen(number, "w", closefd=False))
+
+
+class TolerantStream:
+    """A standard stream whose lost reader is never the command's problem.
+
+    ``dpfexplore design ... 2>&1 | head -1`` used to stop at the second line (a
+    ``BrokenPipeError`` in a progress message) and exit 0 having written nothing. Writes that
+    fail because the reader went away are dropped (the descriptor is pointed at /dev/null, see
+    :func:`discard`); everything else is the wrapped stream's.
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        """Write ``text``; dropped (and counted as written) if the reader has gone."""
+        try:
+            return self._stream.write(text)
+        except (BrokenPipeError, OSError, ValueError):
+            self._stream = _to_devnull(self._stream)
+            return len(text)
+
+    def flush(self) -> None:
+        """Flush; a reader that has gone is not an error."""
+        try:
+            self._stream.flush()
+        except (BrokenPipeError, OSError, ValueError):
+            self._stream = _to_devnull(self._stream)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
 
 
 def error_line(text: str) -> None:

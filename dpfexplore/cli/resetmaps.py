@@ -10,7 +10,7 @@ from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
 
 def register(subparsers) -> None:
     """Add the ``reset-maps`` subcommand."""
-    from ..solvers.dynamics.simulate import DEFAULT_METHOD, METHODS
+    from ..solvers.dynamics.methods import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "reset-maps",

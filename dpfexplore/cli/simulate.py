@@ -12,7 +12,7 @@ from ._output import fitted_range_line, output_path
 
 def register(subparsers) -> None:
     """Add the ``simulate`` subcommand."""
-    from ..solvers.dynamics.simulate import DEFAULT_METHOD, METHODS
+    from ..solvers.dynamics.methods import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "simulate",

@@ -20,7 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..sweep.driver import LogProgress
+from ..sweep.progress import LogProgress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
 from ._output import output_path
 

@@ -36,7 +36,6 @@ import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
 
 import pyarrow as pa
 
@@ -53,6 +52,8 @@ from .chunks import (
 from .engines import Engine, LocalEngine
 from .evaluation import Evaluator, StaticsEvaluator
 from .lock import LOCK_NAME, LockHeld, sweep_lock
+from .progress import LogProgress, Progress
+from .progress import note as _note
 from .space import JobSpec
 from .store import ChunkRecord, Manifest, StoreError
 
@@ -67,70 +68,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-
-class Progress(Protocol):
-    """Receives the sweep's progress (the CLI shows a bar or log lines)."""
-
-    def start(self, total_designs: int, done_designs: int) -> None:
-        """Called once before the first chunk, with designs already committed."""
-
-    def advance(self, record: ChunkRecord) -> None:
-        """Called after each chunk is committed."""
-
-    def close(self) -> None:
-        """Called once at the end."""
-
-    # Optional: ``note(text)``, told what the sweep is doing before the first chunk (compiling
-    # kernels takes a minute on a cold cache).
-
-
-def _note(progress: Progress, text: str) -> None:
-    note = getattr(progress, "note", None)
-    if note is not None:
-        note(text)  # shown by the progress itself: logging it too would print it twice
-    else:
-        logger.info("sweep: %s", text)
-
-
-class LogProgress:
-    """Progress as log lines (INFO) at most every ``interval`` seconds: done, rate, ETA.
-
-    Subclasses change where the lines go by overriding :meth:`emit`.
-    """
-
-    def __init__(self, interval: float = 10.0, log: logging.Logger = logger) -> None:
-        self.interval = interval
-        self.log = log
-        self.total = self.done = self.at_start = 0
-        self.started = self.last = 0.0
-
-    def emit(self, text: str) -> None:
-        """Write one progress line."""
-        self.log.info("sweep: %s", text)
-
-    def start(self, total_designs: int, done_designs: int) -> None:
-        """Note the totals and log the starting line."""
-        self.total, self.done, self.at_start = total_designs, done_designs, done_designs
-        self.started = self.last = time.perf_counter()
-        self.emit(f"starting: {done_designs}/{total_designs} designs already committed")
-
-    def advance(self, record: ChunkRecord) -> None:
-        """Count a committed chunk; log a line when ``interval`` has passed or at the end."""
-        self.done += record.stop - record.start
-        now = time.perf_counter()
-        if now - self.last >= self.interval or self.done >= self.total:
-            self.last = now
-            rate = (self.done - self.at_start) / max(now - self.started, 1e-9)
-            eta = (self.total - self.done) / rate if rate > 0 else float("inf")
-            percent = 100.0 * self.done / max(self.total, 1)
-            self.emit(
-                f"{self.done}/{self.total} designs ({percent:.1f} %), {rate:.0f} designs/s, "
-                f"ETA {eta:.0f} s"
-            )
-
-    def close(self) -> None:
-        """Nothing to release."""
 
 
 @dataclass

@@ -23,8 +23,6 @@ from ..._kernels.dynamics_batch import (
     CLASS_MONOSTABLE,
     CLASS_NEVER_INVERTED,
     CLASS_NO_CONTACT,
-    INTEGRATOR_DOPRI5,
-    INTEGRATOR_RODAS4,
     summarise_units,
 )
 from ..._kernels.lattice import dome_extensions, unpack_nodes
@@ -34,6 +32,7 @@ from ...model.design import Design, DesignBatch
 from ...model.domain import MAX_UNITS
 from ...model.pressure import PressureProfile
 from ..lattice import pack_batch
+from .methods import DEFAULT_METHOD, METHODS, MethodInfo
 
 __all__ = [
     "CLASS_NAMES",
@@ -60,56 +59,6 @@ CLASS_NAMES: dict[int, str | None] = {
     CLASS_MONOSTABLE: "monostable",
     CLASS_NO_CONTACT: "no_contact",
 }
-
-
-@dataclass(frozen=True)
-class MethodInfo:
-    """One way of integrating the dynamics.
-
-    Attributes
-    ----------
-    name : str
-    model : str
-        ``"full"`` (masses), ``"overdamped"`` (inertia dropped), ``"release"`` (quasi-static
-        loading, overdamped release) or ``"fast"`` (static loading, loose release, fitted
-        correction and fallback: :mod:`dpfexplore.solvers.dynamics.fast_reset`).
-    integrator : int
-        Kernel id (-1: not a Numba integrator).
-    atol : float, mm
-        Default absolute tolerance on positions.
-    max_steps : int
-        Default cap on step attempts.
-    h_max : float, s
-        Default largest step.
-    """
-
-    name: str
-    model: str
-    integrator: int
-    atol: float
-    max_steps: int
-    h_max: float
-
-
-#: Available methods. Rodas4's default position tolerance, 1e-4 mm, keeps reset times within
-#: 0.14 % of a tight reference (max over the metastable units of 100 random designs; 0.013 %
-#: median) at 1.6-1.9 ms per design on one core of a shared 2-core machine; ``dpfexplore
-#: bench dynamics`` gives the whole time-error curve (3e-4 mm: 0.6 % max, 1e-5 mm: 0.011 % max).
-METHODS: dict[str, MethodInfo] = {
-    "rodas4": MethodInfo("rodas4", "full", INTEGRATOR_RODAS4, 1e-4, 200_000, 0.5),
-    "rodas4-overdamped": MethodInfo(
-        "rodas4-overdamped", "overdamped", INTEGRATOR_RODAS4, 1e-4, 200_000, 0.5
-    ),
-    "dopri5": MethodInfo("dopri5", "full", INTEGRATOR_DOPRI5, 1e-3, 20_000_000, 0.5),
-    "dopri5-overdamped": MethodInfo(
-        "dopri5-overdamped", "overdamped", INTEGRATOR_DOPRI5, 1e-3, 2_000_000, 0.5
-    ),
-    "release": MethodInfo("release", "release", INTEGRATOR_RODAS4, 1e-4, 200_000, 0.5),
-    # the fast model's own tolerance lives in its model file; this one is informative
-    "fast": MethodInfo("fast", "fast", -1, 3e-3, 20_000, 5.0),
-    "radau": MethodInfo("radau", "full", -1, 1e-9, 0, math.inf),
-}
-DEFAULT_METHOD = "rodas4"
 
 
 def method_info(name: str) -> MethodInfo:

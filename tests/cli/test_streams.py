@@ -1,0 +1,108 @@
+"""A lost reader, a closed stream or an early Ctrl-C never changes what a command does.
+
+Real processes, real pipes and closed descriptors: ``2>&1 | head -1`` (the reader goes away
+after one line), ``2>&-`` and ``>&-`` (the descriptor is closed at start-up), SIGINT while the
+command is still importing. And start-up stays cheap: ``import dpfexplore`` and ``dpfexplore
+--help`` load no Numba.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from sweep_helpers import job_dict, toml_text
+
+from dpfexplore.sweep import store
+
+GRIPPER = Path(__file__).parents[2] / "dpfexplore" / "examples" / "gripper.toml"
+CLI = [sys.executable, "-m", "dpfexplore"]
+
+
+def shell(command: str, cwd: Path) -> subprocess.CompletedProcess:
+    """Run ``command`` in bash with pipefail off; ``$DPF`` is the CLI."""
+    env = {**os.environ, "DPF": " ".join(CLI)}
+    return subprocess.run(
+        ["bash", "-c", command], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
+
+
+@pytest.fixture(scope="module")
+def job(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("streams")
+    path = root / "job.toml"
+    changes = {"job.samples_per_n": 12, "job.chunk_size": 4, "space.n_units": [2, 3]}
+    path.write_text(toml_text(job_dict(**changes)))
+    return path
+
+
+def test_a_reader_that_goes_away_does_not_stop_a_sweep(job, tmp_path):
+    # head exits after the first line; the sweep keeps writing into a broken pipe
+    done = shell(
+        f'$DPF sweep {job} --out out 2>&1 | head -1; echo "rc=${{PIPESTATUS[0]}}"', tmp_path
+    )
+    assert done.stdout.strip().splitlines()[-1] == "rc=0", done.stdout + done.stderr
+    manifest = store.read_manifest(tmp_path / "out")
+    assert manifest.complete
+    assert len(store.read_results(tmp_path / "out")) > 0
+
+
+def test_a_closed_stderr_or_stdout_changes_nothing(job, tmp_path):
+    done = shell(f"$DPF sweep {job} --out a 2>&-", tmp_path)
+    assert done.returncode == 0
+    assert store.read_manifest(tmp_path / "a").complete
+    done = shell(f"$DPF states {GRIPPER} --plot p.png >&- 2>&-", tmp_path)
+    assert done.returncode == 0
+    assert (tmp_path / "p.png").stat().st_size > 0
+
+
+def test_query_into_head_is_quiet_and_succeeds(job, tmp_path):
+    assert shell(f"$DPF sweep {job} --out d", tmp_path).returncode == 0
+    done = shell('$DPF query d --json | head -c 20; echo; echo "rc=${PIPESTATUS[0]}"', tmp_path)
+    assert done.stdout.strip().endswith("rc=0")
+    assert "Error" not in done.stderr and "Traceback" not in done.stderr
+    whole = shell("$DPF query d --json", tmp_path)
+    assert len(json.loads(whole.stdout)) == len(store.read_results(tmp_path / "d"))
+
+
+@pytest.mark.parametrize("delay", [0.15, 0.3, 0.5])
+def test_ctrl_c_during_start_up_is_one_line(delay, tmp_path):
+    process = subprocess.Popen(
+        [*CLI, "states", str(GRIPPER)],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert "Traceback" not in err, err
+    if process.returncode not in (0, -signal.SIGINT):  # it may finish, or die before Python runs
+        assert process.returncode == 130
+        assert len(err.strip().splitlines()) == 1 and "interrupted" in err
+
+
+def test_start_up_loads_no_numba():
+    code = (
+        "import sys, dpfexplore\n"
+        "assert 'numba' not in sys.modules\n"
+        "from dpfexplore.cli import main\n"
+        "try:\n"
+        "    main(['--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "heavy = [m for m in ('numba', 'scipy', 'pandas', 'pyarrow') if m in sys.modules]\n"
+        "print(','.join(heavy))\n"
+        "print(dpfexplore.find_state.__module__)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    heavy, module = done.stdout.strip().splitlines()[-2:]
+    assert heavy == ""
+    assert module == "dpfexplore.solvers.statics"  # the lazy export still resolves

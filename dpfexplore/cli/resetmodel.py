@@ -8,6 +8,7 @@ from itertools import pairwise
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
+from ._output import output_path
 
 
 def register(subparsers) -> None:
@@ -79,6 +80,7 @@ def _tau(text: str) -> tuple[float, float, float, float]:
 
 def run_fit(args) -> int:
     """Handler of ``reset-model fit``."""
+    from ..model.pressure import PressureProfile
     from ..surrogates.reset_training import TrainingOptions, fit_reset_model
 
     counts = {
@@ -98,8 +100,15 @@ def run_fit(args) -> int:
     if args.out.suffix != ".json":
         raise UsageError(f"--out {args.out}: the model is written as JSON; name it *.json")
     tau = _tau(args.tau)
+    if not all(math.isfinite(v) for v in tau):
+        raise UsageError(f"--tau {args.tau!r}: the four times must be finite numbers, s")
     if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
         raise UsageError(f"--tau {args.tau!r}: need 0 <= tau1 <= tau2 <= tau3 <= tau4")
+    try:  # the pulse's own checks (pressure range), before minutes of training
+        PressureProfile.pulse(args.P0, tau)
+    except ValueError as exc:
+        raise UsageError(f"--P0 {args.P0:g} --tau {args.tau}: {exc}") from None
+    output_path(args.out)  # a folder that cannot be made fails now, not after the training
     options = TrainingOptions(
         P0=args.P0,
         tau=tau,

@@ -83,8 +83,12 @@ from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from ..model import status as st
 from ..model.design import MATERIALS, Design
 from ..model.domain import MAX_UNITS
+from ..model.pressure import PressureProfile
 from ..sweep._jobfile import JobSpecError, check_keys
 from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
 
@@ -214,6 +218,10 @@ class SceneSpec:
         return DesignVariables(n_units=n_units, E=self.E, nu=self.nu, **self.variables)
 
 
+#: Farthest tip target accepted (mm along either axis): far beyond any finger of MAX_UNITS
+#: units, near enough that squared distances stay finite (1e300 mm overflowed to inf).
+MAX_TARGET_DISTANCE = 1000.0
+
 # ----------------------------------------------------------------------------- parsing
 
 
@@ -236,7 +244,7 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
         _keys(data, "", required=("scene",), optional=tuple(data))
         _keys(_table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
     kind = data["scene"]["kind"]
-    if kind not in SCENE_KINDS:
+    if not isinstance(kind, str) or kind not in SCENE_KINDS:
         known = ", ".join(SCENE_KINDS)
         raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {known}")
     own = kind in OWN_VARIABLES
@@ -279,10 +287,32 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
     spec = SceneSpec(**fields)
     for n in () if own else spec.n_units:
         try:
-            spec.design_variables(n)
+            variables = spec.design_variables(n)
         except ValueError as exc:
             raise SceneSpecError(f"variables (N = {n}): {exc}") from None
+        _check_box_holds_designs(variables)
     return spec
+
+
+#: Points of a scene's variable box sampled when it is read, to show that it holds valid
+#: designs before any optimisation starts (0.1 ms per point).
+BOX_PROBES = 512
+
+
+def _check_box_holds_designs(variables: DesignVariables) -> None:
+    from scipy.stats import qmc
+
+    if variables.n_variables == 0:
+        z = np.zeros((1, 0))
+    else:
+        z = qmc.LatinHypercube(d=variables.n_variables, seed=0).random(BOX_PROBES)
+    codes, problems = variables.designs(z).problems()
+    if not np.any(codes == st.OK):
+        example = next(p for p in problems if p)
+        raise SceneSpecError(
+            f"variables (N = {variables.n_units}): the box holds no valid design (none of "
+            f"{len(z)} sampled over it), e.g. {example}"
+        )
 
 
 def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
@@ -299,6 +329,11 @@ def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
         where = f"targets[{i}]"
         _keys(entry, where, required=("point",), optional=("reference",))
         point = _numbers(entry["point"], f"{where}.point", length=2, unit="mm")
+        if max(abs(point[0]), abs(point[1])) > MAX_TARGET_DISTANCE:
+            raise SceneSpecError(
+                f"{where}.point = {list(point)}: more than {MAX_TARGET_DISTANCE:g} mm from the "
+                "base; no finger of this model reaches that far"
+            )
         reference = None
         if "reference" in entry:
             reference = _design(entry["reference"], f"{where}.reference", fields, extra=())[0]
@@ -388,6 +423,11 @@ def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str,
     if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
         raise SceneSpecError(f"gripper.pulse.tau = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
     t_end = _positive(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
+    pulse_P0 = _positive(pulse, "gripper.pulse", "P0", 0.7)
+    try:  # the pressure range every entry point holds, checked before the optimisation
+        PressureProfile.pulse(pulse_P0, tau)
+    except ValueError as exc:
+        raise SceneSpecError(f"gripper.pulse: {exc}") from None
     if t_end <= tau[3]:
         raise SceneSpecError(f"gripper.pulse.t_end = {t_end}: must be after τ4 = {tau[3]}")
     reference = theta_ref = base_ref = None
@@ -408,7 +448,7 @@ def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str,
         min_window_kPa=_positive(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
         metastable_unit=unit,
         min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
-        pulse_P0=_positive(pulse, "gripper.pulse", "P0", 0.7),
+        pulse_P0=pulse_P0,
         pulse_tau=tuple(tau),
         pulse_t_end=t_end,
         reference=reference,
@@ -566,11 +606,17 @@ def _material(scene: Mapping[str, Any]) -> tuple[float, float, str]:
                 f"scene.material = {key!r}: must be one of {', '.join(sorted(MATERIALS))}"
             )
         preset = MATERIALS[key.lower()]
-        nu = _positive(scene, "scene", "nu", preset.nu)
-        return preset.E, nu, key.lower()
+        return preset.E, _poisson(scene, preset.nu), key.lower()
     if "E" not in scene:
         raise SceneSpecError("scene.material: missing; give material or E")
-    return _positive(scene, "scene", "E", 26.0), _positive(scene, "scene", "nu", 0.35), ""
+    return _positive(scene, "scene", "E", 26.0), _poisson(scene, 0.35), ""
+
+
+def _poisson(scene: Mapping[str, Any], default: float) -> float:
+    nu = _positive(scene, "scene", "nu", default, allow_zero=True)
+    if not nu < 0.5:
+        raise SceneSpecError(f"scene.nu = {nu!r}: a Poisson ratio must be in [0, 0.5)")
+    return nu
 
 
 def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str, ...]):

@@ -220,9 +220,9 @@ def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
 
 
 def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
-    if isinstance(value, (str, bytes)):
+    if isinstance(value, (str, bytes, Mapping)):
         raise ValueError(f"{name} = {value!r}: must be a number or a list of numbers")
-    if np.ndim(value) == 0:
+    if not _is_list(value):
         return (_number(name, value),) * n_units
     values = tuple(_number(f"{name}[unit {k + 1}]", v) for k, v in enumerate(value))
     if len(values) != n_units:
@@ -231,6 +231,17 @@ def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
             f"{n_units} units (len(H)); give one value or one per unit"
         )
     return values
+
+
+def _is_list(value: Any) -> bool:
+    """Whether ``value`` is a list, tuple or array of per-unit values.
+
+    Its elements are then checked one by one, so a ragged nesting is named by unit instead of
+    failing inside NumPy.
+    """
+    if isinstance(value, np.ndarray):
+        return value.ndim >= 1
+    return isinstance(value, (list, tuple))
 
 
 def _number(name: str, value: Any) -> float:
@@ -293,7 +304,7 @@ class Design:
 
     def __post_init__(self) -> None:
         H = self.H
-        if isinstance(H, (str, bytes)) or np.ndim(H) != 1:
+        if not _is_list(H) or (isinstance(H, np.ndarray) and H.ndim != 1):
             raise ValueError(f"H = {H!r}: must be a list with one dome height per unit")
         n_units = len(H)
         if not 1 <= n_units <= MAX_UNITS:
@@ -393,11 +404,22 @@ def load_design(path: str | Path) -> Design:
         raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (a design is TOML)") from None
     if "design" not in document:
         raise ValueError(f"{path}: missing [design] table")
-    data = dict(document["design"])
+    table = document["design"]
+    if not isinstance(table, Mapping):
+        raise ValueError(
+            f"{path}: [design] must be a table of design keys (H = [...], t = ...), "
+            f"not a {type(table).__name__}"
+        )
+    data = dict(table)
     data.setdefault("name", path.stem)
-    return Design.from_dict(data)
+    try:
+        return Design.from_dict(data)
+    except ValueError as exc:
+        raise ValueError(f"{path}: [design] {exc}") from None
 
 
 @dataclass(frozen=True)

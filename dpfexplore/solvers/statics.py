@@ -130,7 +130,13 @@ def parse_state(state: str | int | Sequence[int], n_units: int) -> int:
                 f"state = {state!r}: must be in [0, {2**n_units - 1}] for {n_units} units"
             )
         return int(state)
-    bits = list(state)
+    try:
+        bits = list(state)
+    except TypeError:  # None, a float, an object: not a state in any of the accepted forms
+        raise ValueError(
+            f"state = {state!r}: give a bit string ('{'1' * n_units}'), an integer in "
+            f"[0, {2**n_units - 1}] or {n_units} entries of 0/1, unit 1 first"
+        ) from None
     if len(bits) != n_units or any(b not in (0, 1, True, False) for b in bits):
         raise ValueError(f"state = {state!r}: need {n_units} entries of 0/1, unit 1 first")
     return int("".join(str(int(b)) for b in bits), 2)

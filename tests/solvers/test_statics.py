@@ -373,7 +373,7 @@ def test_solver_options_are_validated_and_used():
 
 def test_parse_state():
     assert parse_state("11110", 5) == 30 == parse_state([1, 1, 1, 1, 0], 5) == parse_state(30, 5)
-    for bad in ("1111", "11112", 32, -1, [1, 2, 0, 0, 0]):
+    for bad in ("1111", "11112", 32, -1, [1, 2, 0, 0, 0], None, 2.5, object()):
         with pytest.raises(ValueError, match="state"):
             parse_state(bad, 5)
 

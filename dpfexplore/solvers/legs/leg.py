@@ -539,5 +539,8 @@ def apply_assignments(leg: Leg, assignments: Sequence[str]) -> Leg:
             raise ValueError(f"--set {text!r}: {key} is not a design key")
         if key == "H" and not isinstance(value, list):
             value = [value] * leg.section(section).design.n_units
-        leg = leg.with_design(section, **{key: value})
+        try:
+            leg = leg.with_design(section, **{key: value})
+        except ValueError as exc:  # the design's message names the key, not where it came from
+            raise ValueError(f"--set {text!r}: section {section!r}: {exc}") from None
     return leg

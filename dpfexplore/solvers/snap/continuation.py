@@ -76,6 +76,7 @@ from ..._kernels.layout import n_free
 from ...model import status as st
 from ...model.design import Design, DesignBatch
 from ...model.domain import MAX_UNITS
+from ...model.pressure import MAX_PRESSURE
 from ..dynamics.common import METHODS, controls
 from ..lattice import LatticeParams, batch_constants, lattice_params, pack_batch, spring_constants
 from ..statics import find_state, state_string
@@ -122,6 +123,10 @@ def _pressure(name: str, value) -> float:
         raise ValueError(f"{name} = {value!r}: must be a number") from None
     if not math.isfinite(value):
         raise ValueError(f"{name} = {value!r}: must be finite")
+    if abs(value) > MAX_PRESSURE:  # the range every other entry point holds (model.pressure)
+        raise ValueError(
+            f"{name} = {value:g} MPa: beyond ±{MAX_PRESSURE:g} MPa, the most the model takes"
+        )
     return value
 
 

@@ -208,6 +208,13 @@ def _sweep(args: argparse.Namespace) -> int:
         )
     except StoreError as exc:
         raise UsageError(str(exc)) from None
+    except OSError as exc:  # a full disk while committing: what is committed stays valid
+        error_line(
+            f"dpfexplore sweep: writing {out} failed ({exc.strerror or exc}); the chunks "
+            f"committed so far are intact; when fixed, continue with: dpfexplore sweep "
+            f"{args.job} --out {out} --resume"
+        )
+        return EXIT_FAILURE
     except SweepInterrupted as stop:
         error_line(
             f"dpfexplore sweep: interrupted; {stop.chunks_committed} of {stop.chunks_total} "

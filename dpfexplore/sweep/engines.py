@@ -147,7 +147,9 @@ class LocalEngine(Engine):
 def _written(task: ChunkTask, future: Future) -> ChunkRecord | ChunkFailure:
     try:
         return future.result()
-    except Exception as exc:
+    except OSError as exc:  # a full disk, a lost mount: the driver logs one line per chunk
+        return ChunkFailure(task, f"cannot write the chunk ({exc.strerror or exc})")
+    except Exception as exc:  # a bug: keep its traceback
         logger.exception("writing chunk %s failed", task.path)
         return ChunkFailure(task, f"{type(exc).__name__}: {exc}")
 

@@ -85,7 +85,7 @@ class RepairReport:
 @dataclass
 class _Candidate:
     path: str
-    data: bytes
+    data: pa.Buffer
     table: pa.Table
     identity: dict
 
@@ -95,7 +95,7 @@ def _load(out: Path, path: str, spec: JobSpec, schema: pa.Schema) -> _Candidate 
     n_units, index = (int(part) for part in store._PART.match(path).groups())
     if n_units not in spec.space.n_units:
         return f"N = {n_units} is not in the job"
-    data = (out / path).read_bytes()
+    data = store.read_file_buffer(out / path)
     try:
         table = pq.read_table(pa.BufferReader(data))
     except Exception as exc:  # any decoding failure means the file is damaged
@@ -189,8 +189,8 @@ def _record(candidate: _Candidate) -> ChunkRecord:
         start=ident["start"],
         stop=ident["stop"],
         rows=candidate.table.num_rows,
-        bytes=len(candidate.data),
-        sha256=hashlib.sha256(candidate.data).hexdigest(),
+        bytes=candidate.data.size,
+        sha256=hashlib.sha256(memoryview(candidate.data)).hexdigest(),
         statuses=dict(sorted(statuses.items())),
     )
 

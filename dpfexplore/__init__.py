@@ -32,14 +32,7 @@ Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 from __future__ import annotations
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError
-from importlib.metadata import version as _distribution_version
 from typing import TYPE_CHECKING, Any
-
-try:
-    __version__ = _distribution_version("dpfexplore")
-except PackageNotFoundError:  # running from a source tree without installing
-    __version__ = "0+unknown"
 
 #: Public name -> the module that defines it. Imported on first use (PEP 562), so that
 #: ``import dpfexplore`` (and every ``dpfexplore`` command's start-up) does not load Numba,
@@ -105,7 +98,19 @@ __all__ = [
 ]
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("dpfexplore")
+    except PackageNotFoundError:  # running from a source tree without installing
+        return "0+unknown"
+
+
 def __getattr__(name: str) -> Any:
+    if name == "__version__":  # reading the installed metadata costs ~20 ms: on demand
+        globals()[name] = value = _version()
+        return value
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'dpfexplore' has no attribute {name!r}")

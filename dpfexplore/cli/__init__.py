@@ -24,7 +24,9 @@ import argparse
 import importlib
 import logging
 import re
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from ._output import (
@@ -58,6 +60,12 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
 
+def _version_text() -> str:
+    import dpfexplore
+
+    return f"dpfexplore {dpfexplore.__version__}"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every registered subcommand."""
     parser = argparse.ArgumentParser(
@@ -68,6 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress at INFO level")
+    parser.add_argument("--version", action="version", version=_version_text())
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__name__}.{name}").register(subparsers)
@@ -115,9 +124,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     ensure_streams()
     streams = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = TolerantStream(sys.stdout), TolerantStream(sys.stderr)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, _on_ctrl_c) if main_thread else None
+    _CTRL_C["seen"] = False
     try:
         return _run(argv)
     finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
         for stream in (sys.stdout, sys.stderr):
             stream.flush()
         sys.stdout, sys.stderr = streams
@@ -128,7 +142,9 @@ def _run(argv: Sequence[str] | None) -> int:
         parser = build_parser()
         argv = list(sys.argv[1:] if argv is None else argv)
         args = parser.parse_args(attach_dash_values(argv, parser))
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, ImportError) as exc:
+        if not _caused_by_ctrl_c(exc):
+            raise
         error_line("dpfexplore: interrupted")
         return EXIT_INTERRUPTED
     handler = SafeStreamHandler(sys.stderr)
@@ -147,6 +163,30 @@ def _run(argv: Sequence[str] | None) -> int:
     except KeyboardInterrupt:
         error_line(f"dpfexplore {args.command}: interrupted")
         return EXIT_INTERRUPTED
+    except ImportError as exc:
+        if not _caused_by_ctrl_c(exc):
+            raise
+        error_line(f"dpfexplore {args.command}: interrupted")
+        return EXIT_INTERRUPTED
+
+
+#: Set once Ctrl-C arrived during this process's command (see :func:`_caused_by_ctrl_c`).
+_CTRL_C = {"seen": False}
+
+
+def _on_ctrl_c(signum: int, frame: object) -> None:
+    _CTRL_C["seen"] = True
+    raise KeyboardInterrupt
+
+
+def _caused_by_ctrl_c(exc: BaseException) -> bool:
+    """Whether Ctrl-C is behind ``exc``.
+
+    A Ctrl-C inside a C extension's import can come out as an ``ImportError`` that carries no
+    trace of it (NumPy: "PyCapsule_Import could not import module 'datetime'"), so the signal
+    handler's record decides, not the exception chain alone.
+    """
+    return isinstance(exc, KeyboardInterrupt) or _CTRL_C["seen"]
 
 
 def run() -> None:

@@ -109,25 +109,47 @@ class SafeStreamHandler(logging.StreamHandler):
         super().handleError(record)
 
 
-def output_path(path: str | Path) -> Path:
-    """``path`` as a Path whose folder exists.
+#: File types a ``--plot`` may name (what matplotlib writes from the suffix).
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def output_path(path: str | Path, option: str, *, suffixes: tuple[str, ...] = ()) -> Path:
+    """``path`` as a Path whose folder exists, checked before the command does any work.
 
     Every command that writes a file creates its folder, as ``sweep --out`` creates its
-    directory (``states --plot``, ``simulate --plot``, ``query --csv``, ``plot-space --out``).
+    directory (``states --plot``, ``simulate --plot``, ``snap --plot``, ``lookup --plot``,
+    ``query --csv``, ``plot-space --out``, ``reset-model fit --out``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file the user named.
+    option : str
+        The option it came from (``"--plot"``), named in every message.
+    suffixes : tuple of str, optional
+        Accepted file suffixes (e.g. :data:`FIGURE_SUFFIXES`): a figure path without one would
+        be written as ``PATH.png`` by matplotlib, a file the user did not name.
 
     Raises
     ------
     UsageError
-        If ``path`` is a directory or its folder cannot be created.
+        If ``path`` is empty or a directory, has another suffix, or its folder cannot be
+        created.
     """
+    if not str(path).strip():
+        raise UsageError(f"{option}: empty file name")
     path = Path(path)
-    if path.is_dir():
-        raise UsageError(f"{path}: is a directory; give a file name")
+    if path.is_dir() or str(path).endswith(("/", os.sep)):
+        raise UsageError(f"{option} {path}: is a directory; give a file name")
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise UsageError(f"{option} {path}: give a file name ending in {', '.join(suffixes)}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         reason = exc.strerror or exc
-        raise UsageError(f"{path.parent}: cannot create the folder ({reason})") from None
+        raise UsageError(
+            f"{option} {path}: cannot create the folder {path.parent} ({reason})"
+        ) from None
     return path
 
 

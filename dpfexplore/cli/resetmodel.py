@@ -108,7 +108,7 @@ def run_fit(args) -> int:
         PressureProfile.pulse(args.P0, tau)
     except ValueError as exc:
         raise UsageError(f"--P0 {args.P0:g} --tau {args.tau}: {exc}") from None
-    output_path(args.out)  # a folder that cannot be made fails now, not after the training
+    output_path(args.out, "--out")  # a folder that cannot be made fails now, not after the training
     options = TrainingOptions(
         P0=args.P0,
         tau=tau,

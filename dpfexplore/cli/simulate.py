@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
-from ._output import fitted_range_line, output_path
+from ._output import FIGURE_SUFFIXES, fitted_range_line, output_path
 
 
 def register(subparsers) -> None:
@@ -109,7 +109,11 @@ def run(args) -> int:
             return _run_fast(args, design, profile)
         except ValueError as exc:
             raise UsageError(str(exc)) from None
-    plot = output_path(args.plot) if args.plot is not None else None
+    plot = (
+        output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES)
+        if args.plot is not None
+        else None
+    )
     if args.method != "radau":
         from ..solvers.compilation import compile_notice
 

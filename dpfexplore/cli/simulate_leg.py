@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._output import FIGURE_SUFFIXES, output_path
 
 
 def register(subparsers) -> None:
@@ -58,6 +59,7 @@ def run(args) -> int:
     from ..model.status import Status
     from ..solvers.legs.leg import simulate_leg
 
+    plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
         leg = _leg(args.leg, args.assignments)
         result = simulate_leg(leg, method=args.method, atol=args.atol)
@@ -68,8 +70,8 @@ def run(args) -> int:
         print(json.dumps(summary))
     else:
         _print_text(result, summary)
-    if args.plot is not None:
-        _save_plot(result, args.plot)
+    if plot is not None:
+        _save_plot(result, plot)
     return EXIT_OK if result.status == Status.OK else EXIT_FAILURE
 
 

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._output import FIGURE_SUFFIXES, output_path
 
 
 def register(subparsers) -> None:
@@ -65,6 +66,7 @@ def run(args) -> int:
     from ..solvers.snap.continuation import snap_pressures
     from .simulate import _design
 
+    plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
         design = _design(args.design)
         seq = snap_pressures(
@@ -86,8 +88,8 @@ def run(args) -> int:
         print(json.dumps(seq.to_dict(), indent=2))
     else:
         _print_table(seq, design, args.design)
-    if args.plot is not None:
-        _save_plot(seq, args.plot)
+    if plot is not None:
+        _save_plot(seq, plot)
     return EXIT_OK if seq.status == Status.OK else EXIT_FAILURE
 
 

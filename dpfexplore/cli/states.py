@@ -8,7 +8,7 @@ import math
 import sys
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
-from ._output import fitted_range_line, output_path
+from ._output import FIGURE_SUFFIXES, fitted_range_line, output_path
 
 UNITS_HELP = (
     "Units: lengths and tip coordinates in mm (model frame: base at the origin, limiting layer "
@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         design = load_design(args.design)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
-    plot = output_path(args.plot) if args.plot else None
+    plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     notice = compile_notice(["statics"])
     if notice:
         error_line(f"dpfexplore states: {notice} ...")

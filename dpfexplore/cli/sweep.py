@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..sweep.progress import LogProgress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
-from ._output import output_path
+from ._output import FIGURE_SUFFIXES, output_path
 
 
 def register(subparsers) -> None:
@@ -288,7 +288,7 @@ def _query(args: argparse.Namespace) -> int:
         if str(args.csv) == "-":
             frame.to_csv(sys.stdout, index=False)
         else:
-            csv = output_path(args.csv)
+            csv = output_path(args.csv, "--csv")
             frame.to_csv(csv, index=False)
             error_line(f"{len(frame)} rows written to {csv}")
     else:
@@ -322,7 +322,9 @@ def _plot_space(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"{args.dir}: {exc}") from None
     out = output_path(
-        args.out if args.out is not None else args.dir.with_name(args.dir.name + ".png")
+        args.out if args.out is not None else args.dir.with_name(args.dir.name + ".png"),
+        "--out",
+        suffixes=FIGURE_SUFFIXES,
     )
     figure = axes[0].figure
     figure.savefig(out, dpi=150)

@@ -263,8 +263,11 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
         optional=("name", "description", "material", "E", "nu", "seed"),
     )
     name = _string(scene, "scene", "name", default_name)
-    if not name or "/" in name:
-        raise SceneSpecError(f"scene.name = {name!r}: need a non-empty name without '/'")
+    if not name.strip() or "/" in name or "\\" in name or name in (".", ".."):
+        # the name is the default --out folder: it must name a folder of its own
+        raise SceneSpecError(
+            f"scene.name = {name!r}: need a non-empty name without '/', other than '.' and '..'"
+        )
     seed = scene.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise SceneSpecError(f"scene.seed = {seed!r}: must be an integer >= 0")

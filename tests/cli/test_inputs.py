@@ -114,3 +114,23 @@ def test_find_state_refuses_a_state_that_is_no_state(state):
     design = Design(H=[3.5, 4.0], U_L=8.0, U_sep=2.0, t=0.7, t_lim=1.2)
     with pytest.raises(ValueError, match=re.escape("state = ")):
         find_state(design, state)
+
+
+@pytest.mark.parametrize("name", ["..", ".", " "])
+def test_a_scene_name_must_name_a_folder_of_its_own(name, tmp_path, capsys):
+    scene = tmp_path / "scene.toml"
+    scene.write_text(POSITION.replace('name = "design-position-cheetah"', f"name = {name!r}"))
+    refused(capsys, ["design", str(scene)], "scene.name")
+
+
+def test_figure_paths_are_checked_before_the_work(tmp_path, capsys):
+    folder = tmp_path / "figures"
+    folder.mkdir()
+    refused(capsys, ["states", str(GRIPPER), "--plot", str(folder)], "--plot", "is a directory")
+    refused(capsys, ["snap", str(GRIPPER), "--plot", str(tmp_path / "x.txt")], ".png")
+    refused(capsys, ["simulate-leg", str(WALKER), "--plot", str(tmp_path / "noext")], ".png")
+    (tmp_path / "afile").write_text("x")
+    refused(capsys, ["states", str(GRIPPER), "--plot", str(tmp_path / "afile" / "p.png")], "afile")
+    assert not (tmp_path / "noext.png").exists() and not (tmp_path / "x.txt").exists()
+    assert main(["states", str(GRIPPER), "--plot", str(tmp_path / "new" / "sub" / "s.png")]) == 0
+    assert (tmp_path / "new" / "sub" / "s.png").stat().st_size > 0

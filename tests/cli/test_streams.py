@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -71,7 +72,7 @@ def test_query_into_head_is_quiet_and_succeeds(job, tmp_path):
     assert len(json.loads(whole.stdout)) == len(store.read_results(tmp_path / "d"))
 
 
-@pytest.mark.parametrize("delay", [0.15, 0.3, 0.5])
+@pytest.mark.parametrize("delay", [0.05, 0.1, 0.15, 0.2, 0.3, 0.5])
 def test_ctrl_c_during_start_up_is_one_line(delay, tmp_path):
     process = subprocess.Popen(
         [*CLI, "states", str(GRIPPER)],
@@ -83,10 +84,14 @@ def test_ctrl_c_during_start_up_is_one_line(delay, tmp_path):
     time.sleep(delay)
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=120)
-    assert "Traceback" not in err, err
-    if process.returncode not in (0, -signal.SIGINT):  # it may finish, or die before Python runs
-        assert process.returncode == 130
-        assert len(err.strip().splitlines()) == 1 and "interrupted" in err
+    if "Traceback" in err:
+        # only Python's own start-up (site, the editable-install finder), before any line of
+        # the package runs, may still print one
+        assert not re.search(r'File "[^"]*/dpfexplore/[^"]*"', err), err
+    elif process.returncode != 0:  # it may also have finished before the signal
+        # 130, or killed by SIGINT once the line is out: what a shell shows as $? = 130 too
+        assert process.returncode in (130, -signal.SIGINT), err
+        assert err.strip().splitlines() == [err.strip()] and "interrupted" in err
 
 
 def test_start_up_loads_no_numba():
@@ -106,3 +111,13 @@ def test_start_up_loads_no_numba():
     heavy, module = done.stdout.strip().splitlines()[-2:]
     assert heavy == ""
     assert module == "dpfexplore.solvers.statics"  # the lazy export still resolves
+
+
+def test_version(capsys):
+    import dpfexplore
+    from dpfexplore.cli import main
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"dpfexplore {dpfexplore.__version__}"

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import json
+import argparse
 import os
 import platform
 import statistics
@@ -11,12 +11,68 @@ import sys
 import tempfile
 import textwrap
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..model.formatting import json_text
+
 #: Where ``--save`` writes benchmark records (kept in git as the latest figures).
 REPORTS = Path("results") / "reports"
+
+
+# ----------------------------------------------------------------------------- option types
+# argparse ``type=`` callables: a bad value is refused by the parser in one line, before any
+# benchmark work (``--units 0`` was a ZeroDivisionError, a misspelt material a KeyError).
+
+
+def count(low: int = 1) -> Callable[[str], int]:
+    """An integer option of at least ``low`` (designs, rounds, budgets)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: need a whole number") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"{value}: need at least {low}")
+        return value
+
+    parse.__name__ = "count"  # argparse names the type in its messages
+    return parse
+
+
+def int_list(low: int, high: int) -> Callable[[str], list[int]]:
+    """A comma-separated list of integers in ``[low, high]``, e.g. finger sizes ``2,5,8``."""
+
+    def parse(text: str) -> list[int]:
+        try:
+            values = [int(v) for v in text.split(",") if v.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: need integers like 2,5,8") from None
+        if not values or any(not low <= v <= high for v in values):
+            raise argparse.ArgumentTypeError(f"{text!r}: need integers from {low} to {high}")
+        return values
+
+    parse.__name__ = "list"
+    return parse
+
+
+def name_list(names: Sequence[str]) -> Callable[[str], list[str]]:
+    """A comma-separated list of names out of ``names``."""
+
+    def parse(text: str) -> list[str]:
+        values = [v.strip() for v in text.split(",") if v.strip()]
+        unknown = [v for v in values if v not in names]
+        if not values or unknown:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: choose among {', '.join(names)}"
+                + (f" (not {unknown[0]!r})" if unknown else "")
+            )
+        return values
+
+    parse.__name__ = "list"
+    return parse
 
 
 def machine_info() -> dict[str, Any]:
@@ -96,12 +152,26 @@ def median_time(func: Callable[[], object], *, repeats: int = 7, min_time: float
     return statistics.median(samples)
 
 
+#: The compile-time fields of a run with ``--no-compile`` (null in JSON, not NaN).
+NOT_MEASURED = {"compile_s": None, "cache_load_s": None}
+
+
+def compile_line(record: dict[str, Any]) -> str:
+    """The text line of a record's compile and cache-load times (or that they were skipped)."""
+    if record.get("compile_s") is None:
+        return "compile time not measured (--no-compile)"
+    return (
+        f"compile (cold cache) {record['compile_s']:.1f} s, cache load "
+        f"{record['cache_load_s']:.2f} s"
+    )
+
+
 def emit(record: dict[str, Any], *, as_json: bool, text: str, save: Path | None = None) -> None:
     """Print a benchmark's result as JSON or text, and optionally save the JSON record."""
     if save is not None:
         save.parent.mkdir(parents=True, exist_ok=True)
-        save.write_text(json.dumps(record, indent=2, default=float) + "\n")
+        save.write_text(json_text(record) + "\n")
     if as_json:
-        print(json.dumps(record, indent=2, default=float))
+        print(json_text(record))
     else:
         print(text)

@@ -31,6 +31,7 @@ Baselines need the ``baselines`` extra (``pip install -e ".[baselines]"``).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import math
 import sys
@@ -39,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, machine_info
+from ._common import REPORTS, count, emit, int_list, machine_info, name_list
 
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 #: The paper's best position objectives (mm², MODEL.md §9), per material.
@@ -75,25 +76,37 @@ def register(subparsers) -> None:
         help="file name of --save under the reports folder (e.g. "
         "bench-design-timing.json for a run of the timing scenes only)",
     )
-    parser.add_argument("--targets", default="1,2,3,4,5", help="targets (1-based) to run")
-    parser.add_argument("--materials", default="cheetah-95a,ninjaflex-85a")
+    parser.add_argument(
+        "--targets", type=int_list(1, 5), default="1,2,3,4,5", help="targets (1-based) to run"
+    )
+    parser.add_argument(
+        "--materials",
+        type=name_list(sorted(SCENES)),
+        default="cheetah-95a,ninjaflex-85a",
+        help=f"position scenes' materials, comma-separated, of: {', '.join(sorted(SCENES))}",
+    )
     parser.add_argument(
         "--n-units",
         default=None,
         help="override the scenes' N range, e.g. 2,3 (default: the scenes')",
     )
-    parser.add_argument("--tpe-budget", type=int, default=1500, help="TPE evaluations per target")
     parser.add_argument(
-        "--gp-budget", type=int, default=350, help="GP-BO evaluations per target (shared by its N)"
+        "--tpe-budget", type=count(1), default=1500, help="TPE evaluations per target"
+    )
+    parser.add_argument(
+        "--gp-budget",
+        type=count(1),
+        default=350,
+        help="GP-BO evaluations per target (shared by its N)",
     )
     parser.add_argument("--skip-gripper", action="store_true", help="position targets only")
     parser.add_argument(
         "--gripper-budget",
-        type=int,
+        type=count(1),
         default=600,
         help="baseline evaluations on the gripper's apertures",
     )
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0, help="seed of the optimisers' random starts")
     parser.add_argument(
         "--no-seeded",
         action="store_true",
@@ -175,11 +188,13 @@ def run_gp(problems, f, budget: int, seed: int) -> None:
     for i in range(budget):
         n = ns[i % len(ns)]
         opt = optimisers[n]
-        with warnings.catch_warnings():
+        # bayesian-optimization prints notices (duplicate points) on stdout, whatever its
+        # verbosity: they go to stderr, so that `--json` leaves one JSON document on stdout
+        with warnings.catch_warnings(), contextlib.redirect_stdout(sys.stderr):
             warnings.simplefilter("ignore")
             params = opt.suggest()
-        z = np.array([params[f"z{j:02d}"] for j in range(problems[n].dim)])
-        opt.register(params=params, target=-f(n, z))
+            z = np.array([params[f"z{j:02d}"] for j in range(problems[n].dim)])
+            opt.register(params=params, target=-f(n, z))
 
 
 # ----------------------------------------------------------------------------- runs
@@ -333,8 +348,8 @@ def run(args: argparse.Namespace) -> int:
     args.seed_datasets = {}
     rows = []
     started = time.perf_counter()
-    targets = [int(t) - 1 for t in args.targets.split(",") if t]
-    materials = [] if args.skip_position else [m for m in args.materials.split(",") if m]
+    targets = [t - 1 for t in args.targets]
+    materials = [] if args.skip_position else args.materials
     for material in materials:
         spec = load_scene(JOBS / SCENES[material])
         if args.n_units:

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_time
+from ._common import REPORTS, count, emit, fresh_process_timings, machine_info, median_time
 
 #: (method, atol in mm or None for the default) rows of the time-vs-error table.
 LADDER = (
@@ -67,24 +67,24 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "dynamics",
         help="reset times: every integrator and reduced model, time vs error, vs SciPy Radau",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--designs", type=int, default=100, help="random metastable designs")
+    parser.add_argument("--designs", type=count(1), default=100, help="random metastable designs")
     parser.add_argument(
         "--radau-designs",
-        type=int,
+        type=count(1),
         default=10,
         help="random designs also run with SciPy Radau (baseline and check)",
     )
     parser.add_argument(
         "--explicit-designs",
-        type=int,
+        type=count(0),
         default=3,
         help="random designs run with the explicit full-model dopri5 "
         "(0 also skips it on the pick-and-place finger)",
     )
-    parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument("--seed", type=int, default=2024, help="seed of the sampled designs")
     parser.add_argument(
         "--no-compile",
         action="store_true",

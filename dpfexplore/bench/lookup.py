@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, machine_info, median_time
+from ._common import REPORTS, count, emit, machine_info, median_time
 
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 DEFAULT_DATASET = Path("results") / "lookup-million"
@@ -44,7 +44,7 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "lookup",
         help="lookup index build, k-nearest query vs brute-force scan, refinement to 1e-6 mm",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument(
@@ -62,16 +62,19 @@ def register(subparsers) -> None:
         default=JOBS / "lookup-million.toml",
         help="job that makes the dataset when it is missing",
     )
-    parser.add_argument("--builds", type=int, default=3, help="index builds timed (median)")
-    parser.add_argument("--queries", type=int, default=200, help="query targets")
-    parser.add_argument("--k", type=int, default=10, help="neighbours per query")
-    parser.add_argument("--targets", type=int, default=200, help="refinement targets")
+    parser.add_argument("--builds", type=count(1), default=3, help="index builds timed (median)")
+    parser.add_argument("--queries", type=count(1), default=200, help="query targets")
+    parser.add_argument("--k", type=count(1), default=10, help="neighbours per query")
+    parser.add_argument("--targets", type=count(1), default=200, help="refinement targets")
     parser.add_argument(
-        "--tries", type=int, default=3, help="candidates refined per target at most (nearest first)"
+        "--tries",
+        type=count(1),
+        default=3,
+        help="candidates refined per target at most (nearest first)",
     )
     parser.add_argument(
         "--baseline-targets",
-        type=int,
+        type=count(1),
         default=50,
         help="targets refined with central differences (the baseline)",
     )

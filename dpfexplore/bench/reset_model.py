@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from ._common import REPORTS, emit, machine_info, median_time
+from ._common import REPORTS, count, emit, machine_info, median_time
 from .dynamics import sample_metastable_designs
 
 PULSE = (0.7, (0.0, 1.0, 5.0, 5.1))
@@ -46,11 +46,11 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "reset-model",
         help="fast reset-time model: time, errors, class agreement, coverage, fallbacks",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--designs", type=int, default=500, help="held-out random designs")
-    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--designs", type=count(1), default=500, help="held-out random designs")
+    parser.add_argument("--seed", type=int, default=7, help="seed of the held-out designs")
     parser.add_argument("--model", default=None, help="model file (default: the packaged one)")
     parser.add_argument(
         "--max-rel-halfwidth",

@@ -34,7 +34,17 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from ._common import REPORTS, emit, fresh_process_timings, machine_info
+from ..model.limits import MAX_UNITS
+from ._common import (
+    NOT_MEASURED,
+    REPORTS,
+    compile_line,
+    count,
+    emit,
+    fresh_process_timings,
+    int_list,
+    machine_info,
+)
 
 #: Finger sizes measured by default.
 UNITS = (2, 5, 8, 12)
@@ -55,20 +65,23 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "sensitivities",
         help="design sensitivities vs finite differences; find_state / small-batch API costs",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument(
-        "--units", default=",".join(map(str, UNITS)), help="finger sizes N (default 2,5,8,12)"
+        "--units",
+        type=int_list(1, MAX_UNITS),
+        default=",".join(map(str, UNITS)),
+        help="finger sizes N (default 2,5,8,12)",
     )
-    parser.add_argument("--designs", type=int, default=30, help="designs per N (timing)")
+    parser.add_argument("--designs", type=count(1), default=30, help="designs per N (timing)")
     parser.add_argument(
         "--reference-designs",
-        type=int,
+        type=count(1),
         default=5,
         help="designs per N checked against the finite-difference reference",
     )
-    parser.add_argument("--seed", type=int, default=2025)
+    parser.add_argument("--seed", type=int, default=2025, help="seed of the sampled designs")
     parser.add_argument(
         "--no-compile",
         action="store_true",
@@ -401,11 +414,7 @@ def measure(
     compile_time: bool = False,
 ) -> dict:
     """The benchmark's record: per-N sensitivity rows, API rows, machine, compile times."""
-    compile_times = (
-        _compile_seconds()
-        if compile_time
-        else {"compile_s": float("nan"), "cache_load_s": float("nan")}
-    )
+    compile_times = _compile_seconds() if compile_time else dict(NOT_MEASURED)
     by_n = [bench_size(n, designs, reference_designs, seed + n) for n in units]
     return {
         "by_n_units": by_n,
@@ -459,15 +468,14 @@ def text_rows(record: dict) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench sensitivities``."""
-    units = tuple(int(s) for s in args.units.split(","))
+    units = tuple(args.units)
     record = measure(
         units, args.designs, args.reference_designs, args.seed, compile_time=not args.no_compile
     )
     machine = record["machine"]
     header = [
         f"machine: {machine['cpu']}, {machine['cores']} cores; {machine['date']}",
-        f"compile (cold cache) {record['compile_s']:.1f} s, cache load "
-        f"{record['cache_load_s']:.2f} s",
+        compile_line(record),
     ]
     emit(
         record,

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_time
+from ._common import REPORTS, count, emit, fresh_process_timings, machine_info, median_time
 
 #: Ramp durations (s) of the slow-ramp simulations.
 DURATIONS = (20.0, 200.0, 2000.0)
@@ -44,7 +44,7 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "snap",
         help="snap pressures: cost per design and agreement with slow-ramp simulations",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument(
@@ -53,16 +53,18 @@ def register(subparsers) -> None:
         default=(2, 4, 6, 8),
         help="finger sizes N, comma-separated (default 2,4,6,8)",
     )
-    parser.add_argument("--designs", type=int, default=40, help="random designs per N")
+    parser.add_argument("--designs", type=count(1), default=40, help="random designs per N")
     parser.add_argument(
         "--ramp-designs",
-        type=int,
+        type=count(1),
         default=8,
         help="random designs (N = 2-4) checked against slow ramps",
     )
     parser.add_argument("--P-max", type=float, default=0.8, help="top of the ramp, MPa")
-    parser.add_argument("--rounds", type=int, default=3, help="timing rounds through all designs")
-    parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument(
+        "--rounds", type=count(1), default=3, help="timing rounds through all designs"
+    )
+    parser.add_argument("--seed", type=int, default=2024, help="seed of the sampled designs")
     parser.add_argument(
         "--no-compile", action="store_true", help="skip the fresh-process compile-time measurement"
     )

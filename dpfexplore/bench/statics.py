@@ -30,7 +30,18 @@ import time
 
 import numpy as np
 
-from ._common import REPORTS, emit, fresh_process_timings, machine_info, median_time
+from ..model.limits import MAX_UNITS
+from ._common import (
+    NOT_MEASURED,
+    REPORTS,
+    compile_line,
+    count,
+    emit,
+    fresh_process_timings,
+    int_list,
+    machine_info,
+    median_time,
+)
 
 #: The paper's model time per design (Table sim_time, 2-6 units), s.
 PAPER_SECONDS = (0.58, 0.76)
@@ -42,13 +53,20 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "statics",
         help="all-inverted state + stiffness: ours vs SciPy BFGS (times in µs per design)",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
-    parser.add_argument("--units", default="2,5,8", help="finger sizes N (default 2,5,8)")
-    parser.add_argument("--designs", type=int, default=500, help="designs per N for ours")
-    parser.add_argument("--scipy-designs", type=int, default=30, help="designs per N for SciPy")
-    parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument(
+        "--units",
+        type=int_list(1, MAX_UNITS),
+        default="2,5,8",
+        help="finger sizes N (default 2,5,8)",
+    )
+    parser.add_argument("--designs", type=count(1), default=500, help="designs per N for ours")
+    parser.add_argument(
+        "--scipy-designs", type=count(1), default=30, help="designs per N for SciPy"
+    )
+    parser.add_argument("--seed", type=int, default=2024, help="seed of the sampled designs")
     parser.add_argument(
         "--no-compile",
         action="store_true",
@@ -56,7 +74,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--rounds",
-        type=int,
+        type=count(1),
         default=5,
         help="interleaved rounds of ours and SciPy (medians over rounds)",
     )
@@ -313,12 +331,8 @@ def bench_size(n_units: int, n_designs: int, n_scipy: int, seed: int, rounds: in
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore bench statics``."""
-    sizes = [int(s) for s in args.units.split(",")]
-    compile_times = (
-        {"compile_s": float("nan"), "cache_load_s": float("nan")}
-        if args.no_compile
-        else _compile_seconds()
-    )
+    sizes = args.units
+    compile_times = dict(NOT_MEASURED) if args.no_compile else _compile_seconds()
     records = [
         bench_size(n, args.designs, args.scipy_designs, args.seed + n, args.rounds) for n in sizes
     ]
@@ -328,8 +342,7 @@ def run(args: argparse.Namespace) -> int:
         "statics: all-inverted state + tip stiffness on one core: median per design, and the"
         " batch mean",
         f"machine: {record['machine']['cpu']}, {record['machine']['cores']} cores",
-        f"compile (cold cache) {compile_times['compile_s']:.1f} s, cache load "
-        f"{compile_times['cache_load_s']:.2f} s",
+        compile_line(compile_times),
         f"{'N':>3} {'median µs':>9} {'p90 µs':>7} {'mean µs':>9} {'+eig µs':>9} {'SciPy µs':>10} "
         f"{'speedup':>8} "
         f"{'ours tip err':>13} {'SciPy tip err':>14} {'same state':>10} "

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._common import REPORTS, emit, machine_info
+from ._common import REPORTS, count, emit, machine_info
 
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 OUTPUTS = ("tip_x", "tip_y", "curvature", "stiffness")
@@ -38,7 +38,7 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "surrogate",
         help="surrogates of the paper's box: held-out error and speed against the exact model",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument(
@@ -52,7 +52,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--samples-per-n",
-        type=int,
+        type=count(1),
         help="designs per N of the training job (default: the job's 20000)",
     )
     parser.add_argument("--kinds", default="knn,gbt,mlp,gp,chain", help="regressor kinds")
@@ -66,7 +66,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--reset-designs",
-        type=int,
+        type=count(1),
         default=500,
         metavar="N",
         help="held-out metastable designs of the reset-model section (default 500)",

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, emit, fresh_process_timings, machine_info
+from ._common import REPORTS, count, emit, fresh_process_timings, machine_info
 
 #: The paper's model time per design (Table sim_time), s; the issue's figure for the job.
 PAPER_SECONDS_PER_DESIGN = 0.66
@@ -47,34 +47,39 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "sweep",
         help="sweep jobs end to end: paper job wall time, Dask overhead, designs/s, peak RSS",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("--json", action="store_true", help="print the JSON record")
     parser.add_argument(
         "--save", action="store_true", help=f"also write the record to {REPORTS}/bench-sweep.json"
     )
     parser.add_argument("--jobs-dir", type=Path, default=JOBS, help="where the job files are")
-    parser.add_argument("--repeats", type=int, default=3, help="runs of the paper job (median)")
+    parser.add_argument(
+        "--repeats", type=count(1), default=3, help="runs of the paper job (median)"
+    )
     parser.add_argument(
         "--baseline-designs",
-        type=int,
+        type=count(1),
         default=30,
         help="designs per N solved one at a time for the baseline",
     )
     parser.add_argument(
         "--overnight-designs",
-        type=int,
+        type=count(1),
         default=100,
         help="designs per N of the overnight job's subsample",
     )
     parser.add_argument(
         "--rss-designs",
-        type=int,
+        type=count(0),
         default=1_000_000,
         help="designs of the peak-RSS run (0 skips it)",
     )
     parser.add_argument(
-        "--workers", type=int, default=None, help="Dask worker processes (default: one per core)"
+        "--workers",
+        type=count(1),
+        default=None,
+        help="Dask worker processes (default: one per core)",
     )
     parser.add_argument("--skip-dask", action="store_true", help="do not run the Dask engine")
     parser.add_argument(

@@ -29,6 +29,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
+from ._help import ArgumentParser
 from ._output import (
     SafeStreamHandler,
     TolerantStream,
@@ -68,7 +69,7 @@ def _version_text() -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every registered subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="dpfexplore",
         description=(
             "Batch design-space explorer for multistable Dome Phalanx Fingers. "

@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
+from ..model.formatting import json_text  # noqa: F401  (re-exported for the commands)
+
 
 class UsageError(Exception):
     """Bad input from the user: printed as one line, exit code 2."""

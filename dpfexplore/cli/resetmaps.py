@@ -32,6 +32,7 @@ def register(subparsers) -> None:
         "--method",
         default=DEFAULT_METHOD,
         choices=sorted(n for n, i in METHODS.items() if i.integrator >= 0),
+        help="integrator of the reset simulations",
     )
     parser.add_argument("--quick", action="store_true", help="coarse grids (a smoke run)")
     parser.set_defaults(handler=run)

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
 from itertools import pairwise
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
-from ._output import output_path
+from ._output import json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -54,7 +53,7 @@ def register(subparsers) -> None:
         help="held-out bench designs evaluated into the model's record (0: skip)",
     )
     fit.add_argument("--atol", type=float, default=3e-3, help="the core's tolerance, mm")
-    fit.add_argument("--seed", type=int, default=2025)
+    fit.add_argument("--seed", type=int, default=2025, help="seed of the training designs")
     fit.add_argument("--json", action="store_true", help="print the training record as JSON")
     fit.set_defaults(handler=run_fit)
     report = sub.add_parser(
@@ -130,7 +129,7 @@ def run_fit(args) -> int:
     path = model.save(args.out)
     record = {**record, "test": model.info.get("test"), "saved": str(path)}
     if args.json:
-        print(json.dumps(record, indent=2, default=float))
+        print(json_text(record))
     else:
         print(_summary(model, path))
     return EXIT_OK
@@ -147,7 +146,7 @@ def run_report(args) -> int:
         raise UsageError(str(exc)) from None
     if args.json:
         data = {k: v for k, v in model.to_dict().items() if k not in ("correction", "scale")}
-        print(json.dumps(data, indent=2, default=float))
+        print(json_text(data))
     else:
         print(_summary(model, path))
     return EXIT_OK

@@ -7,7 +7,8 @@ import math
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
-from ._output import FIGURE_SUFFIXES, fitted_range_line, output_path
+from ._inputs import design_argument
+from ._output import FIGURE_SUFFIXES, fitted_range_line, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -57,18 +58,6 @@ def register(subparsers) -> None:
     parser.set_defaults(handler=run)
 
 
-def _design(text: str):
-    from ..examples import NAMES, example_path
-    from ..model.design import load_design
-
-    path = Path(text)
-    if not path.exists() and text in NAMES:
-        path = example_path(text)
-    if not path.exists():
-        raise UsageError(f"{text}: no such design file (examples: {', '.join(NAMES)})")
-    return load_design(path)
-
-
 def _profile(args):
     from ..solvers.dynamics.simulate import PressureProfile
 
@@ -98,7 +87,7 @@ def run(args) -> int:
     if args.method != "fast" and (args.max_rel_halfwidth is not None or args.reset_model):
         raise UsageError("--max-rel-halfwidth and --reset-model need --method fast")
     try:
-        design = _design(args.design)
+        design = design_argument(args.design)
         profile = _profile(args)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -129,7 +118,7 @@ def run(args) -> int:
     summary["fitted_range"] = note is None
     summary["fitted_range_note"] = note
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(json_text(summary))
     else:
         print(
             f"design {design.name or args.design}: {design.n_units} units, method "

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._output import FIGURE_SUFFIXES, output_path
+from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -67,7 +66,7 @@ def run(args) -> int:
         raise UsageError(str(exc)) from None
     summary = result.to_dict()
     if args.json:
-        print(json.dumps(summary))
+        print(json_text(summary, indent=None))
     else:
         _print_text(result, summary)
     if plot is not None:

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._output import FIGURE_SUFFIXES, output_path
+from ._inputs import design_argument
+from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -64,11 +64,10 @@ def run(args) -> int:
     """Handler of ``dpfexplore snap``."""
     from ..model.status import Status
     from ..solvers.snap.continuation import snap_pressures
-    from .simulate import _design
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
-        design = _design(args.design)
+        design = design_argument(args.design)
         seq = snap_pressures(
             design,
             P_max=args.P_max,
@@ -85,7 +84,7 @@ def run(args) -> int:
         print(f"dpfexplore snap: {exc}", file=sys.stderr)
         return EXIT_FAILURE
     if args.json:
-        print(json.dumps(seq.to_dict(), indent=2))
+        print(json_text(seq.to_dict()))
     else:
         _print_table(seq, design, args.design)
     if plot is not None:

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
-from ._output import FIGURE_SUFFIXES, fitted_range_line, output_path
+from ._inputs import design_argument
+from ._output import FIGURE_SUFFIXES, fitted_range_line, json_text, output_path
 
 UNITS_HELP = (
     "Units: lengths and tip coordinates in mm (model frame: base at the origin, limiting layer "
@@ -50,18 +50,17 @@ def _number(value: float):
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore states``."""
-    from ..model.design import load_design
     from ..model.gripper import gripper_aperture
     from ..solvers.compilation import compile_notice
     from ..solvers.lattice import spring_constants
     from ..solvers.statics import enumerate_states
 
     try:
-        design = load_design(args.design)
+        design = design_argument(args.design)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    notice = compile_notice(["statics"])
+    notice = compile_notice(["states"])
     if notice:
         error_line(f"dpfexplore states: {notice} ...")
     results = enumerate_states(design, "sequential" if args.sequential else "all")
@@ -89,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
             "fitted_range_note": note,
             "states": rows,
         }
-        json.dump(document, sys.stdout, indent=2)
+        sys.stdout.write(json_text(document))
         print()
     else:
         _print_table(rows, design.n_units, bool(args.gripper))

@@ -34,6 +34,7 @@ from .constants import (
 from .domain import MAX_UNITS, active_units, fitted_range, outside_domain, unit_in_domain
 from .formatting import num as _num
 from .formatting import nums as _nums
+from .materials import MATERIALS, Material, material
 
 __all__ = [
     "MATERIALS",
@@ -44,43 +45,6 @@ __all__ = [
     "load_design",
     "material",
 ]
-
-
-@dataclass(frozen=True)
-class Material:
-    """A printing material.
-
-    Attributes
-    ----------
-    name : str
-        Trade name.
-    E : float, MPa
-        Young's modulus.
-    nu : float
-        Poisson ratio.
-    """
-
-    name: str
-    E: float
-    nu: float = 0.35
-
-
-#: Material presets (MODEL.md §2): Cheetah 95A at the implementation's modulus, NinjaFlex 85A at
-#: the manufacturer's.
-MATERIALS: dict[str, Material] = {
-    "cheetah-95a": Material("Cheetah 95A", 26.0),
-    "ninjaflex-85a": Material("NinjaFlex 85A", 12.0),
-}
-
-
-def material(key: str) -> Material:
-    """Look up a material preset by key (``"cheetah-95a"`` or ``"ninjaflex-85a"``)."""
-    try:
-        return MATERIALS[key.lower()]
-    except KeyError:
-        raise ValueError(
-            f"material = {key!r}: unknown material; choose one of {sorted(MATERIALS)}"
-        ) from None
 
 
 PER_UNIT_FIELDS = ("H", "U_L", "U_sep")

@@ -44,8 +44,7 @@ import numpy as np
 from numba.extending import register_jitable
 from numpy.typing import NDArray
 
-#: Largest number of units a design may have (MODEL.md §2: ``N`` from 1 to 12).
-MAX_UNITS = 12
+from .limits import MAX_UNITS  # re-exported: defined where front ends need no Numba
 
 #: Ranges the closed forms of MODEL.md §3 were fitted on: ``name: (low, high, unit)``.
 #: ``H`` and ``t``: the paper's Table var_ranges, on which the regressions were fitted (MODEL.md

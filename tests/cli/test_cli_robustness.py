@@ -209,18 +209,22 @@ def test_verbose_prints_each_progress_line_once(tmp_path):
 
 
 def test_a_first_compilation_is_announced(tmp_path):
+    from dpfexplore.model.design import load_design
     from dpfexplore.solvers.compilation import compile_notice
-    from dpfexplore.solvers.statics import solve_batch
+    from dpfexplore.solvers.statics import find_state
 
-    solve_batch(DesignBatch.from_designs([]), "all_inverted")  # compiled (or loaded) here
-    assert compile_notice(["statics"]) is None
+    # one design runs the serial kernels: `states` checks those, not the parallel batch ones
+    find_state(load_design(example_path("gripper")), "11110")  # compiled (or loaded) here
+    assert compile_notice(["states"]) is None
     # A fresh process with an empty cache has nothing compiled: it says so before compiling.
     code = (
         "from dpfexplore.solvers.compilation import compile_notice; "
-        "print(compile_notice(['statics']))"
+        "print(compile_notice(['states', 'statics']))"
     )
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty-cache")}
     said = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
     ).stdout
-    assert said.startswith("compiling the statics kernels for this machine (first run only")
+    assert said.startswith(
+        "compiling the states and statics kernels for this machine (first run only"
+    )

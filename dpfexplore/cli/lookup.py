@@ -179,8 +179,20 @@ def _print(result, written) -> None:
         + "".join(f"{'':>12}  " for _ in extra)
         + f"{'':>9}"
     )
+    # Where each printed value comes from: the verification solve, or the dataset row.
+    provenance = result.provenance
+    label = {"re-read-unverified": "unverified"}
+    sources = (
+        f"{'':>2}  {'':>2}  {'':<12}  {'':<9}  "
+        f"{label.get(provenance['tip_x'], provenance['tip_x']):>9}  "
+        f"{label.get(provenance['tip_y'], provenance['tip_y']):>9}  {'':>9}  "
+        f"{label.get(provenance['stiffness'], provenance['stiffness']):>9}  "
+        + "".join(f"{label.get(provenance[c], provenance[c]):>12}  " for c in extra)
+        + f"{'re-read' if result.verified else 'unverified':>9}"
+    )
     print(header)
     print(units)
+    print(sources.rstrip())
     for rank, c in enumerate(result.candidates, start=1):
         values = dict(zip(result.columns, c.values, strict=True))
         print(
@@ -189,6 +201,7 @@ def _print(result, written) -> None:
             + "".join(f"{values[e]:12.6g}  " for e in extra)
             + f"{c.source_distance:9.4f}  {'yes' if c.fitted_range else 'NO':<3}  {c.design_id}"
             + (" (refined)" if c.refined else "")
+            + (f" (also {', '.join(str(i) for i in c.also_from)})" if c.also_from else "")
         )
     for note in result.notes:
         print(f"note: {note}")

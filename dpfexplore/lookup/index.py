@@ -15,7 +15,12 @@ multi-state dataset). A query over several ``N`` queries each slice and merges. 
 ``--where`` expression) is applied exactly: the tree is asked for more neighbours until ``k`` rows
 pass it, or a small filtered set is scanned directly.
 
-Persistence (saved beside the dataset, refused when stale) is in :mod:`.lookup_store`.
+Persistence (saved beside the dataset, verified on load, rebuilt when stale or damaged) is in
+:mod:`.store`.
+
+An index records the chunks it was read from (:class:`ChunkSource`: path, size and SHA-256 as
+the manifest listed them when each was read) and whether those reads were verified against the
+SHA-256 (:attr:`LookupIndex.verified`); only a verified index is ever saved.
 
 A dataset that a sweep is still writing is indexed through its committed chunks only (the
 manifest is the commit record); :attr:`LookupIndex.complete` says whether it was complete.
@@ -39,12 +44,14 @@ from ..sweep.store import read_schema
 
 __all__ = [
     "DEFAULT_COLUMNS",
+    "ChunkSource",
     "LookupIndex",
     "StaleIndexError",
     "build_index",
     "check_columns",
     "check_scales",
     "mask_of",
+    "stale_reason",
 ]
 
 #: Columns indexed when none are named: the tip position (mm).
@@ -56,7 +63,36 @@ _ROW_COLUMNS = ("design_id", "n_units", "requested", "status")
 
 
 class StaleIndexError(Exception):
-    """A saved or loaded index no longer describes its dataset (the dataset changed)."""
+    """A saved or loaded index no longer describes its dataset (the dataset changed).
+
+    Attributes
+    ----------
+    reason : str
+        One short clause saying why (``"it is stale: ..."``), for a note to the user.
+    """
+
+    def __init__(self, message: str, reason: str | None = None) -> None:
+        super().__init__(message)
+        self.reason = reason or message
+
+
+@dataclass(frozen=True)
+class ChunkSource:
+    """A chunk an index was read from, as the dataset's manifest listed it at that time.
+
+    Attributes
+    ----------
+    path : str
+        Relative POSIX path inside the dataset (``N05/part-000012.parquet``).
+    sha256 : str
+        The manifest's SHA-256 of the file (hex).
+    bytes : int
+        The manifest's file size.
+    """
+
+    path: str
+    sha256: str
+    bytes: int
 
 
 # ----------------------------------------------------------------------------- columns
@@ -102,6 +138,32 @@ def check_scales(scales: ArrayLike | None, columns: Sequence[str]) -> NDArray[np
     return values
 
 
+def stale_reason(
+    files: Sequence[str], sources: Sequence[ChunkSource], checksum: str, info: DatasetInfo
+) -> str | None:
+    """Why an index read from ``sources`` no longer describes the dataset, or None.
+
+    Stale when the dataset checksum differs from ``checksum``, or (``sources`` given) a chunk
+    read is no longer committed with the SHA-256 and size it had, or chunks were committed since.
+    """
+    now = {r.path: r for r in info.records}
+    changed = [
+        s.path
+        for s in sources
+        if s.path not in now or (now[s.path].sha256, now[s.path].bytes) != (s.sha256, s.bytes)
+    ]
+    if sources and tuple(s.path for s in sources) != tuple(files):
+        changed.append("its file list")
+    added = bool(sources) and set(now) != set(files)
+    if info.checksum == checksum and not changed and not added:
+        return None
+    detail = f"; changed: {changed[0][:80]}" if changed else ""
+    return (
+        f"it is stale: the dataset changed after it was built ({len(files)} chunk files then, "
+        f"{len(info.chunks)} now{detail})"
+    )
+
+
 # ----------------------------------------------------------------------------- the index
 
 
@@ -135,6 +197,12 @@ class LookupIndex:
         Whether that dataset was complete.
     rows_read : int
         Rows of the committed chunks (indexed or not).
+    sources : tuple of ChunkSource
+        The manifest records of :attr:`files` when they were read (same order); empty for an
+        index assembled by hand, which :meth:`check` then judges by :attr:`checksum` alone.
+    verified : bool
+        Every chunk was read through a SHA-256 check against ``sources``. Only such an index
+        is saved (:func:`~.store.save_index`).
     """
 
     root: Path
@@ -150,6 +218,8 @@ class LookupIndex:
     checksum: str
     complete: bool
     rows_read: int
+    sources: tuple[ChunkSource, ...] = ()
+    verified: bool = False
     _slices: dict[tuple, slice] = field(default_factory=dict, repr=False)
     _trees: dict[tuple, cKDTree] = field(default_factory=dict, repr=False)
 
@@ -193,14 +263,18 @@ class LookupIndex:
         return tree
 
     def check(self, info: DatasetInfo | None = None) -> None:
-        """Raise :class:`StaleIndexError` unless the dataset still holds what was indexed."""
+        """Raise :class:`StaleIndexError` unless the dataset still holds what was indexed.
+
+        The dataset's checksum must be the one recorded, and every chunk the rows were read
+        from must be committed now with the SHA-256 it had when it was read.
+        """
         info = info or dataset_info(self.root)
-        if info.checksum != self.checksum:
+        reason = stale_reason(self.files, self.sources, self.checksum, info)
+        if reason is not None:
             raise StaleIndexError(
-                f"{self.root}: the lookup index of {', '.join(self.columns)} is stale: the "
-                f"dataset changed after it was built ({len(self.files)} chunk files then, "
-                f"{len(info.chunks)} now); rebuild it (open_index, or dpfexplore lookup without "
-                "--no-rebuild)"
+                f"{self.root}: the lookup index of {', '.join(self.columns)}: {reason}; rebuild "
+                "it (open_index, or dpfexplore lookup without --no-rebuild)",
+                reason,
             )
 
     def with_scales(self, scales: ArrayLike | None) -> LookupIndex:
@@ -219,6 +293,8 @@ class LookupIndex:
             checksum=self.checksum,
             complete=self.complete,
             rows_read=self.rows_read,
+            sources=self.sources,
+            verified=self.verified,
         )
 
     # ------------------------------------------------------------------ queries
@@ -385,7 +461,7 @@ def build_index(
     Only ``ok`` rows with finite values in every column are indexed. With ``verify`` (the
     default, as every dataset read) each chunk's bytes are checked against the manifest's
     SHA-256 before they are decoded, which reads every file whole; ``verify=False`` reads only
-    the needed columns.
+    the needed columns and gives an index with ``verified = False``, which is never saved.
 
     Raises
     ------
@@ -442,6 +518,9 @@ def build_index(
         checksum=info.checksum,
         complete=info.complete,
         rows_read=rows_read,
+        # The records the reads were checked against (``info``'s, not a later manifest's).
+        sources=tuple(ChunkSource(r.path, r.sha256, int(r.bytes)) for r in info.records),
+        verified=bool(verify),
     )
 
 

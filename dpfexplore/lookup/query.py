@@ -17,6 +17,16 @@ Guarantees
     * Every reported design is re-solved (all candidates in one
       :func:`~dpfexplore.solvers.statics.solve_batch` call); its tip, stiffness, state and
       error are those of that solve, never the dataset's or the refinement's values.
+    * Every reported value says where it comes from (:attr:`Candidate.provenance`):
+      ``"re-solved"`` for the columns the model computes (:data:`RESOLVED_COLUMNS`: the tip,
+      stiffness, energies, angles, ...), ``"re-read"`` for the others (reset times, ...), read
+      back from the candidate's row of the verified chunk, never from the index's copy
+      (``"re-read-unverified"`` with ``verify=False``). The index only chooses the rows: each
+      row read back must have the design_id and state the index gave it, else the index is
+      rebuilt and the query made again.
+    * A design is reported once: candidates of the same state whose designs are the same (the
+      same dataset row, or refinements that ended on the same design, e.g. at a corner of the
+      box) are merged into the best of them (:attr:`Candidate.also_from`).
     * A design outside the range the closed forms were fitted on (MODEL.md §3) carries
       ``fitted_range = False`` and a note.
     * With ``refine=True``, the target is *reachable* when some candidate meets it; otherwise the
@@ -31,7 +41,7 @@ import math
 import re
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,12 +58,13 @@ from ..solvers.statics import OUTPUT_COLUMNS, solve_batch, state_string
 from ..sweep.datasets import DatasetInfo, dataset_info
 from ..sweep.space import parse_job
 from ..sweep.store import read_results, read_schema
-from .index import DEFAULT_COLUMNS, LookupIndex, mask_of
+from .index import DEFAULT_COLUMNS, LookupIndex, StaleIndexError, mask_of
 from .polish import REFINABLE_COLUMNS, Refinement, variables_for
 from .polish import refine as refine_design
 from .store import IndexOrigin, open_index
 
 __all__ = [
+    "RESOLVED_COLUMNS",
     "Candidate",
     "LookupResult",
     "lookup",
@@ -66,6 +77,14 @@ logger = logging.getLogger(__name__)
 #: Order of candidate statuses in the output (best first within a status by error).
 STATUS_ORDER = ("ok", "not_met", "collapsed", "failed")
 VERIFIED_NOTE = "every reported design was re-solved by the exact model before it was reported"
+#: Columns the verification solve recomputes; any other reported column is re-read.
+RESOLVED_COLUMNS = tuple(OUTPUT_COLUMNS)
+#: Provenance of a reported value (:attr:`Candidate.provenance`).
+RESOLVED, REREAD, REREAD_UNVERIFIED = "re-solved", "re-read", "re-read-unverified"
+#: Columns the table always prints besides the indexed ones (all re-solved).
+_ALWAYS_PRINTED = ("tip_x", "tip_y", "stiffness")
+#: Two designs whose parameters (mm, 1, MPa) differ by no more than this are the same design.
+_SAME_DESIGN_ATOL = 1e-9
 
 
 def parse_n_units(text: str) -> tuple[int, ...]:
@@ -108,7 +127,8 @@ class Candidate:
         does not exist at the design, or collapsed on the way to the target; ``failed``: the
         solver failed.
     values : ndarray of shape (d,)
-        The indexed columns at the design (re-solved where the model computes them).
+        The indexed columns at the design: re-solved where the model computes them, else
+        re-read from the design's dataset row (see ``provenance``).
     tip : ndarray of shape (2,), mm
     stiffness : float, N/mm
     error : float
@@ -123,10 +143,18 @@ class Candidate:
     source_distance : float
         That row's scaled distance from the target.
     source_values : ndarray of shape (d,)
-        That row's values in the dataset.
+        That row's values in the dataset (re-read from its chunk, not the index's copy).
     fitted_range : bool
     fitted_range_note : str or None
     refinement : Refinement or None
+    provenance : tuple of str
+        Per indexed column, where ``values`` comes from: ``"re-solved"`` (the verification
+        solve), ``"re-read"`` (the dataset row, read through a SHA-256 check),
+        ``"re-read-unverified"`` (the same without the check, ``verify=False``) or ``"none"``
+        (a refined design, for a column the model does not compute: NaN).
+    also_from : tuple of int
+        design_ids of other candidates that were the same design in the same state, merged
+        into this one.
     """
 
     design: Design
@@ -146,6 +174,8 @@ class Candidate:
     fitted_range: bool
     fitted_range_note: str | None
     refinement: Refinement | None = None
+    provenance: tuple[str, ...] = ()
+    also_from: tuple[int, ...] = ()
 
     def to_dict(self, columns: Sequence[str]) -> dict[str, Any]:
         """JSON-ready mapping (``"design"`` holds the keys of a ``[design]`` table)."""
@@ -163,6 +193,11 @@ class Candidate:
             "status": self.status,
             "met": self.met,
             "values": {c: json_number(v) for c, v in zip(columns, self.values, strict=True)},
+            "provenance": {
+                "tip": RESOLVED,
+                "stiffness": RESOLVED,
+                **(dict(zip(columns, self.provenance, strict=True)) if self.provenance else {}),
+            },
             "refined": self.refined,
             "fitted_range": self.fitted_range,
             "fitted_range_note": self.fitted_range_note,
@@ -173,6 +208,7 @@ class Candidate:
                 "values": {
                     c: json_number(v) for c, v in zip(columns, self.source_values, strict=True)
                 },
+                "also_from": list(self.also_from),
             },
         }
         if self.refinement is not None:
@@ -219,6 +255,8 @@ class LookupResult:
         The filters of the lookup.
     index : LookupIndex
         The index that answered (for :func:`reachable_tips`).
+    verified : bool
+        The dataset rows were read through a SHA-256 check (``verify=True``).
     """
 
     target: NDArray
@@ -238,6 +276,20 @@ class LookupResult:
     n_units: tuple[int, ...] | None = None
     where: str | None = None
     index: LookupIndex | None = field(default=None, repr=False, compare=False)
+    verified: bool = True
+
+    @property
+    def provenance(self) -> dict[str, str]:
+        """Where each printed column's values come from, over all candidates.
+
+        The tip and stiffness (always printed) and every indexed column, each ``"re-solved"``,
+        ``"re-read"``, ``"re-read-unverified"`` or ``"none"``; several kinds joined by ``+``.
+        """
+        out = {c: RESOLVED for c in _ALWAYS_PRINTED}
+        for j, column in enumerate(self.columns):
+            kinds = sorted({c.provenance[j] for c in self.candidates if c.provenance})
+            out[column] = "+".join(kinds) if kinds else RESOLVED
+        return out
 
     @property
     def best(self) -> Candidate:
@@ -260,6 +312,7 @@ class LookupResult:
                 "where": self.where,
             },
             "candidates": [c.to_dict(self.columns) for c in self.candidates],
+            "provenance": self.provenance,
             "dataset": {
                 "path": str(self.dataset.root),
                 "complete": self.dataset.complete,
@@ -271,7 +324,11 @@ class LookupResult:
                 "action": origin.action if origin else "given",
                 "path": str(origin.path) if origin else None,
                 "seconds": origin.seconds if origin else None,
+                "saved": origin.saved if origin else None,
+                "verified": origin.verified if origin else None,
+                "reason": origin.reason if origin else None,
             },
+            "rows_verified": self.verified,
             "query_seconds": self.query_seconds,
             "seconds": self.seconds,
             "notes": list(self.notes),
@@ -340,7 +397,8 @@ def lookup(
     StoreError
         ``dataset`` is missing or not a sweep directory.
     StaleIndexError
-        The given index (or, with ``rebuild=False``, the saved one) is stale.
+        The given index is stale or names rows the dataset does not hold there; with
+        ``rebuild=False``, the saved one is stale, unreadable or fails a check.
     ValueError
         Naming the argument: unknown column, target of the wrong length, no usable rows, no
         rows left by the filters, a bad ``where``, a column that cannot be refined, bad
@@ -395,16 +453,37 @@ def lookup(
     if where:
         keys = read_results(dataset, columns=["design_id", "requested"], where=where, verify=verify)
         mask = mask_of(index, {c: keys[c].to_numpy() for c in ("design_id", "requested")})
-    t0 = time.perf_counter()
-    distance, rows = index.query(target, k, n_units=n_units, state=state, mask=mask)
-    query_seconds = time.perf_counter() - t0
-    if rows.size == 0:
-        raise ValueError(
-            f"no indexed rows match state = {state!r}, n_units = "
-            f"{list(n_units) if n_units is not None else 'any'}, where = {where!r} "
-            f"(the dataset has N = {list(index.n_values)})"
-        )
-    batch = designs_of(index, rows, info=info, verify=verify)
+    for attempt in (0, 1):
+        t0 = time.perf_counter()
+        # The distances are the index's; each candidate's is computed again from its re-read row.
+        _, rows = index.query(target, k, n_units=n_units, state=state, mask=mask)
+        query_seconds = time.perf_counter() - t0
+        if rows.size == 0:
+            raise ValueError(
+                f"no indexed rows match state = {state!r}, n_units = "
+                f"{list(n_units) if n_units is not None else 'any'}, where = {where!r} "
+                f"(the dataset has N = {list(index.n_values)})"
+            )
+        try:
+            batch, source_values = _read_rows(index, rows, info=info, verify=verify)
+            break
+        except StaleIndexError as exc:
+            # A saved index that passed its checks yet names rows the chunks do not hold there
+            # (a file edited with its checksum recomputed): rebuild it once and ask again.
+            if attempt or origin is None or origin.action != "loaded":
+                raise
+            index, origin = open_index(
+                dataset,
+                columns,
+                scales,
+                rebuild=rebuild,
+                info=info,
+                verify=verify,
+                discard=exc.reason,
+            )
+            notes.append(f"lookup index {origin.action}: {origin.reason}")
+            if where:
+                mask = mask_of(index, {c: keys[c].to_numpy() for c in ("design_id", "requested")})
     states = index.requested[rows]
     refinements: list[Refinement | None] = [None] * rows.size
     designs = [batch.design(i) for i in range(rows.size)]
@@ -423,8 +502,16 @@ def lookup(
                 max_evaluations=max_evaluations,
             )
             designs[i] = refinements[i].design
-    candidates = _verified(designs, states, rows, distance, index, target, tol, refinements)
+    candidates = _verified(
+        designs, states, rows, source_values, index, target, tol, refinements, verify
+    )
     candidates.sort(key=lambda c: (STATUS_ORDER.index(c.status), _sort_error(c.error)))
+    candidates, merged = _merge_duplicates(candidates)
+    if merged:
+        notes.append(
+            f"{merged} candidate{'s were' if merged > 1 else ' was'} the same design in the same "
+            "state as a better one and merged into it (its also_from lists their design_ids)"
+        )
     if refine:
         reachable: bool | None = any(c.status == "ok" for c in candidates)
         if not reachable:
@@ -437,8 +524,7 @@ def lookup(
             )
     else:
         reachable = True if any(c.met for c in candidates) else None
-    notes.append(VERIFIED_NOTE)
-    return LookupResult(
+    result = LookupResult(
         target=target,
         columns=columns,
         scales=index.scales,
@@ -456,7 +542,66 @@ def lookup(
         n_units=tuple(n_units) if n_units is not None else None,
         where=where,
         index=index,
+        verified=verify,
     )
+    notes.append(_provenance_note(result.provenance))
+    return result
+
+
+def _provenance_note(provenance: Mapping[str, str]) -> str:
+    """:data:`VERIFIED_NOTE` when every printed column is re-solved, else which are re-read."""
+    reread = [c for c, kind in provenance.items() if kind != RESOLVED]
+    if not reread:
+        return VERIFIED_NOTE
+    resolved = [c for c, kind in provenance.items() if kind == RESOLVED]
+    unverified = [c for c in reread if REREAD_UNVERIFIED in provenance[c]]
+    missing = [c for c in reread if "none" in provenance[c]]
+    it = "it" if len(reread) == 1 else "them"
+    text = (
+        f"the designs were re-solved by the exact model for {', '.join(resolved)}; "
+        f"{', '.join(reread)} {'was' if len(reread) == 1 else 'were'} re-read from each "
+        f"design's dataset row (the model does not compute {it})"
+    )
+    if unverified:
+        text += ", without a SHA-256 check of its chunk (--no-verify)"
+    else:
+        text += ", checked against the manifest's SHA-256"
+    if missing:
+        text += f"; no value for refined designs: {', '.join(missing)}"
+    return text
+
+
+def _design_vector(design: Design) -> NDArray[np.float64]:
+    values = design.to_dict()
+    values.pop("name", None)
+    return np.concatenate([np.atleast_1d(np.asarray(v, dtype=float)) for v in values.values()])
+
+
+def _merge_duplicates(candidates: list[Candidate]) -> tuple[list[Candidate], int]:
+    """Candidates (best first) without repeats, and how many were merged.
+
+    Two candidates repeat when they have the same state and the same dataset row or the same
+    design (every parameter within :data:`_SAME_DESIGN_ATOL`); the later one is merged into the
+    earlier (its design_id goes to :attr:`Candidate.also_from`).
+    """
+    kept: list[Candidate] = []
+    vectors: list[NDArray] = []
+    merged = 0
+    for c in candidates:
+        vector = _design_vector(c.design)
+        for j, k in enumerate(kept):
+            same_row = k.design_id == c.design_id
+            same_design = vector.shape == vectors[j].shape and bool(
+                np.all(np.abs(vector - vectors[j]) <= _SAME_DESIGN_ATOL)
+            )
+            if k.state == c.state and (same_row or same_design):
+                kept[j] = replace(k, also_from=(*k.also_from, c.design_id))
+                merged += 1
+                break
+        else:
+            kept.append(c)
+            vectors.append(vector)
+    return kept, merged
 
 
 def _sort_error(error: float) -> float:
@@ -473,51 +618,109 @@ def designs_of(
     """The designs of index rows, read from their chunk files (the design columns).
 
     ``verify`` checks each file read against the manifest's SHA-256 first.
+
+    Raises
+    ------
+    StaleIndexError
+        A row read back is not the one the index names (another design_id or state), or the
+        index names a chunk the dataset does not commit.
+    """
+    return _read_rows(index, rows, info=info, verify=verify)[0]
+
+
+def _read_rows(
+    index: LookupIndex,
+    rows: NDArray[np.int64],
+    *,
+    info: DatasetInfo | None = None,
+    verify: bool = True,
+) -> tuple[DesignBatch, NDArray[np.float64]]:
+    """The designs and the indexed columns' values of index rows, read from their chunks.
+
+    Each row's design_id, requested state and status are read with it and must be the
+    index's (status ``ok``): the index only says where to look, the chunk says what is there.
     """
     info = info or dataset_info(index.root)
+    index.check(info)
     schema = read_schema(index.root)
     max_units = sum(1 for name in schema.names if re.fullmatch(r"H_\d+", name))
     per_unit = [f"{p}_{k}" for p in ("H", "U_L", "U_sep") for k in range(1, max_units + 1)]
     shared = ["t", "t_lim", "E", "nu", "r_b", "t_ch"]
+    identity = ["design_id", "requested", "status"]
+    wanted = list(dict.fromkeys(["n_units", *identity, *per_unit, *shared, *index.columns]))
     m = rows.size
     arrays = {p: np.full((m, MAX_UNITS), np.nan) for p in ("H", "U_L", "U_sep")}
     arrays.update({name: np.empty(m) for name in shared})
     n_units = np.empty(m, dtype=np.int64)
+    values = np.full((m, len(index.columns)), np.nan)
     files = index.file[rows]
     for f in np.unique(files):
         pick = np.flatnonzero(files == f)
         source = info.open_chunk(index.files[f], verify=verify)
-        table = pq.read_table(source, columns=["n_units", *per_unit, *shared], schema=schema).take(
-            index.row[rows[pick]]
+        table = pq.read_table(source, columns=wanted, schema=schema)
+        positions = index.row[rows[pick]]
+        if positions.size and (positions.min() < 0 or positions.max() >= table.num_rows):
+            raise _row_mismatch(index, f, int(positions.max()))
+        table = table.take(positions)
+        got = {name: table.column(name).to_numpy(zero_copy_only=False) for name in identity}
+        bad = np.flatnonzero(
+            (got["design_id"] != index.design_id[rows[pick]])
+            | (got["requested"] != index.requested[rows[pick]])
+            | (got["status"] != st.OK)
         )
+        if bad.size:
+            raise _row_mismatch(index, f, int(positions[bad[0]]))
         n_units[pick] = table.column("n_units").to_numpy()
         for p in ("H", "U_L", "U_sep"):
             for k in range(1, max_units + 1):
                 arrays[p][pick, k - 1] = table.column(f"{p}_{k}").to_numpy(zero_copy_only=False)
         for name in shared:
             arrays[name][pick] = table.column(name).to_numpy()
-    return DesignBatch(n_units=n_units, **arrays)
+        for j, name in enumerate(index.columns):
+            # nulls (a per-unit column past the design's N) read as NaN
+            column = table.column(name).cast("float64").fill_null(np.nan)
+            values[pick, j] = column.to_numpy(zero_copy_only=False)
+    return DesignBatch(n_units=n_units, **arrays), values
 
 
-def _verified(designs, states, rows, distance, index, target, tol, refinements) -> list[Candidate]:
-    """Re-solve every design in one batch and assemble the candidates."""
+def _row_mismatch(index: LookupIndex, f: int, row: int) -> StaleIndexError:
+    reason = (
+        f"its rows do not match the dataset's ({index.files[f]} row {row} is not the design "
+        "and state it records)"
+    )
+    return StaleIndexError(f"{index.root}: the lookup index of {index.columns}: {reason}", reason)
+
+
+def _verified(
+    designs, states, rows, source_values, index, target, tol, refinements, verify
+) -> list[Candidate]:
+    """Re-solve every design in one batch and assemble the candidates.
+
+    ``source_values`` are the indexed columns as re-read from the rows' chunks.
+    """
     batch = DesignBatch.from_designs(designs)
-    cols = solve_batch(batch, [int(s) for s in states], stiffness=True, min_eig=False)
+    cols = solve_batch(
+        batch, [int(s) for s in states], stiffness=True, min_eig="min_eig" in index.columns
+    )
     tip_cols = [index.columns.index(c) for c in ("tip_x", "tip_y") if c in index.columns]
+    reread = REREAD if verify else REREAD_UNVERIFIED
     out = []
     for i, design in enumerate(designs):
         n = design.n_units
         code = int(cols["status"][i])
-        source_values = index.points[rows[i]]
         refinement = refinements[i]
         # Columns the model computes come from the solve; others (reset times, ...) from the
-        # dataset row, which only an unrefined candidate can report.
+        # dataset row, which describes the unrefined design only.
+        provenance = tuple(
+            RESOLVED if c in RESOLVED_COLUMNS else (reread if refinement is None else "none")
+            for c in index.columns
+        )
         values = np.array(
             [
                 cols[c][i]
-                if c in OUTPUT_COLUMNS
-                else (source_values[j] if refinement is None else np.nan)
-                for j, c in enumerate(index.columns)
+                if kind == RESOLVED
+                else (source_values[i, j] if kind != "none" else np.nan)
+                for j, (c, kind) in enumerate(zip(index.columns, provenance, strict=True))
             ]
         )
         error = float(np.linalg.norm((values - target) / index.scales))
@@ -549,11 +752,12 @@ def _verified(designs, states, rows, distance, index, target, tol, refinements) 
                 met=met,
                 refined=refinement is not None,
                 design_id=int(index.design_id[rows[i]]),
-                source_distance=float(distance[i]),
-                source_values=source_values,
+                source_distance=float(np.linalg.norm((source_values[i] - target) / index.scales)),
+                source_values=source_values[i],
                 fitted_range=design.in_fitted_range,
                 fitted_range_note=design.fitted_range_note,
                 refinement=refinement,
+                provenance=provenance,
             )
         )
     return out

@@ -20,11 +20,13 @@ lambdas, comprehensions, names that are not columns - is refused with a one-line
 :class:`FilterError` naming the offending part, before any data is read. The result must be a
 condition (true or false per row): ``"tip_x"`` or ``"1"`` are refused too.
 
-The parsed filter becomes one :class:`pyarrow.compute.Expression`, evaluated by Arrow on the
-columns it names (only those, plus the requested ones, are read from Parquet). Missing values
+The parsed filter is evaluated by Arrow compute functions on the columns it names (only those,
+plus the requested ones, are read from Parquet), one operation at a time in the order written:
+not as a :class:`pyarrow.compute.Expression`, whose canonicalisation re-associates sums
+(``-x + (1 + x) == 1`` came out true for ``x = 0.9``, false in Python and NumPy). Missing values
 follow SQL: a comparison with a null (``H_3`` of a design with two units) is unknown, and an
 unknown row is not selected, also under ``not``; NaN is a value and compares as IEEE 754 does
-(``NaN != 1`` is true). The expression is deliberately *not* pushed into Parquet's row-group
+(``NaN != 1`` is true). The filter is deliberately *not* pushed into Parquet's row-group
 statistics: Parquet statistics leave NaN out of a column's min/max, and Arrow 26 then prunes
 row groups that hold matching NaN rows (``x != 1`` drops a group holding only 1.0 and NaN;
 ``tests/sweep/test_row_filter.py`` keeps that case).
@@ -35,6 +37,7 @@ from __future__ import annotations
 import ast
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import pyarrow as pa
 import pyarrow.compute as pc
@@ -54,27 +57,44 @@ class FilterError(ValueError):
 
 @dataclass(frozen=True)
 class _Typed:
-    expression: pc.Expression
+    evaluate: Callable[[pa.Table], Any]
     kind: str
+
+
+def _call(function: Callable, *parts: Callable[[pa.Table], Any]) -> Callable[[pa.Table], Any]:
+    """Evaluate ``parts`` on a table, then ``function`` on their values (eagerly)."""
+    return lambda table: function(*(part(table) for part in parts))
+
+
+def _constant(value: pa.Scalar, kind: str) -> _Typed:
+    return _Typed(lambda table: value, kind)
 
 
 def _unary_numeric(function: Callable) -> Callable[[list[_Typed]], _Typed]:
     def apply(args: list[_Typed]) -> _Typed:
-        return _Typed(function(args[0].expression), _NUMBER)
+        return _Typed(_call(function, args[0].evaluate), _NUMBER)
 
     return apply
 
 
 def _predicate(function: Callable) -> Callable[[list[_Typed]], _Typed]:
     def apply(args: list[_Typed]) -> _Typed:
-        return _Typed(function(args[0].expression), _BOOL)
+        return _Typed(_call(function, args[0].evaluate), _BOOL)
 
     return apply
 
 
+def _hypot_values(x: Any, y: Any) -> Any:
+    return pc.sqrt(pc.add(pc.multiply(x, x), pc.multiply(y, y)))
+
+
 def _hypot(args: list[_Typed]) -> _Typed:
-    x, y = (a.expression for a in args)
-    return _Typed(pc.sqrt(pc.add(pc.multiply(x, x), pc.multiply(y, y))), _NUMBER)
+    return _Typed(_call(_hypot_values, args[0].evaluate, args[1].evaluate), _NUMBER)
+
+
+def _python_modulo(a: Any, b: Any) -> Any:
+    """``a % b`` with Python's sign convention: ``a - b * floor(a / b)``."""
+    return pc.subtract(a, pc.multiply(b, pc.floor(pc.divide(a, b))))
 
 
 #: name -> (argument kinds, builder): the only functions a filter may call.
@@ -87,8 +107,8 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], Callable[[list[_Typed]], _Typed]]] =
     "hypot": ((_NUMBER, _NUMBER), _hypot),
     "isnan": ((_NUMBER,), _predicate(pc.is_nan)),
     "isfinite": ((_NUMBER,), _predicate(pc.is_finite)),
-    "isnull": ((None,), _predicate(lambda e: e.is_null())),
-    "notnull": ((None,), _predicate(lambda e: e.is_valid())),
+    "isnull": ((None,), _predicate(pc.is_null)),
+    "notnull": ((None,), _predicate(pc.is_valid)),
 }
 
 _ARITHMETIC = {
@@ -97,7 +117,7 @@ _ARITHMETIC = {
     ast.Mult: pc.multiply,
     ast.Div: pc.divide,
     ast.Pow: pc.power,
-    ast.Mod: None,  # built from floor division below: Arrow has no float modulo
+    ast.Mod: _python_modulo,  # Arrow has no float modulo
 }
 _COMPARISONS = {
     ast.Eq: pc.equal,
@@ -126,15 +146,18 @@ def _kind_of(dtype: pa.DataType) -> str | None:
 
 @dataclass(frozen=True)
 class RowFilter:
-    """A parsed, checked filter: its text, the columns it reads and its Arrow expression."""
+    """A parsed, checked filter: its text, the columns it reads and its evaluation."""
 
     text: str
     columns: tuple[str, ...]
-    expression: pc.Expression
+    evaluate: Callable[[pa.Table], Any]
 
     def apply(self, table: pa.Table) -> pa.Table:
         """The rows of ``table`` (which holds :attr:`columns`) for which the filter is true."""
-        return table.filter(self.expression)
+        mask = self.evaluate(table)
+        if isinstance(mask, pa.Scalar):  # a condition on literals only: all rows or none
+            return table if mask.is_valid and mask.as_py() else table.slice(0, 0)
+        return table.filter(mask)
 
 
 class _Compiler:
@@ -153,11 +176,11 @@ class _Compiler:
             raise self.fail(node, f"{_describe(node)} is not allowed in a filter")
         return method(node)
 
-    def expect(self, node: ast.AST, kind: str) -> pc.Expression:
+    def expect(self, node: ast.AST, kind: str) -> Callable[[pa.Table], Any]:
         typed = self.compile(node)
         if typed.kind != kind:
             raise self.fail(node, f"expected a {kind}, got a {typed.kind}")
-        return typed.expression
+        return typed.evaluate
 
     def _name(self, node: ast.Name) -> _Typed:
         name = node.id
@@ -170,22 +193,23 @@ class _Compiler:
         if kind is None:
             raise self.fail(node, f"column of type {dtype} cannot be filtered on")
         self.used[name] = None
-        expression = pc.field(name)
         if pa.types.is_dictionary(dtype):
-            expression = expression.cast(dtype.value_type)
+            target = dtype.value_type
         elif kind == _NUMBER:
             # Double precision throughout: Python's `/` and no silent integer wrap-around.
-            expression = expression.cast(pa.float64())
-        return _Typed(expression, kind)
+            target = pa.float64()
+        else:
+            target = dtype
+        return _Typed(lambda table: pc.cast(table.column(name), target), kind)
 
     def _constant(self, node: ast.Constant) -> _Typed:
         value = node.value
         if isinstance(value, bool):
-            return _Typed(pc.scalar(value), _BOOL)
+            return _constant(pa.scalar(value), _BOOL)
         if isinstance(value, int | float):
-            return _Typed(pc.scalar(float(value)), _NUMBER)
+            return _constant(pa.scalar(float(value)), _NUMBER)
         if isinstance(value, str):
-            return _Typed(pc.scalar(value), _TEXT)
+            return _constant(pa.scalar(value), _TEXT)
         if value is None:
             raise self.fail(node, "None is not a value here; use isnull(column)")
         raise self.fail(node, f"a literal of type {type(value).__name__} is not allowed")
@@ -195,31 +219,27 @@ class _Compiler:
         parts = [self.expect(value, _BOOL) for value in node.values]
         result = parts[0]
         for part in parts[1:]:
-            result = combine(result, part)
+            result = _call(combine, result, part)
         return _Typed(result, _BOOL)
 
     def _unaryop(self, node: ast.UnaryOp) -> _Typed:
         if isinstance(node.op, ast.Not | ast.Invert):
-            return _Typed(pc.invert(self.expect(node.operand, _BOOL)), _BOOL)
+            return _Typed(_call(pc.invert, self.expect(node.operand, _BOOL)), _BOOL)
         operand = self.expect(node.operand, _NUMBER)
         if isinstance(node.op, ast.USub):
-            return _Typed(pc.negate(operand), _NUMBER)
+            return _Typed(_call(pc.negate, operand), _NUMBER)
         return _Typed(operand, _NUMBER)  # unary +
 
     def _binop(self, node: ast.BinOp) -> _Typed:
         if type(node.op) in _BITWISE_LOGICAL:  # pandas-style `a & b`, `a | b` between conditions
             combine = _BITWISE_LOGICAL[type(node.op)]
-            return _Typed(
-                combine(self.expect(node.left, _BOOL), self.expect(node.right, _BOOL)), _BOOL
-            )
+            both = (self.expect(node.left, _BOOL), self.expect(node.right, _BOOL))
+            return _Typed(_call(combine, *both), _BOOL)
         if type(node.op) not in _ARITHMETIC:
             raise self.fail(node, f"the operator {_describe(node.op)} is not allowed")
         left = self.expect(node.left, _NUMBER)
         right = self.expect(node.right, _NUMBER)
-        if isinstance(node.op, ast.Mod):  # Python's sign convention: a - b * floor(a / b)
-            quotient = pc.floor(pc.divide(left, right))
-            return _Typed(pc.subtract(left, pc.multiply(right, quotient)), _NUMBER)
-        return _Typed(_ARITHMETIC[type(node.op)](left, right), _NUMBER)
+        return _Typed(_call(_ARITHMETIC[type(node.op)], left, right), _NUMBER)
 
     def _compare(self, node: ast.Compare) -> _Typed:
         left = self.compile(node.left)
@@ -235,12 +255,14 @@ class _Compiler:
             right = self.compile(right_node)
             if left.kind != right.kind:
                 raise self.fail(node, f"cannot compare a {left.kind} with a {right.kind}")
-            part = _COMPARISONS[type(op)](left.expression, right.expression)
-            result = part if result is None else pc.and_kleene(result, part)
+            part = _call(_COMPARISONS[type(op)], left.evaluate, right.evaluate)
+            result = part if result is None else _call(pc.and_kleene, result, part)
             left = right
         return _Typed(result, _BOOL)
 
-    def _membership(self, left: _Typed, node: ast.AST, *, negate: bool) -> pc.Expression:
+    def _membership(
+        self, left: _Typed, node: ast.AST, *, negate: bool
+    ) -> Callable[[pa.Table], Any]:
         if not isinstance(node, ast.List | ast.Tuple | ast.Set):
             raise self.fail(node, "`in` takes a literal list such as [3, 4]")
         values = []
@@ -256,11 +278,16 @@ class _Compiler:
                 raise self.fail(element, f"cannot compare a {left.kind} with a {typed.kind}")
             values.append(ast.literal_eval(element))
         value_type = {_NUMBER: pa.float64(), _TEXT: pa.string(), _BOOL: pa.bool_()}[left.kind]
-        member = left.expression.isin(pa.array(values, type=value_type))
-        if negate:
-            member = pc.invert(member)
-        # Arrow's is_in says false for a null; a comparison with a null is unknown (module doc).
-        return pc.if_else(left.expression.is_valid(), member, _UNKNOWN)
+        value_set = pa.array(values, type=value_type)
+
+        def member(column: Any) -> Any:
+            inside = pc.is_in(column, value_set=value_set)
+            if negate:
+                inside = pc.invert(inside)
+            # is_in says false for a null; a comparison with a null is unknown (module doc)
+            return pc.if_else(pc.is_valid(column), inside, _UNKNOWN)
+
+        return _call(member, left.evaluate)
 
     def _call(self, node: ast.Call) -> _Typed:
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
@@ -320,7 +347,7 @@ def parse_filter(text: str, schema: pa.Schema | Sequence[pa.Field]) -> RowFilter
     Returns
     -------
     RowFilter
-        Its Arrow expression and the columns it reads.
+        How to evaluate it, and the columns it reads.
 
     Raises
     ------
@@ -354,4 +381,4 @@ def parse_filter(text: str, schema: pa.Schema | Sequence[pa.Field]) -> RowFilter
             f"--where {text!r}: a filter must be a condition (true or false per row), such as "
             f"'stiffness > 0.05'; this is a {typed.kind}"
         )
-    return RowFilter(text, tuple(compiler.used), typed.expression)
+    return RowFilter(text, tuple(compiler.used), typed.evaluate)

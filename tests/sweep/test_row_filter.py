@@ -9,8 +9,8 @@ through ``read_results``, ``dpfexplore query`` and ``dpfexplore lookup``.
 from __future__ import annotations
 
 import io
-import os
 import operator
+import os
 
 import numpy as np
 import pyarrow as pa

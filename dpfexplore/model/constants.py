@@ -147,10 +147,16 @@ def dome_reach(
     return np.where(no_contact, NO_CONTACT_REACH, raw), no_contact
 
 
+#: The inverted apex travel ``tip_dis = TIP_PER_THICKNESS t + TIP_PER_HEIGHT H`` (paper eq.
+#: d_model, the implementation's digits).
+TIP_PER_THICKNESS = 0.2565
+TIP_PER_HEIGHT = 2.1425
+
+
 @register_jitable
 def reach_raw_form(H, t, U_sep, t_ch):
     """The closed form of ``d`` before the clamp (mm)."""
-    return (0.2565 * t + 2.1425 * H) - H - U_sep - t_ch / 2.0 - t / 2.0
+    return (TIP_PER_THICKNESS * t + TIP_PER_HEIGHT * H) - H - U_sep - t_ch / 2.0 - t / 2.0
 
 
 def limiting_layer_stiffness(

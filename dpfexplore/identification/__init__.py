@@ -1,0 +1,16 @@
+"""Identification: from unit-cell mechanics to spring constants (the paper's RFE step).
+
+Modules
+-------
+curves
+    The input table of unit-cell curves (CSV or Parquet), read and checked; folded paths.
+spring_fit
+    The dome spring law fitted to one curve: linear start, robust refinement, flags.
+closed_forms
+    Closed forms in ``π1 = t/H``, ``π3 = H/R`` selected by grouped RFECV with ridge (and a lasso
+    alternative scored on held-out geometries).
+identify
+    Curves to a :class:`~dpfexplore.model.constants_set.ConstantsSet`.
+synthetic
+    Curves drawn from a constants set, with noise: data with a known answer.
+"""

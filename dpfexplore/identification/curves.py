@@ -1,0 +1,206 @@
+"""Unit-cell curves: the input table of identification, read and checked before any fit.
+
+One row per point of a dome unit's apex-displacement-controlled run (MODEL.md §11):
+
+========================= ====== ===========================================================
+column                    unit   meaning
+========================= ====== ===========================================================
+``curve``                 --     curve id (text or integer)
+``H``, ``t``, ``r_b``     mm     dome height, thickness, base radius (constant per curve)
+``E``                     MPa    Young's modulus (constant per curve)
+``nu``                    --     Poisson ratio (constant per curve)
+``displacement``          mm     apex travel toward inversion, ``>= 0``
+``energy``                N·mm   strain energy (``energy`` and/or ``force``)
+``force``                 N      apex reaction, ``d energy / d displacement``
+``branch`` (optional)     --     branch id of a folded path (see below)
+``tip_dis`` (optional)    mm     the inverted apex travel against the next unit (one value per
+                                 curve; the paper's two-unit contact runs)
+========================= ====== ===========================================================
+
+A dome under apex displacement control can fold back before it inverts and jump to an inverted
+branch: its trace is then several branches, not one curve. With a ``branch`` column the fit uses
+the **lower energy envelope** of the branches (at each displacement, the lowest energy any branch
+reaches there; forces are then not used, since the envelope's slope jumps where branches cross).
+Without it, the points of a curve must be in increasing displacement.
+
+:func:`read_curves` refuses, in one line naming the curve: missing columns, non-finite values,
+parameters that change within a curve, unsorted or too-short curves.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+__all__ = ["MIN_POINTS", "CurveError", "UnitCellCurve", "curves_from_frame", "read_curves"]
+
+#: Fewest points a curve needs (three polynomial coefficients, and enough to judge the fit).
+MIN_POINTS = 12
+#: Points of the grid on which a folded curve's lower envelope is taken.
+ENVELOPE_POINTS = 200
+
+_PARAMETERS = ("H", "t", "r_b", "E", "nu")
+
+
+class CurveError(ValueError):
+    """A unit-cell table that cannot be identified from (one line naming the curve)."""
+
+
+@dataclass(frozen=True)
+class UnitCellCurve:
+    """One unit-cell run, ready to fit.
+
+    Attributes
+    ----------
+    curve : str
+    H, t, r_b : float, mm
+    E : float, MPa
+    nu : float
+    displacement : ndarray, mm
+    energy, force : ndarray or None
+        N·mm and N at each displacement (``force`` None for a folded curve's envelope).
+    tip_dis : float or None, mm
+    folded : bool
+        True when the curve was the envelope of several branches.
+    """
+
+    curve: str
+    H: float
+    t: float
+    r_b: float
+    E: float
+    nu: float
+    displacement: NDArray
+    energy: NDArray | None
+    force: NDArray | None
+    tip_dis: float | None = None
+    folded: bool = False
+
+    @property
+    def R(self) -> float:
+        """Dome radius of curvature, mm (MODEL.md §2)."""
+        return (self.H**2 + self.r_b**2) / (2.0 * self.H)
+
+    @property
+    def geometry(self) -> tuple[float, float, float]:
+        """``(H, t, r_b)``: the group a curve belongs to (several ``E`` share one geometry)."""
+        return (round(self.H, 9), round(self.t, 9), round(self.r_b, 9))
+
+
+def read_curves(path: str | Path) -> list[UnitCellCurve]:
+    """Read a CSV or Parquet table of unit-cell curves (module docstring) and check it.
+
+    Raises
+    ------
+    CurveError
+        One line naming the file and, where it applies, the curve.
+    """
+    path = Path(path)
+    try:
+        if path.suffix.lower() == ".parquet":
+            frame = pd.read_parquet(path)
+        elif path.suffix.lower() == ".csv":
+            frame = pd.read_csv(path)
+        else:
+            raise CurveError(f"{path}: give a .csv or .parquet table of unit-cell curves")
+    except FileNotFoundError:
+        raise CurveError(f"{path}: no such file") from None
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        if isinstance(exc, CurveError):
+            raise
+        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CurveError(f"{path}: cannot read ({message})") from None
+    try:
+        return curves_from_frame(frame)
+    except CurveError as exc:
+        raise CurveError(f"{path}: {exc}") from None
+
+
+def curves_from_frame(frame: pd.DataFrame) -> list[UnitCellCurve]:
+    """The curves of a table (module docstring), checked."""
+    required = ("curve", *_PARAMETERS, "displacement")
+    missing = [c for c in required if c not in frame.columns]
+    if missing:
+        raise CurveError(f"missing column(s) {', '.join(missing)}; need {', '.join(required)}")
+    if "energy" not in frame.columns and "force" not in frame.columns:
+        raise CurveError("need an energy (N·mm) or a force (N) column, or both")
+    if frame.empty:
+        raise CurveError("the table has no rows")
+    curves = []
+    for key, rows in frame.groupby("curve", sort=False):
+        curves.append(_curve(str(key), rows))
+    return curves
+
+
+def _curve(name: str, rows: pd.DataFrame) -> UnitCellCurve:
+    numeric = [c for c in (*_PARAMETERS, "displacement", "energy", "force", "tip_dis") if c in rows]
+    for column in numeric:
+        values = pd.to_numeric(rows[column], errors="coerce").to_numpy(dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise CurveError(f"curve {name!r}: {column} has missing or non-finite values")
+    parameters = {}
+    for column in (*_PARAMETERS, *(("tip_dis",) if "tip_dis" in rows else ())):
+        values = rows[column].to_numpy(dtype=float)
+        if np.ptp(values) > 1e-12 * max(1.0, abs(values[0])):
+            raise CurveError(f"curve {name!r}: {column} changes within the curve")
+        parameters[column] = float(values[0])
+    for column in ("H", "t", "r_b", "E"):
+        if parameters[column] <= 0.0:
+            raise CurveError(f"curve {name!r}: {column} = {parameters[column]}: must be > 0")
+    if not 0.0 <= parameters["nu"] < 0.5:
+        raise CurveError(f"curve {name!r}: nu = {parameters['nu']}: must be in [0, 0.5)")
+    if len(rows) < MIN_POINTS:
+        raise CurveError(f"curve {name!r}: {len(rows)} points, need at least {MIN_POINTS}")
+    x = rows["displacement"].to_numpy(dtype=float)
+    energy = rows["energy"].to_numpy(dtype=float) if "energy" in rows else None
+    force = rows["force"].to_numpy(dtype=float) if "force" in rows else None
+    folded = "branch" in rows and rows["branch"].nunique() > 1
+    if folded:
+        if energy is None:
+            raise CurveError(f"curve {name!r}: a folded curve (branch column) needs energy")
+        x, energy = _lower_envelope(name, x, energy, rows["branch"].to_numpy())
+        force = None
+    elif np.any(np.diff(x) <= 0.0):
+        raise CurveError(
+            f"curve {name!r}: displacement not increasing (a folded path needs a branch column)"
+        )
+    if x[0] < 0.0:
+        raise CurveError(f"curve {name!r}: displacement {x[0]} < 0")
+    return UnitCellCurve(
+        curve=name,
+        H=parameters["H"],
+        t=parameters["t"],
+        r_b=parameters["r_b"],
+        E=parameters["E"],
+        nu=parameters["nu"],
+        displacement=x,
+        energy=energy,
+        force=force,
+        tip_dis=parameters.get("tip_dis"),
+        folded=bool(folded),
+    )
+
+
+def _lower_envelope(
+    name: str, x: NDArray, energy: NDArray, branch: NDArray
+) -> tuple[NDArray, NDArray]:
+    """At each displacement of a grid, the lowest energy any branch reaches there."""
+    grid = np.linspace(x.min(), x.max(), ENVELOPE_POINTS)
+    envelope = np.full(grid.shape, np.inf)
+    for key in pd.unique(branch):
+        on = branch == key
+        bx, be = x[on], energy[on]
+        order = np.argsort(bx, kind="stable")
+        bx, be = bx[order], be[order]
+        if bx.size < 2:
+            continue
+        covered = (grid >= bx[0]) & (grid <= bx[-1])
+        envelope[covered] = np.minimum(envelope[covered], np.interp(grid[covered], bx, be))
+    keep = np.isfinite(envelope)
+    if keep.sum() < MIN_POINTS:
+        raise CurveError(f"curve {name!r}: its branches cover too little of the displacement")
+    return grid[keep], envelope[keep]

@@ -1,0 +1,165 @@
+"""From unit-cell curves to a constants set: per-curve fits, then closed forms (MODEL.md §11).
+
+:func:`identify` fits the spring law to every curve (:mod:`.spring_fit`), refuses to build a set
+from flagged fits unless ``allow_flagged``, checks that ``alpha`` does not depend on ``E`` across
+the curves of one geometry (a linear-elastic unit's ``alpha`` and shape cannot), selects the
+closed forms (:mod:`.closed_forms`) and returns the set with its domain (the data's ranges) and
+provenance (method settings, the data's SHA-256, package versions).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError
+from .closed_forms import Selection, select_closed_form
+from .curves import CurveError, UnitCellCurve
+from .spring_fit import CurveFit, fit_curve
+
+__all__ = ["Identification", "identify"]
+
+
+@dataclass(frozen=True)
+class Identification:
+    """A constants set and everything that went into it.
+
+    Attributes
+    ----------
+    constants : ConstantsSet
+    fits : list of CurveFit
+        One per curve, flagged ones included.
+    selections : dict
+        Target name -> :class:`~.closed_forms.Selection`.
+    alpha_spread_over_E : float
+        Largest relative spread of the fitted ``alpha`` among curves of one geometry at several
+        ``E`` (0 for a linear-elastic unit up to the fits' noise).
+    """
+
+    constants: ConstantsSet
+    fits: list[CurveFit]
+    selections: dict[str, Selection]
+    alpha_spread_over_E: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+
+def _data_sha256(curves: Sequence[UnitCellCurve]) -> str:
+    digest = hashlib.sha256()
+    for c in curves:
+        digest.update(c.curve.encode())
+        digest.update(np.array([c.H, c.t, c.r_b, c.E, c.nu, c.tip_dis or np.nan]).tobytes())
+        for array in (c.displacement, c.energy, c.force):
+            digest.update(b"-" if array is None else np.ascontiguousarray(array).tobytes())
+    return digest.hexdigest()
+
+
+def _versions() -> dict[str, str]:
+    from importlib.metadata import version
+
+    return {name: version(name) for name in ("numpy", "scipy", "scikit-learn")}
+
+
+def identify(
+    curves: Sequence[UnitCellCurve],
+    *,
+    name: str,
+    degree: int = 3,
+    selector: str = "rfecv",
+    n_splits: int = 5,
+    max_relative_rms: float = 0.05,
+    allow_flagged: bool = False,
+    seed: int = 0,
+) -> Identification:
+    """Identify a constants set from unit-cell curves (module docstring).
+
+    Raises
+    ------
+    CurveError
+        When a curve's fit is flagged and ``allow_flagged`` is False (naming the curve and why),
+        or there are too few geometries to cross-validate.
+    ConstantsSetError
+        When the selected closed forms are unphysical inside the data's own domain.
+    """
+    fits = [fit_curve(c, max_relative_rms=max_relative_rms) for c in curves]
+    flagged = [(c, f) for c, f in zip(curves, fits, strict=True) if not f.ok]
+    if flagged and not allow_flagged:
+        curve, fit = flagged[0]
+        raise CurveError(
+            f"{len(flagged)} of {len(fits)} curve fits cannot be trusted, e.g. curve "
+            f"{curve.curve!r}: {fit.flags[0]} (allow_flagged / --allow-flagged leaves them out)"
+        )
+    used = [(c, f) for c, f in zip(curves, fits, strict=True) if f.ok]
+    groups = np.array(["|".join(map(str, c.geometry)) for c, _ in used])
+    if len(np.unique(groups)) < n_splits:
+        raise CurveError(
+            f"{len(np.unique(groups))} geometries (H, t, r_b) with trusted fits; need at least "
+            f"{n_splits} to cross-validate by geometry"
+        )
+    H = np.array([c.H for c, _ in used])
+    t = np.array([c.t for c, _ in used])
+    r_b = np.array([c.r_b for c, _ in used])
+    E = np.array([c.E for c, _ in used])
+    R = (H**2 + r_b**2) / (2 * H)
+    pi1, pi3 = t / H, H / R
+    k_b = np.array([f.k_b for _, f in used])
+    alpha = np.array([f.alpha for _, f in used])
+    targets = {"k_hat": k_b * R / (E * t * t), "alpha": alpha}
+    with_tip = np.array([c.tip_dis is not None for c, _ in used])
+    notes = []
+    if with_tip.all():
+        targets["tip_ratio"] = np.array([c.tip_dis for c, _ in used]) / H
+    else:
+        notes.append("tip_ratio: no tip_dis for every curve; the default set's closed form is kept")
+    by_geometry: dict[str, list[float]] = defaultdict(list)
+    for g, a in zip(groups, alpha, strict=True):
+        by_geometry[g].append(a)
+    spreads = [np.ptp(v) / np.mean(v) for v in by_geometry.values() if len(v) > 1]
+    spread = float(max(spreads)) if spreads else 0.0
+    selections = {
+        target: select_closed_form(
+            pi1, pi3, y, groups, degree=degree, selector=selector, n_splits=n_splits, seed=seed
+        )
+        for target, y in targets.items()
+    }
+    domain = {
+        "H_over_rb": (float((H / r_b).min()), float((H / r_b).max())),
+        "t_over_rb": (float((t / r_b).min()), float((t / r_b).max())),
+        "E": (float(E.min()), float(E.max())),
+        "nu": (float(min(c.nu for c, _ in used)), float(max(c.nu for c, _ in used))),
+    }
+    provenance: dict[str, Any] = {
+        "method": "per-curve robust spring-law fits; closed forms by grouped RFECV with ridge, "
+        "one-standard-error rule, OLS refit (dpfexplore.identification)",
+        "settings": {
+            "degree": degree,
+            "selector": selector,
+            "n_splits": n_splits,
+            "max_relative_rms": max_relative_rms,
+            "seed": seed,
+        },
+        "curves": len(curves),
+        "curves_used": len(used),
+        "geometries": len(np.unique(groups)),
+        "data_sha256": _data_sha256(curves),
+        "alpha_spread_over_E": spread,
+        "versions": _versions(),
+        "notes": notes,
+    }
+    constants = ConstantsSet(
+        name=name,
+        k_hat=selections["k_hat"].form,
+        alpha=selections["alpha"].form,
+        tip_ratio=selections["tip_ratio"].form if "tip_ratio" in selections else DEFAULT.tip_ratio,
+        domain=domain,
+        provenance=provenance,
+    )
+    try:
+        constants.check()
+    except ConstantsSetError as exc:
+        raise ConstantsSetError(f"identified set refused: {exc}") from None
+    return Identification(constants, fits, selections, spread, notes)

@@ -1,0 +1,54 @@
+"""Writing files so that a reader sees the old contents or the new, never a mixture.
+
+The lowest layer of the package, so that every stage (constants sets, models, reports) writes
+the same way: to a unique temporary file in the target's folder, flushed and fsynced, renamed
+over the target (atomic on POSIX), and the folder fsynced so that the rename survives a crash.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+__all__ = ["TEMP_SUFFIX", "atomic_write", "fsync_dir"]
+
+#: Suffix of the temporary files (their names also start with a dot: readers skip them).
+TEMP_SUFFIX = ".tmp"
+
+
+def fsync_dir(path: str | Path) -> None:
+    """Flush a directory's entries to disk (where the platform allows it)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # some filesystems refuse fsync on directories: nothing more to do
+        pass
+    finally:
+        os.close(fd)
+
+
+def atomic_write(path: str | Path, data: bytes | str) -> Path:
+    """Replace ``path`` with ``data`` atomically; returns the path.
+
+    On any failure (a full disk, Ctrl-C) the temporary file is removed and the previous
+    contents of ``path``, if any, are untouched.
+    """
+    path = Path(path)
+    if isinstance(data, str):
+        data = data.encode()
+    tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}{TEMP_SUFFIX}")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    fsync_dir(path.parent)
+    return path

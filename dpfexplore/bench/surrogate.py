@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
         if args.save:
             from ..surrogates.store import save_surrogates
 
-            save_surrogates(surrogates, SAVED_MODEL)
+            save_surrogates(surrogates, SAVED_MODEL, force=True)  # the bench refreshes its own record
     report = surrogates.report
     reset = reset_model_section(args.reset_designs)
     record = {

@@ -38,6 +38,11 @@ def register(subparsers) -> None:
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument("--plot", action="store_true", help="also write figures (PNG) to --out")
     parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace --out when it holds an earlier result (never a sweep dataset)",
+    )
+    parser.add_argument(
         "--seeds",
         metavar="DATASET",
         default=None,
@@ -97,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
     from ..inverse.report import public
     from ..inverse.scenes.timing_spec import with_target_reset
     from ..inverse.spec import SceneSpecError, load_scene, with_seeds
+    from ..sweep.result_dirs import ResultError, check_output_dir
 
     try:
         spec = load_scene(args.scene)
@@ -107,10 +113,15 @@ def run(args: argparse.Namespace) -> int:
     except (SceneSpecError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     out = args.out if args.out is not None else Path("results") / spec.name
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {out}: exists and is not a directory")
+    try:  # before the solve: refusing after minutes of work helps nobody
+        check_output_dir(out, force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
     progress = _BarProgress() if sys.stderr.isatty() else _LineProgress()
-    outcome = run_design(spec, out, plot=args.plot, progress=progress)
+    try:
+        outcome = run_design(spec, out, plot=args.plot, progress=progress, force=args.force)
+    except ResultError as exc:  # another writer took the directory meanwhile
+        raise UsageError(str(exc)) from None
     rows = [public(r) for r in outcome.rows]
     if args.json:
         print(

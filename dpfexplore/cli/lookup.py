@@ -7,11 +7,11 @@ when no candidate meets the target (the nearest design found is reported); 2 bad
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -89,7 +89,11 @@ def register(subparsers) -> None:
         "--write",
         metavar="DIR",
         type=Path,
-        help="save each design as DIR/candidate-NN.toml (read by dpfexplore states)",
+        help="save each design as DIR/candidate-NN.toml (read by dpfexplore states); DIR is "
+        "written whole, and replaced only with --force",
+    )
+    parser.add_argument(
+        "--force", action="store_true", help="replace --write DIR when it holds an earlier result"
     )
     parser.set_defaults(handler=run)
 
@@ -107,8 +111,15 @@ def run(args: argparse.Namespace) -> int:
     from ..lookup.index import StaleIndexError
     from ..lookup.polish import parse_constraints
     from ..lookup.query import lookup, parse_n_units
+    from ..sweep.result_dirs import ResultError, check_output_dir
     from ..sweep.store import StoreError
 
+    try:  # output paths before the work
+        if args.write:
+            check_output_dir(args.write, option="--write", force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
+    plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     columns = [c.strip() for c in args.columns.split(",") if c.strip()]
     target = _floats(args.target, "--target")
     if len(target) != len(columns):
@@ -139,17 +150,19 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc).splitlines()[0]) from None
     except KeyError as exc:  # read_results names an unknown --where column this way
         raise UsageError(str(exc.args[0])) from None
-    written = write_designs(result, args.write) if args.write else []
+    try:
+        written = write_designs(result, args.write, force=args.force) if args.write else []
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
     if args.json:
         record = result.to_dict()
         if written:
             record["written"] = [str(p) for p in written]
-        json.dump(record, sys.stdout, indent=2)
-        print()
+        print(json_text(record))
     else:
         _print(result, written)
-    if args.plot:
-        _plot(result, args.plot)
+    if plot is not None:
+        _plot(result, plot)
     if result.refined and not result.reachable:
         return EXIT_FAILURE
     return EXIT_OK

@@ -20,7 +20,15 @@ def register(subparsers) -> None:
         "dome thickness t at H = 3.0 mm, and the hold time tau3 - tau2. Writes "
         "reset_map_{H,t,hold}.parquet and reset_maps.png.",
     )
-    parser.add_argument("--out", type=Path, default=Path("results"), help="output directory")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results") / "reset-maps",
+        help="result directory (written whole: reset_map_*.parquet, reset_maps.png)",
+    )
+    parser.add_argument(
+        "--force", action="store_true", help="replace --out when it holds an earlier result"
+    )
     parser.add_argument("--units", type=int, default=1, help="units per finger (1: unit cell)")
     parser.add_argument(
         "--t-after",
@@ -43,9 +51,14 @@ def run(args) -> int:
     import numpy as np
 
     from ..solvers.dynamics.resetmaps import ResetMapSpec, reset_time_maps
+    from ..sweep.result_dirs import ResultError, check_output_dir
 
     if not 1 <= args.units <= 12:
         raise UsageError(f"--units {args.units}: must be between 1 and 12")
+    try:  # before minutes of simulation
+        check_output_dir(args.out, force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
     changes = {"n_units": args.units, "t_after": args.t_after, "method": args.method}
     if args.quick:
         changes.update(
@@ -66,7 +79,10 @@ def run(args) -> int:
         elapsed = time.perf_counter() - start
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    paths = write_reset_maps(maps, args.out)
+    try:
+        paths = write_reset_maps(maps, args.out, force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
     failed = 0
     for name, frame in maps.items():
         failed += int((frame["status"] != "ok").sum())
@@ -84,18 +100,20 @@ def run(args) -> int:
     return EXIT_OK if failed == 0 else EXIT_FAILURE
 
 
-def write_reset_maps(maps, directory: str | Path) -> list[Path]:
-    """Write each map as ``reset_map_<name>.parquet`` and all three as ``reset_maps.png``."""
+def write_reset_maps(maps, directory: str | Path, *, force: bool = False) -> list[Path]:
+    """Write each map as ``reset_map_<name>.parquet`` and all three as ``reset_maps.png``.
+
+    The directory is a result directory (:mod:`dpfexplore.sweep.result_dirs`): written whole or
+    not at all; one holding an earlier result is replaced only with ``force``.
+    """
     from ..plotting.dynamics import plot_reset_maps
+    from ..sweep.result_dirs import result_directory
 
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, frame in maps.items():
-        path = directory / f"reset_map_{name}.parquet"
-        frame.to_parquet(path, index=False)
-        paths.append(path)
-    png = directory / "reset_maps.png"
-    plot_reset_maps(maps).savefig(png, dpi=120)
-    paths.append(png)
+    names = [f"reset_map_{name}.parquet" for name in maps] + ["reset_maps.png"]
+    with result_directory(directory, kind="reset-maps", force=force) as staging:
+        for name, frame in maps.items():
+            frame.to_parquet(staging / f"reset_map_{name}.parquet", index=False)
+        plot_reset_maps(maps).savefig(staging / "reset_maps.png", dpi=120)
+    paths = [directory / name for name in names]
     return paths

@@ -30,7 +30,7 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "surrogate",
         help="fit, report and use surrogates of sweep outputs (with their held-out error)",
-        description=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n", 1)[1],
     )
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 
@@ -46,6 +46,9 @@ def register(subparsers) -> None:
         type=Path,
         required=True,
         help="directory to save into, e.g. results/surrogates/NAME",
+    )
+    fit.add_argument(
+        "--force", action="store_true", help="replace --out when it holds an earlier result"
     )
     fit.add_argument(
         "--kinds",
@@ -123,7 +126,12 @@ def _fit(args: argparse.Namespace) -> int:
     from ..surrogates.fit import fit_surrogates
     from ..surrogates.report import format_report
     from ..surrogates.store import save_surrogates
+    from ..sweep.result_dirs import ResultError, check_output_dir
 
+    try:  # before the fit: refusing after minutes of work helps nobody
+        check_output_dir(args.out, force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
     outputs = [o.strip() for o in args.outputs.split(",") if o.strip()]
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     if args.params is not None and not isinstance(args.params, dict):
@@ -144,7 +152,10 @@ def _fit(args: argparse.Namespace) -> int:
         )
     except (ValueError, TypeError) as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
-    save_surrogates(surrogates, args.out)
+    try:
+        save_surrogates(surrogates, args.out, force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
     print(format_report(surrogates.report))
     print(f"saved to {args.out}")
     return EXIT_OK

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from ..sweep.result_dirs import check_output_dir, result_directory
 from .engine.optimiser import TargetResult, solve_position_target
 from .evaluation import Evaluator
 from .report import gripper_report, position_report, write_report
@@ -133,10 +134,24 @@ def design_scene(spec: SceneSpec, *, progress: Progress | None = None) -> Design
 
 
 def run_design(
-    spec: SceneSpec, out: str | Path, *, plot: bool = False, progress: Progress | None = None
+    spec: SceneSpec,
+    out: str | Path,
+    *,
+    plot: bool = False,
+    progress: Progress | None = None,
+    force: bool = False,
 ) -> DesignOutcome:
-    """Solve a scene and write its report to ``out`` (see :mod:`.design_report`)."""
+    """Solve a scene and write its report to the result directory ``out``.
+
+    ``out`` is checked before the solve (:func:`~dpfexplore.sweep.result_dirs.check_output_dir`:
+    a directory holding another result needs ``force``) and written complete or not at all
+    (:func:`~dpfexplore.sweep.result_dirs.result_directory`): files of an earlier run are never
+    mixed with this one's.
+    """
+    check_output_dir(out, force=force)
     outcome = design_scene(spec, progress=progress)
     writer = WRITERS.get(spec.kind, write_report)
-    writer(spec, outcome.rows, outcome.evaluator, Path(out), wall_s=outcome.wall_s, plot=plot)
+    facts = {"scene": spec.name, "kind": spec.kind, "results": len(outcome.rows)}
+    with result_directory(out, kind="design", force=force, description=facts) as staging:
+        writer(spec, outcome.rows, outcome.evaluator, staging, wall_s=outcome.wall_s, plot=plot)
     return outcome

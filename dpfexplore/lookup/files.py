@@ -63,10 +63,24 @@ def design_toml(
     return "\n".join(lines) + "\n"
 
 
-def write_designs(result: LookupResult, directory: str | Path) -> list[Path]:
-    """Save each candidate as ``DIRECTORY/candidate-01.toml`` ... (best first)."""
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+def write_designs(
+    result: LookupResult, directory: str | Path, *, force: bool = False
+) -> list[Path]:
+    """Save each candidate as ``DIRECTORY/candidate-01.toml`` ... (best first).
+
+    ``DIRECTORY`` is a result directory (:mod:`dpfexplore.sweep.result_dirs`): written whole,
+    so no candidate file of an earlier lookup survives beside these; one holding an earlier
+    result is replaced only with ``force``.
+    """
+    from ..sweep.result_dirs import result_directory
+
+    final = Path(directory)
+    with result_directory(final, kind="lookup-designs", force=force, option="--write") as staging:
+        names = _write_candidates(result, staging)
+    return [final / name for name in names]
+
+
+def _write_candidates(result: LookupResult, directory: Path) -> list[str]:
     paths = []
     width = max(2, len(str(len(result.candidates))))
     for rank, c in enumerate(result.candidates, start=1):
@@ -85,5 +99,5 @@ def write_designs(result: LookupResult, directory: str | Path) -> list[Path]:
         design = c.design
         named = Design(**{**design.to_dict(), "name": f"candidate-{rank:0{width}d}"})
         path.write_text(design_toml(named, comments))
-        paths.append(path)
+        paths.append(path.name)
     return paths

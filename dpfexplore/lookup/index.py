@@ -16,7 +16,7 @@ multi-state dataset). A query over several ``N`` queries each slice and merges. 
 pass it, or a small filtered set is scanned directly.
 
 Persistence (saved beside the dataset, verified on load, rebuilt when stale or damaged) is in
-:mod:`.store`.
+:mod:`dpfexplore.lookup.store`.
 
 An index records the chunks it was read from (:class:`ChunkSource`: path, size and SHA-256 as
 the manifest listed them when each was read) and whether those reads were verified against the
@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from ..model import status as st
+from ..model.formatting import nums
 from ..sweep.datasets import DatasetInfo, dataset_info
 from ..sweep.store import read_schema
 
@@ -130,7 +131,7 @@ def check_scales(scales: ArrayLike | None, columns: Sequence[str]) -> NDArray[np
     values = np.asarray(scales, dtype=float).reshape(-1)
     if values.shape != (len(columns),):
         raise ValueError(
-            f"scales = {list(np.atleast_1d(scales))!r}: need {len(columns)} values, one per "
+            f"scales = {nums(np.atleast_1d(scales))}: need {len(columns)} values, one per "
             f"column ({', '.join(columns)})"
         )
     if not np.all(np.isfinite(values) & (values > 0)):
@@ -202,7 +203,7 @@ class LookupIndex:
         index assembled by hand, which :meth:`check` then judges by :attr:`checksum` alone.
     verified : bool
         Every chunk was read through a SHA-256 check against ``sources``. Only such an index
-        is saved (:func:`~.store.save_index`).
+        is saved (:func:`~dpfexplore.lookup.store.save_index`).
     """
 
     root: Path

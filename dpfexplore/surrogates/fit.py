@@ -30,6 +30,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from ..model.formatting import num
+from ..model.limits import MAX_UNITS
 from ..solvers.statics import solve_batch
 from .chain import CHAIN, ChainStatusClassifier, ChainSurrogate
 from .data import (
@@ -121,6 +123,7 @@ class SurrogateSet:
         kind = kind or self.best
         if kind not in self.regressors:
             raise ValueError(f"kind = {kind!r}: this surrogate has {', '.join(self.regressors)}")
+        _check_unit_counts(designs)
         model = self.regressors[kind]
         out = pd.DataFrame(model.predict(designs), columns=list(self.outputs), index=designs.index)
         p_ok = self.classifier.predict_proba(designs)[:, 1]
@@ -128,6 +131,24 @@ class SurrogateSet:
         out["exists"] = p_ok > 0.5
         out["in_range"] = model.in_range(designs) & self.classifier.in_range(designs)
         return out
+
+
+def _check_unit_counts(designs: pd.DataFrame) -> None:
+    """Refuse rows whose ``n_units`` is not a whole number of units from 1 to ``MAX_UNITS``.
+
+    The estimators cast it to an integer: 3.7 units was predicted as a 3-unit finger and
+    flagged in range.
+    """
+    if "n_units" not in designs.columns:
+        raise ValueError("designs: no 'n_units' column (need design rows in the sweep schema)")
+    n = pd.to_numeric(designs["n_units"], errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(n) | (n != np.round(n)) | (n < 1) | (n > MAX_UNITS)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"designs row {row}: n_units = {num(designs['n_units'].iloc[row])}: need a whole "
+            f"number of units from 1 to {MAX_UNITS}"
+        )
 
 
 @contextmanager

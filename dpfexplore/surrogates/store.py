@@ -112,20 +112,32 @@ def json_safe(value: Any) -> Any:
     return value
 
 
-def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
-    """Write a fitted :class:`SurrogateSet` to directory ``path`` (created; files replaced).
+def save_surrogates(surrogates: SurrogateSet, path: str | Path, *, force: bool = False) -> Path:
+    """Write a fitted :class:`SurrogateSet` as the result directory ``path``.
+
+    Written complete or not at all (:func:`~dpfexplore.sweep.result_dirs.result_directory`): a
+    kill or a full disk mid-save leaves the previous surrogate whole; a directory that holds
+    another result is replaced only with ``force``.
 
     Returns
     -------
     Path
         The directory.
     """
+    from ..sweep.result_dirs import result_directory
+
+    final = Path(path)
+    description = {"outputs": list(surrogates.outputs), "best": surrogates.best}
+    with result_directory(final, kind="surrogate", force=force, description=description) as path:
+        _write_surrogate(surrogates, path)
+    return final
+
+
+def _write_surrogate(surrogates: SurrogateSet, path: Path) -> None:
     import skops.io as sio
 
     from ..plotting.surrogates import plot_speed_error
 
-    path = Path(path)
-    path.mkdir(parents=True, exist_ok=True)
     payload = {
         "regressors": surrogates.regressors,
         "classifier": surrogates.classifier,
@@ -165,22 +177,55 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path) -> Path:
         plot_speed_error(pd.DataFrame(report["speed"]), error=f"{report['headline']}_p95", ax=ax)
         fig.savefig(path / SPEED_PNG, dpi=130)
         plt.close(fig)
-    return path
+
+
+#: Keys of ``surrogate.json`` and the JSON type each must have.
+_META_TYPES: dict[str, type | tuple[type, ...]] = {
+    "format": str,
+    "surrogate_version": str,
+    "model_version": str,
+    "versions": dict,
+    "dataset": dict,
+    "outputs": list,
+    "units": dict,
+    "kinds": list,
+    "best": str,
+    "classifier": str,
+    "models_sha256": str,
+}
 
 
 def _read_meta(path: Path) -> dict[str, Any]:
+    from ..sweep.result_dirs import ResultError, read_result_marker, verify_result_dir
+
     if not path.is_dir():
         raise SurrogateLoadError(f"{path}: no saved surrogate (not a directory)")
+    if read_result_marker(path) is not None:  # saved as a result directory: check every file
+        try:
+            verify_result_dir(path)
+        except ResultError as exc:
+            raise SurrogateLoadError(str(exc)) from None
     try:
         meta = json.loads((path / META).read_text())
     except FileNotFoundError:
         raise SurrogateLoadError(f"{path}: no saved surrogate (no {META})") from None
-    except ValueError as exc:
+    except (ValueError, OSError) as exc:
         raise SurrogateLoadError(f"{path / META}: unreadable ({exc})") from None
+    if not isinstance(meta, dict):
+        raise SurrogateLoadError(f"{path / META}: not a surrogate description (a JSON object)")
     if meta.get("format") != FORMAT:
         raise SurrogateLoadError(
             f"{path}: format {meta.get('format')!r}, this dpfexplore reads {FORMAT!r}"
         )
+    for key, kind in _META_TYPES.items():
+        if not isinstance(meta.get(key), kind):
+            raise SurrogateLoadError(
+                f"{path / META}: {key} is missing or not a {getattr(kind, '__name__', kind)}"
+            )
+    if not all(isinstance(o, str) for o in meta["outputs"]) or not meta["outputs"]:
+        raise SurrogateLoadError(f"{path / META}: outputs must be a list of column names")
+    if not isinstance(meta["dataset"].get("fingerprint"), dict):
+        raise SurrogateLoadError(f"{path / META}: dataset.fingerprint is missing")
     return meta
 
 

@@ -32,7 +32,7 @@ from pathlib import Path
 
 from .store import StoreError
 
-__all__ = ["LOCK_NAME", "LockHeld", "read_lock", "sweep_lock"]
+__all__ = ["LOCK_NAME", "LockHeld", "file_lock", "read_lock", "sweep_lock"]
 
 LOCK_NAME = ".dpfexplore-lock"
 
@@ -67,8 +67,12 @@ def _holder() -> dict:
 
 def read_lock(out: str | Path) -> dict | None:
     """The holder recorded in ``out``'s lock file, None if there is none ({} if unreadable)."""
+    return _read_holder(Path(out) / LOCK_NAME)
+
+
+def _read_holder(path: Path) -> dict | None:
     try:
-        text = (Path(out) / LOCK_NAME).read_text()
+        text = path.read_text()
     except FileNotFoundError:
         return None
     except OSError:
@@ -120,6 +124,18 @@ def _try_create(path: Path, content: bytes) -> bool:
     return True
 
 
+#: Age (s) after which an empty or unreadable lock file is stale: a writer killed between
+#: creating the file and writing its holder leaves one, and nothing would ever remove it.
+HALF_WRITTEN_AGE = 2.0
+
+
+def _half_written_and_old(path: Path) -> bool:
+    try:
+        return time.time() - path.stat().st_mtime > HALF_WRITTEN_AGE
+    except FileNotFoundError:
+        return False
+
+
 def acquire(out: str | Path) -> dict:
     """Take the lock of sweep directory ``out`` (created if absent); returns our holder record.
 
@@ -130,30 +146,39 @@ def acquire(out: str | Path) -> dict:
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / LOCK_NAME
+    return acquire_file(out / LOCK_NAME, f"--out {out}: another sweep is using this directory")
+
+
+def acquire_file(path: Path, busy: str) -> dict:
+    """Take the lock file ``path``; ``busy`` starts the refusal message. Returns our holder.
+
+    Raises
+    ------
+    LockHeld
+        If a live process (or a process on another host) holds it.
+    """
     me = _holder()
     content = json.dumps(me, indent=1).encode()
     for _ in range(20):
         if _try_create(path, content):
             return me
-        holder = read_lock(out)
+        holder = _read_holder(path)
         if holder is None:
             continue  # released between our attempt and our look: try again
         if not holder:
             # Unreadable: perhaps being written this instant. Give the writer a moment.
             time.sleep(0.05)
-            holder = read_lock(out)
+            holder = _read_holder(path)
             if holder is None:
                 continue
-        if not _is_stale(holder):
+        stale = _is_stale(holder) if holder else _half_written_and_old(path)
+        if not stale:
             where = (
                 ""
                 if holder.get("host") == me["host"]
                 else (f"; if that process is gone, remove {path}")
             )
-            raise LockHeld(
-                f"--out {out}: another sweep is using this directory: {describe(holder)}{where}"
-            )
+            raise LockHeld(f"{busy}: {describe(holder)}{where}")
         # Stale: rename it away (only one contender succeeds), then create ours.
         aside = path.with_name(f"{LOCK_NAME}.stale-{uuid.uuid4().hex[:8]}")
         try:
@@ -161,16 +186,31 @@ def acquire(out: str | Path) -> dict:
         except FileNotFoundError:
             continue
         aside.unlink(missing_ok=True)
-        logger.warning("took over a stale lock of %s (%s)", out, describe(holder))
-    raise LockHeld(f"--out {out}: could not take the lock {path} (contended)")
+        logger.warning("took over a stale lock %s (%s)", path, describe(holder))
+    raise LockHeld(f"{busy}: could not take the lock {path} (contended)")
 
 
 def release(out: str | Path, me: dict) -> None:
     """Remove ``out``'s lock if it is still ours."""
-    path = Path(out) / LOCK_NAME
-    holder = read_lock(out)
+    release_file(Path(out) / LOCK_NAME, me)
+
+
+def release_file(path: Path, me: dict) -> None:
+    """Remove the lock file ``path`` if it is still ours."""
+    holder = _read_holder(path)
     if holder and holder.get("pid") == me["pid"] and holder.get("host") == me["host"]:
         path.unlink(missing_ok=True)
+
+
+@contextmanager
+def file_lock(path: str | Path, busy: str) -> Iterator[dict]:
+    """Hold the lock file ``path`` for the ``with`` block (any writer, not only sweeps)."""
+    path = Path(path)
+    me = acquire_file(path, busy)
+    try:
+        yield me
+    finally:
+        release_file(path, me)
 
 
 @contextmanager

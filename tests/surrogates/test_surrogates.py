@@ -21,6 +21,7 @@ from dpfexplore.surrogates.data import (
 from dpfexplore.surrogates.fit import fit_surrogates
 from dpfexplore.surrogates.flat import DesignSurrogate, StatusClassifier
 from dpfexplore.sweep.driver import run_sweep
+from dpfexplore.sweep.result_dirs import RESULT_MARKER
 
 OUTPUTS = ("tip_x", "tip_y", "stiffness")
 SMALL = {"job.samples_per_n": 40, "compute.states": "sequential"}
@@ -232,6 +233,8 @@ def test_load_refuses_mismatched_versions(saved, tmp_path, key, value, match):
     import shutil
 
     copy = shutil.copytree(saved, tmp_path / "model")
+    # without its result manifest (a surrogate saved before them): the versions decide alone
+    (copy / RESULT_MARKER).unlink()
     meta = json.loads((copy / store.META).read_text())
     *parents, last = key.split(".")
     target = meta
@@ -241,6 +244,48 @@ def test_load_refuses_mismatched_versions(saved, tmp_path, key, value, match):
     (copy / store.META).write_text(json.dumps(meta))
     with pytest.raises(store.SurrogateLoadError, match=match):
         store.load_surrogates(copy)
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (lambda meta: [meta], "JSON object"),
+        (lambda meta: {k: v for k, v in meta.items() if k != "outputs"}, "outputs"),
+        (lambda meta: {**meta, "dataset": None}, "dataset"),
+        (lambda meta: {**meta, "versions": "abc"}, "versions"),
+    ],
+)
+def test_a_malformed_description_is_one_line(saved, tmp_path, edit, match):
+    import shutil
+
+    copy = shutil.copytree(saved, tmp_path / "model")
+    (copy / RESULT_MARKER).unlink()
+    meta = json.loads((copy / store.META).read_text())
+    (copy / store.META).write_text(json.dumps(edit(meta)))
+    for load in (store.load_surrogates, store.read_report):
+        with pytest.raises(store.SurrogateLoadError, match=match) as info:
+            load(copy)
+        assert "\n" not in str(info.value)
+
+
+def test_a_changed_file_of_a_saved_surrogate_is_refused(saved, tmp_path):
+    import shutil
+
+    copy = shutil.copytree(saved, tmp_path / "model")
+    report = copy / store.REPORT
+    report.write_text(report.read_text().replace("{", "{ ", 1))
+    for load in (store.load_surrogates, store.read_report):
+        with pytest.raises(store.SurrogateLoadError, match="changed after it was written"):
+            load(copy)
+
+
+def test_fractional_unit_counts_are_refused(saved, data):
+    loaded = store.load_surrogates(saved)
+    rows = data.frame[data.ok].head(3).copy()
+    rows["n_units"] = rows["n_units"].astype(float)
+    rows.iloc[1, rows.columns.get_loc("n_units")] = 3.7
+    with pytest.raises(ValueError, match=r"n_units = 3\.7"):
+        loaded.predict(rows)
 
 
 # ----------------------------------------------------------------------------- CLI

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..._kernels.trees import tree_ensemble_predict
+from ...model.files import atomic_write
 from ...model.version import MODEL_VERSION
 
 __all__ = [
@@ -299,8 +300,8 @@ class ResetModel:
         """Write the model as JSON; returns the path."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
-        return path
+        # atomically: a kill or a full disk mid-write leaves the previous model whole
+        return atomic_write(path, json.dumps(self.to_dict(), indent=1) + "\n")
 
 
 def load_reset_model(path: str | Path | None = None) -> ResetModel:

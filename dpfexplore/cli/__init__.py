@@ -51,6 +51,7 @@ COMMAND_MODULES = (
     "surrogate",
     "lookup",
     "design",
+    "identify",
     "bench",
 )
 

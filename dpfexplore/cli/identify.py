@@ -1,0 +1,158 @@
+"""``dpfexplore identify``: spring constants from unit-cell curves (MODEL.md §11).
+
+* ``identify fit TABLE --out results/constants/NAME [--plot] [--allow-flagged] [--force]``
+  fits the dome spring law to every curve of a CSV or Parquet table and selects closed forms
+  for ``k_b``, ``alpha`` and ``tip_dis`` (grouped RFECV with ridge), saved as a constants set.
+* ``identify report NAME`` prints a saved identification (``NAME``: a directory, or a name
+  under results/constants).
+* ``identify compare NAME [OTHER] --design DESIGN`` sets side by side on a design's units
+  (``OTHER`` defaults to the paper's closed forms).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._inputs import design_argument
+from ._output import json_text
+
+CONSTANTS = Path("results") / "constants"
+
+
+def register(subparsers) -> None:
+    """Add ``identify`` and its subcommands."""
+    parser = subparsers.add_parser(
+        "identify",
+        help="spring constants from unit-cell curves: fit, report, compare constants sets",
+        description=__doc__.split("\n\n", 1)[1],
+    )
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    fit = sub.add_parser(
+        "fit", help="fit the spring law per curve and select closed forms; save the set"
+    )
+    fit.add_argument("table", type=Path, help="CSV or Parquet table of unit-cell curves")
+    fit.add_argument(
+        "--out", type=Path, required=True, help="result directory, e.g. results/constants/NAME"
+    )
+    fit.add_argument("--name", default=None, help="name of the set (default: the --out folder)")
+    fit.add_argument("--degree", type=int, default=3, help="largest power of pi1 and pi3")
+    fit.add_argument(
+        "--selector",
+        choices=("rfecv", "lasso"),
+        default="rfecv",
+        help="whose support the set uses (both are scored on held-out geometries)",
+    )
+    fit.add_argument(
+        "--max-rms", type=float, default=0.05, help="largest relative RMS residual of a fit"
+    )
+    fit.add_argument(
+        "--allow-flagged", action="store_true", help="leave flagged curve fits out, not refuse"
+    )
+    fit.add_argument("--plot", action="store_true", help="also write selection.png")
+    fit.add_argument("--force", action="store_true", help="replace --out if it holds a result")
+    fit.add_argument("--json", action="store_true", help="print the report as JSON")
+    fit.set_defaults(handler=_fit)
+    report = sub.add_parser("report", help="print a saved identification")
+    report.add_argument("name", help="directory, or a name under results/constants")
+    report.add_argument("--json", action="store_true", help="print the report as JSON")
+    report.set_defaults(handler=_report)
+    compare = sub.add_parser("compare", help="two constants sets on one design's units")
+    compare.add_argument("name", help="a saved identification (directory or name)")
+    compare.add_argument("other", nargs="?", default=None, help="another (default: the paper's)")
+    compare.add_argument(
+        "--design", required=True, help="design file or example name whose units are compared"
+    )
+    compare.add_argument("--json", action="store_true", help="print the rows as JSON")
+    compare.set_defaults(handler=_compare)
+
+
+def _resolve(name: str) -> Path:
+    path = Path(name)
+    if path.is_dir() or path.parent != Path("."):
+        return path
+    return CONSTANTS / name
+
+
+def _load(name: str):
+    from ..identification.report import read_identification
+
+    try:
+        return read_identification(_resolve(name))
+    except ValueError as exc:
+        raise UsageError(str(exc).splitlines()[0]) from None
+
+
+def _fit(args: argparse.Namespace) -> int:
+    from ..identification.curves import CurveError, read_curves
+    from ..identification.identify import identify
+    from ..identification.report import _report, save_identification
+    from ..model.constants_set import ConstantsSetError
+    from ..sweep.result_dirs import ResultError, check_output_dir
+
+    try:
+        check_output_dir(args.out, force=args.force)
+    except ResultError as exc:
+        raise UsageError(str(exc)) from None
+    if not 1 <= args.degree <= 5:
+        raise UsageError(f"--degree {args.degree}: must be between 1 and 5")
+    try:
+        curves = read_curves(args.table)
+        result = identify(
+            curves,
+            name=args.name or args.out.name,
+            degree=args.degree,
+            selector=args.selector,
+            max_relative_rms=args.max_rms,
+            allow_flagged=args.allow_flagged,
+        )
+        save_identification(result, args.out, plot=args.plot, force=args.force)
+    except (CurveError, ConstantsSetError, ResultError) as exc:
+        raise UsageError(str(exc)) from None
+    report = _report(result)
+    if args.json:
+        print(json_text(report))
+    else:
+        from ..identification.report import format_report
+
+        print(format_report(report))
+        print(f"saved to {args.out}")
+    return EXIT_OK
+
+
+def _report(args: argparse.Namespace) -> int:
+    from ..identification.report import format_report
+
+    _, report = _load(args.name)
+    print(json_text(report) if args.json else format_report(report))
+    return EXIT_OK
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from ..identification.report import compare_sets
+    from ..model.constants_set import DEFAULT
+
+    first, _ = _load(args.name)
+    second = _load(args.other)[0] if args.other else DEFAULT
+    if first.name == second.name:
+        second = type(second)(**{**second.__dict__, "name": f"{second.name} (2)"})
+    design = design_argument(args.design)
+    table = compare_sets([first, second], design.H, design.t, design.r_b, design.E)
+    if args.json:
+        print(json_text(table.to_dict(orient="records")))
+    else:
+        print(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+        outside = [c for c in table.columns if c.endswith(":in_domain") and not table[c].all()]
+        for column in outside:
+            print(
+                f"note: {column.split(':')[0]}: some units lie outside the set's fitted domain",
+                file=sys.stderr,
+            )
+        print(
+            "the lattice (states, dynamics) still runs on the compiled paper forms; whole-finger "
+            "comparisons under another set need that wiring (not yet built)",
+            file=sys.stderr,
+        )
+    return EXIT_FAILURE if table.empty else EXIT_OK

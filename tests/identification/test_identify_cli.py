@@ -1,0 +1,69 @@
+"""``dpfexplore identify``: fit, report, compare; a bad table is one line and nothing written."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from dpfexplore.cli import main
+from dpfexplore.identification.synthetic import synthetic_curves
+from dpfexplore.model.constants_set import DEFAULT, load_constants_set
+from dpfexplore.sweep.result_dirs import verify_result_dir
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory):
+    path = tmp_path_factory.mktemp("identify") / "curves.csv"
+    frame = synthetic_curves(np.linspace(3, 5, 6), np.linspace(0.5, 1, 5), [5.0], [12, 26])
+    frame.to_csv(path, index=False)
+    return path
+
+
+def test_fit_report_compare(table, tmp_path, capsys):
+    out = tmp_path / "constants" / "mine"
+    assert main(["identify", "fit", str(table), "--out", str(out), "--plot", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["curves"] == 60 and report["curves_flagged"] == 0
+    verify_result_dir(out)
+    constants = load_constants_set(out / "constants.json")
+    assert constants.name == "mine" and (out / "selection.png").stat().st_size > 0
+    values = constants.evaluate(4.0, 0.75, 5.0, 26.0)
+    truth = DEFAULT.evaluate(4.0, 0.75, 5.0, 26.0)
+    assert float(values["alpha"]) == pytest.approx(float(truth["alpha"]), rel=0.01)
+
+    assert main(["identify", "report", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "alpha = " in text and "held-out geometries" in text
+
+    assert main(["identify", "compare", str(out), "--design", "gripper", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert len(rows) == 5 and rows[0]["paper:class"] == "bistable"
+
+    # a second fit into the same directory needs --force; an edited set is refused
+    assert main(["identify", "fit", str(table), "--out", str(out)]) == 2
+    assert "--force" in capsys.readouterr().err
+    path = out / "constants.json"
+    path.write_text(path.read_text().replace('"name": "mine"', '"name": "theirs"'))
+    assert main(["identify", "report", str(out)]) == 2
+    assert "changed" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (lambda f: f.drop(columns=["displacement"]), "missing column"),
+        (lambda f: f.assign(t=f["t"] + 0.01 * (f.index % 2)), "changes within"),
+    ],
+)
+def test_bad_tables_are_one_line_and_nothing_is_written(table, tmp_path, capsys, change, says):
+    import pandas as pd
+
+    bad = tmp_path / "bad.csv"
+    change(pd.read_csv(table)).to_csv(bad, index=False)
+    out = tmp_path / "out"
+    assert main(["identify", "fit", str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert says in err and "\n" not in err
+    assert not out.exists()

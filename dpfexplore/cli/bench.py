@@ -19,6 +19,7 @@ BENCHMARKS = (
     "reset_model",
     "lookup",
     "design",
+    "identify",
 )
 
 

@@ -67,3 +67,12 @@ def test_bad_tables_are_one_line_and_nothing_is_written(table, tmp_path, capsys,
     err = capsys.readouterr().err.strip()
     assert says in err and "\n" not in err
     assert not out.exists()
+
+
+def test_bench_identify_record(capsys):
+    args = ["bench", "identify", "--json", "--heights", "4", "--thicknesses", "4"]
+    assert main([*args, "--baseline-curves", "5"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["curves"] == 4 * 4 * 2 * 5 and record["flagged"] == 0
+    assert record["ours_alpha_error"]["median"] < 0.01
+    assert record["baseline_k_b_error"]["failures"] >= 0 and record["total_s"] > 0

@@ -1,0 +1,194 @@
+"""``dpfexplore bench identify``: identification speed and accuracy, ours against a plain fit.
+
+The data are synthetic unit-cell curves drawn from the paper's constants set (so the answer is
+known) on a grid of ``H``, ``t``, ``r_b`` and ``E``, 200 points each, with 1 % noise. Timed on one
+core (BLAS limited to one thread): ours, the per-curve fits (linear start, robust bounded least
+squares, covariance, flags) and the closed-form selection (grouped RFECV with ridge, lasso on
+held-out geometries, OLS refit); the baseline, the paper's per-curve route: SciPy ``curve_fit``
+of the energy law from a generic start. Errors: per-curve ``k_b`` and ``alpha`` against the truth
+(median, max, failures), and the identified closed forms against the truth on geometries between
+the grid points (median, max). The goal: 1,000 curves fitted and selected in at most 10 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from ._common import REPORTS, count, emit, machine_info
+
+#: Seconds the whole identification of 1,000 curves may take on one core (issue 20).
+GOAL_S = 10.0
+
+
+def register(subparsers) -> None:
+    """Add ``bench identify``."""
+    parser = subparsers.add_parser(
+        "identify",
+        help="identification: per-curve fits and closed-form selection vs SciPy curve_fit",
+        description=__doc__.split("\n\n", 1)[1],
+    )
+    parser.add_argument("--json", action="store_true", help="print the JSON record")
+    parser.add_argument(
+        "--save",
+        action="store_true",
+        help=f"also write the record to {REPORTS}/bench-identify.json",
+    )
+    parser.add_argument(
+        "--heights", type=count(2), default=10, help="dome heights in the grid (3-5 mm)"
+    )
+    parser.add_argument(
+        "--thicknesses", type=count(2), default=10, help="dome thicknesses in the grid (0.5-1 mm)"
+    )
+    parser.add_argument(
+        "--baseline-curves", type=count(1), default=200, help="curves fitted by the baseline"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the noise")
+    parser.set_defaults(handler=run)
+
+
+def _truth(curves):
+    from ..model.constants_set import DEFAULT
+
+    values = [DEFAULT.evaluate(c.H, c.t, c.r_b, c.E) for c in curves]
+    return np.array([float(v["k_b"]) for v in values]), np.array(
+        [float(v["alpha"]) for v in values]
+    )
+
+
+def _errors(found: np.ndarray, truth: np.ndarray) -> dict[str, float]:
+    error = np.abs(found / truth - 1.0)
+    ok = np.isfinite(error)
+    return {
+        "median": float(np.median(error[ok])) if ok.any() else float("nan"),
+        "max": float(np.max(error[ok])) if ok.any() else float("nan"),
+        "failures": int((~ok).sum()),
+    }
+
+
+def _baseline(curves) -> tuple[float, np.ndarray, np.ndarray]:
+    import warnings
+
+    from scipy.optimize import OptimizeWarning, curve_fit
+
+    from ..identification.spring_fit import spring_energy
+
+    k_b, alpha = np.full(len(curves), np.nan), np.full(len(curves), np.nan)
+    start = time.perf_counter()
+    for i, c in enumerate(curves):
+        x = c.displacement
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", OptimizeWarning)
+                (k, a, _), _ = curve_fit(
+                    spring_energy,
+                    x,
+                    c.energy,
+                    p0=(1.0, 0.5, x.max() / 1.5),
+                    bounds=([1e-9, 1e-9, 1e-9], [np.inf, 1.0, np.inf]),
+                    maxfev=20_000,
+                )
+            k_b[i], alpha[i] = k, a
+        except RuntimeError:  # no convergence within maxfev: a failure of the baseline
+            pass
+    return time.perf_counter() - start, k_b, alpha
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``bench identify``."""
+    from threadpoolctl import threadpool_limits
+
+    from ..identification.closed_forms import select_closed_form
+    from ..identification.curves import curves_from_frame
+    from ..identification.spring_fit import fit_curve
+    from ..identification.synthetic import synthetic_curves
+    from ..model.constants_set import DEFAULT
+
+    H = np.linspace(3.0, 5.0, args.heights)
+    t = np.linspace(0.5, 1.0, args.thicknesses)
+    r_b, E = (4.8, 5.2), (8.0, 14.0, 20.0, 26.0, 40.0)
+    frame = synthetic_curves(H, t, r_b, E, noise=0.01, points=200, seed=args.seed)
+    curves = curves_from_frame(frame)
+    with threadpool_limits(limits=1):
+        start = time.perf_counter()
+        fits = [fit_curve(c) for c in curves]
+        fit_s = time.perf_counter() - start
+        kb_fit = np.array([f.k_b for f in fits])
+        alpha_fit = np.array([f.alpha for f in fits])
+        geometry = np.array(["|".join(map(str, c.geometry)) for c in curves])
+        Hs = np.array([c.H for c in curves])
+        ts = np.array([c.t for c in curves])
+        rbs = np.array([c.r_b for c in curves])
+        Es = np.array([c.E for c in curves])
+        R = (Hs**2 + rbs**2) / (2 * Hs)
+        start = time.perf_counter()
+        forms = {
+            name: select_closed_form(ts / Hs, Hs / R, y, geometry)
+            for name, y in (("k_hat", kb_fit * R / (Es * ts**2)), ("alpha", alpha_fit))
+        }
+        select_s = time.perf_counter() - start
+        baseline_curves = curves[:: max(1, len(curves) // args.baseline_curves)][
+            : args.baseline_curves
+        ]
+        baseline_s, kb_base, alpha_base = _baseline(baseline_curves)
+    kb_true, alpha_true = _truth(curves)
+    kb_base_true, alpha_base_true = _truth(baseline_curves)
+    # the identified forms between the grid points (geometries no curve had)
+    Hm, tm = np.meshgrid((H[:-1] + H[1:]) / 2, (t[:-1] + t[1:]) / 2)
+    Rm = (Hm**2 + 25.0) / (2 * Hm)
+    truth = DEFAULT.evaluate(Hm, tm, 5.0, 26.0)
+    kb_form = 26.0 * tm**2 / Rm * forms["k_hat"].form(tm / Hm, Hm / Rm)
+    alpha_form = forms["alpha"].form(tm / Hm, Hm / Rm)
+    per_curve_ms = 1e3 * fit_s / len(curves)
+    baseline_ms = 1e3 * baseline_s / len(baseline_curves)
+    record = {
+        "benchmark": "identify",
+        "machine": machine_info(),
+        "curves": len(curves),
+        "points_per_curve": 200,
+        "noise": 0.01,
+        "fit_s": fit_s,
+        "select_s": select_s,
+        "total_s": fit_s + select_s,
+        "goal_s": GOAL_S * len(curves) / 1000,
+        "ours_ms_per_curve": per_curve_ms,
+        "baseline_ms_per_curve": baseline_ms,
+        "ratio_baseline_over_ours": baseline_ms / per_curve_ms,
+        "flagged": sum(not f.ok for f in fits),
+        "ours_k_b_error": _errors(kb_fit, kb_true),
+        "ours_alpha_error": _errors(alpha_fit, alpha_true),
+        "baseline_k_b_error": _errors(kb_base, kb_base_true),
+        "baseline_alpha_error": _errors(alpha_base, alpha_base_true),
+        "closed_form_k_b_error": _errors(kb_form, truth["k_b"]),
+        "closed_form_alpha_error": _errors(alpha_form, truth["alpha"]),
+        "terms": {name: len(s.form.exponents) for name, s in forms.items()},
+        "heldout_winner": {name: s.heldout.get("winner") for name, s in forms.items()},
+    }
+    m = record["machine"]
+
+    def pct(e):
+        return (
+            f"median {100 * e['median']:.3f} %, max {100 * e['max']:.3f} %, {e['failures']} failed"
+        )
+
+    text = "\n".join(
+        [
+            f"identify: {len(curves)} synthetic curves x 200 points, 1 % noise; one core",
+            f"machine: {m['cpu']}, {m['cores']} cores; {m['date']}",
+            f"ours: fits {fit_s:.2f} s ({per_curve_ms:.2f} ms per curve), selection "
+            f"{select_s:.2f} s; total {fit_s + select_s:.2f} s (goal {record['goal_s']:.1f} s)",
+            f"baseline curve_fit: {baseline_ms:.2f} ms per curve over {len(baseline_curves)} "
+            f"curves ({record['ratio_baseline_over_ours']:.2f}x ours)",
+            f"per-curve k_b error: ours {pct(record['ours_k_b_error'])}; baseline "
+            f"{pct(record['baseline_k_b_error'])}",
+            f"per-curve alpha error: ours {pct(record['ours_alpha_error'])}; baseline "
+            f"{pct(record['baseline_alpha_error'])}",
+            f"closed forms between grid points: k_b {pct(record['closed_form_k_b_error'])}; "
+            f"alpha {pct(record['closed_form_alpha_error'])}",
+        ]
+    )
+    save = REPORTS / "bench-identify.json" if args.save else None
+    emit(record, as_json=args.json, text=text, save=save)
+    return 0

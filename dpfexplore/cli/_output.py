@@ -155,6 +155,15 @@ def output_path(path: str | Path, option: str, *, suffixes: tuple[str, ...] = ()
     return path
 
 
+def announce_compilation(command: str, groups: list[str]) -> None:
+    """Say in one line that ``command`` compiles kernels first (nothing when they are cached)."""
+    from ..solvers.compilation import compile_notice
+
+    notice = compile_notice(groups)
+    if notice:
+        error_line(f"dpfexplore {command}: {notice} ...")
+
+
 def fitted_range_line(note: str) -> str:
     """The table outputs' line for a design outside the closed forms' fitted ranges."""
     return (

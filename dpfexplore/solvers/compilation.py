@@ -2,20 +2,21 @@
 
 Numba compiles each kernel on its first call and keeps the machine code in its cache
 (:mod:`dpfexplore._kernels._jit`), so only the first run after an install (or an edit of the
-kernels) compiles. That first run is slow and would otherwise be silent; the CLI prints
-:func:`compile_notice` before it starts.
+kernels) compiles. That first run is slow and would otherwise be silent: the CLI prints
+:func:`compile_notice` before it starts, and the Python API (:func:`announce`, called by the
+solvers before their kernels) logs it once per process as a WARNING on the ``dpfexplore`` logger,
+which Python shows on stderr even when logging is not configured.
 
 Compile cost per group, measured in a fresh process with an empty cache on the 2-core AMD EPYC
 VM of the README's benchmarks (CPU seconds; wall time is longer on a loaded machine):
 
-========== ===================================================== ========
-group      first needed by                                        CPU s
-========== ===================================================== ========
-states     ``states``, ``find_state`` (one design, serial kernels)   ~23
-statics    every ``sweep``, ``solve_batch`` (parallel kernels)      ~22
-dynamics   ``simulate``                                             ~20
-reset      ``sweep`` with reset times, ``reset-maps``, batches      ~20
-========== ===================================================== ========
+* ``states``: ``states``, ``find_state`` (one design, serial kernels), ~23 s;
+* ``statics``: every ``sweep``, ``solve_batch`` (parallel kernels), ~22 s;
+* ``sensitivities``: ``find_state(..., sensitivities=True)``, ``lookup --refine``, ~14 s
+  (37 s with ``states``);
+* ``snap``: ``snap``, ``snap_pressures``, ~28 s (51 s with ``states``);
+* ``dynamics``: ``simulate``, ~20 s;
+* ``reset``: ``sweep`` with reset times, ``reset-maps``, batches, ~20 s.
 
 A group shares most of its code with the others (the lattice assembly, the linear algebra), so
 a second group costs less once the first is compiled.
@@ -23,13 +24,17 @@ a second group costs less once the first is compiled.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable
 
-from .._kernels import batch, dynamics_batch, reduced
+from .._kernels import batch, dynamics_batch, reduced, sensitivity_batch
+from .._kernels import snap as ksnap
 from .._kernels import states as kstates
 from .._kernels._jit import is_cached
 
-__all__ = ["COMPILE_CPU_S", "KERNEL_GROUPS", "compile_notice", "uncompiled"]
+__all__ = ["COMPILE_CPU_S", "KERNEL_GROUPS", "announce", "compile_notice", "uncompiled"]
+
+logger = logging.getLogger("dpfexplore.compile")
 
 #: The entry kernels of each group (their callees are compiled with them).
 KERNEL_GROUPS = {
@@ -39,9 +44,21 @@ KERNEL_GROUPS = {
     "dynamics": (dynamics_batch.integrate,),
     "reset": (dynamics_batch.reset_times_kernel,),
     "release": (reduced.release_batch,),
+    "sensitivities": (sensitivity_batch.solve_rows_sensitivities_serial,),
+    "snap": (ksnap.follow,),
 }
+#: Groups this process has announced or found compiled: checked once, never again.
+_SETTLED: set[str] = set()
 #: Measured first-compile CPU seconds per group (module docstring).
-COMPILE_CPU_S = {"states": 23, "statics": 22, "dynamics": 20, "reset": 20, "release": 20}
+COMPILE_CPU_S = {
+    "sensitivities": 14,
+    "snap": 28,
+    "states": 23,
+    "statics": 22,
+    "dynamics": 20,
+    "reset": 20,
+    "release": 20,
+}
 
 
 def uncompiled(groups: Iterable[str]) -> list[str]:
@@ -54,8 +71,14 @@ def uncompiled(groups: Iterable[str]) -> list[str]:
 
 
 def compile_notice(groups: Iterable[str]) -> str | None:
-    """One line announcing a first compilation of ``groups``, or None if all are cached."""
+    """One line announcing a first compilation of ``groups``, or None if all are cached.
+
+    Groups named here count as announced for the rest of the process (:func:`announce` stays
+    quiet about them), so the CLI's notice and the API's log line never both appear.
+    """
+    groups = [g for g in groups if g not in _SETTLED]
     missing = uncompiled(groups)
+    _SETTLED.update(groups)
     if not missing:
         return None
     seconds = sum(COMPILE_CPU_S[group] for group in missing)
@@ -64,3 +87,16 @@ def compile_notice(groups: Iterable[str]) -> str | None:
         f"compiling the {names} kernels for this machine (first run only: about {seconds} s "
         f"of CPU, a few minutes on a busy machine; later runs load them from the Numba cache)"
     )
+
+
+def announce(groups: Iterable[str]) -> None:
+    """Log a first compilation of ``groups`` once per process (WARNING, ``dpfexplore.compile``).
+
+    Cheap after the first call of a group in a process: a set lookup, no cache inspection.
+    """
+    pending = [g for g in groups if g not in _SETTLED]
+    if not pending:
+        return
+    notice = compile_notice(pending)
+    if notice is not None:
+        logger.warning("dpfexplore: %s ...", notice)

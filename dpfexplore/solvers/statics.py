@@ -47,6 +47,7 @@ from ..model.domain import MAX_UNITS
 from ..model.formatting import num
 from ..model.status import Status
 from . import sensitivities as sens
+from .compilation import announce
 from .lattice import KernelTables, batch_constants, design_kernel_tables, kernel_tables
 
 __all__ = [
@@ -415,6 +416,7 @@ def _solve(
     )
     if serial is None:
         serial = n_rows <= SERIAL_MAX_ROWS
+    announce(["sensitivities"] if sensitivities else ["states" if serial else "statics"])
     table = dx = None
     if sensitivities:
         n_params = n_parameters(MAX_UNITS)

@@ -132,7 +132,8 @@ def run(args: argparse.Namespace) -> int:
         if args.save:
             from ..surrogates.store import save_surrogates
 
-            save_surrogates(surrogates, SAVED_MODEL, force=True)  # the bench refreshes its own record
+            # the bench refreshes its own record
+            save_surrogates(surrogates, SAVED_MODEL, force=True)
     report = surrogates.report
     reset = reset_model_section(args.reset_designs)
     record = {

@@ -1,6 +1,7 @@
 """Printing materials: the presets a design or scene names instead of ``E`` and ``nu``.
 
-Apart from :mod:`.design` (which loads Numba) so that help screens can list them cheaply.
+Apart from :mod:`dpfexplore.model.design` (which loads Numba) so that help screens can list them
+cheaply.
 """
 
 from __future__ import annotations

@@ -1,0 +1,81 @@
+"""The documentation site builds with warnings as errors (issue 22).
+
+One Sphinx build into a temporary folder: every docstring of the API reference, the Markdown
+pages, the benchmarks page generated from ``results/reports/bench-*.json`` and the gallery, whose
+example scripts run during the build.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import subprocess
+import sys
+from html import unescape
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1]
+DOCS = ROOT / "docs"
+REPORTS = ROOT / "results" / "reports"
+
+
+def _generated_pages():
+    spec = importlib.util.spec_from_file_location(
+        "generated_pages", DOCS / "_ext" / "generated_pages.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _text(path: Path) -> str:
+    return unescape(re.sub(r"<[^>]+>", "", path.read_text(encoding="utf-8")))
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("docs") / "html"
+    result = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-b", "html", str(DOCS), str(out)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-8000:]
+    return out
+
+
+@pytest.mark.slow
+def test_docs_build_without_warnings(site):
+    for page in ("index", "api", "model", "decisions", "layout", "guide/using", "guide/sweeps"):
+        assert (site / f"{page}.html").exists(), page
+    # the API reference rendered the public functions from their docstrings
+    api = _text(site / "api.html")
+    assert "find_state" in api and "run_sweep" in api
+
+
+@pytest.mark.slow
+def test_benchmarks_page_is_read_from_the_records(site):
+    fmt = _generated_pages().fmt
+    page = _text(site / "_generated" / "benchmarks.html")
+    lookup = json.loads((REPORTS / "bench-lookup.json").read_text())
+    statics = json.loads((REPORTS / "bench-statics.json").read_text())
+    assert fmt(lookup["build"]["rows_indexed"]) in page
+    assert fmt(statics["by_n_units"][0]["ours_us_per_design"]) in page
+    assert statics["machine"]["date"] in page
+
+
+@pytest.mark.slow
+def test_gallery_images_exist(site):
+    scripts = sorted((DOCS / "examples").glob("*.py"))
+    assert scripts
+    gallery = (site / "_generated" / "gallery.html").read_text(encoding="utf-8")
+    for script in scripts:
+        image = site / "_images" / f"{script.stem}.png"
+        assert image.exists() and image.stat().st_size > 10_000, image
+        assert f"{script.stem}.png" in gallery

@@ -26,7 +26,7 @@ from .curves import UnitCellCurve
 
 __all__ = ["TRADE_OFF", "CurveFit", "fit_curve", "spring_energy", "spring_force"]
 
-#: |correlation(α, d)| above which the two are not separately identified by the curve.
+#: Absolute correlation of α and d above which the curve does not identify them separately.
 TRADE_OFF = 0.995
 #: Fraction of the reach ``d`` a curve must cover for the law's far side to be measured.
 MIN_COVER = 0.9

@@ -1,7 +1,8 @@
 """``dpfexplore lookup DATASET --target X,Y``: designs of a sweep dataset that reach a target.
 
 Exit codes: 0 candidates reported (with ``--refine``: the target was met); 1 with ``--refine``
-when no candidate meets the target (the nearest design found is reported); 2 bad input.
+when no candidate meets the target; 2 bad input. Every candidate is labelled ``ok`` only when it
+meets the target to ``--tol`` (``not_met`` otherwise, with a note), refined or not.
 """
 
 from __future__ import annotations
@@ -166,6 +167,8 @@ def run(args: argparse.Namespace) -> int:
     if plot is not None:
         _plot(result, plot)
     if result.refined and not result.reachable:
+        # a plain lookup's job is the nearest designs, labelled met or not_met; --refine asks
+        # for the target itself, so missing it is a failure
         return EXIT_FAILURE
     return EXIT_OK
 

@@ -237,9 +237,9 @@ class LookupResult:
     candidates : list of Candidate
         Best first: by status (:data:`STATUS_ORDER`), then by error.
     refined : bool
-    reachable : bool or None
-        With refinement: whether a candidate meets the target. Without: True when a dataset row
-        already meets it, else None (undecided: refine to know).
+    reachable : bool
+        Whether a reported candidate meets the target to ``tol`` (with refinement, after it;
+        without, a dataset design as it is: refine to get closer).
     dataset : DatasetInfo
     index_origin : IndexOrigin or None
         None when the caller passed an index.
@@ -265,7 +265,7 @@ class LookupResult:
     tol: float
     candidates: list[Candidate]
     refined: bool
-    reachable: bool | None
+    reachable: bool
     dataset: DatasetInfo
     index_origin: IndexOrigin | None
     index_rows: int
@@ -513,7 +513,7 @@ def lookup(
             "state as a better one and merged into it (its also_from lists their design_ids)"
         )
     if refine:
-        reachable: bool | None = any(c.status == "ok" for c in candidates)
+        reachable = any(c.status == "ok" for c in candidates)
         if not reachable:
             best = candidates[0]
             tip_only = set(columns) == {"tip_x", "tip_y"} and np.all(index.scales == 1.0)
@@ -523,7 +523,13 @@ def lookup(
                 f"(N = {best.design.n_units}, state {best.state}, status {best.status})"
             )
     else:
-        reachable = True if any(c.met for c in candidates) else None
+        reachable = any(c.met for c in candidates)
+        if not reachable:
+            best = candidates[0]
+            notes.append(
+                f"target not met to {tol:g}: the nearest dataset design is {best.error:.4g} "
+                "away from it; --refine polishes the candidates with the exact model"
+            )
     result = LookupResult(
         target=target,
         columns=columns,
@@ -728,10 +734,16 @@ def _verified(
         error_mm = float(np.linalg.norm(tip - target[tip_cols])) if len(tip_cols) == 2 else None
         met = bool(code == st.OK and error <= tol)
         if code == st.OK:
+            # "ok" says the target is met, refined or not: a 26 mm miss labelled "ok" read as
+            # a match
             status = (
                 "ok"
-                if refinement is None or met
-                else (refinement.status if refinement.status != "ok" else "not_met")
+                if met
+                else (
+                    refinement.status
+                    if refinement is not None and refinement.status != "ok"
+                    else "not_met"
+                )
             )
         elif code == st.COLLAPSED:
             status = "collapsed"

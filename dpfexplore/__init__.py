@@ -32,11 +32,11 @@ Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 from __future__ import annotations
 
 from importlib import import_module
-from typing import TYPE_CHECKING, Any
 
 #: Public name -> the module that defines it. Imported on first use (PEP 562), so that
 #: ``import dpfexplore`` (and every ``dpfexplore`` command's start-up) does not load Numba,
-#: SciPy and pandas before they are needed.
+#: SciPy and pandas before they are needed. The package body itself imports nothing but
+#: ``importlib`` (already loaded by Python): Ctrl-C can then not land inside it.
 _EXPORTS = {
     "Design": ".model.design",
     "DesignBatch": ".model.design",
@@ -107,7 +107,7 @@ def _version() -> str:
         return "0+unknown"
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     if name == "__version__":  # reading the installed metadata costs ~20 ms: on demand
         globals()[name] = value = _version()
         return value
@@ -121,34 +121,3 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted([*globals(), *__all__])
-
-
-if TYPE_CHECKING:  # static tools see the real imports
-    from .model.design import MATERIALS, Design, DesignBatch, Material, load_design
-    from .model.status import Status
-    from .solvers.dynamics.simulate import (
-        PressureProfile,
-        SimulationResult,
-        reset_times_batch,
-        simulate,
-    )
-    from .solvers.lattice import spring_constants
-    from .solvers.legs.leg import load_leg, simulate_leg
-    from .solvers.sensitivities import Sensitivities
-    from .solvers.snap.continuation import (
-        SnapSequence,
-        inversion_pressure,
-        snap_pressures,
-        snap_pressures_batch,
-    )
-    from .solvers.statics import (
-        SolverOptions,
-        StateResult,
-        enumerate_states,
-        find_state,
-        sequential_states,
-        solve_batch,
-    )
-    from .sweep.driver import run_sweep
-    from .sweep.space import load_job
-    from .sweep.store import read_results

@@ -190,12 +190,13 @@ def _print_summary(spec, rows, outcome, out: Path) -> None:
                 f"({'ok' if meta.get('ok') else 'NOT metastable'})"
             )
             windows = "; ".join(
-                "-" if w is None else f"{w[0]:.1f}-{w[1]:.1f}" for w in r["pressure_windows"] or []
+                "-" if w is None else f"{w[0]:.1f}-{w[1]:.1f}"
+                for w in r["pressure_windows_kPa"] or []
             )
             print(
                 f"  pressure windows (kPa): {windows} "
                 f"({'ok' if r.get('windows_ok') else 'NOT ok'}; "
-                f"{r['pressure_windows_detail'].get('note')})"
+                f"{r['pressure_windows_kPa_detail'].get('note')})"
             )
             if "reference" in r:
                 ref = r["reference"]

@@ -113,10 +113,13 @@ def _print_table(seq, design, name) -> None:
         )
     print(
         f"{'pressure/MPa':>12}  {'event':<8}  {'before':>{design.n_units}} -> "
-        f"{'after':<{design.n_units}}  units"
+        f"{'after':<{design.n_units}}  units changed (+ inverted, - reverted)"
     )
     for e in seq.events:
         units = " ".join([f"+{k}" for k in e.inverted] + [f"-{k}" for k in e.reverted])
+        if not units:
+            # the fold's jump landed in the pattern the crossing just before had already made
+            units = "none: the jump completes the crossing above"
         print(f"{e.pressure:>12.6f}  {e.kind:<8}  {e.before:>6} -> {e.after:<6}  {units}")
     print()
     print(

@@ -17,6 +17,10 @@ Files (:func:`write_report`)
     ``*.png``                 with ``plot=True``: the finger in each targeted state with its
                               target, the objective against evaluations, the front, and the
                               reachable region of unreachable targets
+
+The writers fill the directory they are given; ``dpfexplore design`` gives them a staging
+directory that replaces ``--out`` whole once everything is written
+(:func:`dpfexplore.sweep.result_dirs.result_directory`, manifest ``.dpfexplore-result.json``).
 """
 
 from __future__ import annotations
@@ -228,8 +232,8 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
         "target": list(g.apertures),
         "reachable": bool(met),
         **entry,
-        "pressure_windows": windows.get("windows"),
-        "pressure_windows_detail": windows,
+        "pressure_windows_kPa": windows.get("windows"),
+        "pressure_windows_kPa_detail": windows,
         "windows_ok": window_ok,
         "metastability": checks,
         "evaluations": dict(result.counts),
@@ -240,7 +244,7 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
         ref.pop("_nodes")
         ref.pop("_h")
         ref["metastability"] = metastability(g.reference, g, evaluator)
-        ref["pressure_windows"] = pressure_windows(g.reference, g.states, evaluator)["windows"]
+        ref["pressure_windows_kPa"] = pressure_windows(g.reference, g.states, evaluator)["windows"]
         row["reference"] = ref
         if ref["stiffness"] is not None and entry["stiffness"] is not None:
             row["stiffness_ratio_to_reference"] = entry["stiffness"] / ref["stiffness"]
@@ -317,7 +321,13 @@ def write_report(
     wall_s: float,
     plot: bool = False,
 ) -> list[Path]:
-    """Write summary, history, design TOMLs and (optionally) figures; returns the paths."""
+    """Write summary, history, design TOMLs and (optionally) figures; returns the paths.
+
+    Writes into ``out`` as it stands (a file of an earlier run there would stay):
+    :func:`dpfexplore.inverse.design.run_design` passes the staging directory of
+    :func:`dpfexplore.sweep.result_dirs.result_directory`, so ``dpfexplore design --out DIR``
+    is complete or absent and holds only this run's files.
+    """
     out = Path(out)
     history = evaluator.history()
     written = write_summary(spec, rows, evaluator, out, wall_s=wall_s, history=history)

@@ -268,14 +268,14 @@ def test_gripper_scene_meets_apertures_and_its_toml_reproduces_them(tmp_path, ca
     out = tmp_path / "out"
     main(["design", str(path), "--out", str(out), "--json"])
     row = json.loads(capsys.readouterr().out)["results"][0]
-    assert len(row["apertures"]) == 4 and "pressure_windows" in row
+    assert len(row["apertures"]) == 4 and "pressure_windows_kPa" in row
     counts = row["evaluations"]  # four states per design, stiffness of the activated one only
     assert counts["state_solves"] == 4 * counts["designs"]
     assert 0 < counts["stiffness"] <= counts["designs"]
     # finalists only: starts x (bisection rounds + two ramps for the windows)
     assert 1 <= counts["simulations"] <= 2 * (6 + 2)
-    windows = row["pressure_windows"]
-    assert len(windows) == 4 and row["pressure_windows_detail"]["computed"]
+    windows = row["pressure_windows_kPa"]
+    assert len(windows) == 4 and row["pressure_windows_kPa_detail"]["computed"]
     if row["windows_ok"]:
         assert all(w[1] - w[0] >= 10.0 for w in windows)
     assert max(abs(a - t) for a, t in zip(row["apertures"], [70, 60, 45, 35], strict=True)) <= 0.05

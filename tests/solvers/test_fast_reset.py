@@ -256,6 +256,11 @@ def test_pickplace_within_its_interval_and_2_percent(pickplace):
     assert np.isinf(out["reset_time"][0, :4]).all() and out["final_state"][0] == 0b111100
     assert out["unit_class"][0, :6].tolist() == [0, 0, 0, 0, 1, 1]
     assert np.isnan(out["snap_through"][0, :6]).all()  # the loading is not integrated
+    # snap-back = release + reset time, as the full model reports it; none where no reset
+    np.testing.assert_allclose(
+        out["snap_back"][0, 4:6], PULSE.t_release + reset, rtol=0, atol=1e-12
+    )
+    assert np.isnan(out["snap_back"][0, :4]).all()
 
 
 def test_fast_agrees_with_the_full_model_on_a_seeded_sample():

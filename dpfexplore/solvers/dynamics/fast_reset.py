@@ -412,6 +412,10 @@ def fast_reset_times_batch(
         out["unit_class"],
     )
     lo[no_contact] = hi[no_contact] = np.nan
+    # The snap-back time is the corrected reset time after the release, as in the full model
+    # (t_release + reset_time); the core's own crossing time is the uncorrected estimate.
+    resets = fast[:, None] & np.isfinite(reset)
+    out["snap_back"][resets] = profile.t_release + reset[resets]
     out["reset_time_lo"] = np.where(fast[:, None], lo, out["reset_time"])
     out["reset_time_hi"] = np.where(fast[:, None], hi, out["reset_time"])
     fallback = valid & ~fast

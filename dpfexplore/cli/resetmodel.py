@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+import sys
+import time
 from itertools import pairwise
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
-from ._output import json_text, output_path
+from ._output import announce_compilation, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -120,7 +122,13 @@ def run_fit(args) -> int:
         atol=args.atol,
         seed=args.seed,
     )
-    model, record = fit_reset_model(options)
+    announce_compilation("reset-model", ["reset"])
+    model, record = fit_reset_model(
+        options,
+        progress=lambda line: print(
+            f"{time.strftime('%H:%M:%S')} reset-model fit: {line}", file=sys.stderr, flush=True
+        ),
+    )
     if args.test_designs and (args.P0, tau) == (0.7, (0.0, 1.0, 5.0, 5.1)):
         from ..bench.reset_model import reset_model_record
 

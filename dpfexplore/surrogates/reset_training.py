@@ -30,6 +30,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -326,14 +327,23 @@ def _score_pool(model: ResetModel, batch: DesignBatch, core: dict) -> NDArray:
 
 
 def fit_reset_model(
-    options: TrainingOptions = TrainingOptions(), domain: dict | None = None
+    options: TrainingOptions = TrainingOptions(),
+    domain: dict | None = None,
+    *,
+    progress: Callable[[str], None] | None = None,
 ) -> tuple[ResetModel, dict]:
-    """Train the fitted part (module docstring); returns the model and a training record."""
+    """Train the fitted part (module docstring); returns the model and a training record.
+
+    ``progress`` receives one line per stage (labelling, each round, calibration): the training
+    takes minutes and would otherwise be silent.
+    """
+    say = progress or (lambda text: logger.info("%s", text))
     domain = domain or DEFAULT_DOMAIN
     profile = PressureProfile.pulse(options.P0, options.tau)
     t_end = options.tau[3] + options.horizon
     start = time.perf_counter()
     seeds = np.random.SeedSequence(options.seed).spawn(options.rounds + 3)
+    say(f"labelling {options.initial} uniform designs with the full model")
     data = _label(
         training_designs(options.initial, _int(seeds[0]), domain), profile, t_end, options.atol
     )
@@ -365,9 +375,13 @@ def fit_reset_model(
                 "margin_min": model.margin_min,
             }
         )
-        logger.info("round %d: %d designs, %d units", r, len(data.batch), y.size)
+        say(
+            f"round {r} of {options.rounds}: correction fitted on {len(data.batch)} designs "
+            f"({y.size} units), {time.perf_counter() - start:.0f} s so far"
+        )
         if r == options.rounds:
             break
+        say(f"round {r + 1}: scoring {options.pool} candidates, labelling {options.per_round}")
         pool = training_designs(options.pool, _int(seeds[r + 3]), domain)
         pool_core = fast_reset_core(pool, profile, t_end=t_end, atol=options.atol)
         chosen = np.argsort(-_score_pool(model, pool, pool_core), kind="stable")[
@@ -378,6 +392,7 @@ def fit_reset_model(
         rounds[-1]["chosen_mean_score"] = float(
             np.mean(_score_pool(model, pool.take(chosen), pool_core))
         )
+    say(f"calibrating the intervals on {options.calibration} uniform designs")
     calibration = _label(
         training_designs(options.calibration, _int(seeds[1]), domain), profile, t_end, options.atol
     )

@@ -534,8 +534,12 @@ def test_reset_model_fit_writes_a_usable_model(tmp_path, capsys, pickplace):
         ]
     )
     assert code == 0
-    record = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    record = json.loads(captured.out)
     assert record["training_designs"] == 50 and record["calibration_designs"] == 40
+    # minutes of training are not silent: one line per stage on stderr
+    stages = [line for line in captured.err.splitlines() if "reset-model fit:" in line]
+    assert any("labelling 40" in s for s in stages) and any("calibrating" in s for s in stages)
     model = load_reset_model(out)
     assert isinstance(model, ResetModel) and math.isfinite(model.conformal_q)
     fast = reset_times_batch(

@@ -240,6 +240,11 @@ def load_scene(path: str | Path) -> SceneSpec:
 
 def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> SceneSpec:
     """Validate a TOML-shaped mapping into a :class:`SceneSpec`."""
+    if "scene" not in data and ("job" in data or "space" in data):
+        raise SceneSpecError(
+            "this is a sweep job ([job], [space]), not a design scene ([scene]): run it with "
+            "dpfexplore sweep; design scenes are in jobs/design-*.toml"
+        )
     if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
         _keys(data, "", required=("scene",), optional=tuple(data))
         _keys(_table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))

@@ -134,3 +134,7 @@ def test_figure_paths_are_checked_before_the_work(tmp_path, capsys):
     assert not (tmp_path / "noext.png").exists() and not (tmp_path / "x.txt").exists()
     assert main(["states", str(GRIPPER), "--plot", str(tmp_path / "new" / "sub" / "s.png")]) == 0
     assert (tmp_path / "new" / "sub" / "s.png").stat().st_size > 0
+
+
+def test_a_sweep_job_given_to_design_is_named_as_such(capsys):
+    refused(capsys, ["design", str(ROOT / "jobs" / "smoke.toml")], "sweep job", "dpfexplore sweep")

@@ -3,8 +3,8 @@
 LAPACK's call overhead dominates at these sizes, so the Cholesky factorisation and the
 triangular solves are written out for the lattice Hessian's block structure (one block per
 post, :func:`block_start`); the rare eigen-decompositions go to ``np.linalg`` (LAPACK through
-Numba). At N = 5 a factorisation and a solve take 0.28 and 0.18 µs, against 0.61 and 0.39 µs
-for the earlier row-oriented profile (skyline) version (microbenchmarks on one core).
+Numba). Block by block, the factor's zero blocks are never touched (docs/decisions.md, "Newton
+steps", has the measurements against a profile-Cholesky variant).
 
 :func:`cholesky` and :func:`cholesky_solve` are compiled once as functions of their own (their
 block helpers are inlined into them, with the constant block sizes the loops unroll on) rather

@@ -10,8 +10,8 @@ two-node springs, Gauss-Newton torsion), the projected Newton method of quasi-st
 elements. It costs one more assembly and a factorisation, keeps every mode on its own scale (a
 shift large enough to cover the most negative eigenvalue shrinks the step along the softest
 bending mode by ``λ_soft/τ``, often 1e-3, and Newton then crawls), and needs no
-eigen-decomposition (LAPACK's ``eigh`` costs 33 µs at N = 5, against 1.3 µs for an assembly and
-a factorisation; the eigenvalue-modified steps this replaced made collapsing states 2-3x dearer).
+eigen-decomposition, which costs about 25 assemblies and factorisations at these sizes (the
+choice and its measurements: docs/decisions.md, "Newton steps").
 Steps where the Hessian is indefinite are capped in length so that steps from a guess do not
 jump across basins; a backtracking Armijo line search on the energy guarantees decrease. At a
 stationary point that is not a minimum (a saddle reached by symmetry), the solver leaves along

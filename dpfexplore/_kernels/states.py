@@ -25,9 +25,8 @@ requested inversion vector:
 Only when every attempt ends elsewhere is the state reported as ``COLLAPSED``. Checked on the
 paper's design space (every state of 2-6 unit fingers, ``tests/solvers/test_statics.py`` and 35
 further starts per collapsed state: seven guesses ``c = 0.5..2`` times five holds): no state
-reported as collapsing was found by any other start. The earlier search (hold at minima from ``c =
-1.0`` and ``c = 1.2``, eigenvalue-modified Newton steps) missed 0.1-4 % of the existing states of
-mixed inversion vectors; on the all-inverted states of the paper's job both agree.
+reported as collapsing was found by any other start (docs/decisions.md, "State search", compares
+this search with simpler ones).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Inversion pressures from slow pressure ramps (the simulation fallback for issue 14).
+"""Inversion pressures from slow pressure ramps: the simulation route beside the continuation.
 
 A unit's inversion pressure within its finger is the pressure at which it snaps through when
 the pressure rises quasi-statically from 0: the fold of the loaded equilibrium it sits on. Here
@@ -11,8 +11,9 @@ of length ``T`` and ``4 T``, give the quasi-static value by Richardson extrapola
 
 On the walker's sections and the pick-and-place finger the rule predicts a third ramp (``16 T``)
 to 0.1-0.3 %, and holding the pressure at 0.99 ``P*`` for 90 s leaves the unit flat while
-1.01 ``P*`` inverts it (``tests/solvers/test_ramp.py``). The pressure continuation of the
-snap-pressure work (``inversion_pressure`` of branch ``snap``) replaces this where it is available.
+1.01 ``P*`` inverts it (``tests/solvers/test_ramp.py``). The pressure continuation
+(:func:`dpfexplore.solvers.snap.continuation.inversion_pressure`, branch ``snap``) finds the
+fold directly and is preferred where it applies; this route checks it with the full dynamics.
 
 Each ramp is one :func:`~dpfexplore.solvers.dynamics.simulate.reset_times_batch` call
 (parallel rows).

@@ -5,25 +5,17 @@ The release model (``method="release"``)
     has to get the inversion pattern right), the state at the start of the release replaced by
     the loaded equilibrium that Newton reaches from it (the end of a long hold), the release
     integrated at the requested tolerance (overdamped Rodas4). It keeps every coordinate of the
-    lattice (see below why fewer do not work); the reduction is in time. Measured by
-    ``dpfexplore bench dynamics`` (100 random metastable designs): the same final states and
-    classes as the full model, reset-time errors like the full model's at the same tolerance,
-    about 30 % less time. It needs a single pulse whose hold is long against the finger's
-    slowest relaxation; its snap-through times come from the loose loading (~1e-3 s).
+    lattice (see below why fewer do not work); the reduction is in time. Its errors and cost
+    against the full model are measured by ``dpfexplore bench dynamics`` (the benchmarks page).
+    It needs a single pulse whose hold is long against the finger's slowest relaxation; its
+    snap-through times come from the loose loading (~1e-3 s).
 
 Why not one coordinate per metastable unit
-    The suggested reduction (each dome's extension as a coordinate, the rest of the finger
-    condensed statically into a restoring stiffness and a damping, ``C_q q̇ = -f(q) - K_q q``)
-    was built and measured on the pick-and-place finger: the condensed statics are right (the
-    bistable units' unloaded extensions to 1e-4), but the reset times come out 0.84 s and 0.45 s
-    against 2.66 s and 1.61 s. The lattice with the dome lengths held fixed is not stiff: each
-    unit's four-bar quadrilateral (dome, two posts, layer) shears against the torsional springs
-    alone (``k_t/h² ≈ 0.15 N/mm`` against ``k_b ≈ 10 N/mm``), damped by the drag, with rates of
-    1.2-6 /s, as slow as the creep itself. Static condensation assumes those modes are
-    instantaneous; adding them as modal coordinates (Craig–Bampton, 8 coordinates) still left
-    4-18 % errors from the linearised geometry of a finger that curls through tens of degrees.
+    A reduction to each dome's extension, the rest condensed statically, misses the reset
+    times by a factor of about 3: the finger's shear modes are as slow as the creep itself.
     Only the full, geometrically non-linear lattice reaches the 0.1 % level, so the reduction
-    that pays is in time (a loose loading, a jump over the hold), not in coordinates.
+    that pays is in time (a loose loading, a jump over the hold), not in coordinates
+    (docs/decisions.md, "Reduced reset models", has the measurements).
 """
 
 from __future__ import annotations

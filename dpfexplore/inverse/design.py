@@ -63,7 +63,7 @@ REPORTS: dict[str, Callable[[SceneSpec, TargetResult, Evaluator], dict[str, Any]
     "pickplace": pickplace_report,
     "walker_leg": walker_report,
 }
-#: Scene kind -> writer of its report files (default :func:`.design_report.write_report`).
+#: Scene kind -> writer of its report files (default :func:`.report.write_report`).
 WRITERS: dict[str, Callable[..., list[Path]]] = {
     "pickplace": write_timing_report,
     "walker_leg": write_walker_report,

@@ -180,7 +180,8 @@ def acquire_file(path: Path, busy: str) -> dict:
             )
             raise LockHeld(f"{busy}: {describe(holder)}{where}")
         # Stale: rename it away (only one contender succeeds), then create ours.
-        aside = path.with_name(f"{LOCK_NAME}.stale-{uuid.uuid4().hex[:8]}")
+        # Named after this lock file, so two locks in one folder never share aside names.
+        aside = path.with_name(f"{path.name}.stale-{uuid.uuid4().hex[:8]}")
         try:
             os.rename(path, aside)
         except FileNotFoundError:
@@ -204,7 +205,27 @@ def release_file(path: Path, me: dict) -> None:
 
 @contextmanager
 def file_lock(path: str | Path, busy: str) -> Iterator[dict]:
-    """Hold the lock file ``path`` for the ``with`` block (any writer, not only sweeps)."""
+    """Hold the lock file ``path`` for the ``with`` block (any writer, not only sweeps).
+
+    Parameters
+    ----------
+    path : str or Path
+        The lock file; its folder must exist. Created with ``O_CREAT | O_EXCL``, removed when
+        the block ends, however it ends.
+    busy : str
+        Start of the one-line refusal, e.g. ``"--out DIR: another command is writing it"``.
+
+    Yields
+    ------
+    dict
+        Our holder record (host, pid, process start time, command).
+
+    Raises
+    ------
+    LockHeld
+        If a live process (or a process on another host) holds it; a stale lock (dead pid on
+        this host, or empty and older than :data:`HALF_WRITTEN_AGE` s) is taken over.
+    """
     path = Path(path)
     me = acquire_file(path, busy)
     try:
@@ -216,8 +237,7 @@ def file_lock(path: str | Path, busy: str) -> Iterator[dict]:
 @contextmanager
 def sweep_lock(out: str | Path) -> Iterator[dict]:
     """Hold the lock of sweep directory ``out`` for the ``with`` block (see the module doc)."""
-    me = acquire(out)
-    try:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with file_lock(out / LOCK_NAME, f"--out {out}: another sweep is using this directory") as me:
         yield me
-    finally:
-        release(out, me)

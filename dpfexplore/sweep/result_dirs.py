@@ -9,8 +9,9 @@ sweep's guarantees:
   **last**, and the staging directory is swapped into place in one step: Linux ``renameat2``
   with ``RENAME_EXCHANGE`` when the target exists (the previous result stays whole until the
   swap), a plain ``rename`` when it does not. Where ``renameat2`` is unavailable the previous
-  result is first renamed to ``.NAME.previous-<id>``; a crash between the two renames is repaired
-  by the next writer (it restores the previous result);
+  result is first renamed to ``.NAME.old-<id>``; a crash between the two renames is repaired
+  by the next writer (it restores the previous result), and so are the staging directories of
+  writers that were killed (removed once their pid is gone);
 * a failure or Ctrl-C before the swap removes the staging directory: the previous result is
   untouched, no half result is ever visible under ``NAME``;
 * two writers of one ``NAME`` cannot interleave: a lock file ``.NAME.dpfexplore-lock`` beside it
@@ -41,6 +42,7 @@ from typing import Any
 
 from ..model.files import atomic_write, fsync_dir
 from .lock import LockHeld, file_lock
+from .store import MANIFEST as _SWEEP_MANIFEST
 
 __all__ = [
     "RESULT_MARKER",
@@ -56,7 +58,9 @@ __all__ = [
 RESULT_MARKER = ".dpfexplore-result.json"
 #: Identifies the manifest's layout.
 RESULT_FORMAT = "dpfexplore-result/1"
-_SWEEP_MANIFEST = "_manifest.json"
+#: Name patterns of a previous result set aside by the two-rename fallback (``previous`` is the
+#: name used by earlier versions; both are recovered).
+_ASIDE_PATTERNS = (".{name}.old-*", ".{name}.previous-*")
 
 
 class ResultError(ValueError):
@@ -86,6 +90,20 @@ def _describe(path: Path) -> str:
 
 def check_output_dir(path: str | Path, *, option: str = "--out", force: bool = False) -> Path:
     """``path`` checked as the target of a result directory, before any work.
+
+    Parameters
+    ----------
+    path : str or Path
+        The result directory to be written.
+    option : str
+        The command-line option that named it, for messages (``--out``, ``--write``).
+    force : bool
+        Accept a directory that already holds something (it will be replaced).
+
+    Returns
+    -------
+    Path
+        ``path``, its parent folder created.
 
     Raises
     ------
@@ -189,17 +207,42 @@ def _exchange(a: Path, b: Path) -> bool:
     raise OSError(errno, os.strerror(errno), str(b))
 
 
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
 def _recover(path: Path) -> None:
-    """Restore a previous result left aside by a writer killed between its two renames."""
-    if path.exists():
-        for aside in path.parent.glob(f".{path.name}.previous-*"):
-            shutil.rmtree(aside, ignore_errors=True)
-        return
-    asides = sorted(path.parent.glob(f".{path.name}.previous-*"), key=lambda p: p.stat().st_mtime)
-    if asides:
-        os.rename(asides[-1], path)
-        for extra in asides[:-1]:
-            shutil.rmtree(extra, ignore_errors=True)
+    """Repair what killed writers left beside ``path`` (called with the lock held).
+
+    A previous result set aside by a writer killed between its two renames goes back in place
+    when ``path`` is missing (it is the last complete result), and is deleted otherwise (the
+    swap completed). Staging directories whose writer (the pid in their name) is no longer
+    alive are deleted: nothing will ever complete them, and they hold a whole result's worth of
+    disk. The pid check is belt and braces: the lock already excludes a live local writer.
+    """
+    asides = sorted(
+        (
+            a
+            for pattern in _ASIDE_PATTERNS
+            for a in path.parent.glob(pattern.format(name=path.name))
+        ),
+        key=lambda p: p.stat().st_mtime,
+    )
+    if asides and not path.exists():
+        os.rename(asides.pop(), path)
+        fsync_dir(path.parent)
+    for aside in asides:
+        shutil.rmtree(aside, ignore_errors=True)
+    for staging in path.parent.glob(f".{path.name}.staging-*"):
+        pid = staging.name.rsplit(".staging-", 1)[1].split("-", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
+            shutil.rmtree(staging, ignore_errors=True)
 
 
 def _swap_into_place(staging: Path, path: Path) -> None:
@@ -208,7 +251,7 @@ def _swap_into_place(staging: Path, path: Path) -> None:
     elif _exchange(staging, path):
         shutil.rmtree(staging)  # now holds the previous result
     else:
-        aside = path.with_name(f".{path.name}.previous-{uuid.uuid4().hex[:8]}")
+        aside = path.with_name(f".{path.name}.old-{uuid.uuid4().hex[:8]}")
         os.rename(path, aside)
         os.rename(staging, path)
         shutil.rmtree(aside)
@@ -238,6 +281,21 @@ def result_directory(
         Replace a directory that holds something (never a sweep dataset).
     description : dict, optional
         JSON-ready facts recorded in the manifest.
+    option : str
+        The command-line option that named ``path``, for messages.
+
+    Yields
+    ------
+    Path
+        The staging directory ``PARENT/.NAME.staging-<pid>-<id>``: write every file there.
+
+    Raises
+    ------
+    ResultExists
+        ``path`` holds something and ``force`` is False (checked before the block runs).
+    ResultError
+        ``path`` is not a directory of its own (see :func:`check_output_dir`), or another
+        command is writing it (its lock is held).
     """
     path = check_output_dir(path, option=option, force=force)
     lock = path.with_name(f".{path.name}.dpfexplore-lock")

@@ -58,7 +58,7 @@ def test_design_refuses_another_run_and_force_replaces_it_whole(tmp_path, capsys
     started = time.perf_counter()
     assert main(["design", str(scene(tmp_path, 1)), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "--force" in err and "\n" not in err
+    assert "--force" in err and str(out) in err and "a design result" in err and "\n" not in err
     assert time.perf_counter() - started < 10  # refused before solving
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
@@ -112,3 +112,35 @@ def test_reset_maps_and_surrogate_fit_refuse_before_the_work(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("--force") == 2
     assert (taken / "notes.txt").read_text() == "mine"
+
+
+def test_reset_maps_default_out_is_a_folder_of_its_own(tmp_path, capsys, monkeypatch):
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from dpfexplore.plotting import dynamics
+    from dpfexplore.solvers.dynamics import resetmaps
+
+    # the simulations are not what is tested here: three tiny maps stand in for them
+    frame = pd.DataFrame({"value": [1.0, 2.0], "reset_time": [0.1, 0.2], "status": ["ok"] * 2})
+    maps = {name: frame for name in ("H", "t", "hold")}
+    monkeypatch.setattr(resetmaps, "reset_time_maps", lambda spec: maps)
+    monkeypatch.setattr(dynamics, "plot_reset_maps", lambda maps: Figure(figsize=(1, 1)))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "notes.txt").write_text("mine")  # results/ is shared, not replaced
+    assert main(["reset-maps", "--quick"]) == 0
+    out = tmp_path / "results" / "reset-maps"
+    assert verify_result_dir(out)["kind"] == "reset-maps"
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "reset_map_H.parquet",
+        "reset_map_hold.parquet",
+        "reset_map_t.parquet",
+        "reset_maps.png",
+    ]
+    assert (tmp_path / "results" / "notes.txt").read_text() == "mine"
+    capsys.readouterr()
+    assert main(["reset-maps", "--quick"]) == 2
+    assert "a reset-maps result" in capsys.readouterr().err
+    assert main(["reset-maps", "--quick", "--force"]) == 0
+    verify_result_dir(out)

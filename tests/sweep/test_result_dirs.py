@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -90,6 +91,11 @@ def test_the_working_directory_and_files_are_refused(tmp_path, monkeypatch):
     for target in (tmp_path / "sub", tmp_path):
         with pytest.raises(ResultError, match="refusing"):
             check_output_dir(target, force=True)
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))  # what Path.home() reads
+    with pytest.raises(ResultError, match="refusing"):
+        check_output_dir(home, force=True)
     (tmp_path / "afile").write_text("x")
     with pytest.raises(ResultError, match="is a file"):
         check_output_dir(tmp_path / "afile")
@@ -120,11 +126,11 @@ def test_without_renameat2_and_a_kill_between_the_renames(tmp_path, monkeypatch)
     write(out, 3, "second")
     assert contents(out) == {"second"} and verify_result_dir(out)
     # a writer killed after moving the previous result aside, before the new one went in
-    os.rename(out, tmp_path / ".out.previous-dead")
+    os.rename(out, tmp_path / ".out.old-dead")
     write(out, 1, "third")  # the next writer restores, then replaces
     assert contents(out) == {"third"}
-    assert not list(tmp_path.glob(".out.previous-*"))
-    os.rename(out, tmp_path / ".out.previous-dead")
+    assert not list(tmp_path.glob(".out.old-*"))
+    os.rename(out, tmp_path / ".out.previous-dead")  # the name earlier versions used
     with pytest.raises(RuntimeError), result_directory(out, kind="test", force=True):
         raise RuntimeError("fails after recovery")
     assert contents(out) == {"third"}  # recovered, and kept
@@ -147,13 +153,15 @@ def test_a_second_writer_is_refused_and_a_stale_empty_lock_is_taken_over(tmp_pat
 
 KILLED_WRITER = textwrap.dedent(
     """
-    import sys
+    import sys, time
     from dpfexplore.sweep.result_dirs import result_directory
     out, tag = sys.argv[1], sys.argv[2]
+    print("ready", flush=True)  # imported: the kill lands in the write, not in the imports
+    start = time.perf_counter()
     with result_directory(out, kind="test", force=True) as staging:
         for i in range(40):
             (staging / f"file-{i:02d}.txt").write_text(f"{tag} {i}\\n" * 20000)
-    print("done", flush=True)
+    print(time.perf_counter() - start, flush=True)
     """
 )
 
@@ -163,21 +171,52 @@ def test_sigkill_at_random_points_leaves_one_complete_result(tmp_path):
     write(out, 40, "first")
     script = tmp_path / "writer.py"
     script.write_text(KILLED_WRITER)
-    outcomes = set()
-    for i, delay in enumerate((0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.2)):
+    env = {**os.environ}
+
+    def start(tag: str, *, fallback: bool) -> subprocess.Popen:
+        env.pop("DPFEXPLORE_NO_RENAMEAT2", None)
+        if fallback:
+            env["DPFEXPLORE_NO_RENAMEAT2"] = "1"
+        process = subprocess.Popen(
+            [sys.executable, str(script), str(out), tag], stdout=subprocess.PIPE, env=env, text=True
+        )
+        assert process.stdout.readline().strip() == "ready"
+        return process
+
+    # one write left alone: how long the part worth killing takes (files, manifest, swap)
+    process = start("timed", fallback=False)
+    duration = float(process.stdout.readline())
+    assert process.wait() == 0 and contents(out) == {"timed"}
+    current, outcomes = "timed", set()
+    rng = random.Random(20261203)
+    delays = [0.0] + [rng.uniform(0.0, 1.5 * duration) for _ in range(7)]
+    for i, delay in enumerate(delays):
         tag = f"run{i}"
-        process = subprocess.Popen([sys.executable, str(script), str(out), tag])
+        process = start(tag, fallback=i % 2 == 1)  # every other one without renameat2
         time.sleep(delay)
         process.send_signal(signal.SIGKILL)
         process.wait()
-        present = contents(out)
-        assert len(present) == 1, present  # never a mixture
-        assert len(list(out.glob("file-*"))) == 40
-        verify_result_dir(out)
-        outcomes.add("new" if present == {tag} else "old")
-        # leftovers of the killed writer do not stop the next one
-        (tmp_path / ".out.dpfexplore-lock").unlink(missing_ok=True)
+        if not out.exists():  # killed between the fallback's two renames: the old one is aside
+            (aside,) = tmp_path.glob(".out.old-*")
+            verify_result_dir(aside)
+            assert contents(aside) == {current}
+        else:
+            present = contents(out)
+            assert present in ({current}, {tag}), present  # never a mixture
+            assert len(list(out.glob("file-*"))) == 40
+            verify_result_dir(out)
+            outcomes.add("new" if present == {tag} else "old")
+            current = present.pop()
+        lock = tmp_path / ".out.dpfexplore-lock"
+        if lock.exists() and lock.stat().st_size == 0:  # killed between creating and filling it
+            os.utime(lock, (time.time() - 10, time.time() - 10))
     assert "old" in outcomes  # at least one kill landed before the swap
+    # the next writer takes over the dead writers' lock and clears what they left
+    process = start("last", fallback=False)
+    process.stdout.readline()
+    assert process.wait() == 0 and contents(out) == {"last"}
+    verify_result_dir(out)
+    assert sorted(p.name for p in tmp_path.glob(".out*")) == []
 
 
 def test_the_manifest_lists_every_file(tmp_path):

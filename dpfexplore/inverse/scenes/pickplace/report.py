@@ -7,7 +7,7 @@ re-solves. Units whose reach ``d`` is clamped are classed ``no_contact``. Every 
 ``fitted_range`` and ``fitted_range_note`` (:attr:`dpfexplore.model.design.Design.in_fitted_range`).
 
 Files (:func:`write_timing_report`; the walker's :func:`.walker_report.write_walker_report`)
-    ``summary.json``, ``history.parquet``   as :func:`.design_report.write_report`
+    ``summary.json``, ``history.parquet``   as :func:`dpfexplore.inverse.report.write_report`
     ``result-KK.toml``     pick-and-place: the design of result KK (``[design]``, read by
                            ``dpfexplore states`` and ``dpfexplore simulate``) and ``[result]``
     ``leg-<kind>.toml``    walker: the designed leg as a leg file (``dpfexplore simulate-leg``)
@@ -286,7 +286,12 @@ def write_timing_report(
     wall_s: float,
     plot: bool = False,
 ) -> list[Path]:
-    """Pick-and-place: summary, history, result TOMLs and (optionally) figures; the paths."""
+    """Pick-and-place: summary, history, result TOMLs and (optionally) figures; the paths.
+
+    Writes into ``out`` as it stands: :func:`dpfexplore.inverse.design.run_design` passes the
+    staging directory of :func:`dpfexplore.sweep.result_dirs.result_directory`, so the report
+    appears complete or not at all.
+    """
     out = Path(out)
     written = write_summary(spec, rows, evaluator, out, wall_s=wall_s)
     for i, row in enumerate(rows):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 __all__ = ["print_timing_summary"]
 
 
@@ -88,11 +90,17 @@ def _walker(rows) -> None:
             f"{met}/{len(r['requirements'])}; wall {r['wall_s']:.2f} s"
         )
         for u in r["units"]:
+            # a unit that never inverts has no class (not "flat") and no inversion pressure
+            p_inv = u["inversion_pressure_MPa"]
+            inverts = (
+                f"inverts at {_t(p_inv, '.4f')} MPa"
+                if isinstance(p_inv, int | float) and math.isfinite(p_inv)
+                else "never inverts on the ramp"
+            )
             print(
                 f"      {u['section']:>6} unit {u['unit']}: H {u['H']:.5f} t {u['t']:.4f}  "
-                f"{u['class'] or 'flat':>11}  reset {_t(u['reset_time'], '.4f'):>8} s  "
-                f"inverts at {_t(u['inversion_pressure_MPa'], '.4f')} MPa "
-                f"({u['phase']} at {u['pressure_MPa']:g} MPa)"
+                f"{u['class'] or 'not inverted':>12}  reset {_t(u['reset_time'], '.4f'):>8} s  "
+                f"{inverts} (its section runs {u['phase']} at {u['pressure_MPa']:g} MPa)"
             )
         for q in r["requirements"]:
             if not q["met"]:

@@ -392,3 +392,34 @@ def test_bench_design_timing_rows(capsys, tmp_path, monkeypatch):
         assert rows[kind]["ours_objective"] == 0.0  # every requirement met
         assert rows[kind]["methods"]["tpe"]["evals"] > 0
     assert len(record["summary"]["timing_scenes"]) == 3
+
+
+def test_walker_table_names_units_that_never_invert(capsys):
+    from dpfexplore.cli._timing_output import _walker
+
+    unit = {
+        "section": "purple",
+        "unit": 1,
+        "H": 2.0,
+        "t": 0.8,
+        "class": None,
+        "reset_time": "inf",
+        "inversion_pressure_MPa": "inf",
+        "phase": "phase 1",
+        "pressure_MPa": 0.35,
+    }
+    row = {
+        "leg": "front",
+        "design": {},
+        "stride": 1.0,
+        "stride_ratio": 2.0,
+        "monostable_stride": 0.5,
+        "requirements": [],
+        "wall_s": 1.0,
+        "units": [unit, {**unit, "class": "metastable", "inversion_pressure_MPa": 0.21}],
+    }
+    _walker([row])
+    out = capsys.readouterr().out
+    assert "inf MPa" not in out and "flat" not in out
+    assert "never inverts on the ramp" in out and "not inverted" in out
+    assert "inverts at 0.2100 MPa" in out

@@ -101,6 +101,44 @@ class Evaluator:
         self._best = np.inf
         #: Results shared by the targets of one scene run (e.g. a screening grid), by key.
         self.cache: dict = {}
+        # Per problem (keyed by identity; problems live as long as their run): the lowest
+        # objective seen and its point, and, while archiving, every stiffness evaluation.
+        self._best_seen: dict[int, tuple[float, NDArray | None]] = {}
+        self._archives: dict[int, list] = {}
+
+    # ------------------------------------------------------------------ what problems saw
+
+    def observe(self, problem: object, z: NDArray, objective: NDArray, stiffness=None) -> None:
+        """Note an evaluation of ``problem`` at box points ``z``.
+
+        Keeps its best point (:meth:`best_seen`) and, when ``stiffness`` is given and the
+        problem is being archived (:meth:`archiving`), the ``(objective, stiffness, z)`` record.
+        """
+        key = id(problem)
+        if len(z):
+            i = int(np.argmin(objective))
+            if objective[i] < self._best_seen.get(key, (np.inf, None))[0]:
+                self._best_seen[key] = (float(objective[i]), z[i].copy())
+        if stiffness is not None and key in self._archives:
+            self._archives[key].append((objective, stiffness, z))
+
+    def best_seen(self, problem: object) -> tuple[float, NDArray | None]:
+        """The lowest objective (mm²) of any evaluated point of ``problem``, and that point."""
+        return self._best_seen.get(id(problem), (np.inf, None))
+
+    @contextlib.contextmanager
+    def archiving(self, problems: Sequence[object]) -> Iterator[dict[int, list]]:
+        """Archive every stiffness evaluation of ``problems`` inside the block.
+
+        Yields the archives, ``id(problem) -> [(objective, stiffness, z), ...]``.
+        """
+        archives = {id(p): [] for p in problems}
+        self._archives.update(archives)
+        try:
+            yield archives
+        finally:
+            for key in archives:
+                self._archives.pop(key, None)
 
     # ------------------------------------------------------------------ solving
 

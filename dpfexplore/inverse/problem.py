@@ -79,12 +79,8 @@ class Problem:
     dim: int
     n_residuals: int
     target_index: int
+    #: Solves, records and remembers (best point seen, archives): a problem holds no run state.
     evaluator: Evaluator
-    #: When a list, every evaluation with stiffness appends ``(objective, stiffness, z)`` to it
-    #: (the optimiser's archive of exactly evaluated designs).
-    archive: list | None = None
-    #: The lowest objective (mm²) of any evaluated point of this problem, and that point.
-    best_seen: tuple[float, NDArray | None] = (np.inf, None)
 
     @property
     def n_units(self) -> int:
@@ -112,12 +108,7 @@ class Problem:
         )
         ev = self.finish(z, batch, out)
         self.record(batch, ev, purpose)
-        if len(z):
-            i = int(np.argmin(ev.objective))
-            if ev.objective[i] < self.best_seen[0]:
-                self.best_seen = (float(ev.objective[i]), z[i].copy())
-        if stiffness and self.archive is not None:
-            self.archive.append((ev.objective, ev.stiffness, z))
+        self.evaluator.observe(self, z, ev.objective, ev.stiffness if stiffness else None)
         return ev
 
     def record(self, batch: DesignBatch, ev: Evaluation, purpose: str) -> None:

@@ -546,3 +546,29 @@ def test_seed_set_reads_each_n_once_and_gives_the_rows_designs(tmp_path):
     got, want = seeds.designs(rows, 3), designs_of(seeds.index, rows)
     for name in ("n_units", "H", "U_L", "U_sep", "t", "t_lim", "E"):
         np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+
+
+def test_problems_hold_no_run_state_the_evaluator_remembers():
+    from dpfexplore.inverse.engine.optimiser import position_problems
+    from dpfexplore.inverse.evaluation import Evaluator
+    from dpfexplore.inverse.spec import parse_scene
+
+    spec = parse_scene(position_scene([(40.0, 25.0)], n_units=(2,)))
+    evaluator = Evaluator(2)
+    (problem,) = position_problems(spec, 0, evaluator)
+    before = dict(vars(problem))
+    rng = np.random.default_rng(0)
+    objectives = []
+    for _ in range(3):
+        z = rng.random((4, problem.dim))
+        objectives.append(problem.evaluate(z, purpose="test").objective)
+    assert vars(problem) == before  # evaluating changed nothing on the problem
+    best, z_best = evaluator.best_seen(problem)
+    assert best == pytest.approx(np.min(np.concatenate(objectives)))
+    assert z_best is not None and z_best.shape == (problem.dim,)
+    with evaluator.archiving([problem]) as archives:
+        problem.evaluate(rng.random((2, problem.dim)), purpose="test", stiffness=True)
+        problem.evaluate(rng.random((2, problem.dim)), purpose="test")  # no stiffness: not kept
+    assert len(archives[id(problem)]) == 1
+    problem.evaluate(rng.random((2, problem.dim)), purpose="test", stiffness=True)
+    assert len(archives[id(problem)]) == 1  # archiving ended with the block

@@ -31,6 +31,7 @@ Each scene kind has a solver in :data:`dpfexplore.inverse.design.SOLVERS` (the g
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 from collections.abc import Sequence
@@ -477,13 +478,13 @@ def solve_position_target(
     result.reachable = result.best is not None and result.best.objective <= spec.tolerance
     if not result.reachable:
         # The nearest tip of any evaluated design (derivative stencils included).
-        problem = min(problems, key=lambda p: p.best_seen[0])
-        objective, z = problem.best_seen
+        problem = min(problems, key=lambda p: p.evaluator.best_seen(p)[0])
+        objective, z = problem.evaluator.best_seen(problem)
         if z is not None and (result.best is None or objective < result.best.objective):
             ev = problem.evaluate(z[None, :], purpose="nearest")
             result.best = Refinement(problem, z, ev, float(ev.objective[0]), 0, False)
         for p in problems:
-            result.per_n[p.n_units] = min(result.per_n[p.n_units], p.best_seen[0])
+            result.per_n[p.n_units] = min(result.per_n[p.n_units], p.evaluator.best_seen(p)[0])
     if result.best is None:  # no design had the targeted state: report the best candidate
         i = order[0]
         j = int(np.argmin(candidates[i].objective))
@@ -543,17 +544,23 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
     order = np.argsort(-np.nan_to_num(np.array(stiffness), nan=-np.inf))
     met = [met[i] for i in order[:FRONT_STARTS]]
     problems = {id(run.problem): run.problem for run in met}
-    for problem in problems.values():
-        problem.archive = []
-    for run in met:
-        z = run.z
-        for tol in spec.front:
-            z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=spec.optimiser.max_iter)
-            if z_new is not None:
-                z = z_new
     front = [FrontPoint(tol, None, None, np.inf, -np.inf) for tol in spec.front]
-    for problem in problems.values():
-        for objective, stiffness, z in problem.archive:
+    if not met:
+        return front
+    evaluators = {id(p.evaluator): p.evaluator for p in problems.values()}
+    with contextlib.ExitStack() as stack:
+        archives: dict[int, list] = {}
+        for evaluator in evaluators.values():
+            mine = [p for p in problems.values() if p.evaluator is evaluator]
+            archives.update(stack.enter_context(evaluator.archiving(mine)))
+        for run in met:
+            z = run.z
+            for tol in spec.front:
+                z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=spec.optimiser.max_iter)
+                if z_new is not None:
+                    z = z_new
+    for key, problem in problems.items():
+        for objective, stiffness, z in archives[key]:
             ok = np.isfinite(objective) & np.isfinite(stiffness)
             for point in front:
                 inside = ok & (objective <= point.tolerance**2)
@@ -564,7 +571,6 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
                     point.z, point.problem = z[i].copy(), problem
                     point.stiffness = float(stiffness[i])
                     point.distance = math.sqrt(float(objective[i]))
-        problem.archive = None
     return front
 
 

@@ -128,10 +128,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     sys.stdout, sys.stderr = TolerantStream(sys.stdout), TolerantStream(sys.stderr)
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _on_ctrl_c) if main_thread else None
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _redeliver_ctrl_c(previous_hook)
     _CTRL_C["seen"] = False
     try:
         return _run(argv)
     finally:
+        sys.unraisablehook = previous_hook
         if main_thread:
             signal.signal(signal.SIGINT, previous)
         for stream in (sys.stdout, sys.stderr):
@@ -179,6 +182,23 @@ _CTRL_C = {"seen": False}
 def _on_ctrl_c(signum: int, frame: object) -> None:
     _CTRL_C["seen"] = True
     raise KeyboardInterrupt
+
+
+def _redeliver_ctrl_c(previous):
+    """An unraisable-exception hook that re-delivers a Ctrl-C swallowed by a C callback.
+
+    Ctrl-C while Numba compiles can land inside an llvmlite ctypes callback, where Python only
+    prints "Exception ignored ..." with a traceback and carries on compiling. Re-raising the
+    signal lets it arrive where it can stop the command (one line, exit code 130).
+    """
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            signal.raise_signal(signal.SIGINT)
+            return
+        previous(unraisable)
+
+    return hook
 
 
 def _caused_by_ctrl_c(exc: BaseException) -> bool:

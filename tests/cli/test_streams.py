@@ -72,7 +72,7 @@ def test_query_into_head_is_quiet_and_succeeds(job, tmp_path):
     assert len(json.loads(whole.stdout)) == len(store.read_results(tmp_path / "d"))
 
 
-@pytest.mark.parametrize("delay", [0.05, 0.1, 0.15, 0.2, 0.3, 0.5])
+@pytest.mark.parametrize("delay", [0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 2.0])
 def test_ctrl_c_during_start_up_is_one_line(delay, tmp_path):
     process = subprocess.Popen(
         [*CLI, "states", str(GRIPPER)],
@@ -91,7 +91,8 @@ def test_ctrl_c_during_start_up_is_one_line(delay, tmp_path):
     elif process.returncode != 0:  # it may also have finished before the signal
         # 130, or killed by SIGINT once the line is out: what a shell shows as $? = 130 too
         assert process.returncode in (130, -signal.SIGINT), err
-        assert err.strip().splitlines() == [err.strip()] and "interrupted" in err
+        said = [line for line in err.splitlines() if "compiling the" not in line]  # cold cache
+        assert len(said) == 1 and said[0].endswith("interrupted"), err
 
 
 def test_start_up_loads_no_numba():

@@ -128,21 +128,38 @@ def central_differences(design, state: str, steps, options=None) -> np.ndarray |
 
     ``steps`` maps a parameter to its step(s); None when a step changes the state.
     """
+    from ..numerics.differences import central_differences as differences
     from ..solvers.sensitivities import parameter_names
 
-    columns = []
-    for name in parameter_names(design.n_units):
-        estimates = []
-        for h in steps(name):
-            plus = _outputs(_perturbed(design, name, h), state, options)
-            minus = _outputs(_perturbed(design, name, -h), state, options)
-            if plus is None or minus is None:
-                return None
-            estimates.append((plus - minus) / (2 * h))
-        if len(estimates) == 2:  # Richardson: the h² error terms cancel
-            estimates = [(4 * estimates[1] - estimates[0]) / 3]
-        columns.append(estimates[0])
-    return np.array(columns).T
+    names = parameter_names(design.n_units)
+    theta = np.array([_parameter_value(design, name) for name in names])
+    chosen = [steps(name) for name in names]
+    failed = []
+
+    def outputs(rows: np.ndarray) -> np.ndarray:
+        # one find_state per row through the public API: the baseline a user would write
+        values = []
+        for row in rows:
+            changed = design
+            for name, value, base in zip(names, row, theta, strict=True):
+                if value != base:
+                    changed = _perturbed(changed, name, value - base)
+            out = _outputs(changed, state, options)
+            failed.append(out is None)
+            values.append(np.full(6, np.nan) if out is None else out)
+        return np.array(values)
+
+    centre = _outputs(design, state, options)
+    if centre is None:
+        return None
+    jac = differences(
+        outputs,
+        theta,
+        centre,
+        step=np.array([s[0] for s in chosen]),
+        richardson=all(len(s) == 2 for s in chosen),
+    )
+    return None if any(failed) else jac
 
 
 def _reference_steps(design, name: str) -> list[float]:

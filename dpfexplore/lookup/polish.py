@@ -47,6 +47,7 @@ from scipy.optimize import least_squares
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..numerics.differences import central_differences
 from ..solvers.sensitivities import batch_columns
 from ..solvers.statics import parse_state, solve_batch, state_string
 from ..sweep.space import DesignSpace
@@ -291,27 +292,23 @@ def _central_differences(
         cols = solve_batch(batch, [state], stiffness=True, min_eig=False)
         return np.array([cols[c][0] for c in columns]), None, int(cols["status"][0])
     theta = _theta(batch)
-    p = theta.size
-    step = _FD_STEP * np.maximum(np.abs(theta), 1.0)
-    rows = np.repeat(theta[None, :], 2 * p + 1, axis=0)
-    rows[1 + np.arange(p), np.arange(p)] += step
-    rows[1 + p + np.arange(p), np.arange(p)] -= step
-    cols = solve_batch(_batch_of(rows, batch), [state] * (2 * p + 1), stiffness=True, min_eig=False)
-    values = np.stack([cols[c] for c in columns], axis=1)
-    ok = cols["status"] == st.OK
-    status = int(cols["status"][0])
-    if not ok[0]:
-        return values[0], None, status
-    centre, plus, minus = values[0], values[1 : p + 1], values[p + 1 :]
-    ok_p, ok_m = ok[1 : p + 1, None], ok[p + 1 :, None]
-    h = step[:, None]
-    # Next to a fold one side of a difference may collapse: fall back to the other side.
-    jac = np.where(
-        ok_p & ok_m,
-        (plus - minus) / (2 * h),
-        np.where(ok_p, (plus - centre) / h, np.where(ok_m, (centre - minus) / h, 0.0)),
+
+    def outputs(rows: NDArray) -> NDArray:
+        cols = solve_batch(
+            _batch_of(rows, batch), [state] * len(rows), stiffness=True, min_eig=False
+        )
+        values = np.stack([cols[c] for c in columns], axis=1)
+        return np.where((cols["status"] == st.OK)[:, None], values, np.nan)
+
+    centre = outputs(theta[None, :])[0]
+    if not np.all(np.isfinite(centre)):
+        cols = solve_batch(batch, [state], stiffness=True, min_eig=False)
+        return np.array([cols[c][0] for c in columns]), None, int(cols["status"][0])
+    # next to a fold one side of a difference may collapse: the routine takes the other side
+    jac = central_differences(
+        outputs, theta, centre, step=_FD_STEP * np.maximum(np.abs(theta), 1.0)
     )
-    return centre, jac.T, status
+    return centre, jac, int(st.OK)
 
 
 #: How :func:`refine` gets the model's derivatives.

@@ -21,8 +21,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
 from numpy.typing import NDArray
+
+from ...numerics.differences import central_differences as shared_central_differences
 
 __all__ = ["STEP", "central_differences"]
 
@@ -38,7 +39,10 @@ def central_differences(
     step: float = STEP,
     columns: NDArray | None = None,
 ) -> NDArray:
-    """Jacobian ``d func / dz`` at ``z`` by central differences clipped to the box.
+    """Jacobian ``d func / dz`` at ``z`` by central differences clipped to the box ``[0, 1]``.
+
+    The package's one finite-difference routine
+    (:func:`dpfexplore.numerics.differences.central_differences`) with the box as bounds.
 
     Parameters
     ----------
@@ -57,28 +61,4 @@ def central_differences(
     -------
     ndarray of shape (r, m)
     """
-    z = np.asarray(z, dtype=float)
-    m = z.size
-    cols = np.arange(m) if columns is None else np.asarray(columns, dtype=np.int64)
-    jac = np.zeros((f0.size, m))
-    if cols.size == 0:
-        return jac
-    up = np.repeat(z[None, :], cols.size, axis=0)
-    down = up.copy()
-    idx = np.arange(cols.size)
-    up[idx, cols] = np.minimum(z[cols] + step, 1.0)
-    down[idx, cols] = np.maximum(z[cols] - step, 0.0)
-    values = func(np.vstack([up, down]))
-    f_up, f_down = values[: cols.size], values[cols.size :]
-    ok_up = np.all(np.isfinite(f_up), axis=1)
-    ok_down = np.all(np.isfinite(f_down), axis=1)
-    h_up = up[idx, cols] - z[cols]
-    h_down = z[cols] - down[idx, cols]
-    for i, j in enumerate(cols):
-        if ok_up[i] and ok_down[i] and h_up[i] + h_down[i] > 0:
-            jac[:, j] = (f_up[i] - f_down[i]) / (h_up[i] + h_down[i])
-        elif ok_up[i] and h_up[i] > 0:
-            jac[:, j] = (f_up[i] - f0) / h_up[i]
-        elif ok_down[i] and h_down[i] > 0:
-            jac[:, j] = (f0 - f_down[i]) / h_down[i]
-    return jac
+    return shared_central_differences(func, z, f0, step=step, lower=0.0, upper=1.0, columns=columns)

@@ -4,8 +4,11 @@ The model is the spring lattice of Osorio et al., "Embodying Control in Soft Mul
 from Morphofunctional Co-design", as specified in MODEL.md. The package reads like its pipeline,
 each stage importing only the ones before it:
 
+numerics
+    NumPy building blocks with no model knowledge (the one central-difference routine).
 model
-    Designs and their validation, closed-form spring constants, pressure profiles, status codes.
+    Designs and their validation, closed-form spring constants and constants sets, pressure
+    profiles, status codes.
 _kernels
     Numba only: energy/gradient/Hessian, Newton, state search, batch entry points, dynamics.
 solvers
@@ -23,6 +26,9 @@ surrogates
 inverse
     Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
     scene kind.
+identification
+    From unit-cell curves to spring constants: per-curve fits, closed forms selected by grouped
+    RFECV, saved as constants sets.
 cli, bench
     The ``dpfexplore`` command and its benchmarks.
 

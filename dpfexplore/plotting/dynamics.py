@@ -90,9 +90,10 @@ def plot_reset_map(frame, x: str, *, hue: str | None = None, ax=None, xlabel: st
     groups = [(None, frame)] if hue is None else list(frame.groupby(hue, sort=True))
     finite_max = np.nanmax(np.where(np.isfinite(frame["reset_time"]), frame["reset_time"], np.nan))
     top = 1.1 * finite_max if np.isfinite(finite_max) else 1.0
+    unit = _UNITS.get(hue or "", "")
     for i, (value, group) in enumerate(groups):
         color = f"C{i % 10}"
-        label = None if hue is None else f"{hue} = {value:g}"
+        label = None if hue is None else f"{hue} = {value:g}{unit}"
         finite = np.isfinite(group["reset_time"])
         ax.plot(group[x][finite], group["reset_time"][finite], marker="o", color=color, label=label)
         never = np.isinf(group["reset_time"])
@@ -105,11 +106,33 @@ def plot_reset_map(frame, x: str, *, hue: str | None = None, ax=None, xlabel: st
                 markerfacecolor="none",
                 linestyle="none",
             )
+    if np.isinf(frame["reset_time"]).any():
+        # the open markers have no time of their own: say so on the line they sit on
+        ax.axhline(top, color="0.6", linestyle=":", linewidth=0.8)
+        ax.plot(
+            [],
+            [],
+            marker="o",
+            markerfacecolor="none",
+            color="0.3",
+            linestyle="none",
+            label="no reset within the horizon",
+        )
+    finite = frame["reset_time"][np.isfinite(frame["reset_time"])]
+    if len(finite) and np.ptp(finite) < 1e-3 * max(abs(float(finite.mean())), 1e-12):
+        # equal up to integration noise: a span of ±5 % keeps that noise from reading as a trend
+        centre = float(finite.mean())
+        ax.set_ylim(0.95 * centre, max(1.05 * centre, 1.02 * top))
+    ax.ticklabel_format(axis="y", useOffset=False, style="plain")
     ax.set_xlabel(xlabel or x)
     ax.set_ylabel("reset time after release (s)")
-    if hue is not None:
+    if hue is not None or np.isinf(frame["reset_time"]).any():
         ax.legend(fontsize="small")
     return ax
+
+
+#: Units of the parameters a reset map may be drawn against (legend labels).
+_UNITS = {"H": " mm", "t": " mm", "U_L": " mm", "U_sep": " mm", "hold": " s"}
 
 
 def plot_time_vs_error(records: Sequence[dict], ax=None, *, case: str | None = None):

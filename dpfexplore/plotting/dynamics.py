@@ -63,6 +63,10 @@ def plot_extensions(result, ax=None):
         for when, marker in ((result.snap_through[k], "^"), (result.snap_back[k], "v")):
             if np.isfinite(when):
                 ax.plot([when], [thresholds[k]], marker=marker, color=color, linestyle="none")
+    # one legend entry for what the dotted lines and the triangles mean (they share the colours)
+    ax.plot([], [], color="0.4", linestyle=":", linewidth=0.8, label="inversion threshold")
+    ax.plot([], [], color="0.4", marker="^", linestyle="none", label="snap-through")
+    ax.plot([], [], color="0.4", marker="v", linestyle="none", label="snap-back")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("dome extension x̄/d")
     ax.legend(fontsize="small", ncol=2)

@@ -100,11 +100,14 @@ def run(args: argparse.Namespace) -> int:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plotting.statics import plot_states
+        from ..plotting.statics import plot_states, plot_states_grid
 
-        ax = plot_states(results)
-        ax.figure.savefig(plot, dpi=150, bbox_inches="tight")
-        plt.close(ax.figure)
+        if sum(r.stable for r in results) > 6:  # too many to overlay: one panel each
+            plot_states_grid(results).savefig(plot, dpi=150, bbox_inches="tight")
+        else:
+            ax = plot_states(results)
+            ax.figure.savefig(plot, dpi=150, bbox_inches="tight")
+            plt.close(ax.figure)
     failed = [r for r in results if r.status.label not in ("ok", "collapsed")]
     return EXIT_FAILURE if failed else EXIT_OK
 

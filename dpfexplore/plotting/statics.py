@@ -49,9 +49,39 @@ def plot_states(results: Sequence[StateResult], ax: Axes | None = None) -> Axes:
     import matplotlib as mpl
 
     stable = [r for r in results if r.stable]
-    colors = mpl.colormaps["viridis"](np.linspace(0.0, 0.9, max(len(stable), 1)))
-    for result, color in zip(stable, colors, strict=False):
-        plot_finger(result.nodes, ax, color=color, label=result.requested)
+    # a qualitative map: neighbouring states must not get near-identical colours
+    colors = mpl.colormaps["tab20" if len(stable) > 10 else "tab10"].colors
+    for i, result in enumerate(stable):
+        plot_finger(result.nodes, ax, color=colors[i % len(colors)], label=result.requested)
     ax.legend(title="state", fontsize="small", ncols=2 if len(stable) > 8 else 1)
     ax.set_title("Stable states (solid: limiting layer, dashed: dome line)")
     return ax
+
+
+def plot_states_grid(results: Sequence[StateResult]):
+    """One small panel per stable state, the rest shape in grey behind each: a Figure.
+
+    Overlaid, more than a handful of states hide each other; side by side with shared axes
+    each shape reads on its own.
+    """
+    from matplotlib.figure import Figure
+
+    stable = [r for r in results if r.stable]
+    rest = next((r for r in stable if set(r.requested) <= {"0"}), None)
+    columns = min(4, max(len(stable), 1))
+    rows = max(1, -(-len(stable) // columns))
+    fig = Figure(figsize=(3.0 * columns, 2.6 * rows), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, columns, sharex=True, sharey=True)).ravel()
+    for ax, result in zip(axes, stable, strict=False):
+        if rest is not None and result is not rest:
+            plot_finger(rest.nodes, ax, color="0.8")
+        plot_finger(result.nodes, ax, color="C0")
+        ax.set_title(f"state {result.requested}", fontsize="small")
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+    for ax in axes[len(stable) :]:
+        ax.set_visible(False)
+    fig.supxlabel("x (mm)")
+    fig.supylabel("y (mm)")
+    fig.suptitle("Stable states (grey: the rest shape; dashed: dome line)")
+    return fig

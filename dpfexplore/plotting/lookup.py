@@ -123,6 +123,11 @@ def plot_reachable(
         handles.append(
             mpl.lines.Line2D([], [], ls="", marker="o", mfc="none", mec="red", label=best)
         )
+        handles.append(
+            mpl.lines.Line2D(
+                [], [], ls="", marker="o", color="black", ms=4, label="reported designs' tips"
+            )
+        )
     if target is not None:
         ax.scatter(
             [target[0]], [target[1]], marker="*", s=160, color="red", zorder=6, clip_on=False

@@ -70,7 +70,7 @@ def run(args) -> int:
     else:
         _print_text(result, summary)
     if plot is not None:
-        _save_plot(result, plot)
+        _save_plot(result, plot, args.assignments)
     return EXIT_OK if result.status == Status.OK else EXIT_FAILURE
 
 
@@ -98,12 +98,15 @@ def _print_text(result, summary) -> None:
         print(f"outside the fitted range: {result.fitted_range_note}")
 
 
-def _save_plot(result, path: Path) -> None:
+def _save_plot(result, path: Path, assignments=()) -> None:
     from matplotlib.figure import Figure
 
     from ..plotting.leg import plot_tip_paths
 
+    name = result.leg.name or "leg"
+    # the legend names the leg that ran: the file's, changed by any --set
+    label = f"{name} with {', '.join(assignments)}" if assignments else name
     fig = Figure(figsize=(11, 5), layout="constrained")
-    plot_tip_paths(result, fig.subplots(1, 2))
+    plot_tip_paths(result, fig.subplots(1, 2), labels=[label])
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)

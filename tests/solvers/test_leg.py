@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import spy
 
 import dpfexplore.cli as cli
 from dpfexplore import Design, PressureProfile, simulate
@@ -208,7 +209,12 @@ def main(monkeypatch):
     return cli.main
 
 
-def test_simulate_leg_json_and_plot(main, capsys, tmp_path):
+def test_simulate_leg_json_and_plot(main, capsys, tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    import dpfexplore.plotting.leg as plotting
+
+    drawn = spy(monkeypatch, plotting, "plot_tip_paths")
     png = tmp_path / "leg.png"
     assert main(["simulate-leg", "walker-leg", "--json", "--plot", str(png)]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -218,6 +224,18 @@ def test_simulate_leg_json_and_plot(main, capsys, tmp_path):
     assert out["sections"][0]["reset_times"] == [None, None]
     assert len(out["tip_path"]) == 501 and len(out["tip_path"][0]) == 4
     assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
+    # what is drawn: the JSON's tip path (t, x, y, z rows) in the x-y and y-z projections
+    (axes,) = drawn
+    path = np.array(out["tip_path"])[:, 1:]
+    assert [(ax.get_xlabel(), ax.get_ylabel()) for ax in axes] == [
+        ("tip x (mm)", "tip y (mm)"),
+        ("tip y (mm)", "tip z (mm)"),
+    ]
+    for ax, (a, b) in zip(axes, ((0, 1), (1, 2)), strict=True):
+        line = ax.get_lines()[0]  # the path; then its end marker and the start
+        np.testing.assert_allclose(line.get_xdata(), path[:, a], atol=1e-6)
+        np.testing.assert_allclose(line.get_ydata(), path[:, b], atol=1e-6)
+    plt.close(axes[0].figure)
 
 
 LEG = """
@@ -269,3 +287,16 @@ def test_bad_leg_files(main, capsys, tmp_path, text, message):
 def test_missing_leg_file(main, capsys):
     assert main(["simulate-leg", "no-such-leg.toml"]) == 2
     assert "no such leg file" in capsys.readouterr().err
+
+
+def test_the_leg_figure_names_the_leg_that_ran(main, capsys, tmp_path, monkeypatch):
+    import dpfexplore.plotting.leg as plotting
+
+    drawn = spy(monkeypatch, plotting, "plot_tip_paths")
+    png = tmp_path / "leg.png"
+    argv = ["simulate-leg", "walker-leg", "--set", "purple.t=0.9", "--plot", str(png)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    (axes,) = drawn
+    labels = [t.get_text() for t in axes[0].get_legend().get_texts()]
+    assert any("purple.t=0.9" in label for label in labels), labels

@@ -313,8 +313,8 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
 def bench_gripper(args) -> dict:
     """The gripper: ours against the baselines on the apertures' squared error (mm²)."""
     from ..inverse.evaluation import Evaluator
+    from ..inverse.kinds import load_scene
     from ..inverse.scenes.gripper.solve import gripper_problem, solve_gripper
-    from ..inverse.spec import load_scene
 
     spec = load_scene(JOBS / "design-gripper.toml")
     ours = Evaluator(5)
@@ -342,7 +342,7 @@ def bench_gripper(args) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``bench design``."""
-    from ..inverse.spec import load_scene, parse_scene
+    from ..inverse.kinds import load_scene, parse_scene
 
     logging.getLogger("bayes_opt").setLevel(logging.WARNING)
     args.seed_datasets = {}

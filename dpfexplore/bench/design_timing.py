@@ -126,10 +126,10 @@ def _row(
 def bench_pickplace(args, jobs) -> list[dict]:
     """Each target reset time: ours (screening + bracket + Brent) against TPE."""
     from ..inverse.evaluation import Evaluator
+    from ..inverse.kinds import load_scene
     from ..inverse.scenes.pickplace.problem import ResetProblem
     from ..inverse.scenes.pickplace.solve import SEARCH_FRACTION, solve_pickplace
     from ..inverse.scenes.timing_spec import with_target_reset
-    from ..inverse.spec import load_scene
 
     base = load_scene(jobs / "design-pickplace.toml")
     rows = []
@@ -169,8 +169,8 @@ def bench_pickplace(args, jobs) -> list[dict]:
 def bench_walker(args, jobs) -> list[dict]:
     """Each leg of the walker scene: ours (section by section, roots) against TPE on the leg."""
     from ..inverse.evaluation import Evaluator
+    from ..inverse.kinds import load_scene
     from ..inverse.scenes.walker.solve import WalkerSearch, solve_walker, violation
-    from ..inverse.spec import load_scene
 
     base = load_scene(jobs / "design-walker-leg.toml")
     rows = []

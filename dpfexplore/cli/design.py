@@ -99,9 +99,10 @@ class _LineProgress:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore design``."""
     from ..inverse.design import run_design
+    from ..inverse.kinds import load_scene
     from ..inverse.report import public
     from ..inverse.scenes.timing_spec import with_target_reset
-    from ..inverse.spec import SceneSpecError, load_scene, with_seeds
+    from ..inverse.spec import SceneSpecError, with_seeds
     from ..sweep.result_dirs import ResultError, check_output_dir
 
     try:

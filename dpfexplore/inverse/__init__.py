@@ -1,7 +1,10 @@
 """Inverse design: from what a finger must do to verified designs.
 
-spec
-    Scene files (TOML): kinds, targets, variables, objective, budget (:func:`load_scene`).
+kinds
+    :data:`~.kinds.SCENE_KINDS`: one record per scene kind (tables, parser, solver, report,
+    writer), and :func:`load_scene` / :func:`parse_scene`.
+spec, spec_fields
+    Scene files (TOML): targets, variables, objective, budget; the field readers they share.
     Design variables (:class:`~dpfexplore.sweep.variables.DesignVariables`) come from the sweep
     stage, which lookup shares.
 evaluation
@@ -20,7 +23,8 @@ design
 
 from ..sweep.variables import DesignVariables
 from .design import design_scene, run_design
-from .spec import SceneSpec, SceneSpecError, load_scene, parse_scene
+from .kinds import load_scene, parse_scene
+from .spec import SceneSpec, SceneSpecError
 
 __all__ = [
     "DesignVariables",

@@ -1,6 +1,7 @@
-"""Scene jobs: what a finger must do, as a TOML file that :func:`load_scene` validates.
+"""Scene jobs: what a finger must do, as a TOML file.
 
-A scene names its kind (:data:`SCENE_KINDS`), its targets, the design variables with their
+Read by :func:`dpfexplore.inverse.kinds.load_scene`. A scene names its kind (one of
+:data:`dpfexplore.inverse.kinds.SCENE_KINDS`), its targets, the design variables with their
 bounds and constraints, the material and the objective's weights or tolerances. Every problem in
 a scene file is one :class:`SceneSpecError` (a ``ValueError``) whose one-line message starts with
 the dotted key, e.g. ``variables.H.min = 6.0: greater than max = 5.0``; nothing is computed or
@@ -66,11 +67,10 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     pulse = {P0 = 0.7, tau = [0.0, 0.5, 1.0, 1.1], t_end = 2.0}
     reference = {H = [...], ..., theta_B_deg = -27.065, base_L = 20.081}   # optional
 
-New kinds register a parser in :data:`SCENE_KINDS` (and a solver in
-:data:`dpfexplore.inverse.design.SOLVERS`); a kind's own top-level tables go in
-:data:`SCENE_TABLES`, and a kind that describes its variables itself (the walker leg: one set per
-section) in :data:`OWN_VARIABLES`. The timing scenes (``pickplace``, ``walker_leg``) register
-from :mod:`dpfexplore.inverse.scenes.timing_spec`.
+Every kind is one record of the literal table :data:`dpfexplore.inverse.kinds.SCENE_KINDS`: its
+own tables, whether it describes its variables itself (the walker leg: one set per section), its
+parser (here for the position and gripper kinds, in :mod:`dpfexplore.inverse.scenes.timing_spec`
+for the timing kinds), its solver, report and writer.
 """
 
 from __future__ import annotations
@@ -89,27 +89,32 @@ from ..model import status as st
 from ..model.design import MATERIALS, Design
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
-from ..sweep._jobfile import JobSpecError, check_keys
 from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
+from .spec_fields import (
+    SceneSpecError,
+    _bound,
+    _keys,
+    _numbers,
+    _plain,
+    _positive,
+    _range,
+    _string,
+    _table,
+)
 
 __all__ = [
-    "OWN_VARIABLES",
-    "SCENE_KINDS",
-    "SCENE_TABLES",
     "GripperSpec",
     "OptimiserSettings",
     "SceneSpec",
     "SceneSpecError",
     "Target",
+    "build_spec",
     "check_seeds",
-    "load_scene",
-    "parse_scene",
+    "parse_gripper",
+    "parse_position",
+    "read_scene_file",
     "with_seeds",
 ]
-
-
-class SceneSpecError(JobSpecError):
-    """A scene file that does not validate; the message is one line naming the key."""
 
 
 @dataclass(frozen=True)
@@ -225,35 +230,37 @@ MAX_TARGET_DISTANCE = 1000.0
 # ----------------------------------------------------------------------------- parsing
 
 
-def load_scene(path: str | Path) -> SceneSpec:
-    """Read and validate a scene file (raises :class:`SceneSpecError` naming the key)."""
+def read_scene_file(path: str | Path) -> dict[str, Any]:
+    """The TOML document of a scene file (:class:`SceneSpecError` if unreadable)."""
     path = Path(path)
     try:
         with path.open("rb") as fh:
-            data = tomllib.load(fh)
+            return tomllib.load(fh)
     except OSError as exc:
         raise SceneSpecError(f"{path}: cannot read ({exc.strerror})") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneSpecError(f"{path}: not valid TOML ({exc})") from None
-    return parse_scene(data, default_name=path.stem)
+    except UnicodeDecodeError:
+        raise SceneSpecError(f"{path}: not a text file (a scene is TOML)") from None
 
 
-def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> SceneSpec:
-    """Validate a TOML-shaped mapping into a :class:`SceneSpec`."""
-    if "scene" not in data and ("job" in data or "space" in data):
-        raise SceneSpecError(
-            "this is a sweep job ([job], [space]), not a design scene ([scene]): run it with "
-            "dpfexplore sweep; design scenes are in jobs/design-*.toml"
-        )
-    if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
-        _keys(data, "", required=("scene",), optional=tuple(data))
-        _keys(_table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
-    kind = data["scene"]["kind"]
-    if not isinstance(kind, str) or kind not in SCENE_KINDS:
-        known = ", ".join(SCENE_KINDS)
-        raise SceneSpecError(f"scene.kind = {kind!r}: unknown kind; known: {known}")
-    own = kind in OWN_VARIABLES
-    tables = SCENE_TABLES.get(kind, ("targets", "objective", "gripper"))
+def build_spec(
+    data: Mapping[str, Any],
+    *,
+    kind: str,
+    tables: Sequence[str],
+    own_variables: bool,
+    parse: Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]],
+    default_name: str = "scene",
+) -> SceneSpec:
+    """Validate a TOML-shaped scene of a known ``kind`` into a :class:`SceneSpec`.
+
+    The parts every kind shares (``[scene]``, ``[variables]``, ``[optimiser]``) are read here;
+    ``parse`` reads the kind's own tables (``tables``) and returns the fields it adds. The
+    table of kinds, and the entry points :func:`~dpfexplore.inverse.kinds.load_scene` /
+    :func:`~dpfexplore.inverse.kinds.parse_scene`, are in :mod:`dpfexplore.inverse.kinds`.
+    """
+    own = own_variables
     _keys(
         data,
         "",
@@ -291,7 +298,7 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
         optimiser=_optimiser(data.get("optimiser", {})),
         document=_plain(data),
     )
-    fields.update(SCENE_KINDS[kind](data, fields))
+    fields.update(parse(data, fields))
     spec = SceneSpec(**fields)
     for n in () if own else spec.n_units:
         try:
@@ -323,7 +330,8 @@ def _check_box_holds_designs(variables: DesignVariables) -> None:
         )
 
 
-def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+def parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+    """The fields of a position (or position-and-stiffness) scene: targets and objective."""
     stiffness = fields["kind"] == "position_stiffness"
     if "gripper" in data:
         raise SceneSpecError(f"gripper = {{...}}: unknown table for kind {fields['kind']!r}")
@@ -381,7 +389,8 @@ def _parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
     return out
 
 
-def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+def parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+    """The fields of a gripper scene: its ``[gripper]`` table."""
     for key in ("targets", "objective"):
         if key in data:
             raise SceneSpecError(f"{key}: not used by kind 'gripper' (its targets are [gripper])")
@@ -464,20 +473,6 @@ def _parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str,
         reference_base_L=base_ref,
     )
     return {"gripper": spec}
-
-
-#: Scene kinds: kind -> parser of its kind-specific tables (returns extra SceneSpec fields).
-SCENE_KINDS: dict[str, Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]]] = {
-    "position": _parse_position,
-    "position_stiffness": _parse_position,
-    "gripper": _parse_gripper,
-}
-#: Top-level tables a kind may have besides ``scene``, ``variables`` and ``optimiser``
-#: (default: ``targets``, ``objective``, ``gripper``; each parser rejects the ones it does not use).
-SCENE_TABLES: dict[str, tuple[str, ...]] = {}
-#: Kinds without a ``[variables]`` table (their parser reads their variables; ``n_units`` is set
-#: by the parser).
-OWN_VARIABLES: set[str] = set()
 
 
 # ----------------------------------------------------------------------------- pieces
@@ -573,37 +568,6 @@ def _n_units(value: Any) -> tuple[int, ...]:
     return (unit(value),)
 
 
-def _bound(value: Any, where: str) -> float | tuple[float, float]:
-    """A number (fixed) or ``{min, max}`` -> DesignVariables' number or ``(low, high)``."""
-    if isinstance(value, Mapping):
-        return _range(value, where)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneSpecError(f"{where} = {value!r}: give a number or {{min, max}}")
-    if not (math.isfinite(value) and value > 0):
-        raise SceneSpecError(f"{where} = {value!r}: must be finite and > 0")
-    return float(value)
-
-
-def _range(value: Any, where: str, *, positive: bool = True) -> tuple[float, float]:
-    if not isinstance(value, Mapping):
-        raise SceneSpecError(f"{where} = {value!r}: give {{min, max}}")
-    _keys(value, where, required=("min", "max"), optional=())
-    low, high = value["min"], value["max"]
-    for key, v in (("min", low), ("max", high)):
-        if (
-            isinstance(v, bool)
-            or not isinstance(v, (int, float))
-            or not math.isfinite(v)
-            or (positive and v <= 0)
-        ):
-            raise SceneSpecError(
-                f"{where}.{key} = {v!r}: must be a finite number" + (" > 0" if positive else "")
-            )
-    if low > high:
-        raise SceneSpecError(f"{where}.min = {low}: greater than max = {high}")
-    return float(low), float(high)
-
-
 def _material(scene: Mapping[str, Any]) -> tuple[float, float, str]:
     if "material" in scene:
         if "E" in scene:
@@ -691,62 +655,3 @@ def with_seeds(spec: SceneSpec, dataset: str) -> SceneSpec:
         raise SceneSpecError(f"--seeds: only position scenes take seeds, not {spec.kind!r}")
     settings = replace(spec.optimiser, seeds=check_seeds(dataset, "--seeds"))
     return replace(spec, optimiser=settings)
-
-
-def _numbers(value: Any, where: str, *, length: int | None, unit: str) -> tuple[float, ...]:
-    if not isinstance(value, list) or not all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
-    ):
-        raise SceneSpecError(
-            f"{where} = {value!r}: need a list of finite numbers" + (f" ({unit})" if unit else "")
-        )
-    if length is not None and len(value) != length:
-        raise SceneSpecError(f"{where} = {value!r}: need {length} numbers, got {len(value)}")
-    return tuple(float(v) for v in value)
-
-
-def _positive(
-    table: Mapping[str, Any], where: str, key: str, default: float, *, allow_zero: bool = False
-) -> float:
-    value = table.get(key, default)
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or not math.isfinite(value)
-        or value < 0
-        or (value == 0 and not allow_zero)
-    ):
-        raise SceneSpecError(f"{where}.{key} = {value!r}: must be a finite number > 0")
-    return float(value)
-
-
-def _string(table: Mapping[str, Any], where: str, key: str, default: str) -> str:
-    value = table.get(key, default)
-    if not isinstance(value, str):
-        raise SceneSpecError(f"{where}.{key} = {value!r}: must be a string")
-    return value
-
-
-def _table(data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
-    value = data[key]
-    if not isinstance(value, Mapping):
-        raise SceneSpecError(f"{key} = {value!r}: must be a table")
-    return value
-
-
-def _keys(
-    table: Mapping[str, Any], where: str, *, required: Sequence[str], optional: Sequence[str]
-) -> None:
-    try:
-        check_keys(table, where, required=tuple(required), optional=tuple(optional))
-    except JobSpecError as exc:
-        raise SceneSpecError(str(exc)) from None
-
-
-def _plain(value: Any) -> Any:
-    """A JSON-ready copy of a TOML document."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_plain(v) for v in value]
-    return value

@@ -17,6 +17,7 @@ import pytest
 
 from dpfexplore import Design, DesignBatch, PressureProfile, simulate
 from dpfexplore.cli import main
+from dpfexplore.inverse.kinds import load_scene
 from dpfexplore.inverse.scenes.pickplace.problem import (
     ResetEval,
     grow_bracket,
@@ -26,7 +27,7 @@ from dpfexplore.inverse.scenes.pickplace.problem import (
 from dpfexplore.inverse.scenes.timing_spec import with_target_reset
 from dpfexplore.inverse.scenes.walker.report import inverted_intervals
 from dpfexplore.inverse.scenes.walker.solve import violation
-from dpfexplore.inverse.spec import SceneSpecError, load_scene
+from dpfexplore.inverse.spec import SceneSpecError
 from dpfexplore.solvers.dynamics.ramp import inversion_pressures
 from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
 
@@ -358,7 +359,7 @@ def test_shipped_timing_scenes_validate():
     w = load_scene(JOBS / "design-walker-leg.toml")
     assert w.walker.legs == ("front", "middle") and w.walker.gait.walk_pressure == 0.2
     with pytest.raises(SceneSpecError, match="walker: missing"):
-        from dpfexplore.inverse.spec import parse_scene
+        from dpfexplore.inverse.kinds import parse_scene
 
         parse_scene({"scene": {"kind": "walker_leg", "material": "cheetah-95a"}})
 

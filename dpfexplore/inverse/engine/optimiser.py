@@ -25,7 +25,8 @@ Method
    tolerance; the report gives the nearest tip found and the tips of every evaluated design
    (the sampled reachable region) per N.
 
-Each scene kind has a solver in :data:`dpfexplore.inverse.design.SOLVERS` (the gripper's is in
+Each scene kind's solver is named by its record in :data:`dpfexplore.inverse.kinds.SCENE_KINDS`
+(the position kinds' is :func:`solve_position_target`, the gripper's is in
 :mod:`dpfexplore.inverse.scenes.gripper.solve`).
 """
 

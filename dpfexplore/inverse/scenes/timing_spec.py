@@ -92,10 +92,7 @@ from typing import Any
 from ...model.pressure import PressureProfile
 from ...solvers.legs.leg import Leg, load_leg
 from ...sweep.variables import DesignVariables
-from ..spec import (
-    OWN_VARIABLES,
-    SCENE_KINDS,
-    SCENE_TABLES,
+from ..spec_fields import (
     SceneSpecError,
     _keys,
     _numbers,
@@ -690,10 +687,3 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
         raise SceneSpecError(f"{where}.green_class = {green!r}: monostable, metastable or any")
     out["green_class"] = green
     return WalkerRequirements(**out)
-
-
-SCENE_KINDS["pickplace"] = parse_pickplace
-SCENE_KINDS["walker_leg"] = parse_walker
-SCENE_TABLES["pickplace"] = ("pickplace",)
-SCENE_TABLES["walker_leg"] = ("walker",)
-OWN_VARIABLES.add("walker_leg")

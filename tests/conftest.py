@@ -52,3 +52,46 @@ def design_from_row(row) -> Design:
 def free_coordinates(group: pd.DataFrame) -> np.ndarray:
     """Free coordinates (kernel order) of one reference sample (rows in D1, D2, L2, ... order)."""
     return np.ravel(np.column_stack([group.x.to_numpy(), group.y.to_numpy()]))
+
+
+#: End of the release ramp (s) of pickplace_dynamics.csv (τ4 of its pulse).
+REFERENCE_RELEASE_END = 5.1
+#: Barrier of the pick-and-place finger's metastable units 5-6 (H = 3, t = 0.83: α ≈ 0.1131
+#: >= 1/9, so the barrier is u = 3/4; MODEL.md §4 and §8).
+REFERENCE_METASTABLE_BARRIER = 0.75
+
+
+def reference_reset_times() -> np.ndarray:
+    """Reset times (s) of units 5 and 6 of the pick-and-place finger in the reference run.
+
+    From ``pickplace_dynamics.csv`` (SciPy Radau, rtol 1e-4): the time after ``τ4`` at which each
+    extension falls back below its barrier, linearly interpolated between the 0.025 s samples
+    (the interpolation is good to ~5e-4 s: use ``rtol >= 1e-3``).
+    """
+    frame = read_reference("pickplace_dynamics.csv")
+    t = frame.t.to_numpy()
+    times = []
+    for unit in (5, 6):
+        u = frame[f"ext{unit}"].to_numpy()
+        after = np.flatnonzero((t > REFERENCE_RELEASE_END) & (u < REFERENCE_METASTABLE_BARRIER))
+        i = after[0]
+        frac = (REFERENCE_METASTABLE_BARRIER - u[i - 1]) / (u[i] - u[i - 1])
+        times.append(t[i - 1] + frac * (t[i] - t[i - 1]) - REFERENCE_RELEASE_END)
+    return np.array(times)
+
+
+def spy(monkeypatch, module, name: str) -> list:
+    """Wrap ``module.name`` so that each call's return value is appended to the returned list.
+
+    The commands import their plotting functions when they plot, so a spy on the plotting
+    module sees the Axes or Figure a command drew and saved.
+    """
+    calls: list = []
+    original = getattr(module, name)
+
+    def wrapper(*args, **kwargs):
+        calls.append(original(*args, **kwargs))
+        return calls[-1]
+
+    monkeypatch.setattr(module, name, wrapper)
+    return calls

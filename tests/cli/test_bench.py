@@ -6,13 +6,25 @@ import json
 
 import numpy as np
 import pytest
+from conftest import reference_reset_times
 
 from dpfexplore.cli import main
 
 
 @pytest.mark.slow
 def test_bench_statics_record(capsys, tmp_path, monkeypatch):
+    import dpfexplore.bench.statics as bench_statics
+
     monkeypatch.chdir(tmp_path)
+    # the per-design times the record summarises, captured to recompute its figures
+    timed = []
+    original = bench_statics._per_design_times
+
+    def per_design_times(*args, **kwargs):
+        timed.append(original(*args, **kwargs))
+        return timed[-1]
+
+    monkeypatch.setattr(bench_statics, "_per_design_times", per_design_times)
     code = main(
         [
             "bench",
@@ -44,7 +56,17 @@ def test_bench_statics_record(capsys, tmp_path, monkeypatch):
     # ours is converged far below the SciPy baseline's error, against the tight reference
     assert record["ours_tip_err_mm"] < 1e-9
     assert record["ours_at_least_as_accurate"] is True
-    assert record["ours_us_per_design"] <= record["ours_us_per_design_p90"]
+    # the median and p90 are those of the measured per-design times (one array per N, the
+    # record's main figures are N = 2's), and every design solves faster than SciPy's median
+    assert [len(t) for t in timed] == [r["designs"] for r in record["by_n_units"]]
+    times = timed[0]
+    assert 0 < record["designs"] <= 20 and np.all(times > 0)
+    assert record["ours_us_per_design"] == pytest.approx(np.median(times), rel=1e-12)
+    assert record["ours_us_per_design_p90"] == pytest.approx(np.percentile(times, 90), rel=1e-12)
+    assert record["ours_us_per_design_p90"] < record["scipy_us_per_design"]
+    assert record["speedup_vs_scipy"] == pytest.approx(
+        record["scipy_us_per_design"] / np.median(times), rel=1e-12
+    )
     assert np.isfinite(record["scipy_tip_err_all_mm"])
     saved = json.loads((tmp_path / "results" / "reports" / "bench-statics.json").read_text())
     assert saved["by_n_units"][1]["n_units"] == 3
@@ -140,4 +162,16 @@ def test_bench_surrogate_record_has_both_halves(capsys, tmp_path, monkeypatch):
     # the reset section is measured on the requested held-out designs, fallbacks included
     assert 0.0 <= reset["fallback_rate"] <= 1.0
     assert reset["us_per_design"] > 0 and reset["full_model_us_per_design"] > 0
-    assert 0.0 <= reset["median_rel_err"] <= reset["p95_rel_err"] <= reset["max_rel_err"]
+    # the errors meet the reset model's goals (GOALS of bench reset-model) on these designs
+    assert reset["median_rel_err"] <= 0.01 and reset["p95_rel_err"] <= 0.05
+    assert reset["max_rel_err"] <= 0.20 and reset["metastable_units"] > 0
+    # the pick-and-place finger: units 1-4 never reset, the full model's times of units 5-6 are
+    # those of the reference integration (SciPy Radau, tests/data/reference), the fast model's
+    # within the goal's 2 % of them, and the recorded error is that of the two lists
+    pick = reset["pickplace"]
+    assert pick["reference"][:4] == [None] * 4 and pick["reset_times"][:4] == [None] * 4
+    expected = reference_reset_times()
+    np.testing.assert_allclose(pick["reference"][4:6], expected, rtol=1e-3)
+    np.testing.assert_allclose(pick["reset_times"][4:6], expected, rtol=0.02)
+    rel = np.abs(np.array(pick["reset_times"][4:6]) / np.array(pick["reference"][4:6]) - 1.0)
+    assert pick["max_rel_err"] == pytest.approx(rel.max(), rel=1e-12)

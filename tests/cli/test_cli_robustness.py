@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import spy
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
@@ -136,7 +137,14 @@ def test_simulate_on_a_directory_is_one_line(tmp_path, capsys):
     ]
 
 
-def test_every_output_file_gets_its_folder(swept, tmp_path, capsys):
+def test_every_output_file_gets_its_folder(swept, tmp_path, capsys, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    import dpfexplore.plotting.space as space_plots
+    import dpfexplore.plotting.statics as state_plots
+
+    states_drawn = spy(monkeypatch, state_plots, "plot_states")
+    space_drawn = spy(monkeypatch, space_plots, "plot_design_space")
     plot = tmp_path / "a" / "states.png"
     assert (
         main(["states", str(example_path("pickplace")), "--sequential", "--plot", str(plot)]) == 0
@@ -147,6 +155,18 @@ def test_every_output_file_gets_its_folder(swept, tmp_path, capsys):
     assert main(["plot-space", str(swept / "out"), "--out", str(png)]) == 0
     capsys.readouterr()
     assert plot.read_bytes()[:4] == b"\x89PNG" and png.read_bytes()[:4] == b"\x89PNG"
+    # what the figures show: the five stable sequential states of the pick-and-place finger
+    # (limiting layers drawn solid, 2 pt), and one point per converged all-inverted row
+    (ax,) = states_drawn
+    layers = [line.get_label() for line in ax.get_lines() if line.get_linewidth() == 2.0]
+    assert layers == ["000000", "100000", "110000", "111000", "111100"]
+    (axes,) = space_drawn
+    rows = space_plots.all_inverted_rows(store.read_results(swept / "out"))
+    assert len(axes) == 3 and len(rows) > 0
+    assert sum(len(c.get_offsets()) for c in axes[0].collections) == len(rows)
+    assert axes[0].get_xlabel() == "tip x (mm)" and axes[0].get_ylabel() == "tip y (mm)"
+    plt.close(ax.figure)
+    plt.close(axes[0].figure)
     assert csv.read_text().startswith("design_id\n")
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import read_reference, spy
 
 from dpfexplore.cli import main
 from dpfexplore.examples import example_path
@@ -47,10 +48,42 @@ def test_sequential_table_with_gripper_apertures(capsys):
     assert "H[unit 5] = 2.5 mm below the fitted 3-5 mm" in lines[-1]
 
 
-def test_plot_writes_a_png(tmp_path, capsys):
+def test_plot_writes_a_png(tmp_path, capsys, monkeypatch):
+    import dpfexplore.plotting.statics as plotting
+
+    drawn = spy(monkeypatch, plotting, "plot_states")
     out = tmp_path / "states.png"
     assert main(["states", str(example_path("pickplace")), "--sequential", "--plot", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    check_pickplace_states_figure(drawn)
+
+
+def check_pickplace_states_figure(drawn: list) -> None:
+    """The figure of ``states pickplace --sequential``: the seven sequential states, each
+    limiting layer ending at the seed implementation's tip (gripper_states.csv, design 2)."""
+    import matplotlib.pyplot as plt
+
+    (ax,) = drawn
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (mm)", "y (mm)")
+    layers = [line for line in ax.get_lines() if line.get_linewidth() == 2.0]
+    # 000000 ... 111100: the metastable units 5-6 fall back (111110 and 111111 collapse, in
+    # the reference too), so five stable states are drawn
+    sequence = ["000000", "100000", "110000", "111000", "111100"]
+    assert [line.get_label() for line in layers] == sequence
+    reference = read_reference("gripper_states.csv")
+    reference = reference[reference.design == 2]
+    lost = reference[reference.requested.isin(["b111110", "b111111"])]
+    assert len(lost) > 0 and (lost.found != lost.requested).all()
+    tips = {r.found[1:]: (r.tip_x, r.tip_y) for r in reference.itertuples()}
+    for line in layers:
+        state = line.get_label()
+        end = (line.get_xdata()[-1], line.get_ydata()[-1])
+        assert end == pytest.approx(tips[state], abs=1e-6), state
+    # every tip lies inside the drawn data limits
+    box = ax.dataLim.padded(1e-6)  # the reference's tips are rounded to ~1e-10 mm
+    for line in layers:
+        assert box.contains(*tips[line.get_label()])
+    plt.close(ax.figure)
 
 
 @pytest.mark.parametrize("body", ["[design]\nH = [4.0]\n", "not toml ["])

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import reference_reset_times, spy
 
 import dpfexplore.cli as cli
 import dpfexplore.cli.bench as cli_bench
@@ -39,13 +40,19 @@ def test_simulate_json(main, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["final_state"] == "111100"
     assert out["reset_times"][:4] == ["inf"] * 4
-    assert out["reset_times"][4] == pytest.approx(2.6568, rel=1e-3)
+    # the reference integration's reset times (SciPy Radau, tests/data/reference)
+    np.testing.assert_allclose(out["reset_times"][4:6], reference_reset_times(), rtol=1e-3)
     assert out["snap_back"][:4] == [None] * 4
     assert out["classes"] == ["bistable"] * 4 + ["metastable"] * 2
     assert out["status"] == "ok" and out["method"] == "rodas4"
 
 
-def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path):
+def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    import dpfexplore.plotting.dynamics as plotting
+
+    drawn = spy(monkeypatch, plotting, "plot_simulation")
     design = tmp_path / "weak.toml"
     design.write_text("[design]\nH = [4.0, 3.0]\nU_L = 6.0\nU_sep = 1.0\nt = 0.83\nt_lim = 1.0\n")
     png = tmp_path / "run.png"
@@ -69,6 +76,28 @@ def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path):
     assert out["reset_times"] == [None, None] and out["classes"] == [None, None]
     assert out["final_state"] == "00"
     assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+    # what is drawn: tip displacement over 0-1 s with the 0.05 MPa pulse on the twin axis, and
+    # the two domes' extensions, both below their inversion thresholds (never inverted)
+    (axes,) = drawn
+    top, bottom = axes
+    assert top.get_xlabel() == "time (s)" and top.get_ylabel() == "tip displacement (mm)"
+    (tip,) = top.get_lines()
+    assert tip.get_xdata()[0] == 0.0 and tip.get_xdata()[-1] == pytest.approx(1.0)
+    assert tip.get_ydata()[0] == 0.0 and tip.get_ydata().max() > 0
+    (twin,) = [a for a in top.figure.axes if a not in (top, bottom)]
+    (pressure,) = twin.get_lines()
+    assert pressure.get_ydata().max() == pytest.approx(0.05)
+    assert bottom.get_ylabel() == "dome extension x̄/d"
+    units = [line for line in bottom.get_lines() if line.get_label().startswith("unit")]
+    thresholds = [  # the dotted horizontal lines of the units (not legend-only entries)
+        line
+        for line in bottom.get_lines()
+        if line.get_linestyle() == ":" and len(line.get_ydata()) and line.get_label()[0] == "_"
+    ]
+    assert [line.get_label() for line in units] == ["unit 1", "unit 2"] and len(thresholds) == 2
+    for extension, threshold in zip(units, thresholds, strict=True):
+        assert 0 < extension.get_ydata().max() < threshold.get_ydata()[0]
+    plt.close(top.figure)
 
 
 def test_simulate_text_and_profile(main, capsys):
@@ -103,7 +132,10 @@ def test_simulate_bad_input_exits_2(main, capsys, argv, message):
     assert message in capsys.readouterr().err
 
 
-def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path):
+def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path, monkeypatch):
+    import dpfexplore.plotting.dynamics as plotting
+
+    drawn = spy(monkeypatch, plotting, "plot_reset_maps")
     code = main(["reset-maps", "--quick", "--out", str(tmp_path)])
     assert code == 0
     for name in ("H", "t", "hold"):
@@ -117,6 +149,24 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path):
     finite = h_map[np.isfinite(h_map.reset_time)]
     assert finite.reset_time.is_monotonic_increasing and np.isinf(h_map.reset_time.iloc[-1])
     assert (tmp_path / "reset_maps.png").read_bytes()[:4] == b"\x89PNG"
+    # the figure: one panel per map; the H panel draws the parquet's finite reset times
+    (fig,) = drawn
+    axes = fig.axes
+    assert [ax.get_xlabel() for ax in axes] == [
+        "dome height H (mm)",
+        "dome thickness t (mm)",
+        "hold time (s)",
+    ]
+    curves = [  # solid lines in data coordinates: the finite reset times
+        line
+        for line in axes[0].get_lines()
+        if line.get_linestyle() == "-" and line.get_transform() == axes[0].transData
+    ]
+    points = np.concatenate([np.column_stack(line.get_data()) for line in curves])
+    expected = np.column_stack([finite.value, finite.reset_time])
+    np.testing.assert_allclose(
+        points[np.lexsort(points.T[::-1])], expected[np.lexsort(expected.T[::-1])]
+    )
     assert "reset_map_hold.parquet" in capsys.readouterr().out
 
 

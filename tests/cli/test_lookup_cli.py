@@ -148,6 +148,7 @@ def test_write_round_trips_through_states(dataset, tmp_path, capsys):
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     assert record["reachable"] is True and len(record["written"]) == 2
+    met = 0
     for path, candidate in zip(record["written"], record["candidates"], strict=True):
         assert main(["states", path, "--json"]) in (0, 1)
         states = json.loads(capsys.readouterr().out)
@@ -158,7 +159,8 @@ def test_write_round_trips_through_states(dataset, tmp_path, capsys):
         assert states["design"]["H"] == candidate["design"]["H"]
         if candidate["status"] == "ok":
             assert np.linalg.norm(np.array(row["tip"]) - target) <= 1e-6
-    assert record["candidates"][0]["status"] == "ok"
+            met += 1
+    assert met >= 1 and record["candidates"][0]["status"] == "ok"
     assert record["candidates"][0]["fitted_range"] is True
 
 

@@ -231,4 +231,19 @@ def test_smoke_job_dask_engine_equals_local(tmp_path, capsys):
     b = store.read_results(dask).sort_values(key).reset_index(drop=True)
     pd.testing.assert_frame_equal(a, b)
     assert (a["dyn_status_label"] == "ok").any()  # some designs were simulated
-    assert np.isfinite(a["reset_time_1"]).any() or np.isinf(a["reset_time_1"]).any()
+    # reset times and unit classes agree (MODEL.md §8): inf = bistable (0), finite >= 0.05 s =
+    # metastable (1), sooner = monostable (2), none = never inverted or no contact (-1, 3);
+    # unit 1 of this job has all three kinds
+    for k in range(1, 5):
+        reset, cls = a[f"reset_time_{k}"].to_numpy(), a[f"unit_class_{k}"].to_numpy()
+        simulated = ~np.isnan(cls)
+        assert (np.isinf(reset[simulated]) == (cls[simulated] == 0)).all()
+        with np.errstate(invalid="ignore"):
+            assert ((np.isfinite(reset) & (reset >= 0.05)) == (cls == 1)).all()
+            assert ((np.isfinite(reset) & (reset < 0.05)) == (cls == 2)).all()
+        assert np.isin(cls[simulated & np.isnan(reset)], [-1, 3]).all()
+    kinds = set(a["unit_class_1"].dropna().astype(int))
+    assert {0, 1, 2} <= kinds
+    # the dynamics of a design do not depend on the state row it is reported on
+    per_design = a.groupby("design_id")["reset_time_1"].nunique(dropna=False)
+    assert (per_design == 1).all()

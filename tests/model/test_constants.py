@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
+from model_helpers import height_for_alpha
 
 from dpfexplore.model.constants import (
     ALPHA_BISTABLE,
@@ -19,11 +19,6 @@ from dpfexplore.model.constants import (
 )
 from dpfexplore.model.design import Design
 from dpfexplore.solvers.lattice import spring_constants
-
-
-def height_for_alpha(target: float, t: float = 0.83, r_b: float = 5.0) -> float:
-    """Dome height whose α equals ``target`` (α falls with H on [2.5, 3.5] at t = 0.83)."""
-    return brentq(lambda H: dome_alpha(H, t, dome_radius(H, r_b)) - target, 2.5, 3.5, xtol=1e-15)
 
 
 @pytest.mark.parametrize("offset", [-1e-6, 1e-6])

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from conftest import GRIPPER
 from hypothesis import example, given, settings
 from hypothesis import strategies as hs
 
@@ -160,6 +161,11 @@ def test_a_collapsed_row_carries_the_outputs_of_the_state_it_names(design):
     """Over the accepted domain: a row "collapsed to S" has the outputs of S's own row (S's
     search finds S, at the same minimum), or a status saying why not. The H = 50 design (the
     issue's) is outside the domain: rejected, not solved into contradicting rows."""
+    check_collapsed_rows(design)
+
+
+def check_collapsed_rows(design: dict) -> int:
+    """The invariant of the test above for one design; returns the collapsed rows checked."""
     batch = batch_of([design])
     code = batch.status()[0]
     if code != st.OK:
@@ -167,10 +173,11 @@ def test_a_collapsed_row_carries_the_outputs_of_the_state_it_names(design):
         outside = bool(np.any(H > r_b) or np.any(H >= U_L))
         assert (code == st.OUTSIDE_DOMAIN) == outside
         assert code in (st.OUTSIDE_DOMAIN, st.INVALID_CONSTANTS)
-        return
+        return 0
     rows = solve_batch(batch, "all", stiffness=True, min_eig=True)
     by_state = {int(r): i for i, r in enumerate(rows["requested"])}
-    for i in np.flatnonzero(rows["status"] == st.COLLAPSED):
+    collapsed = np.flatnonzero(rows["status"] == st.COLLAPSED)
+    for i in collapsed:
         found = int(rows["found"][i])
         own = by_state[found]
         assert rows["status"][own] == st.OK, (design, i, found)
@@ -179,6 +186,20 @@ def test_a_collapsed_row_carries_the_outputs_of_the_state_it_names(design):
             a, b = float(rows[name][i]), float(rows[name][own])
             same = a == b or abs(a - b) <= 1e-7 * max(1.0, abs(b))  # a == b: inf for N = 1
             assert same, (name, a, b, design)
+    return len(collapsed)
+
+
+def test_the_collapsed_row_invariant_is_exercised():
+    """A design with collapsed rows, so that the invariant's loop runs: the gripper finger,
+    whose requested state 00001 falls to 00000 (the seed implementation's too, reference
+    gripper_states.csv), and the paper's H = 50 design, rejected before solving."""
+    gripper = dict(GRIPPER, nu=0.35, r_b=5.0, t_ch=1.0)
+    assert check_collapsed_rows(gripper) > 0
+    rows = solve_batch(batch_of([gripper]), "all", stiffness=False, min_eig=False)
+    assert rows["status"][1] == st.COLLAPSED and rows["found"][1] == 0
+    tall = dict(TALL, E=26.0, nu=0.35, r_b=5.0, t_ch=1.0, U_L=[8.0] * 3, U_sep=[1.0] * 3)
+    assert batch_of([tall]).status()[0] == st.OUTSIDE_DOMAIN
+    assert check_collapsed_rows(tall) == 0
 
 
 def test_sweep_rows_carry_the_flag_and_the_domain_status(tmp_path):

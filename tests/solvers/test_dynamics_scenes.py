@@ -153,7 +153,12 @@ def test_slowest_relaxation_of_the_pick_and_place_finger():
     cmat = np.empty((n, n))
     damping_matrix(pos, params.unit_params, params.h, ETA_INTERNAL, ETA_ISO, np.empty(n), cmat)
     rates = eigh(hess, cmat, eigvals_only=True)
-    assert rates[0] == pytest.approx(1.23, abs=0.05)
+    # the reference integration relaxes at that rate once the units 5-6 have reset (from 7.8 s,
+    # at zero pressure, toward this state): three equally spaced tip samples of its tail give it
+    ref = read_reference("pickplace_dynamics.csv")
+    a, b, c = np.interp([10.0, 12.5, 15.0], ref.t, ref.tip_x)  # sample times of the 601
+    observed = -np.log((c - b) / (b - a)) / 2.5  # 1.234 /s
+    assert rates[0] == pytest.approx(observed, rel=0.01)
     assert rates[1] > 4 * rates[0]
 
 

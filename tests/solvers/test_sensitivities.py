@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as hs
-from test_constants import height_for_alpha
+from model_helpers import height_for_alpha
 
 from dpfexplore import Design, DesignBatch, SolverOptions, Status, find_state, solve_batch
 from dpfexplore._kernels import layout as lay

@@ -7,7 +7,7 @@ import pytest
 from conftest import GRIPPER, PICKPLACE, read_reference
 from hypothesis import given, settings
 from hypothesis import strategies as hs
-from test_constants import height_for_alpha
+from model_helpers import height_for_alpha
 
 from dpfexplore import Design, DesignBatch, Status, enumerate_states, find_state, solve_batch
 from dpfexplore._kernels import layout as lay
@@ -246,13 +246,24 @@ def test_smallest_eigenvalue_matches_lapack():
         assert r.min_eig == pytest.approx(eig, rel=EIG_REL)
 
 
-def test_gripper_apertures_of_the_paper():
+def test_implementation_gripper_apertures_in_this_model():
+    """This model's apertures of the implementation's gripper finger on the paper's base
+    (MODEL.md §9: about 77.1, 60.0, 44.9, 35.0 mm), its tips those of the seed implementation;
+    the paper reports 73.15, 60.02, 45.07, 35.02 and the spec says the two agree, to ~0.2 mm,
+    for the last three states only (the first differs by ~4 mm)."""
     design = Design(**GRIPPER)
     h = spring_constants(design).h
-    expected = {"11000": 59.95, "11100": 44.86, "11110": 35.04}
-    for state, aperture in expected.items():
+    states = ("10000", "11000", "11100", "11110")
+    reference = {r.found[1:]: (r.tip_x, r.tip_y) for r in STATES[STATES.design == 1].itertuples()}
+    ours = []
+    for state in states:
         tip = find_state(design, state).tip
-        assert gripper_aperture(tip, h, *PAPER_GRIPPER_BASE) == pytest.approx(aperture, abs=0.01)
+        np.testing.assert_allclose(tip, reference[state], rtol=0, atol=1e-8)
+        ours.append(gripper_aperture(tip, h, *PAPER_GRIPPER_BASE))
+    np.testing.assert_allclose(ours, [77.1, 60.0, 44.9, 35.0], atol=0.06)
+    paper = [73.15, 60.02, 45.07, 35.02]
+    np.testing.assert_allclose(ours[1:], paper[1:], atol=0.25)
+    assert abs(ours[0] - paper[0]) > 3.0  # where the spec says they do not agree
 
 
 def test_sequential_states_of_the_reference_fingers():
@@ -348,6 +359,7 @@ def test_nearly_coincident_nodes_in_the_start():
     p = lattice_params(design)
     ws = workspace()
     outcomes = {}
+    verified = []
     for gap in (1e-3, 1e-6, 1e-12, 0.0):
         x = np.empty(46)
         geometric_guess(p.unit_params, p.h, 0b11110, 1.0, x)
@@ -358,7 +370,9 @@ def test_nearly_coincident_nodes_in_the_start():
         if status == Status.OK:
             gmax, eig = independent_check(design, x[:18])
             assert gmax < 1e-8 and eig > 0
+            verified.append(gap)
     assert outcomes[1e-3] == outcomes[1e-6] == Status.OK  # pushed apart and relaxed
+    assert verified == [1e-3, 1e-6]  # and both minima checked independently
     assert outcomes[1e-12] == outcomes[0.0] == Status.DEGENERATE_GEOMETRY
 
 
@@ -419,8 +433,8 @@ def test_random_designs_give_a_verified_minimum_or_a_collapse(n_units, seed):
     gmax, eig = independent_check(design, r.x)
     assert gmax < 1e-7 and eig > 0 and r.min_eig == pytest.approx(eig, rel=EIG_REL)
     assert r.stiffness == pytest.approx(dense_tip_stiffness(design, r.x), rel=EIG_REL)
-    if r.status == Status.OK:
-        assert r.found == state_string(state, n_units)
+    # OK: the requested state was found; collapsed: another one, named
+    assert (r.found == state_string(state, n_units)) == (r.status == Status.OK)
 
 
 def _random_box_designs(rng, n_units: int, count: int) -> list[Design]:

@@ -90,6 +90,7 @@ from ..model.design import MATERIALS, Design
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
 from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
+from .scenes.timing_spec import PickPlaceSpec, WalkerSpec
 from .spec_fields import (
     SceneSpecError,
     _bound,
@@ -213,9 +214,10 @@ class SceneSpec:
     weights: tuple[float, float] | None = None
     optimiser: OptimiserSettings = field(default_factory=OptimiserSettings)
     gripper: GripperSpec | None = None
-    #: ``pickplace`` and ``walker_leg`` kinds (:mod:`dpfexplore.inverse.scenes.timing_spec`).
-    pickplace: Any = None
-    walker: Any = None
+    #: The ``pickplace`` and ``walker_leg`` kinds' own specs
+    #: (:mod:`dpfexplore.inverse.scenes.timing_spec`); None for the other kinds.
+    pickplace: PickPlaceSpec | None = None
+    walker: WalkerSpec | None = None
     document: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def design_variables(self, n_units: int) -> DesignVariables:

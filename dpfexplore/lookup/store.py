@@ -53,10 +53,8 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
 import re
 import time
-import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
@@ -66,6 +64,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..model.domain import MAX_UNITS
+from ..model.files import atomic_writer
 from ..sweep.datasets import DatasetInfo, dataset_info
 from .index import (
     DEFAULT_COLUMNS,
@@ -165,16 +164,8 @@ def save_index(index: LookupIndex, path: str | Path | None = None) -> Path:
         "rows_read": int(index.rows_read),
         "arrays_sha256": arrays_checksum(arrays),
     }
-    tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_writer(path) as fh:
+        np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
     return path
 
 

@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import os
 import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import BinaryIO
 
-__all__ = ["TEMP_SUFFIX", "atomic_write", "fsync_dir"]
+__all__ = ["TEMP_SUFFIX", "atomic_write", "atomic_writer", "fsync_dir"]
 
 #: Suffix of the temporary files (their names also start with a dot: readers skip them).
 TEMP_SUFFIX = ".tmp"
@@ -31,19 +34,18 @@ def fsync_dir(path: str | Path) -> None:
         os.close(fd)
 
 
-def atomic_write(path: str | Path, data: bytes | str) -> Path:
-    """Replace ``path`` with ``data`` atomically; returns the path.
+@contextmanager
+def atomic_writer(path: str | Path) -> Iterator[BinaryIO]:
+    """A binary file that replaces ``path`` atomically when the block ends without error.
 
-    On any failure (a full disk, Ctrl-C) the temporary file is removed and the previous
-    contents of ``path``, if any, are untouched.
+    For writers that stream (``np.savez(fh, ...)``). On any failure (a full disk, Ctrl-C) the
+    temporary file is removed and the previous contents of ``path``, if any, are untouched.
     """
     path = Path(path)
-    if isinstance(data, str):
-        data = data.encode()
     tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}{TEMP_SUFFIX}")
     try:
         with open(tmp, "wb") as fh:
-            fh.write(data)
+            yield fh
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -51,4 +53,11 @@ def atomic_write(path: str | Path, data: bytes | str) -> Path:
         tmp.unlink(missing_ok=True)
         raise
     fsync_dir(path.parent)
+
+
+def atomic_write(path: str | Path, data: bytes | bytearray | memoryview | str) -> Path:
+    """Replace ``path`` with ``data`` atomically (see :func:`atomic_writer`); returns the path."""
+    path = Path(path)
+    with atomic_writer(path) as fh:
+        fh.write(data.encode() if isinstance(data, str) else data)
     return path

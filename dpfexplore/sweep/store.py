@@ -50,10 +50,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
 import time
-import uuid
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -65,6 +63,7 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
+from ..model.files import TEMP_SUFFIX, atomic_write
 from .row_filter import parse_filter
 from .schema import (  # the schema lives in schema.py; importable from here as before
     FORMAT,
@@ -114,7 +113,6 @@ MANIFEST = "_manifest.json"
 COMMON_METADATA = "_common_metadata"
 #: Schema-metadata key, in each chunk file, of the chunk's identity and content digest.
 CHUNK_KEY = b"dpfexplore.chunk"
-TEMP_SUFFIX = ".tmp"
 _PART = re.compile(r"^N(\d+)/part-(\d+)\.parquet$")
 
 
@@ -161,32 +159,6 @@ class ChunkRecord:
 def chunk_path(n_units: int, index: int) -> str:
     """Deterministic relative path of chunk ``index`` of the plan for ``n_units``."""
     return f"N{n_units:02d}/part-{index:06d}.parquet"
-
-
-def _fsync_dir(path: Path) -> None:
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:  # not every platform can open a directory
-        return
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _atomic_write(path: Path, data: bytes | memoryview) -> None:
-    """Write ``data`` to ``path`` through a unique temporary file and a rename."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}{TEMP_SUFFIX}")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
 
 
 def _column_digest(digest, values: pa.ChunkedArray) -> None:
@@ -257,7 +229,7 @@ def write_chunk(
     pq.write_table(table, sink, compression="zstd")
     buffer = sink.getvalue()
     digest = hashlib.sha256(memoryview(buffer)).hexdigest()
-    _atomic_write(target, memoryview(buffer))
+    atomic_write(target, memoryview(buffer))
     return ChunkRecord(
         path=relpath,
         n_units=n_units,
@@ -436,7 +408,7 @@ def write_manifest(root: str | Path, manifest: Manifest) -> None:
     if not manifest.created:
         manifest.created = now
     manifest.updated = now
-    _atomic_write(Path(root) / MANIFEST, manifest.to_json().encode())
+    atomic_write(Path(root) / MANIFEST, manifest.to_json().encode())
 
 
 def read_manifest(root: str | Path) -> Manifest:
@@ -473,7 +445,7 @@ def write_common_metadata(root: str | Path, schema: pa.Schema) -> None:
     """Write the dataset schema to ``_common_metadata`` (atomically)."""
     sink = pa.BufferOutputStream()
     pq.write_metadata(schema, sink)
-    _atomic_write(Path(root) / COMMON_METADATA, memoryview(sink.getvalue()))
+    atomic_write(Path(root) / COMMON_METADATA, memoryview(sink.getvalue()))
 
 
 def read_schema(root: str | Path) -> pa.Schema:

@@ -3,7 +3,7 @@
 A full disk: one line per lost chunk, no traceback, and a dataset that
 stays consistent and resumes to the same bytes as an undisturbed run.
 
-The fault is injected under the store's own atomic writer (its ``open``): writes succeed until a
+The fault is injected under the package's atomic writer (its ``open``): writes succeed until a
 byte budget is spent, then one partial write and ``ENOSPC``, as a full filesystem does.
 """
 
@@ -20,6 +20,7 @@ import pytest
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
+from dpfexplore.model import files
 from dpfexplore.sweep import store
 
 
@@ -77,7 +78,7 @@ def test_full_disk_is_one_line_per_chunk_and_resumes(job, tmp_path, capsys, capl
 
     out = tmp_path / "out"
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(store, "open", FullDisk(budget), raising=False)
+        patch.setattr(files, "open", FullDisk(budget), raising=False)
         with caplog.at_level(logging.WARNING):
             code = main(["sweep", str(job), "--out", str(out)])
     err = capsys.readouterr().err

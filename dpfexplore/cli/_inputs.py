@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ._output import UsageError
 
-__all__ = ["design_argument"]
+__all__ = ["design_argument", "saved_path"]
 
 
 def design_argument(text: str):
@@ -32,3 +32,15 @@ def design_argument(text: str):
         return load_design(path)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
+
+
+def saved_path(name: str, folder: Path) -> Path:
+    """A saved result a command names: a path, or a bare name under ``folder``.
+
+    ``surrogate report paper-box`` reads ``results/surrogates/paper-box``; anything with a
+    folder in it, or an existing directory, is taken as given.
+    """
+    path = Path(name)
+    if path.is_dir() or path.parent != Path("."):
+        return path
+    return folder / name

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import design_argument
+from ._inputs import design_argument, saved_path
 from ._output import json_text
 
 CONSTANTS = Path("results") / "constants"
@@ -69,18 +69,11 @@ def register(subparsers) -> None:
     compare.set_defaults(handler=_compare)
 
 
-def _resolve(name: str) -> Path:
-    path = Path(name)
-    if path.is_dir() or path.parent != Path("."):
-        return path
-    return CONSTANTS / name
-
-
 def _load(name: str):
     from ..identification.report import read_identification
 
     try:
-        return read_identification(_resolve(name))
+        return read_identification(saved_path(name, CONSTANTS))
     except ValueError as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
 

@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
+from ._inputs import saved_path
 
 #: Where ``surrogate report|predict NAME`` looks for a bare name.
 SURROGATES = Path("results") / "surrogates"
@@ -114,13 +115,6 @@ def register(subparsers) -> None:
     predict.set_defaults(handler=_predict)
 
 
-def _resolve(name: str) -> Path:
-    path = Path(name)
-    if path.is_dir() or path.parent != Path("."):
-        return path
-    return SURROGATES / name
-
-
 def _fit(args: argparse.Namespace) -> int:
     from ..surrogates.data import load_training_data
     from ..surrogates.fit import fit_surrogates
@@ -166,7 +160,7 @@ def _report(args: argparse.Namespace) -> int:
     from ..surrogates.store import SurrogateLoadError, read_report
 
     try:
-        report = read_report(_resolve(args.name))
+        report = read_report(saved_path(args.name, SURROGATES))
     except SurrogateLoadError as exc:
         raise UsageError(str(exc)) from None
     print(json.dumps(report, indent=1) if args.json else format_report(report))
@@ -199,7 +193,7 @@ def _predict(args: argparse.Namespace) -> int:
     from ..surrogates.store import SurrogateLoadError, load_surrogates
 
     try:
-        surrogates = load_surrogates(_resolve(args.name), dataset=args.dataset)
+        surrogates = load_surrogates(saved_path(args.name, SURROGATES), dataset=args.dataset)
     except SurrogateLoadError as exc:
         raise UsageError(str(exc)) from None
     designs = _read_designs(args.designs)

@@ -7,6 +7,7 @@ over the target (atomic on POSIX), and the folder fsynced so that the rename sur
 
 from __future__ import annotations
 
+import hashlib
 import os
 import uuid
 from collections.abc import Iterator
@@ -14,7 +15,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
-__all__ = ["TEMP_SUFFIX", "atomic_write", "atomic_writer", "fsync_dir"]
+__all__ = ["TEMP_SUFFIX", "atomic_write", "atomic_writer", "file_sha256", "fsync_dir"]
 
 #: Suffix of the temporary files (their names also start with a dot: readers skip them).
 TEMP_SUFFIX = ".tmp"
@@ -61,3 +62,12 @@ def atomic_write(path: str | Path, data: bytes | bytearray | memoryview | str) -
     with atomic_writer(path) as fh:
         fh.write(data.encode() if isinstance(data, str) else data)
     return path
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 of a file, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

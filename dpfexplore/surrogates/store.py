@@ -23,7 +23,6 @@ file, and, when a dataset is given, a dataset whose fingerprint differs from the
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 from pathlib import Path
@@ -31,6 +30,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..model.files import file_sha256
 from ..model.version import MODEL_VERSION, package_versions
 from .data import dataset_fingerprint
 from .fit import SurrogateSet
@@ -93,10 +93,6 @@ def _library_versions() -> dict[str, str]:
 
 def _minor(version: str) -> str:
     return ".".join(version.split(".")[:2])
-
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def json_safe(value: Any) -> Any:
@@ -165,7 +161,7 @@ def _write_surrogate(surrogates: SurrogateSet, path: Path) -> None:
         "classifier": surrogates.classifier.kind,
         "classifiers": list(surrogates.classifiers),
         "per_n": surrogates.classifier.per_n,
-        "models_sha256": _sha256(path / MODELS),
+        "models_sha256": file_sha256(path / MODELS),
     }
     (path / META).write_text(json.dumps(json_safe(meta), indent=1) + "\n")
     (path / REPORT).write_text(json.dumps(json_safe(report), indent=1) + "\n")
@@ -303,7 +299,7 @@ def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> S
     models = path / MODELS
     if not models.is_file():
         raise SurrogateLoadError(f"{path}: no {MODELS}")
-    if _sha256(models) != meta.get("models_sha256"):
+    if file_sha256(models) != meta.get("models_sha256"):
         raise SurrogateLoadError(f"{models}: checksum differs from {META} (changed or damaged)")
     untrusted = sorted(set(sio.get_untrusted_types(file=models)) - set(TRUSTED_TYPES))
     if untrusted:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import hashlib
 import json
 import os
 import shutil
@@ -40,7 +39,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
-from ..model.files import atomic_write, fsync_dir
+from ..model.files import atomic_write, file_sha256, fsync_dir
 from .lock import LockHeld, file_lock
 from .store import MANIFEST as _SWEEP_MANIFEST
 
@@ -141,14 +140,6 @@ def check_output_dir(path: str | Path, *, option: str = "--out", force: bool = F
     return path
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _files(root: Path) -> list[Path]:
     return sorted(
         p
@@ -164,7 +155,7 @@ def _write_marker(root: Path, kind: str, description: dict[str, Any] | None) -> 
             os.fsync(fh.fileno())
         files[path.relative_to(root).as_posix()] = {
             "bytes": path.stat().st_size,
-            "sha256": _sha256(path),
+            "sha256": file_sha256(path),
         }
     for directory in {p.parent for p in _files(root)} | {root}:
         fsync_dir(directory)
@@ -333,7 +324,7 @@ def verify_result_dir(path: str | Path) -> dict[str, Any]:
         file = path / name
         if not file.is_file():
             raise ResultError(f"{path}: {name} is missing")
-        if file.stat().st_size != record.get("bytes") or _sha256(file) != record.get("sha256"):
+        if file.stat().st_size != record.get("bytes") or file_sha256(file) != record.get("sha256"):
             raise ResultError(f"{path}: {name} changed after it was written")
     unlisted = [p.relative_to(path).as_posix() for p in _files(path)]
     extra = sorted(set(unlisted) - set(marker["files"]))

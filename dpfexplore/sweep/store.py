@@ -63,7 +63,7 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
-from ..model.files import TEMP_SUFFIX, atomic_write
+from ..model.files import TEMP_SUFFIX, atomic_write, file_sha256
 from .row_filter import parse_filter
 from .schema import (  # the schema lives in schema.py; importable from here as before
     FORMAT,
@@ -240,15 +240,6 @@ def write_chunk(
         bytes=buffer.size,
         sha256=digest,
     )
-
-
-def file_sha256(path: Path) -> str:
-    """SHA-256 of a file, read in 1 MiB blocks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def read_file_buffer(path: str | Path) -> pa.Buffer:

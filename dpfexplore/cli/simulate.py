@@ -54,7 +54,9 @@ def register(subparsers) -> None:
         "--reset-model", default=None, help="--method fast: model file (default: the packaged one)"
     )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
-    parser.add_argument("--plot", type=Path, default=None, help="write a PNG of the run")
+    parser.add_argument(
+        "--plot", type=Path, default=None, metavar="FILE.png", help="write a PNG of the run"
+    )
     parser.set_defaults(handler=run)
 
 

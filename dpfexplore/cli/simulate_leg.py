@@ -36,6 +36,7 @@ def register(subparsers) -> None:
         "--plot",
         type=Path,
         default=None,
+        metavar="FILE.png",
         help="write a PNG of the tip path (x-y and y-z projections)",
     )
     parser.set_defaults(handler=run)

@@ -49,3 +49,13 @@ def test_plain_text():
         "see dpfexplore.find_state and x = 1"
     )
     assert plain_text(":mod:`.numpy_model`") == "numpy_model"
+
+
+def test_file_options_name_their_kind_alike():
+    plots = [
+        action
+        for parser in ALL.values()
+        for action in parser._actions
+        if "--plot" in action.option_strings and action.nargs != 0
+    ]
+    assert plots and all(action.metavar == "FILE.png" for action in plots)

@@ -14,12 +14,12 @@ which, and why), 2 bad input (one line on stderr; nothing written).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._output import json_text
 
 
 def register(subparsers) -> None:
@@ -125,16 +125,12 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     rows = [public(r) for r in outcome.rows]
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "results": rows,
-                    "evaluations": dict(outcome.evaluator.counts),
-                    "wall_s": outcome.wall_s,
-                },
-                default=_default,
-            )
-        )
+        document = {
+            "results": rows,
+            "evaluations": dict(outcome.evaluator.counts),
+            "wall_s": outcome.wall_s,
+        }
+        print(json_text(document, indent=None))
     else:
         _print_summary(spec, rows, outcome, out)
     failed = [
@@ -145,16 +141,6 @@ def run(args: argparse.Namespace) -> int:
         or (r.get("metastability") and not r["metastability"].get("ok", True))
     ]
     return EXIT_FAILURE if failed else EXIT_OK
-
-
-def _default(value):
-    import numpy as np
-
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(type(value).__name__)
 
 
 def _fmt(value, spec: str) -> str:

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from . import EXIT_OK, UsageError
 from ._inputs import saved_path
+from ._output import json_text
 
 #: Where ``surrogate report|predict NAME`` looks for a bare name.
 SURROGATES = Path("results") / "surrogates"
@@ -163,7 +164,7 @@ def _report(args: argparse.Namespace) -> int:
         report = read_report(saved_path(args.name, SURROGATES))
     except SurrogateLoadError as exc:
         raise UsageError(str(exc)) from None
-    print(json.dumps(report, indent=1) if args.json else format_report(report))
+    print(json_text(report, indent=1) if args.json else format_report(report))
     return EXIT_OK
 
 

@@ -109,8 +109,11 @@ def _walker(rows) -> None:
                 )
         if "turning" in r:
             turn = r["turning"]
+            figure = turn.get("timing_figure_t_end")
+            seen = f"; the timing figure runs {figure:g} s" if figure else ""
             what = (
-                f"inverts and is still inverted at the end of the run ({turn['t_end']:g} s)"
+                f"inverts and is still inverted at the end of the stride run "
+                f"({turn['t_end']:g} s{seen})"
                 if turn["action_inverted_at_end"]
                 else "inverts and resets within the run"
                 if turn["action_inverts"]

@@ -424,3 +424,28 @@ def test_walker_table_names_units_that_never_invert(capsys):
     assert "inf MPa" not in out and "flat" not in out
     assert "never inverts on the ramp" in out and "not inverted" in out
     assert "inverts at 0.2100 MPa" in out
+
+
+def test_walker_turning_line_names_the_run_it_speaks_of(capsys):
+    from dpfexplore.cli._timing_output import _walker
+
+    row = {
+        "leg": "front",
+        "design": {},
+        "stride": 1.0,
+        "stride_ratio": 2.0,
+        "monostable_stride": 0.5,
+        "requirements": [],
+        "wall_s": 1.0,
+        "units": [],
+        "turning": {
+            "action_inverted_at_end": True,
+            "action_inverts": True,
+            "t_end": 5.0,
+            "timing_figure_t_end": 8.0,
+            "stride": 0.3,
+        },
+    }
+    _walker([row])
+    out = capsys.readouterr().out
+    assert "end of the stride run (5 s; the timing figure runs 8 s)" in out

@@ -151,6 +151,9 @@ def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str,
             "t_end": turn.leg.t_end,
             "tip_path": _path_rows(turn),
         }
+        diagnostic = extra.get("timing", {}).get("turn")
+        if diagnostic is not None:  # the timing figure's run: longer than the stride run
+            row["turning"]["timing_figure_t_end"] = float(diagnostic.leg.t_end)
     row["candidates"] = {
         role: [
             {

@@ -155,6 +155,21 @@ def _run(argv: Sequence[str] | None) -> int:
     handler = SafeStreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, handlers=[handler])
+    # The solvers announce a first compilation once the inputs are checked (solvers.compilation):
+    # shown as the command's own line, like every other notice.
+    compile_log = logging.getLogger("dpfexplore.compile")
+    notices = SafeStreamHandler(sys.stderr)
+    notices.setFormatter(logging.Formatter(f"dpfexplore {args.command}: %(message)s"))
+    compile_log.addHandler(notices)
+    compile_log.propagate = False
+    try:
+        return _handle(args)
+    finally:
+        compile_log.removeHandler(notices)
+        compile_log.propagate = True
+
+
+def _handle(args: argparse.Namespace) -> int:
     try:
         code = int(args.handler(args))
         sys.stdout.flush()

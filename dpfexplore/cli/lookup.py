@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._output import FIGURE_SUFFIXES, announce_compilation, json_text, output_path
+from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -121,8 +121,6 @@ def run(args: argparse.Namespace) -> int:
     except ResultError as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    if args.refine:  # the polish solves with exact design sensitivities
-        announce_compilation("lookup", ["states", "sensitivities"])
     columns = [c.strip() for c in args.columns.split(",") if c.strip()]
     target = _floats(args.target, "--target")
     if len(target) != len(columns):

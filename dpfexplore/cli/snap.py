@@ -8,7 +8,7 @@ from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from ._inputs import design_argument
-from ._output import FIGURE_SUFFIXES, announce_compilation, json_text, output_path
+from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:
@@ -66,7 +66,6 @@ def run(args) -> int:
     from ..solvers.snap.continuation import snap_pressures
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    announce_compilation("snap", ["states", "snap"])
     try:
         design = design_argument(args.design)
         seq = snap_pressures(

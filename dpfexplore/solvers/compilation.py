@@ -99,4 +99,4 @@ def announce(groups: Iterable[str]) -> None:
         return
     notice = compile_notice(pending)
     if notice is not None:
-        logger.warning("dpfexplore: %s ...", notice)
+        logger.warning("%s ...", notice)

@@ -77,6 +77,7 @@ from ...model import status as st
 from ...model.design import Design, DesignBatch
 from ...model.domain import MAX_UNITS
 from ...model.pressure import MAX_PRESSURE
+from ..compilation import announce
 from ..dynamics.common import METHODS, controls
 from ..lattice import LatticeParams, batch_constants, lattice_params, pack_batch, spring_constants
 from ..statics import find_state, state_string
@@ -400,6 +401,7 @@ def snap_pressures(
     if not P_min <= P_start <= P_max:
         raise ValueError(f"P_start = {P_start}: must lie in [P_min, P_max] = [{P_min}, {P_max}]")
     kick = _kick(kick)
+    announce(["states", "snap"])  # the inputs are valid: say so before a first compilation
     n_units = design.n_units
     params = lattice_params(design)
     phys, ctrl = _model(model, n_units)

@@ -98,7 +98,7 @@ def test_a_killed_command_leaves_the_previous_or_the_new_result(which, tmp_path,
     took = time.perf_counter() - started
     assert done.returncode in (0, 1), done.stderr
     verify_result_dir(out)
-    for fraction in (0.3, 0.6, 0.85, 1.05):
+    for fraction in (0.35, 0.75, 1.05):
         killed_after(full, tmp_path, fraction * took)
         verify_result_dir(out)  # complete: the previous result or the new one
         readable(out)

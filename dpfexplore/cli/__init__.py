@@ -135,7 +135,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _run(argv)
     finally:
         sys.unraisablehook = previous_hook
-        if main_thread:
+        if main_thread and previous is not None:  # None: a handler installed outside Python
             signal.signal(signal.SIGINT, previous)
         for stream in (sys.stdout, sys.stderr):
             stream.flush()

@@ -209,7 +209,8 @@ def _redeliver_ctrl_c(previous):
 
     def hook(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
-            signal.raise_signal(signal.SIGINT)
+            # not from here: a signal raised inside the hook would land in the hook itself
+            threading.Timer(0.05, signal.raise_signal, args=(signal.SIGINT,)).start()
             return
         previous(unraisable)
 

@@ -56,6 +56,7 @@ from ..model.formatting import json_number
 from ..model.version import MODEL_VERSION
 from ..solvers.statics import OUTPUT_COLUMNS, solve_batch, state_string
 from ..sweep.datasets import DatasetInfo, dataset_info
+from ..sweep.row_filter import parse_filter
 from ..sweep.space import parse_job
 from ..sweep.store import read_results, read_schema
 from .index import DEFAULT_COLUMNS, LookupIndex, StaleIndexError, mask_of
@@ -415,6 +416,8 @@ def lookup(
         )
     if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol = {tol!r}: must be finite and > 0")
+    if where:  # a filter is checked before the index is opened or built
+        parse_filter(where, read_schema(dataset))
     columns = tuple(columns)
     target = np.asarray(target, dtype=float).reshape(-1)
     if target.shape != (len(columns),) or not np.all(np.isfinite(target)):

@@ -325,3 +325,11 @@ def test_arithmetic_runs_in_the_order_written():
     table = pa.table({"x": [0.9, 0.5], "row": [0, 1]})
     assert -0.9 + (1.0 + 0.9) != 1.0
     assert list(selected("1.0 == -(x) + (1.0 + x)", table)) == [1]
+
+
+def test_lookup_refuses_a_bad_filter_before_building_its_index(swept, capsys):
+    for index in swept.glob("_lookup*"):
+        index.unlink()
+    assert main(["lookup", str(swept), "--target", "25,40", "--where", "colour > 1"]) == 2
+    assert "'colour'" in capsys.readouterr().err
+    assert not list(swept.glob("_lookup*"))  # nothing was built for a refused query

@@ -130,10 +130,13 @@ def run(args: argparse.Namespace) -> int:
         )
         wall = time.perf_counter() - start
         if args.save:
+            from ..surrogates.report import report_figures
             from ..surrogates.store import save_surrogates
 
             # the bench refreshes its own record
-            save_surrogates(surrogates, SAVED_MODEL, force=True)
+            save_surrogates(
+                surrogates, SAVED_MODEL, force=True, figures=report_figures(surrogates.report)
+            )
     report = surrogates.report
     reset = reset_model_section(args.reset_designs)
     record = {

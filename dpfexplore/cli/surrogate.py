@@ -119,7 +119,7 @@ def register(subparsers) -> None:
 def _fit(args: argparse.Namespace) -> int:
     from ..surrogates.data import load_training_data
     from ..surrogates.fit import fit_surrogates
-    from ..surrogates.report import format_report
+    from ..surrogates.report import format_report, report_figures
     from ..surrogates.store import save_surrogates
     from ..sweep.result_dirs import ResultError, check_output_dir
 
@@ -148,7 +148,9 @@ def _fit(args: argparse.Namespace) -> int:
     except (ValueError, TypeError) as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
     try:
-        save_surrogates(surrogates, args.out, force=args.force)
+        save_surrogates(
+            surrogates, args.out, force=args.force, figures=report_figures(surrogates.report)
+        )
     except ResultError as exc:
         raise UsageError(str(exc)) from None
     print(format_report(surrogates.report))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .store import SPEED_PNG
+
 __all__ = ["format_report"]
 
 
@@ -109,3 +111,22 @@ def format_report(report: dict[str, Any]) -> str:
         )
     lines += ["", report["verdict"]]
     return "\n".join(lines)
+
+
+def report_figures(report: dict[str, Any]) -> dict[str, Any]:
+    """The figures saved beside a surrogate: its speed-error chart (``speed_error.png``).
+
+    Returns a mapping of file name to matplotlib Figure (empty without speed measurements).
+    """
+    if not report.get("speed"):
+        return {}
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from ..plotting.surrogates import plot_speed_error
+
+    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+    plot_speed_error(
+        pd.DataFrame(report["speed"]), error=f"{report['headline']}_p95", ax=fig.subplots()
+    )
+    return {SPEED_PNG: fig}

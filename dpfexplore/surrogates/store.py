@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -108,9 +109,17 @@ def json_safe(value: Any) -> Any:
     return value
 
 
-def save_surrogates(surrogates: SurrogateSet, path: str | Path, *, force: bool = False) -> Path:
+def save_surrogates(
+    surrogates: SurrogateSet,
+    path: str | Path,
+    *,
+    force: bool = False,
+    figures: Mapping[str, Any] | None = None,
+) -> Path:
     """Write a fitted :class:`SurrogateSet` as the result directory ``path``.
 
+    ``figures`` maps file names (``speed_error.png``) to matplotlib figures drawn by the caller
+    (:func:`dpfexplore.surrogates.report.report_figures`): the store writes, it does not draw.
     Written complete or not at all (:func:`~dpfexplore.sweep.result_dirs.result_directory`): a
     kill or a full disk mid-save leaves the previous surrogate whole; a directory that holds
     another result is replaced only with ``force``.
@@ -126,13 +135,13 @@ def save_surrogates(surrogates: SurrogateSet, path: str | Path, *, force: bool =
     description = {"outputs": list(surrogates.outputs), "best": surrogates.best}
     with result_directory(final, kind="surrogate", force=force, description=description) as path:
         _write_surrogate(surrogates, path)
+        for name, figure in (figures or {}).items():
+            figure.savefig(path / name, dpi=130)
     return final
 
 
 def _write_surrogate(surrogates: SurrogateSet, path: Path) -> None:
     import skops.io as sio
-
-    from ..plotting.surrogates import plot_speed_error
 
     payload = {
         "regressors": surrogates.regressors,
@@ -167,12 +176,6 @@ def _write_surrogate(surrogates: SurrogateSet, path: Path) -> None:
     (path / REPORT).write_text(json.dumps(json_safe(report), indent=1) + "\n")
     if report.get("speed"):
         pd.DataFrame(report["speed"]).to_csv(path / SPEED_CSV, index=False)
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
-        plot_speed_error(pd.DataFrame(report["speed"]), error=f"{report['headline']}_p95", ax=ax)
-        fig.savefig(path / SPEED_PNG, dpi=130)
-        plt.close(fig)
 
 
 #: Keys of ``surrogate.json`` and the JSON type each must have.

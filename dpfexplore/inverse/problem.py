@@ -29,10 +29,11 @@ from numpy.typing import NDArray
 from ..model import status as st
 from ..model.design import DesignBatch
 from ..model.gripper import gripper_aperture
+from ..numerics.differences import central_differences
 from ..solvers.lattice import segment_height
 from ..solvers.sensitivities import batch_columns
 from ..sweep.variables import DesignVariables
-from .engine.derivatives import central_differences
+from .engine.derivatives import BOX_BOUNDS, STEP
 from .evaluation import Evaluator
 from .spec import GripperSpec
 
@@ -184,7 +185,10 @@ class Problem:
                     values = np.column_stack([values, np.log(e.stiffness)])
             return np.where(e.ok[:, None], values, np.nan)
 
-        jac = central_differences(func, z, f0, columns=self._solved_columns())
+        low, high = BOX_BOUNDS
+        jac = central_differences(
+            func, z, f0, step=STEP, lower=low, upper=high, columns=self._solved_columns()
+        )
         self._analytic_columns(ev, jac)
         if stiffness:
             return jac[:-1], jac[-1]

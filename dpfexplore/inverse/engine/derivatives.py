@@ -1,6 +1,9 @@
-"""Derivatives of a scene's outputs with respect to the box variables ``z``.
+"""The settings of a scene's fallback Jacobian in the box variables ``z``.
 
-The optimiser's fallback Jacobian: scenes take their Jacobians from the model's exact
+The differences themselves are the package's one routine,
+:func:`dpfexplore.numerics.differences.central_differences`, called by
+:meth:`dpfexplore.inverse.problem.Problem.jacobian` with these settings. The optimiser's
+fallback Jacobian: scenes take their Jacobians from the model's exact
 sensitivities (``solve_batch(..., sensitivities=True)`` chained with
 :meth:`DesignVariables.jacobian`, :meth:`.scenes.Problem.jacobian`) and use these central
 differences of the exact model only where those are undefined (a row whose Hessian is not
@@ -19,46 +22,9 @@ gives derivatives to about five digits, well beyond what the trust-region steps 
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
-from numpy.typing import NDArray
-
-from ...numerics.differences import central_differences as shared_central_differences
-
-__all__ = ["STEP", "central_differences"]
+__all__ = ["BOX_BOUNDS", "STEP"]
 
 #: Displacement in ``z`` of the central differences.
 STEP = 1e-5
-
-
-def central_differences(
-    func: Callable[[NDArray], NDArray],
-    z: NDArray,
-    f0: NDArray,
-    *,
-    step: float = STEP,
-    columns: NDArray | None = None,
-) -> NDArray:
-    """Jacobian ``d func / dz`` at ``z`` by central differences clipped to the box ``[0, 1]``.
-
-    The package's one finite-difference routine
-    (:func:`dpfexplore.numerics.differences.central_differences`) with the box as bounds.
-
-    Parameters
-    ----------
-    func : callable
-        ``func(Z) -> F`` for ``Z`` of shape ``(k, m)`` in ``[0, 1]``, ``F`` of shape ``(k, r)``;
-        rows whose value does not exist are NaN.
-    z : ndarray of shape (m,)
-    f0 : ndarray of shape (r,)
-        ``func`` at ``z`` (finite).
-    step : float
-    columns : ndarray of int, optional
-        Only these variables (the others get zero columns, e.g. variables the caller
-        differentiates analytically).
-
-    Returns
-    -------
-    ndarray of shape (r, m)
-    """
-    return shared_central_differences(func, z, f0, step=step, lower=0.0, upper=1.0, columns=columns)
+#: The box every displaced point is clipped to (the variables' unit box).
+BOX_BOUNDS = (0.0, 1.0)

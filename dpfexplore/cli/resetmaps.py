@@ -5,7 +5,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
+from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._output import announce_compilation
 
 
 def register(subparsers) -> None:
@@ -67,11 +68,7 @@ def run(args) -> int:
             hold_values=(0.05, 1.0),
             hold_H=(2.9,),
         )
-    from ..solvers.compilation import compile_notice
-
-    notice = compile_notice(["release" if args.method == "release" else "reset"])
-    if notice:
-        error_line(f"dpfexplore reset-maps: {notice} ...")
+    announce_compilation("reset-maps", ["release" if args.method == "release" else "reset"])
     try:
         spec = ResetMapSpec(**changes)
         start = time.perf_counter()

@@ -6,9 +6,15 @@ import json
 import math
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
+from . import EXIT_FAILURE, EXIT_OK, UsageError
 from ._inputs import design_argument
-from ._output import FIGURE_SUFFIXES, fitted_range_line, json_text, output_path
+from ._output import (
+    FIGURE_SUFFIXES,
+    announce_compilation,
+    fitted_range_line,
+    json_text,
+    output_path,
+)
 
 
 def register(subparsers) -> None:
@@ -106,11 +112,7 @@ def run(args) -> int:
         else None
     )
     if args.method != "radau":
-        from ..solvers.compilation import compile_notice
-
-        notice = compile_notice(["dynamics"])
-        if notice:
-            error_line(f"dpfexplore simulate: {notice} ...")
+        announce_compilation("simulate", ["dynamics"])
     try:
         result = simulate(design, profile, t_end=args.t_end, method=args.method, atol=args.atol)
     except ValueError as exc:

@@ -6,9 +6,15 @@ import argparse
 import math
 import sys
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError, error_line
+from . import EXIT_FAILURE, EXIT_OK, UsageError
 from ._inputs import design_argument
-from ._output import FIGURE_SUFFIXES, fitted_range_line, json_text, output_path
+from ._output import (
+    FIGURE_SUFFIXES,
+    announce_compilation,
+    fitted_range_line,
+    json_text,
+    output_path,
+)
 
 UNITS_HELP = (
     "Units: lengths and tip coordinates in mm (model frame: base at the origin, limiting layer "
@@ -51,7 +57,6 @@ def _number(value: float):
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore states``."""
     from ..model.gripper import gripper_aperture
-    from ..solvers.compilation import compile_notice
     from ..solvers.lattice import spring_constants
     from ..solvers.statics import enumerate_states
 
@@ -60,9 +65,7 @@ def run(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    notice = compile_notice(["states"])
-    if notice:
-        error_line(f"dpfexplore states: {notice} ...")
+    announce_compilation("states", ["states"])
     results = enumerate_states(design, "sequential" if args.sequential else "all")
     h = spring_constants(design).h
     rows = []

@@ -1,0 +1,398 @@
+"""Equilibrium path of a shell under apex displacement control: continuation (Numba).
+
+Equilibrium at apex travel ``δ``: ``g_j(y) = ∂Π/∂y_j = 0`` for the free unknowns ``j >= 1``
+(:mod:`.shell`); the apex reaction is ``F = ∂Π/∂δ = g_0``. The path ``y(s)`` is one curve in the
+``m``-dimensional space of ``y = (δ, x)``; where it folds in ``δ`` (a snap-back under
+displacement control) the Hessian of the free unknowns is singular and plain displacement
+control stops, so the path is followed by **local parametrisation** (Rheinboldt's PITCON): each
+step fixes the unknown ``y_p`` with the largest tangent component (``δ`` itself while its
+component is at least :data:`PREFER_DELTA` of the largest) and solves ``g_j = 0`` for the rest.
+
+Corrector matrix
+    The free equations' Jacobian (rows ``1..m-1`` of the Hessian) with the unit row ``e_p``
+    added. Placing ``e_p`` at row ``p`` and shifting the rows above it up by one keeps it banded
+    (lower bandwidth ``b``, upper ``b + 1``), regular wherever ``t_p != 0``, folds included;
+    factored by the banded LU of :mod:`.shell_linalg`.
+Tangent
+    The same matrix with right-hand side ``e_p`` gives ``z`` with ``z_p = 1`` in the null space
+    of the free equations' Jacobian; normalised in the weighted norm
+    ``‖y‖² = δ² + Σ_k (r_k² + z_k²) / (N - 1)`` (apex travel against the mean node motion) and
+    oriented along the previous tangent.
+Steps
+    Predictor ``y + h t``, Newton with the exact Hessian. A step is refused (and ``h`` halved)
+    when Newton fails or does not contract, moves further than ``h`` from the predictor, or the
+    tangent turns by more than :data:`MAX_TURN` (guards against jumping to another branch);
+    ``h`` grows by 1.5 after an easy step up to ``h_max``.
+Stability
+    The number of negative eigenvalues of the free Hessian at fixed ``δ`` (Sylvester inertia of
+    its band), recorded at every point: 0 is stable under displacement control.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import kernel
+from .shell import BAND, assemble
+from .shell_linalg import band_lu, band_lu_solve, negative_pivots
+
+KL = BAND
+KU = BAND + 1
+WIDTH = 2 * KL + KU + 1
+#: Keep ``δ`` as the parameter while ``|t_δ| >= PREFER_DELTA · max |t|``.
+PREFER_DELTA = 0.3
+#: Largest tangent turn of an accepted step: ``cos`` of the angle between successive tangents.
+MAX_TURN = 0.9
+#: Newton iterations of one corrector.
+MAX_ITER = 12
+
+#: Status codes of :func:`follow`.
+REACHED = 0
+MAX_STEPS = 1
+BACKWARD = 2
+STEP_TOO_SMALL = 3
+FOLD = 4
+
+
+@kernel
+def _jacobian(band, p, w):
+    """Rows ``1..m-1`` of the Hessian band with the unit row ``e_p``, shifted to stay banded."""
+    m = band.shape[0]
+    w[:, :] = 0.0
+    for i in range(m):
+        if i == p:
+            w[i, KL] = 1.0
+            continue
+        s = i + 1 if i < p else i
+        for k in range(-BAND, BAND + 1):
+            j = s + k
+            if 0 <= j < m:
+                w[i, j - i + KL] = band[s, BAND + k]
+
+
+@kernel
+def _rhs(g, p, b, scale):
+    """``-g`` of the free equations in the row order of :func:`_jacobian`; ``scale`` at row p."""
+    m = g.shape[0]
+    for i in range(m):
+        if i == p:
+            b[i] = scale
+        elif i < p:
+            b[i] = -g[i + 1]
+        else:
+            b[i] = -g[i]
+
+
+@kernel
+def _wdot(a, b, wn):
+    s = 0.0
+    for j in range(1, a.shape[0]):
+        s += a[j] * b[j]
+    return a[0] * b[0] + wn * s
+
+
+@kernel
+def _choose(t):
+    big = 0.0
+    p = 0
+    for j in range(t.shape[0]):
+        v = abs(t[j])
+        if v > big:
+            big = v
+            p = j
+    if abs(t[0]) >= PREFER_DELTA * big:
+        return 0
+    return p
+
+
+@kernel
+def _free_residual(g, p):
+    """Largest free-equation residual (row 0 is the reaction; ``p`` is not an equation)."""
+    res = 0.0
+    for j in range(1, g.shape[0]):
+        res = max(res, abs(g[j]))
+    return res
+
+
+@kernel
+def correct(y, p, geom, ftol, xtol, g, band, w, piv, b):
+    """Newton on the free equations with ``y_p`` fixed; ``y`` is updated in place.
+
+    Returns the number of iterations, or -1 if the corrector failed.
+    """
+    m = y.shape[0]
+    previous = math.inf
+    for it in range(MAX_ITER):
+        assemble(y, geom, g, band, 2)
+        if _free_residual(g, p) <= ftol and it > 0:
+            return it
+        _jacobian(band, p, w)
+        if band_lu(w, m, KL, KU, piv) != 0:
+            return -1
+        _rhs(g, p, b, 0.0)
+        band_lu_solve(w, m, KL, KU, piv, b)
+        dn = 0.0
+        for j in range(m):
+            y[j] += b[j]
+            dn = max(dn, abs(b[j]))
+        if not dn < math.inf:
+            return -1
+        if dn <= xtol:
+            assemble(y, geom, g, band, 2)
+            return it + 1
+        if it >= 2 and dn > 0.5 * previous:
+            return -1
+        previous = dn
+    return -1
+
+
+@kernel
+def tangent(y, p, geom, t_prev, wn, g, band, w, piv, t):
+    """Unit tangent at the equilibrium ``y`` (``g``, ``band`` already assembled there).
+
+    Oriented along ``t_prev``. Returns 0, or 1 if the matrix is singular.
+    """
+    m = y.shape[0]
+    _jacobian(band, p, w)
+    if band_lu(w, m, KL, KU, piv) != 0:
+        return 1
+    t[:] = 0.0
+    t[p] = 1.0
+    band_lu_solve(w, m, KL, KU, piv, t)
+    norm = math.sqrt(_wdot(t, t, wn))
+    sign = 1.0 if _wdot(t, t_prev, wn) >= 0.0 else -1.0
+    for j in range(m):
+        t[j] *= sign / norm
+    return 0
+
+
+@kernel
+def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction, stop_at_fold):
+    """Follow the path from the equilibrium ``y0`` (at ``δ = y0[0]``).
+
+    Starts toward larger ``δ`` (``direction = 1``) or smaller (``-1``). Stops when
+    ``δ >= travel`` (status :data:`REACHED`), after ``max_steps`` steps, when the path goes
+    below ``δ = -travel/20`` (:data:`BACKWARD`), when the step falls below ``h_min``
+    (:data:`STEP_TOO_SMALL`), or, with ``stop_at_fold``, at the first point past a fold in
+    ``δ`` (:data:`FOLD`).
+
+    Returns
+    -------
+    status, n : int
+        Status code and number of recorded points (``y0`` included).
+    ys, ts : ndarray (max_steps + 1, m)
+        The points and their unit tangents.
+    energy : ndarray (max_steps + 1, 2)
+        Membrane and bending energy, N·mm.
+    force, slope : ndarray (max_steps + 1,)
+        Apex reaction ``F = ∂Π/∂δ`` (N) and ``dF/ds`` along the tangent (N per unit of ``s``).
+    index : ndarray of int (max_steps + 1,)
+        Negative eigenvalues of the free Hessian (-1: singular).
+    """
+    m = y0.shape[0]
+    n_nodes = (m + 1) // 2 + 1
+    wn = 1.0 / (n_nodes - 2)
+    ys = np.zeros((max_steps + 1, m))
+    ts = np.zeros((max_steps + 1, m))
+    energy = np.zeros((max_steps + 1, 2))
+    force = np.zeros(max_steps + 1)
+    slope = np.zeros(max_steps + 1)
+    index = np.zeros(max_steps + 1, dtype=np.int64)
+    g = np.zeros(m)
+    band = np.zeros((m, 2 * BAND + 1))
+    work = np.zeros((m, 2 * BAND + 1))
+    w = np.zeros((m, WIDTH))
+    piv = np.zeros(m, dtype=np.int64)
+    b = np.zeros(m)
+    y = y0.copy()
+    t = np.zeros(m)
+    t_new = np.zeros(m)
+    t[0] = direction
+    p = 0
+    n = 0
+    status = MAX_STEPS
+
+    # First point: correct y0 at fixed δ (a no-op at the reference state).
+    if correct(y, 0, geom, ftol, xtol, g, band, w, piv, b) < 0:
+        return STEP_TOO_SMALL, 0, ys, ts, energy, force, slope, index
+    if tangent(y, 0, geom, t, wn, g, band, w, piv, t_new) != 0:
+        return STEP_TOO_SMALL, 0, ys, ts, energy, force, slope, index
+    t[:] = t_new
+    _record(y, t, g, band, geom, work, n, ys, ts, energy, force, slope, index)
+    n = 1
+    h = h0
+    y_try = np.zeros(m)
+    while n <= max_steps:
+        if h < h_min:
+            status = STEP_TOO_SMALL
+            break
+        p = _choose(t)
+        for j in range(m):
+            y_try[j] = y[j] + h * t[j]
+        its = correct(y_try, p, geom, ftol, xtol, g, band, w, piv, b)
+        ok = its >= 0
+        if ok:
+            # distance from the predictor, weighted: a larger jump may have changed branch
+            for j in range(m):
+                b[j] = y_try[j] - y[j] - h * t[j]
+            ok = math.sqrt(_wdot(b, b, wn)) <= h
+        if ok:
+            ok = tangent(y_try, p, geom, t, wn, g, band, w, piv, t_new) == 0
+        if ok:
+            ok = _wdot(t_new, t, wn) >= MAX_TURN or h <= 2.0 * h_min
+        if not ok:
+            h *= 0.5
+            continue
+        y[:] = y_try
+        t[:] = t_new
+        # the tangent solve reused w; g and band still hold the converged point's values
+        _record(y, t, g, band, geom, work, n, ys, ts, energy, force, slope, index)
+        n += 1
+        if y[0] >= travel:
+            status = REACHED
+            break
+        if stop_at_fold and t[0] * direction < 0.0:
+            status = FOLD
+            break
+        if y[0] < -travel / 20.0:
+            status = BACKWARD
+            break
+        if its <= 3:
+            h = min(h_max, 1.5 * h)
+        elif its >= 6:
+            h *= 0.7
+    return status, n, ys, ts, energy, force, slope, index
+
+
+@kernel
+def _record(y, t, g, band, geom, work, n, ys, ts, energy, force, slope, index):
+    ys[n, :] = y
+    ts[n, :] = t
+    em, eb = assemble(y, geom, g, band, 0)
+    energy[n, 0] = em
+    energy[n, 1] = eb
+    force[n] = g[0]
+    s = 0.0
+    for k in range(-BAND, BAND + 1):
+        if 0 <= k < y.shape[0]:
+            s += band[0, BAND + k] * t[k]
+    slope[n] = s
+    index[n] = negative_pivots(band, 1, BAND, work)
+
+
+@kernel
+def equilibrate_free(y, geom, ftol, xtol):
+    """Newton on all of ``∂Π/∂y = 0`` (``δ`` free: zero apex force); ``y`` updated in place.
+
+    Returns ``(iterations or -1, negative eigenvalues of the full Hessian)``.
+    """
+    m = y.shape[0]
+    g = np.zeros(m)
+    band = np.zeros((m, 2 * BAND + 1))
+    work = np.zeros((m, 2 * BAND + 1))
+    w = np.zeros((m, 2 * BAND + BAND + 1))
+    piv = np.zeros(m, dtype=np.int64)
+    b = np.zeros(m)
+    previous = math.inf
+    for it in range(MAX_ITER + 8):
+        assemble(y, geom, g, band, 2)
+        res = 0.0
+        for j in range(m):
+            res = max(res, abs(g[j]))
+        if res <= ftol and it > 0:
+            return it, negative_pivots(band, 0, BAND, work)
+        w[:, :] = 0.0
+        for i in range(m):
+            for k in range(-BAND, BAND + 1):
+                if 0 <= i + k < m:
+                    w[i, k + BAND] = band[i, BAND + k]
+        if band_lu(w, m, BAND, BAND, piv) != 0:
+            return -1, -1
+        for j in range(m):
+            b[j] = -g[j]
+        band_lu_solve(w, m, BAND, BAND, piv, b)
+        dn = 0.0
+        for j in range(m):
+            y[j] += b[j]
+            dn = max(dn, abs(b[j]))
+        if not dn < math.inf:
+            return -1, -1
+        if dn <= xtol:
+            assemble(y, geom, g, band, 2)
+            return it + 1, negative_pivots(band, 0, BAND, work)
+        if it >= 3 and dn > 0.5 * previous:
+            return -1, -1
+        previous = dn
+    return -1, -1
+
+
+@kernel
+def relax(y, geom, free_delta, ftol, max_iter):
+    """Minimise the energy from ``y`` (in place): at fixed ``δ``, or with ``δ`` free too.
+
+    Newton with a Levenberg shift ``μ I`` that keeps the step a descent direction (raised until
+    the shifted Hessian is positive definite, lowered after every accepted step) and
+    backtracking on the energy: reaches the local minimum from a far start (the dome's mirror
+    image) where plain Newton diverges. Returns ``(iterations or -1, negative eigenvalues of
+    the unshifted Hessian at the result)``.
+    """
+    m = y.shape[0]
+    lo = 0 if free_delta else 1
+    g = np.zeros(m)
+    band = np.zeros((m, 2 * BAND + 1))
+    work = np.zeros((m, 2 * BAND + 1))
+    w = np.zeros((m, 2 * BAND + BAND + 1))
+    piv = np.zeros(m, dtype=np.int64)
+    b = np.zeros(m)
+    trial = np.zeros(m)
+    scratch = np.zeros(m)
+    mu = 0.0
+    for it in range(max_iter):
+        em, eb = assemble(y, geom, g, band, 2)
+        energy = em + eb
+        res = 0.0
+        diag = 0.0
+        for j in range(lo, m):
+            res = max(res, abs(g[j]))
+            diag = max(diag, abs(band[j, BAND]))
+        if res <= ftol:
+            return it, negative_pivots(band, lo, BAND, work)
+        for _ in range(60):
+            work[:, :] = band
+            for j in range(lo, m):
+                work[j, BAND] += mu
+            if lo == 1:  # δ fixed: its row and column are the identity
+                work[0, :] = 0.0
+                for k in range(1, BAND + 1):
+                    work[k, BAND - k] = 0.0
+                work[0, BAND] = 1.0
+            shifted = work.copy()
+            if negative_pivots(shifted, 0, BAND, work) != 0:
+                mu = max(4.0 * mu, 1e-8 * diag)
+                continue
+            w[:, :] = 0.0
+            for i in range(m):
+                for k in range(-BAND, BAND + 1):
+                    if 0 <= i + k < m:
+                        w[i, k + BAND] = shifted[i, BAND + k]
+            if band_lu(w, m, BAND, BAND, piv) != 0:
+                mu = max(4.0 * mu, 1e-8 * diag)
+                continue
+            for j in range(m):
+                b[j] = -g[j] if j >= lo else 0.0
+            band_lu_solve(w, m, BAND, BAND, piv, b)
+            slope = 0.0
+            for j in range(m):
+                trial[j] = y[j] + b[j]
+                slope += g[j] * b[j]
+            tm, tb = assemble(trial, geom, scratch, work, 0)
+            if tm + tb <= energy + 1e-4 * slope or (tm + tb - energy) <= 1e-14 * abs(energy):
+                y[:] = trial
+                mu *= 0.25
+                break
+            mu = max(4.0 * mu, 1e-8 * diag)
+        else:
+            return -1, -1
+    return -1, -1

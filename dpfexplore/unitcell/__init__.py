@@ -1,0 +1,24 @@
+"""Unit-cell mechanics: one dome unit's curve from its geometry and material (issue 21).
+
+The data source of identification (MODEL.md §11): a geometrically exact, shear-rigid
+axisymmetric shell model of a pinned spherical cap, loaded by apex displacement control through
+inversion, every fold followed by continuation.
+
+Modules
+-------
+geometry
+    Inputs checked once, the reference meridian and the kernels' discretised geometry.
+shell
+    :func:`unit_cell_curve` and its record :class:`UnitCellRun` (``to_frame()`` is the table
+    ``identify fit`` reads); :func:`apex_stiffness` for small deflections.
+path
+    Branch ids, zero-force states and the work ``∫ F dδ`` of a traced path.
+checks
+    Closed forms the model is validated against: the pinned plate, Reissner's shallow shell,
+    Pogorelov's ridge exponent.
+"""
+
+from .path import ZeroForceState
+from .shell import DEFAULT_ELEMENTS, UnitCellRun, apex_stiffness, unit_cell_curve
+
+__all__ = ["DEFAULT_ELEMENTS", "UnitCellRun", "ZeroForceState", "apex_stiffness", "unit_cell_curve"]

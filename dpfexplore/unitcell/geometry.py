@@ -1,0 +1,112 @@
+"""The discretised dome: inputs checked once, the reference meridian, the kernels' geometry.
+
+A dome unit is a spherical cap of base radius ``r_b``, height ``H`` and radius
+``R = (r_b² + H²) / (2 H)`` (MODEL.md §2), all of its mid-surface. Its meridian is cut into
+``n_elements`` straight segments between nodes at polar angles ``φ_k = φ_b ξ_k`` from the apex
+(``φ_b = 2 atan(H / r_b)``, so deep caps beyond the hemisphere are covered too), with
+``ξ_k = (1 - c) k/N + c (k/N)²``: ``grading = c`` in ``[0, 0.9]`` makes the elements next to the
+apex ``(1 - c)/(1 + c)`` times the size of those at the edge (for the point-load checks; the
+inversion's ridge sweeps the whole meridian, so the curves use a uniform mesh).
+``H = 0`` gives the flat plate (only for :func:`~dpfexplore.unitcell.shell.apex_stiffness`).
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+
+import numpy as np
+
+from .._kernels.shell import ShellGeometry
+
+__all__ = ["check_inputs", "n_unknowns", "reference_meridian", "reference_unknowns", "shell"]
+
+
+def _number(name: str, value, *, low: float, high: float = math.inf, low_open=True) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real | np.floating | np.integer):
+        raise ValueError(f"{name}={value!r}: must be a number")
+    value = float(value)
+    below = value <= low if low_open else value < low
+    if not math.isfinite(value) or below or value >= high:
+        bound = f"> {low:g}" if low_open else f">= {low:g}"
+        upper = f" and < {high:g}" if math.isfinite(high) else ""
+        raise ValueError(f"{name}={value!r}: must be finite, {bound}{upper}")
+    return value
+
+
+def check_inputs(H, t, r_b, E, nu, *, allow_flat: bool = False) -> tuple[float, ...]:
+    """``(H, t, r_b, E, nu)`` as floats; ``ValueError`` naming the first bad parameter.
+
+    ``H`` (mm) > 0 (>= 0 with ``allow_flat``), ``t`` (mm) > 0 and below the smaller of ``r_b``
+    and ``R`` (a shell), ``r_b`` (mm) > 0, ``E`` (MPa) > 0, ``-1 < nu < 0.5``.
+    """
+    H = _number("H", H, low=0.0, low_open=not allow_flat)
+    t = _number("t", t, low=0.0)
+    r_b = _number("r_b", r_b, low=0.0)
+    E = _number("E", E, low=0.0)
+    nu = _number("nu", nu, low=-1.0, high=0.5)
+    R = (r_b**2 + H**2) / (2.0 * H) if H > 0 else math.inf
+    if t >= min(r_b, R):
+        raise ValueError(
+            f"t={t!r}: must be smaller than r_b ({r_b:g}) and R ({R:.4g}) to be a shell"
+        )
+    return H, t, r_b, E, nu
+
+
+def reference_meridian(H: float, r_b: float, n_elements: int, grading: float = 0.0):
+    """Node coordinates ``(r0, z0)`` (mm, ``n_elements + 1`` each) of the undeformed meridian."""
+    k = np.arange(n_elements + 1) / n_elements
+    xi = (1.0 - grading) * k + grading * k * k
+    if H == 0.0:
+        return r_b * xi, np.zeros_like(xi)
+    R = (r_b**2 + H**2) / (2.0 * H)
+    phi = 2.0 * math.atan(H / r_b) * xi
+    r0 = R * np.sin(phi)
+    z0 = H - 2.0 * R * np.sin(0.5 * phi) ** 2  # = R cos φ - (R - H) without the cancellation
+    r0[-1], z0[-1] = r_b, 0.0
+    r0[0], z0[0] = 0.0, H
+    return r0, z0
+
+
+def shell(
+    H: float, t: float, r_b: float, E: float, nu: float, n_elements: int, grading: float = 0.0
+) -> ShellGeometry:
+    """The kernels' :class:`~dpfexplore._kernels.shell.ShellGeometry` of one dome.
+
+    Every reference quantity is that of the polygon itself (chord lengths, chord slopes,
+    frustum areas), so the discrete reference state is exactly strain-free.
+    """
+    r0, z0 = reference_meridian(H, r_b, n_elements, grading)
+    dr, dz = np.diff(r0), np.diff(z0)
+    l0 = np.hypot(dr, dz)
+    a0 = np.arctan2(-dz, dr)
+    rm0 = 0.5 * (r0[:-1] + r0[1:])
+    wm = 2.0 * math.pi * rm0 * l0
+    # each node carries the frustum between it and the midpoints of its segments
+    area = np.zeros(n_elements + 1)
+    area[:-1] += 0.5 * math.pi * (r0[:-1] + rm0) * l0
+    area[1:] += 0.5 * math.pi * (rm0 + r0[1:]) * l0
+    s0 = np.empty(n_elements + 1)
+    s0[0], s0[-1] = l0[0], l0[-1]
+    s0[1:-1] = 0.5 * (l0[:-1] + l0[1:])
+    beta0 = np.zeros(n_elements + 1)
+    beta0[1:-1] = np.diff(a0)
+    sa0 = np.zeros(n_elements + 1)
+    sa0[1:-1] = np.sin(a0[:-1] + 0.5 * beta0[1:-1])
+    C = E * t / (1.0 - nu**2)
+    D = E * t**3 / (12.0 * (1.0 - nu**2))
+    return ShellGeometry(r0, z0, l0, a0, rm0, wm, area, s0, beta0, sa0, C, D, nu)
+
+
+def n_unknowns(n_elements: int) -> int:
+    """Length of the unknown vector: apex travel and ``(r, z)`` of the free nodes."""
+    return 2 * n_elements - 1
+
+
+def reference_unknowns(geom: ShellGeometry) -> np.ndarray:
+    """The unknowns of the undeformed dome (``δ = 0``)."""
+    n = geom.r0.shape[0] - 1
+    y = np.zeros(n_unknowns(n))
+    y[1::2] = geom.r0[1:n]
+    y[2::2] = geom.z0[1:n]
+    return y

@@ -36,18 +36,19 @@ Sensitivities
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..numerics.differences import central_differences
+from ..numerics.local import GOAL_MET, NO_START, Stage, least_squares_in_box
 from ..solvers.sensitivities import batch_columns
 from ..solvers.statics import parse_state, solve_batch, state_string
 from ..sweep.space import DesignSpace
@@ -367,64 +368,37 @@ class Refinement:
 #: dogbox (a dogleg in the box ∩ trust region, minimum-norm Gauss-Newton steps by ``lstsq``)
 #: converges like trf on these small underdetermined problems (median 3 evaluations from a
 #: dataset neighbour) at a fifth of trf's cost per iteration, but its longer steps more often
-#: land past a fold, after which it creeps along it; so it gets 15 evaluations (five times
-#: what it needs when it converges), and trf with LSMR subproblems, whose path differs, takes
-#: the rest of the budget from the same start. trf's exact (SVD) subproblem is not used: its
-#: bound scaling damps every step of these zero-residual problems, converging only linearly
-#: (about 0.65 per iteration).
-_STAGES = (("dogbox", "exact", 15), ("trf", "lsmr", None))
-
-
-class _TargetMet(Exception):
-    """Raised from the residual to end the search at the first design that meets the target."""
+#: land past a fold, after which it creeps along it; so it gets 14 evaluations after the start
+#: (about five times what it needs when it converges), and trf with LSMR subproblems, whose
+#: path differs, takes the rest of the budget from the same start. trf's exact (SVD)
+#: subproblem is not used: its bound scaling damps every step of these zero-residual problems,
+#: converging only linearly (about 0.65 per iteration).
+_STAGES = (Stage("dogbox", "exact", 14), Stage("trf", "lsmr"))
 
 
 class _Problem:
-    """Residual and Jacobian in ``z`` of one refinement, with the best design seen."""
+    """Residual and Jacobian in ``z`` of one refinement (the model's outputs, scaled)."""
 
-    def __init__(self, variables, state, target, scales, columns, tol, model) -> None:
+    def __init__(self, variables, state, target, scales, columns, model) -> None:
         self.variables, self.state, self.columns = variables, state, columns
-        self.target, self.scales, self.tol = target, scales, tol
+        self.target, self.scales = target, scales
         self.model = model
         # The model's sensitivities cost less than a second solve: take them with every value,
         # so that an accepted step has its Jacobian already.
         self.together = model is _model_outputs
-        self.evaluations = self.jacobians = self.collapses = 0
-        self.best_z: NDArray | None = None
-        self.best_error = np.inf
-        self.best_values = np.full(len(columns), np.nan)
-        self.penalty = 1.0
-        self._last: tuple[NDArray, NDArray] | None = None
         self._jac_at: tuple[NDArray, NDArray] | None = None
 
-    def residual(self, z: NDArray) -> NDArray:
-        if self._last is not None and np.array_equal(self._last[0], z):
-            return self._last[1]
-        r = self._residual(z)
-        self._last = (z.copy(), r)
-        return r
-
-    def _residual(self, z: NDArray) -> NDArray:
+    def residual(self, z: NDArray) -> tuple[NDArray | None, NDArray]:
+        """Scaled residual at ``z`` (None where the state collapses) and the outputs."""
         batch = self.variables.designs(z[None, :])
         values, jac, status = self.model(batch, self.state, self.columns, derivatives=self.together)
-        self.evaluations += 1
         if status != st.OK:
-            self.collapses += 1
-            # Larger than any residual met so far: the trust region rejects the step.
-            return np.full(len(self.columns), self.penalty)
+            return None, values
         if jac is not None:
-            self._jac_at = (z.copy(), jac)
-        r = (values - self.target) / self.scales
-        error = float(np.linalg.norm(r))
-        self.penalty = max(self.penalty, 10.0 * (error + 1.0))
-        if error < self.best_error:
-            self.best_z, self.best_error, self.best_values = z.copy(), error, values
-        if error <= _MARGIN * self.tol:
-            raise _TargetMet
-        return r
+            self._jac_at = (z, jac)
+        return (values - self.target) / self.scales, values
 
     def jacobian(self, z: NDArray) -> NDArray:
-        self.jacobians += 1
         if self._jac_at is not None and np.array_equal(self._jac_at[0], z):
             jac = self._jac_at[1]
         else:
@@ -527,65 +501,45 @@ def refine(
     state_int = parse_state(state, design.n_units)
     bits = state_string(state_int, design.n_units)
     start = time.perf_counter()
-    problem = _Problem(
-        variables, state_int, target, scales, columns, tol, SENSITIVITIES[sensitivities]
-    )
+    problem = _Problem(variables, state_int, target, scales, columns, SENSITIVITIES[sensitivities])
     z0 = variables.encode(_project(design, variables))[0][0]
-
-    def done(z, status, message) -> Refinement:
-        found = problem.best_z is not None
-        values = problem.best_values if found else np.full(len(columns), np.nan)
-        return Refinement(
-            design=variables.design(z),
-            state=bits,
-            status=status,
-            error=problem.best_error if found else float("nan"),
-            values=values,
-            evaluations=problem.evaluations,
-            jacobians=problem.jacobians,
-            collapses=problem.collapses,
-            seconds=time.perf_counter() - start,
-            message=message,
+    run = least_squares_in_box(
+        problem.residual,
+        z0,
+        jac=problem.jacobian,
+        max_nfev=max(int(max_evaluations), 1),
+        goal=(_MARGIN * tol) ** 2,
+        stages=_STAGES,
+        ftol=1e-12,
+        xtol=1e-12,
+        gtol=1e-12,
+    )
+    found = run.status != NO_START
+    error = math.sqrt(run.objective) if found else float("nan")
+    if run.status == GOAL_MET:
+        status = "ok"
+        message = "the start meets the target" if run.nfev == 1 else f"met to {error:.2g}"
+    elif not found:
+        status, message = "collapsed", f"state {bits} does not exist at the (projected) start"
+    elif variables.n_variables == 0:
+        status, message = "not_met", "no free variables"
+    elif run.failures:
+        status = "collapsed"
+        message = (
+            f"state {bits} collapsed at {run.failures} trial designs; stopped at "
+            f"{error:.3g} ({run.message})"
         )
-
-    try:
-        problem.residual(z0)
-    except _TargetMet:
-        return done(z0, "ok", "the start meets the target")
-    if problem.best_z is None:
-        return done(z0, "collapsed", f"state {bits} does not exist at the (projected) start")
-    if variables.n_variables == 0:
-        return done(z0, "not_met", "no free variables")
-    messages = []
-    try:
-        for method, tr_solver, cap in _STAGES:
-            if method == "trf" and variables.n_variables == 1:
-                tr_solver = "exact"  # SciPy's LSMR path needs two variables
-            budget = max_evaluations - problem.evaluations
-            budget = budget if cap is None else min(cap, budget)
-            if budget <= 0:
-                break
-            result = least_squares(
-                problem.residual,
-                z0,
-                jac=problem.jacobian,
-                bounds=(0.0, 1.0),
-                method=method,
-                tr_solver=tr_solver,
-                ftol=1e-12,
-                xtol=1e-12,
-                gtol=1e-12,
-                max_nfev=budget,
-            )
-            messages.append(f"{method}: {result.message}")
-    except _TargetMet:
-        return done(problem.best_z, "ok", f"met to {problem.best_error:.2g}")
-    message = "; ".join(messages)
-    if problem.collapses:
-        return done(
-            problem.best_z,
-            "collapsed",
-            f"state {bits} collapsed at {problem.collapses} trial designs; stopped at "
-            f"{problem.best_error:.3g} ({message})",
-        )
-    return done(problem.best_z, "not_met", f"stopped at {problem.best_error:.3g}: {message}")
+    else:
+        status, message = "not_met", f"stopped at {error:.3g}: {run.message}"
+    return Refinement(
+        design=variables.design(run.x),
+        state=bits,
+        status=status,
+        error=error,
+        values=run.info if found else np.full(len(columns), np.nan),
+        evaluations=run.nfev,
+        jacobians=run.njev,
+        collapses=run.failures,
+        seconds=time.perf_counter() - start,
+        message=message,
+    )

@@ -40,10 +40,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares, minimize
+from scipy.optimize import minimize
 from scipy.stats import qmc
 
 from ...model.design import Design, DesignBatch
+from ...numerics.local import least_squares_in_box
 from ..evaluation import Evaluator
 from ..problem import Evaluation, PositionProblem, Problem
 from .seeds import seed_candidates
@@ -200,11 +201,6 @@ def _distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> li
 # ----------------------------------------------------------------------------- refinement
 
 
-class _Reached(Exception):
-    def __init__(self, z: NDArray, ev: Evaluation) -> None:
-        self.z, self.ev = z, ev
-
-
 def refine(
     problem: Problem,
     z0: NDArray,
@@ -214,6 +210,9 @@ def refine(
     weights: tuple[float, float] | None = None,
 ) -> Refinement:
     """Least-squares refinement (TRF in the box) of a problem's residual from ``z0``.
+
+    :func:`~dpfexplore.numerics.local.least_squares_in_box` on the residual (tip minus target,
+    apertures minus targets) with the exact design sensitivities of the problem.
 
     Parameters
     ----------
@@ -233,33 +232,20 @@ def refine(
         The best exactly evaluated point of the run.
     """
     stiffness = weights is not None
-    best: dict = {"value": np.inf, "z": None, "ev": None}
     last: dict = {}
-    n_res = problem.n_residuals + (1 if stiffness else 0)
 
-    def value(ev: Evaluation) -> NDArray:
+    def fun(z: NDArray) -> tuple[NDArray | None, Evaluation]:
+        ev = problem.evaluate(z[None, :], purpose="refine", stiffness=stiffness)
+        last["z"], last["ev"] = z, ev
+        if not ev.ok[0]:
+            return None, ev
         r = ev.residual[0]
         if stiffness:
             w1, w2 = weights
-            return np.append(math.sqrt(w1) * r, math.sqrt(w2) / ev.stiffness[0])
-        return r
-
-    def fun(z: NDArray) -> NDArray:
-        z = np.clip(z, 0.0, 1.0)
-        ev = problem.evaluate(z[None, :], purpose="refine", stiffness=stiffness)
-        last["z"], last["ev"] = z.copy(), ev
-        if not ev.ok[0]:
-            return np.full(n_res, np.inf)
-        f = value(ev)
-        total = float(f @ f)
-        if total < best["value"]:
-            best.update(value=total, z=z.copy(), ev=ev)
-        if not stiffness and total <= goal:
-            raise _Reached(z.copy(), ev)
-        return f
+            return np.append(math.sqrt(w1) * r, math.sqrt(w2) / ev.stiffness[0]), ev
+        return r, ev
 
     def jac(z: NDArray) -> NDArray:
-        z = np.clip(z, 0.0, 1.0)
         ev = last["ev"] if last.get("z") is not None and np.array_equal(last["z"], z) else None
         if ev is None or not ev.ok[0]:
             ev = problem.evaluate(z[None, :], purpose="refine", stiffness=stiffness)
@@ -269,39 +255,24 @@ def refine(
         w1, w2 = weights
         return np.vstack([math.sqrt(w1) * d_res, -math.sqrt(w2) / ev.stiffness[0] * d_logk])
 
-    iterations = 0
-    try:
-        if problem.dim == 0:
-            fun(np.zeros(0))
-        else:
-            result = least_squares(
-                fun,
-                np.clip(z0, 0.0, 1.0),
-                jac=jac,
-                bounds=(0.0, 1.0),
-                method="trf",
-                x_scale=1.0,
-                ftol=FTOL,
-                xtol=1e-12,
-                gtol=1e-15,
-                max_nfev=max_iter,
-            )
-            iterations = int(result.nfev)
-    except _Reached as hit:
-        best.update(value=float(hit.ev.objective[0]), z=hit.z, ev=hit.ev)
-    except ValueError as exc:  # least_squares refuses a start without a residual
-        logger.debug("refinement start rejected: %s", exc)
-    if best["z"] is None:
-        ev = problem.evaluate(np.clip(z0, 0, 1)[None, :], purpose="refine", stiffness=stiffness)
-        best.update(z=np.clip(z0, 0, 1), ev=ev)
-    ev = best["ev"]
+    run = least_squares_in_box(
+        fun,
+        z0,
+        jac=jac,
+        max_nfev=max(int(max_iter), 1),
+        goal=None if stiffness else goal,
+        ftol=FTOL,
+        xtol=1e-12,
+        gtol=1e-15,
+    )
+    ev = run.info
     objective = float(ev.objective[0])
     return Refinement(
         problem=problem,
-        z=best["z"],
+        z=run.x,
         evaluation=ev,
         objective=objective,
-        iterations=iterations,
+        iterations=run.nfev,
         reached=objective <= goal,
     )
 

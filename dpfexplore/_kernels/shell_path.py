@@ -133,6 +133,7 @@ def correct(y, p, geom, ftol, xtol, g, band, w, piv, b):
             return -1
         _rhs(g, p, b, 0.0)
         band_lu_solve(w, m, KL, KU, piv, b)
+        b[p] = 0.0  # the parameter stays exactly where the step put it (not off by round-off)
         dn = 0.0
         for j in range(m):
             y[j] += b[j]

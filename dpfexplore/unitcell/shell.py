@@ -169,6 +169,24 @@ class UnitCellRun:
         """A stable zero-force inverted state exists on the path."""
         return self.tip_dis is not None
 
+    def energy_envelope(self, displacement: NDArray) -> NDArray:
+        """Lowest energy (N·mm) any branch reaches at each ``displacement`` (mm); inf outside all.
+
+        The curve a slow displacement-controlled test follows when it jumps at the folds
+        (linear interpolation within each branch), and the curve ``identify`` fits.
+        """
+        grid = np.asarray(displacement, dtype=float)
+        envelope = np.full(grid.shape, np.inf)
+        for key in np.unique(self.branch):
+            on = self.branch == key
+            order = np.argsort(self.displacement[on], kind="stable")
+            x, e = self.displacement[on][order], self.energy[on][order]
+            if x.size < 2:
+                continue
+            inside = (grid >= x[0]) & (grid <= x[-1])
+            envelope[inside] = np.minimum(envelope[inside], np.interp(grid[inside], x, e))
+        return envelope
+
     def to_frame(self, curve: str | int | None = None) -> pd.DataFrame:
         """The path as the table ``dpfexplore identify fit`` reads (``identification.curves``).
 

@@ -1,0 +1,138 @@
+"""The traced path: energy consistency, branches, zero-force states, the issue's findings."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dpfexplore.identification.curves import curves_from_frame
+from dpfexplore.model.constants import dome_stiffness
+from dpfexplore.unitcell import UnitCellRun, unit_cell_curve
+from dpfexplore.unitcell.checks import shallow_shell_stiffness
+
+BOX = [(H, t) for H in (3.0, 4.0, 5.0) for t in (0.5, 0.75, 1.0)]
+
+
+@pytest.fixture(scope="module")
+def box_runs() -> dict[tuple[float, float], UnitCellRun]:
+    """The paper's box (r_b 5, E 26) at the default mesh and step."""
+    return {(H, t): unit_cell_curve(H, t) for H, t in BOX}
+
+
+def test_work_of_the_reaction_equals_the_energy_change():
+    # Hermite quadrature per step: its error falls with the step; at travel/300 it is < 1e-6.
+    run = unit_cell_curve(3.0, 0.83, n_elements=32, step=2.2 * 3.0 / 300)
+    assert run.status == "reached"
+    assert np.max(np.abs(run.work - run.energy)) <= 1e-6 * np.max(run.energy)
+
+
+def test_record_shapes_and_invariants():
+    run = unit_cell_curve(3.0, 0.83, n_elements=48)
+    n = run.n_steps
+    assert run.success and run.status == "reached"
+    assert run.displacement[0] == 0.0 and run.energy[0] < 1e-12
+    for name in ("force", "energy", "membrane_energy", "bending_energy", "stable", "branch"):
+        assert getattr(run, name).shape == (n,)
+    assert run.shapes.shape == (n, 49, 2)
+    np.testing.assert_allclose(run.energy, run.membrane_energy + run.bending_energy)
+    # apex on the axis at z = H - delta, edge pinned
+    np.testing.assert_allclose(run.shapes[:, 0, 0], 0.0)
+    np.testing.assert_allclose(run.shapes[:, 0, 1], 3.0 - run.displacement)
+    np.testing.assert_allclose(run.shapes[:, -1], np.tile([5.0, 0.0], (n, 1)))
+    # branch ids step by one at every fold, where d(delta)/ds changes sign
+    assert np.all(np.diff(run.branch) >= 0) and np.all(np.diff(run.branch) <= 1)
+    assert run.displacement[-1] >= 2.2 * 3.0
+    # the force is the slope of the energy on a stable stretch of the first branch
+    first = (run.branch == 0) & run.stable
+    d, e, f = run.displacement[first], run.energy[first], run.force[first]
+    slope = np.gradient(e, d)
+    np.testing.assert_allclose(slope[5:-5], f[5:-5], rtol=2e-2)
+
+
+def test_every_box_dome_folds_before_1p9_H_and_rests_inverted_near_2_H(box_runs):
+    for (H, t), run in box_runs.items():
+        assert run.status == "reached", (H, t, run.message)
+        first_fold = run.folds[0]
+        assert 1.7 * H < first_fold < 1.9 * H, (H, t, first_fold / H)
+        # past the fold the dome jumps to an inverted branch where the force is negative
+        assert np.any(run.force[run.displacement > first_fold] < 0.0)
+        # a stable zero-force inverted state: bistable, thick low domes included
+        assert run.bistable, (H, t)
+        assert 2.0 * H <= run.tip_dis < 2.08 * H, (H, t, run.tip_dis / H)
+
+
+def test_tip_dis_is_a_few_percent_below_the_papers_fit(box_runs):
+    for (H, t), run in box_runs.items():
+        paper = 0.2565 * t + 2.1425 * H  # MODEL.md §11, the two-unit contact runs
+        assert -0.10 < run.tip_dis / paper - 1.0 < -0.02, (H, t)
+
+
+def test_initial_stiffness_is_reissners_not_the_papers_k_b(box_runs):
+    for (H, t), run in box_runs.items():
+        R = run.R
+        reissner = shallow_shell_stiffness(run.E, run.nu, t, R)
+        paper = float(dome_stiffness(run.E, H, t, R))
+        assert abs(run.initial_stiffness / reissner - 1.0) < 0.12, (H, t)
+        assert run.initial_stiffness < paper, (H, t)
+    ratios = [
+        float(dome_stiffness(26.0, H, t, r.R)) / r.initial_stiffness
+        for (H, t), r in box_runs.items()
+    ]
+    assert max(ratios) > 2.0  # the paper's k_b is up to ~2.3 times the shell's initial slope
+
+
+def test_zero_force_states_are_refined_equilibria(box_runs):
+    run = box_runs[(3.0, 1.0)]
+    states = run.zero_force_states
+    assert all(s.refined for s in states)
+    stable = [s for s in states if s.stable]
+    assert len(stable) == 1 and stable[0].displacement == run.tip_dis
+    # the unstable ones are saddles of the free dome (at least one negative eigenvalue)
+    assert all(s.index >= 1 for s in states if not s.stable)
+
+
+def test_to_frame_is_the_identification_table(box_runs):
+    run = box_runs[(4.0, 0.75)]
+    frame = run.to_frame(curve="a")
+    assert list(frame.columns) == [
+        "curve",
+        "H",
+        "t",
+        "r_b",
+        "E",
+        "nu",
+        "displacement",
+        "energy",
+        "force",
+        "branch",
+        "tip_dis",
+    ]
+    (curve,) = curves_from_frame(frame)
+    assert curve.folded and curve.tip_dis == pytest.approx(run.tip_dis)
+    assert curve.displacement[0] == 0.0
+    # its lower envelope: the first branch, then the inverted branch once it is lower
+    assert np.all(np.isfinite(curve.energy))
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(H=-1.0, t=0.5), "H"),
+        (dict(H=3.0, t=0.0), "t"),
+        (dict(H=3.0, t=6.0), "t"),
+        (dict(H=3.0, t=0.5, r_b=math.nan), "r_b"),
+        (dict(H=3.0, t=0.5, E=0.0), "E"),
+        (dict(H=3.0, t=0.5, nu=0.5), "nu"),
+        (dict(H=3.0, t=0.5, n_elements=2), "n_elements"),
+        (dict(H=3.0, t=0.5, travel=-1.0), "travel"),
+        (dict(H=3.0, t=0.5, max_steps=0), "max_steps"),
+        (dict(H=3.0, t=0.5, grading=0.95), "grading"),
+        (dict(H="3", t=0.5), "H"),
+    ],
+)
+def test_bad_inputs_are_one_line_errors_naming_the_parameter(kwargs, name):
+    with pytest.raises(ValueError, match=rf"^{name}=") as error:
+        unit_cell_curve(**kwargs)
+    assert "\n" not in str(error.value)

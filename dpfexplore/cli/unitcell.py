@@ -1,0 +1,205 @@
+"""``dpfexplore unitcell``: one dome unit's curve from its geometry and material (issue 21).
+
+* ``unitcell curve --H 3 --t 0.83 [--r-b 5 --E 26 --nu 0.35] [--travel MAX] [--json]
+  [--plot FILE.png] [--out FILE.csv|.parquet]``: the equilibrium path of a pinned spherical cap
+  under apex displacement control, through every fold (geometrically exact axisymmetric
+  Kirchhoff shell; docs/guide/unitcell.md). ``--out`` writes the table ``identify fit`` reads.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._output import FIGURE_SUFFIXES, json_text, output_path
+
+_TABLE_SUFFIXES = (".csv", ".parquet")
+
+
+def register(subparsers) -> None:
+    """Add ``unitcell`` and its subcommands."""
+    parser = subparsers.add_parser(
+        "unitcell",
+        help="unit-cell mechanics: a dome unit's force and energy against apex travel",
+        description=__doc__.split("\n\n", 1)[1],
+    )
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    curve = sub.add_parser(
+        "curve", help="trace one dome unit's path under apex displacement control"
+    )
+    curve.add_argument("--H", type=float, required=True, help="dome height, mm")
+    curve.add_argument("--t", type=float, required=True, help="dome thickness, mm")
+    curve.add_argument("--r-b", type=float, default=5.0, help="dome base radius, mm")
+    curve.add_argument("--E", type=float, default=26.0, help="Young's modulus, MPa")
+    curve.add_argument("--nu", type=float, default=0.35, help="Poisson ratio")
+    curve.add_argument(
+        "--travel", type=float, default=None, help="apex travel to trace to, mm (default 2.2 H)"
+    )
+    curve.add_argument(
+        "--elements", type=int, default=None, help="segments along the meridian (default 128)"
+    )
+    curve.add_argument(
+        "--step", type=float, default=None, help="largest continuation step, mm (travel/60)"
+    )
+    curve.add_argument("--max-steps", type=int, default=3000, help="most continuation steps")
+    curve.add_argument("--json", action="store_true", help="print the run as one JSON document")
+    curve.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        metavar="FILE.png",
+        help="draw force and energy against travel (with the fitted spring law) and meridians",
+    )
+    curve.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="FILE.csv",
+        help="write the path as the table identify fit reads (.csv or .parquet)",
+    )
+    curve.set_defaults(handler=_curve)
+
+
+def _curve(args: argparse.Namespace) -> int:
+    from ..unitcell import unit_cell_curve
+
+    plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
+    out = output_path(args.out, "--out", suffixes=_TABLE_SUFFIXES) if args.out else None
+    try:
+        run = unit_cell_curve(
+            args.H,
+            args.t,
+            args.r_b,
+            args.E,
+            args.nu,
+            travel=args.travel,
+            n_elements=args.elements,
+            max_steps=args.max_steps,
+            step=args.step,
+        )
+    except ValueError as exc:
+        raise UsageError(_option_names(str(exc))) from None
+    summary = _summary(run)
+    if args.json:
+        print(json_text(_document(run, summary)))
+    else:
+        _print_text(run, summary)
+    if out is not None:
+        frame = run.to_frame()
+        if out.suffix.lower() == ".parquet":
+            frame.to_parquet(out, index=False)
+        else:
+            frame.to_csv(out, index=False)
+        if not args.json:
+            print(f"wrote {out} ({len(frame)} rows)")
+    if plot is not None:
+        _save_plot(run, plot)
+    if run.status not in ("reached", "partial"):
+        print(f"dpfexplore unitcell: {run.message}", file=sys.stderr)
+        return EXIT_FAILURE
+    return EXIT_OK
+
+
+def _option_names(message: str) -> str:
+    """The API's parameter names as the command's options (``r_b=`` -> ``--r-b``)."""
+    name, sep, rest = message.partition("=")
+    options = {"n_elements": "elements", "r_b": "r-b", "max_steps": "max-steps"}
+    if sep and name.isidentifier():
+        return f"--{options.get(name, name)} {rest}"
+    return message
+
+
+def _summary(run) -> dict:
+    from ..model.constants import dome_stiffness
+    from ..unitcell.checks import shallow_shell_stiffness
+
+    return {
+        "status": run.status,
+        "message": run.message,
+        "steps": run.n_steps,
+        "elements": run.n_elements,
+        "seconds": round(run.elapsed, 4),
+        "R": run.R,
+        "initial_stiffness": run.initial_stiffness,
+        "reissner_stiffness": shallow_shell_stiffness(run.E, run.nu, run.t, run.R),
+        "paper_k_b": float(dome_stiffness(run.E, run.H, run.t, run.R)),
+        "folds": [float(x) for x in run.folds],
+        "tip_dis": run.tip_dis,
+        "bistable": run.bistable,
+    }
+
+
+def _document(run, summary: dict) -> dict:
+    return {
+        "inputs": {"H": run.H, "t": run.t, "r_b": run.r_b, "E": run.E, "nu": run.nu},
+        "summary": summary,
+        "zero_force_states": [
+            {
+                "displacement": s.displacement,
+                "energy": s.energy,
+                "stable": s.stable,
+                "index": s.index,
+                "branch": s.branch,
+            }
+            for s in run.zero_force_states
+        ],
+        "series": {
+            "displacement": run.displacement.tolist(),
+            "force": run.force.tolist(),
+            "energy": run.energy.tolist(),
+            "membrane_energy": run.membrane_energy.tolist(),
+            "bending_energy": run.bending_energy.tolist(),
+            "branch": run.branch.tolist(),
+            "stable": run.stable.tolist(),
+        },
+    }
+
+
+def _print_text(run, summary: dict) -> None:
+    print(
+        f"dome H {run.H:g} mm, t {run.t:g} mm, r_b {run.r_b:g} mm (R {run.R:.4g} mm), "
+        f"E {run.E:g} MPa, nu {run.nu:g}: {run.n_elements} elements"
+    )
+    print(f"path: {summary['status']} ({run.message}); {run.n_steps} points in {run.elapsed:.3f} s")
+    print(
+        f"initial stiffness {run.initial_stiffness:.4g} N/mm (Reissner's shallow shell "
+        f"{summary['reissner_stiffness']:.4g}, the paper's k_b {summary['paper_k_b']:.4g})"
+    )
+    folds = ", ".join(f"{x:.4g}" for x in run.folds) or "none"
+    print(f"folds in apex travel (mm): {folds}")
+    tip = "none (monostable on this path)" if run.tip_dis is None else f"{run.tip_dis:.5g} mm"
+    print(f"stable inverted rest (tip_dis): {tip}")
+    if run.zero_force_states:
+        print("zero-force states: travel/mm  energy/N·mm  stable  negative eigenvalues")
+        for s in run.zero_force_states:
+            print(f"  {s.displacement:10.5g}  {s.energy:11.5g}  {s.stable!s:6}  {s.index}")
+    print(f"{'travel/mm':>10} {'force/N':>10} {'energy/N·mm':>12} {'branch':>6} stable")
+    step = max(1, math.ceil(run.n_steps / 30))
+    for i in [*range(0, run.n_steps, step), run.n_steps - 1][: run.n_steps]:
+        print(
+            f"{run.displacement[i]:10.5g} {run.force[i]:10.5g} {run.energy[i]:12.6g} "
+            f"{run.branch[i]:6d} {'yes' if run.stable[i] else 'no'}"
+        )
+
+
+def _save_plot(run, path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    from ..identification.curves import CurveError, curves_from_frame
+    from ..identification.spring_fit import fit_curve
+    from ..unitcell.plotting import plot_energy, plot_force, plot_meridians
+
+    try:
+        fit = fit_curve(curves_from_frame(run.to_frame())[0])
+        spring = (fit.k_b, fit.alpha, fit.d)
+    except CurveError:  # too few points or branches for the law: the curve alone
+        spring = None
+    fig = Figure(figsize=(7, 10), layout="constrained")
+    axes = fig.subplots(3, 1)
+    plot_force(run, axes[0], spring=spring)
+    plot_energy(run, axes[1], spring=spring)
+    plot_meridians(run, axes[2])
+    fig.savefig(path, dpi=110)

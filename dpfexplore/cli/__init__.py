@@ -52,6 +52,7 @@ COMMAND_MODULES = (
     "lookup",
     "design",
     "identify",
+    "unitcell",
     "bench",
 )
 

@@ -4,8 +4,10 @@
 :class:`dpfexplore.model.design.DesignBatch`) into what the state kernels read: each design's
 status code, its per-unit table (columns of :mod:`.layout`) and segment height, and on request the
 derivatives of the table's constants in the design parameters (for the sensitivities,
-:mod:`.sensitivity`). The closed forms are those of :mod:`dpfexplore.model.constants`, compiled
-inline from the same source as its NumPy functions, so the numbers are bit-identical to theirs.
+:mod:`.sensitivity`). ``k_b``, ``alpha`` and the reach come from the batch's constants set, read
+as the array of :meth:`dpfexplore.model.constants_set.ConstantsSet.kernel_forms` and evaluated
+by the same arithmetic as its NumPy methods (bit-identical); the beam constants (``k_lim``,
+``k_t``) are those of :mod:`dpfexplore.model.constants`, compiled inline from the same source.
 
 The status codes are those of :meth:`DesignBatch.status` (``OK``, ``INVALID_INPUT``,
 ``INVALID_CONSTANTS``), by :func:`dpfexplore.model.design.status_code` compiled inline; only the
@@ -25,15 +27,12 @@ from ..model.constants import (
     NO_CONTACT_REACH,
     POST_STIFFNESS_FACTOR,
     U_INVERSION_WITHOUT_BARRIER,
-    alpha_form,
     constant_derivatives_form,
     k_lim_form,
     k_t_form,
-    kb_form,
-    radius_form,
-    reach_raw_form,
     segment_height_form,
 )
+from ..model.constants_set import set_constant_partials, set_constants_form
 from ..model.design import status_code
 from ..model.domain import MAX_UNITS
 from ._jit import kernel
@@ -68,12 +67,11 @@ N_DPARAM = 5
 
 
 @kernel
-def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, row):
+def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, row):
     """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact)."""
-    R = radius_form(H, r_b)
-    k_b = kb_form(E, H, t, R)
-    alpha = alpha_form(H, t, R)
-    raw = reach_raw_form(H, t, U_sep, t_ch)
+    k_b, alpha, tip = set_constants_form(forms, E, H, t, r_b)
+    # the reach of MODEL.md §3, in ConstantsSet.reach's order of operations
+    raw = tip - H - U_sep - t_ch / 2.0 - t / 2.0
     no_contact = raw <= 0.0
     k_lim = k_lim_form(E, t_lim, r_b, U_L, t, t_ch)
     row[COL_P] = U_L + t_ch + U_sep
@@ -104,17 +102,27 @@ def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, row):
 
 
 @kernel
-def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, dtab):
-    """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule)."""
+def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, contact, dtab):
+    """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule).
+
+    ``k_b``, ``alpha`` and the reach through the constants set's own derivatives; ``contact``
+    is 0 where the reach is clamped (a constant there, so its derivatives vanish).
+    """
+    dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt = set_constant_partials(
+        forms, E, H, t, r_b
+    )
+    dd_dH = (dtip_dH - 1.0) * contact
+    dd_dt = (dtip_dt - 0.5) * contact
+    dd_dUsep = -1.0 * contact
     (
         _,
-        dkb_dH,
-        dkb_dt,
-        dalpha_dH,
-        dalpha_dt,
-        dd_dH,
-        dd_dt,
-        dd_dUsep,
+        _,
+        _,
+        _,
+        _,
+        _,
+        _,
+        _,
         dklim_dUL,
         dklim_dt,
         dklim_dtlim,
@@ -150,7 +158,7 @@ def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, dtab):
 
 @kernel
 def design_tables(
-    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, status, table, h, no_contact, dtab
+    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, status, table, h, no_contact, dtab
 ):
     """Status, kernel table and (on request) derivative table of every design of a batch.
 
@@ -160,6 +168,9 @@ def design_tables(
     H, U_L, U_sep : ndarray of shape (n, MAX_UNITS), mm
     t, t_lim, E, nu, r_b, t_ch : ndarray of shape (n,)
         The arrays of a :class:`DesignBatch`.
+    forms : ndarray of shape (3, n_terms, 3)
+        The batch's constants set
+        (:meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`).
     status : ndarray of int8, shape (n,)
         Receives each design's status code.
     table : ndarray of shape (n, MAX_UNITS, N_COLS)
@@ -176,7 +187,7 @@ def design_tables(
     want_derivatives = dtab.shape[0] > 0
     for i in range(n_units.shape[0]):
         status[i] = status_code(
-            n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i]
+            n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], forms
         )
         h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
         active = min(max(n_units[i], 0), MAX_UNITS)
@@ -190,12 +201,24 @@ def design_tables(
             Hk = H[i, k]
             U_Lk = U_L[i, k]
             U_sepk = U_sep[i, k]
-            no_contact[i, k] = _unit_row(
-                Hk, U_Lk, U_sepk, t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], table[i, k]
+            clamped = _unit_row(
+                Hk, U_Lk, U_sepk, t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], forms, table[i, k]
             )
+            no_contact[i, k] = clamped
             if want_derivatives:
                 _derivative_rows(
-                    Hk, U_Lk, U_sepk, t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], dtab[i, k]
+                    Hk,
+                    U_Lk,
+                    U_sepk,
+                    t[i],
+                    t_lim[i],
+                    E[i],
+                    nu[i],
+                    r_b[i],
+                    t_ch[i],
+                    forms,
+                    0.0 if clamped else 1.0,
+                    dtab[i, k],
                 )
 
 

@@ -144,12 +144,8 @@ def sample_metastable_designs(n_designs: int, seed: int):
         keep = np.flatnonzero(resets)
         kept.append(batch.take(keep))
         refs.append({k: v[keep] for k, v in ref.items()})
-    merged = {
-        name: np.concatenate([getattr(b, name) for b in kept])[:n_designs]
-        for name in DesignBatch.__dataclass_fields__
-    }
     ref = {k: np.concatenate([r[k] for r in refs])[:n_designs] for k in refs[0]}
-    return DesignBatch(**merged), ref
+    return DesignBatch.concatenate(kept).take(np.arange(len(ref["status"]))), ref
 
 
 def _errors(out, ref) -> dict:

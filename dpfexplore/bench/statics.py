@@ -117,11 +117,7 @@ def sample_bistable_batch(n_units: int, n_designs: int, seed: int):
         keep = np.flatnonzero((alpha < ALPHA_BISTABLE).all(axis=1))
         rows.append(batch.take(keep))
         total += keep.size
-    merged = {
-        name: np.concatenate([getattr(b, name) for b in rows])[:n_designs]
-        for name in DesignBatch.__dataclass_fields__
-    }
-    return DesignBatch(**merged)
+    return DesignBatch.concatenate(rows).take(np.arange(n_designs))
 
 
 def _scipy_solve(lattice, params, state: int):

@@ -6,19 +6,93 @@ from pathlib import Path
 
 from ._output import UsageError
 
-__all__ = ["design_argument", "saved_path"]
+__all__ = [
+    "add_constants_option",
+    "constants_argument",
+    "constants_line",
+    "constants_record",
+    "design_argument",
+    "saved_path",
+    "with_constants",
+]
+
+CONSTANTS_HELP = (
+    "constants set file (JSON, from `dpfexplore identify fit`) for k_b, alpha and the reach; "
+    "default: the one the input names, else the paper's closed forms"
+)
 
 
-def design_argument(text: str):
-    """The design a ``DESIGN`` argument names: a TOML file, or a packaged example's name.
+def add_constants_option(parser) -> None:
+    """Add ``--constants FILE`` (every command that evaluates designs takes it)."""
+    parser.add_argument("--constants", metavar="FILE", default=None, help=CONSTANTS_HELP)
 
-    ``states``, ``simulate`` and ``snap`` all take ``gripper`` or ``pickplace`` for the
-    examples in :mod:`dpfexplore.examples` (a file of that name in the working directory wins).
+
+def constants_argument(text: str | None):
+    """The constants set ``--constants FILE`` names (None when not given).
 
     Raises
     ------
     UsageError
-        If it names neither, or the file is not a valid design (naming file and key).
+        One line naming the file: unreadable, not a set, tampered with, or unphysical.
+    """
+    if text is None:
+        return None
+    from ..model.constants_set import ConstantsSetError, load_constants_set
+
+    try:
+        return load_constants_set(text)
+    except ConstantsSetError as exc:
+        raise UsageError(f"--constants {exc}") from None
+
+
+def with_constants(current, given, what: str):
+    """The set to run on: ``given`` (from ``--constants``) unless the input names another.
+
+    ``current`` is the set the input carries (a design or job file's ``constants``, else the
+    paper's). An input that names one set and an option that names another is refused: which
+    one should win is a guess.
+
+    Raises
+    ------
+    UsageError
+        When both name a set and the sets differ (naming both).
+    """
+    from ..model.constants_set import DEFAULT
+
+    if given is None or given == current:
+        return current
+    if current != DEFAULT:
+        raise UsageError(
+            f"--constants names constants set {given.label} but {what} names "
+            f"{current.label}; give one"
+        )
+    return given
+
+
+def constants_record(constants) -> dict:
+    """How JSON output names a constants set: ``{"name", "fingerprint"}``."""
+    return {"name": constants.name, "fingerprint": constants.fingerprint}
+
+
+def constants_line(constants) -> str | None:
+    """The text outputs' line naming a set other than the paper's (None for the paper's)."""
+    from ..model.constants_set import DEFAULT
+
+    return None if constants == DEFAULT else f"constants set {constants.label}"
+
+
+def design_argument(text: str, constants=None):
+    """The design a ``DESIGN`` argument names: a TOML file, or a packaged example's name.
+
+    ``states``, ``simulate`` and ``snap`` all take ``gripper`` or ``pickplace`` for the
+    examples in :mod:`dpfexplore.examples` (a file of that name in the working directory wins).
+    ``constants`` (a set from ``--constants``) applies unless the file names another.
+
+    Raises
+    ------
+    UsageError
+        If it names neither, or the file is not a valid design (naming file and key), or the
+        file and ``constants`` name different sets.
     """
     from ..examples import NAMES, example_path
     from ..model.design import load_design
@@ -29,9 +103,11 @@ def design_argument(text: str):
     if not path.exists():
         raise UsageError(f"{text}: no such design file (examples: {', '.join(NAMES)})")
     try:
-        return load_design(path)
+        design = load_design(path)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
+    chosen = with_constants(design.constants, constants, str(path))
+    return design if chosen is design.constants else design.replace(constants=chosen)
 
 
 def saved_path(name: str, folder: Path) -> Path:

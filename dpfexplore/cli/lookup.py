@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._inputs import add_constants_option, constants_argument
 from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
@@ -96,6 +97,7 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--force", action="store_true", help="replace --write DIR when it holds an earlier result"
     )
+    add_constants_option(parser)
     parser.set_defaults(handler=run)
 
 
@@ -146,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
             tol=args.tol,
             rebuild=not args.no_rebuild,
             verify=not args.no_verify,
+            constants=constants_argument(args.constants),
         )
     except (StoreError, StaleIndexError, ValueError) as exc:
         raise UsageError(str(exc).splitlines()[0]) from None

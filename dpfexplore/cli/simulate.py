@@ -7,7 +7,13 @@ import math
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import design_argument
+from ._inputs import (
+    add_constants_option,
+    constants_argument,
+    constants_line,
+    constants_record,
+    design_argument,
+)
 from ._output import (
     FIGURE_SUFFIXES,
     announce_compilation,
@@ -63,6 +69,7 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--plot", type=Path, default=None, metavar="FILE.png", help="write a PNG of the run"
     )
+    add_constants_option(parser)
     parser.set_defaults(handler=run)
 
 
@@ -95,7 +102,7 @@ def run(args) -> int:
     if args.method != "fast" and (args.max_rel_halfwidth is not None or args.reset_model):
         raise UsageError("--max-rel-halfwidth and --reset-model need --method fast")
     try:
-        design = design_argument(args.design)
+        design = design_argument(args.design, constants_argument(args.constants))
         profile = _profile(args)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -121,9 +128,12 @@ def run(args) -> int:
     note = design.fitted_range_note
     summary["fitted_range"] = note is None
     summary["fitted_range_note"] = note
+    summary["constants"] = constants_record(design.constants)
     if args.json:
         print(json_text(summary))
     else:
+        if constants_line(design.constants):
+            print(constants_line(design.constants))
         print(
             f"design {design.name or args.design}: {design.n_units} units, method "
             f"{result.method}, status {result.status.label}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._inputs import add_constants_option, constants_argument, with_constants
 from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
@@ -39,10 +40,11 @@ def register(subparsers) -> None:
         metavar="FILE.png",
         help="write a PNG of the tip path (x-y and y-z projections)",
     )
+    add_constants_option(parser)
     parser.set_defaults(handler=run)
 
 
-def _leg(text: str, assignments):
+def _leg(text: str, assignments, constants=None):
     from ..examples import NAMES, example_path
     from ..solvers.legs.leg import apply_assignments, load_leg
 
@@ -51,7 +53,13 @@ def _leg(text: str, assignments):
         path = example_path(text)
     if not path.exists():
         raise UsageError(f"{text}: no such leg file (examples: walker-leg, walker-leg-2.5)")
-    return apply_assignments(load_leg(path), assignments)
+    leg = apply_assignments(load_leg(path), assignments)
+    if constants is None:
+        return leg
+    sets = {section.design.constants for section in leg.sections}
+    for current in sets:
+        with_constants(current, constants, str(path))
+    return leg.with_constants(constants)
 
 
 def run(args) -> int:
@@ -61,7 +69,7 @@ def run(args) -> int:
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
-        leg = _leg(args.leg, args.assignments)
+        leg = _leg(args.leg, args.assignments, constants_argument(args.constants))
         result = simulate_leg(leg, method=args.method, atol=args.atol)
     except ValueError as exc:
         raise UsageError(str(exc)) from None

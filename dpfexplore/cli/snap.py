@@ -7,7 +7,13 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import design_argument
+from ._inputs import (
+    add_constants_option,
+    constants_argument,
+    constants_line,
+    constants_record,
+    design_argument,
+)
 from ._output import FIGURE_SUFFIXES, json_text, output_path
 
 
@@ -57,6 +63,7 @@ def register(subparsers) -> None:
         metavar="FILE.png",
         help="draw each unit's extension and the tip against pressure",
     )
+    add_constants_option(parser)
     parser.set_defaults(handler=run)
 
 
@@ -67,7 +74,7 @@ def run(args) -> int:
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
-        design = design_argument(args.design)
+        design = design_argument(args.design, constants_argument(args.constants))
         seq = snap_pressures(
             design,
             P_max=args.P_max,
@@ -84,8 +91,10 @@ def run(args) -> int:
         print(f"dpfexplore snap: {exc}", file=sys.stderr)
         return EXIT_FAILURE
     if args.json:
-        print(json_text(seq.to_dict()))
+        print(json_text({**seq.to_dict(), "constants": constants_record(design.constants)}))
     else:
+        if constants_line(design.constants):
+            print(constants_line(design.constants))
         _print_table(seq, design, args.design)
     if plot is not None:
         _save_plot(seq, plot)

@@ -7,7 +7,13 @@ import math
 import sys
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import design_argument
+from ._inputs import (
+    add_constants_option,
+    constants_argument,
+    constants_line,
+    constants_record,
+    design_argument,
+)
 from ._output import (
     FIGURE_SUFFIXES,
     announce_compilation,
@@ -35,6 +41,7 @@ def register(subparsers) -> None:
     parser.add_argument("--sequential", action="store_true", help="only the N+1 sequential states")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--plot", metavar="FILE.png", help="draw the stable states to a PNG")
+    add_constants_option(parser)
     parser.add_argument(
         "--gripper",
         nargs=2,
@@ -61,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from ..solvers.statics import enumerate_states
 
     try:
-        design = design_argument(args.design)
+        design = design_argument(args.design, constants_argument(args.constants))
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
@@ -89,12 +96,15 @@ def run(args: argparse.Namespace) -> int:
             "design": design.to_dict(),
             "fitted_range": note is None,
             "fitted_range_note": note,
+            "constants": constants_record(design.constants),
             "states": rows,
         }
         sys.stdout.write(json_text(document))
         print()
     else:
         _print_table(rows, design.n_units, bool(args.gripper))
+        if constants_line(design.constants):
+            print(constants_line(design.constants))
         if note is not None:
             print(fitted_range_line(note))
     if plot is not None:

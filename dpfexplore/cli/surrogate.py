@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
-from ._inputs import saved_path
+from ._inputs import add_constants_option, constants_argument, saved_path
 from ._output import json_text
 
 #: Where ``surrogate report|predict NAME`` looks for a bare name.
@@ -89,6 +89,7 @@ def register(subparsers) -> None:
         help='estimator keyword arguments per kind (JSON), e.g. \'{"mlp": {"max_iter": 50}}\'',
     )
     fit.add_argument("--no-timing", action="store_true", help="skip the speed measurement")
+    add_constants_option(fit)
     fit.set_defaults(handler=_fit)
 
     report = sub.add_parser("report", help="print a saved surrogate's report")
@@ -113,6 +114,7 @@ def register(subparsers) -> None:
     predict.add_argument(
         "--dataset", type=Path, help="refuse the surrogate unless it was fitted on this dataset"
     )
+    add_constants_option(predict)
     predict.set_defaults(handler=_predict)
 
 
@@ -122,6 +124,7 @@ def _fit(args: argparse.Namespace) -> int:
     from ..surrogates.report import format_report, report_figures
     from ..surrogates.store import save_surrogates
     from ..sweep.result_dirs import ResultError, check_output_dir
+    from ..sweep.store import StoreError
 
     try:  # before the fit: refusing after minutes of work helps nobody
         check_output_dir(args.out, force=args.force)
@@ -132,7 +135,9 @@ def _fit(args: argparse.Namespace) -> int:
     if args.params is not None and not isinstance(args.params, dict):
         raise UsageError("--params: need a JSON object of kind -> keyword arguments")
     try:
-        data = load_training_data(args.dataset, outputs)
+        data = load_training_data(
+            args.dataset, outputs, constants=constants_argument(args.constants)
+        )
         surrogates = fit_surrogates(
             data,
             kinds=kinds,
@@ -145,6 +150,8 @@ def _fit(args: argparse.Namespace) -> int:
             timing=not args.no_timing,
             progress=lambda line: print(f"surrogate fit: {line}", file=sys.stderr, flush=True),
         )
+    except StoreError as exc:
+        raise UsageError(str(exc)) from None
     except (ValueError, TypeError) as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
     try:
@@ -196,7 +203,11 @@ def _predict(args: argparse.Namespace) -> int:
     from ..surrogates.store import SurrogateLoadError, load_surrogates
 
     try:
-        surrogates = load_surrogates(saved_path(args.name, SURROGATES), dataset=args.dataset)
+        surrogates = load_surrogates(
+            saved_path(args.name, SURROGATES),
+            dataset=args.dataset,
+            constants=constants_argument(args.constants),
+        )
     except SurrogateLoadError as exc:
         raise UsageError(str(exc)) from None
     designs = _read_designs(args.designs)

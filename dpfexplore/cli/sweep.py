@@ -16,12 +16,14 @@ directory that cannot be used, e.g. held by another sweep (one line on stderr; n
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
 
 from ..sweep.progress import LogProgress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
+from ._inputs import add_constants_option, constants_argument, constants_line, with_constants
 from ._output import FIGURE_SUFFIXES, output_path
 
 
@@ -71,6 +73,7 @@ def register(subparsers) -> None:
         metavar="N",
         help="designs per chunk file (default: the job's, else automatic)",
     )
+    add_constants_option(sweep)
     sweep.set_defaults(handler=_sweep)
 
     query = subparsers.add_parser(
@@ -185,6 +188,12 @@ def _sweep(args: argparse.Namespace) -> int:
         spec = load_job(args.job)
     except JobSpecError as exc:
         raise UsageError(str(exc)) from None
+    given = constants_argument(args.constants)
+    chosen = with_constants(spec.constants, given, str(args.job))
+    if chosen is not spec.constants:
+        spec = dataclasses.replace(
+            spec, constants=chosen, constants_file=str(Path(args.constants).resolve())
+        )
     if args.chunk_size is not None and args.chunk_size < 1:
         raise UsageError(f"--chunk-size {args.chunk_size}: must be >= 1")
     try:
@@ -231,6 +240,8 @@ def _sweep(args: argparse.Namespace) -> int:
         f"  statuses: {statuses or 'none'}\n"
         f"  engine {summary.engine}: {timings}; total {summary.wall_s:.2f} s"
     )
+    if constants_line(spec.constants):
+        print(f"  {constants_line(spec.constants)}")
     note = spec.fitted_range_note()
     if note is not None:
         print(

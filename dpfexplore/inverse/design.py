@@ -103,7 +103,12 @@ def run_design(
     check_output_dir(out, force=force)
     outcome = design_scene(spec, progress=progress)
     writer = SCENE_KINDS[spec.kind].write
-    facts = {"scene": spec.name, "kind": spec.kind, "results": len(outcome.rows)}
+    facts = {
+        "scene": spec.name,
+        "kind": spec.kind,
+        "results": len(outcome.rows),
+        "constants": spec.constants.fingerprint,
+    }
     with result_directory(out, kind="design", force=force, description=facts) as staging:
         writer(spec, outcome.rows, outcome.evaluator, staging, wall_s=outcome.wall_s, plot=plot)
     return outcome

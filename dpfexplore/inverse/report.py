@@ -301,6 +301,7 @@ def write_summary(
         "scene": spec.document,
         "kind": spec.kind,
         "name": spec.name,
+        "constants": {"name": spec.constants.name, "fingerprint": spec.constants.fingerprint},
         "results": [public(r) for r in rows],
         "evaluations": dict(evaluator.counts),
         "wall_s": wall_s,

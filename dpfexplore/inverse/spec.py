@@ -16,6 +16,8 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     description = "..."           # free text
     material = "cheetah-95a"      # or "ninjaflex-85a"; or give E (and nu) instead
     seed = 0                      # Latin hypercube seed (any integer >= 0)
+    constants = "results/constants/shell/constants.json"  # optional: a constants set file,
+                                  # relative to the scene file (default: the paper's forms)
 
     [variables]                   # -> dpfexplore.sweep.variables.DesignVariables, per N
     n_units = {min = 2, max = 8}  # or a list [3, 4], or one number
@@ -86,7 +88,8 @@ from typing import Any
 import numpy as np
 
 from ..model import status as st
-from ..model.design import MATERIALS, Design
+from ..model.constants_set import DEFAULT, ConstantsSet
+from ..model.design import MATERIALS, Design, resolve_constants
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
 from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
@@ -196,6 +199,8 @@ class SceneSpec:
     gripper : GripperSpec or None
     document : dict
         The parsed TOML, recorded with the results.
+    constants : ConstantsSet
+        The closed forms every design of the scene runs on (the paper's by default).
     """
 
     kind: str
@@ -219,10 +224,13 @@ class SceneSpec:
     pickplace: PickPlaceSpec | None = None
     walker: WalkerSpec | None = None
     document: dict[str, Any] = field(default_factory=dict, compare=False)
+    constants: ConstantsSet = DEFAULT
 
     def design_variables(self, n_units: int) -> DesignVariables:
         """The design variables of ``n_units``-unit designs."""
-        return DesignVariables(n_units=n_units, E=self.E, nu=self.nu, **self.variables)
+        return DesignVariables(
+            n_units=n_units, E=self.E, nu=self.nu, constants=self.constants, **self.variables
+        )
 
 
 #: Farthest tip target accepted (mm along either axis): far beyond any finger of MAX_UNITS
@@ -254,6 +262,7 @@ def build_spec(
     own_variables: bool,
     parse: Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]],
     default_name: str = "scene",
+    base: str | Path | None = None,
 ) -> SceneSpec:
     """Validate a TOML-shaped scene of a known ``kind`` into a :class:`SceneSpec`.
 
@@ -261,6 +270,8 @@ def build_spec(
     ``parse`` reads the kind's own tables (``tables``) and returns the fields it adds. The
     table of kinds, and the entry points :func:`~dpfexplore.inverse.kinds.load_scene` /
     :func:`~dpfexplore.inverse.kinds.parse_scene`, are in :mod:`dpfexplore.inverse.kinds`.
+    ``scene.constants`` names a constants set file relative to ``base`` (the scene file's
+    folder); every design the scene makes, reference designs included, runs on it.
     """
     own = own_variables
     _keys(
@@ -274,7 +285,7 @@ def build_spec(
         scene,
         "scene",
         required=("kind",),
-        optional=("name", "description", "material", "E", "nu", "seed"),
+        optional=("name", "description", "material", "E", "nu", "seed", "constants"),
     )
     name = _string(scene, "scene", "name", default_name)
     if not name.strip() or "/" in name or "\\" in name or name in (".", ".."):
@@ -286,6 +297,13 @@ def build_spec(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise SceneSpecError(f"scene.seed = {seed!r}: must be an integer >= 0")
     E, nu, material = _material(scene)
+    constants = DEFAULT
+    if "constants" in scene:
+        written = _string(scene, "scene", "constants", "")
+        try:
+            constants = resolve_constants(written, base)
+        except ValueError as exc:
+            raise SceneSpecError(f"scene.constants = {written!r}: {exc}") from None
     n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
     fields = dict(
         kind=kind,
@@ -299,6 +317,7 @@ def build_spec(
         variables=variables,
         optimiser=_optimiser(data.get("optimiser", {})),
         document=_plain(data),
+        constants=constants,
     )
     fields.update(parse(data, fields))
     spec = SceneSpec(**fields)
@@ -599,6 +618,11 @@ def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str,
     data = {k: v for k, v in value.items() if k not in extra}
     data.setdefault("E", fields["E"])
     data.setdefault("nu", fields["nu"])
+    if "constants" in data:
+        raise SceneSpecError(
+            f"{where}.constants: the scene's constants set applies (scene.constants)"
+        )
+    data["constants"] = fields["constants"]
     try:
         design = Design.from_dict(data)
     except (TypeError, ValueError) as exc:

@@ -50,6 +50,7 @@ import pyarrow.parquet as pq
 from numpy.typing import ArrayLike, NDArray
 
 from ..model import status as st
+from ..model.constants_set import ConstantsSet
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.formatting import json_number
@@ -356,6 +357,7 @@ def lookup(
     rebuild: bool = True,
     max_evaluations: int = 60,
     verify: bool = True,
+    constants: ConstantsSet | None = None,
 ) -> LookupResult:
     """Designs of a sweep dataset whose outputs are nearest to ``target``, verified.
 
@@ -392,11 +394,15 @@ def lookup(
     verify : bool
         Check every chunk read (index build, ``where``, candidate designs) against the
         manifest's SHA-256 (the default; ``False`` reads only the needed columns).
+    constants : ConstantsSet, optional
+        The constants set the candidates are re-solved under; it must be the dataset's
+        (:meth:`~dpfexplore.sweep.datasets.DatasetInfo.constants_set`), which is the default.
 
     Raises
     ------
     StoreError
-        ``dataset`` is missing or not a sweep directory.
+        ``dataset`` is missing or not a sweep directory; ``constants`` is not the dataset's
+        set, or the dataset's set cannot be found (naming both).
     StaleIndexError
         The given index is stale or names rows the dataset does not hold there; with
         ``rebuild=False``, the saved one is stale, unreadable or fails a check.
@@ -407,6 +413,7 @@ def lookup(
     """
     start = time.perf_counter()
     info = dataset_info(dataset)
+    constants = info.constants_set(constants)  # before any work: a wrong set is refused
     notes = [info.note] if info.note else []
     if info.model_version != MODEL_VERSION:
         notes.append(
@@ -468,7 +475,9 @@ def lookup(
                 f"(the dataset has N = {list(index.n_values)})"
             )
         try:
-            batch, source_values = _read_rows(index, rows, info=info, verify=verify)
+            batch, source_values = _read_rows(
+                index, rows, info=info, verify=verify, constants=constants
+            )
             break
         except StaleIndexError as exc:
             # A saved index that passed its checks yet names rows the chunks do not hold there
@@ -643,13 +652,16 @@ def _read_rows(
     *,
     info: DatasetInfo | None = None,
     verify: bool = True,
+    constants: ConstantsSet | None = None,
 ) -> tuple[DesignBatch, NDArray[np.float64]]:
     """The designs and the indexed columns' values of index rows, read from their chunks.
 
     Each row's design_id, requested state and status are read with it and must be the
     index's (status ``ok``): the index only says where to look, the chunk says what is there.
+    The designs carry ``constants``, by default the dataset's own set.
     """
     info = info or dataset_info(index.root)
+    constants = info.constants_set(constants)
     index.check(info)
     schema = read_schema(index.root)
     max_units = sum(1 for name in schema.names if re.fullmatch(r"H_\d+", name))
@@ -689,7 +701,7 @@ def _read_rows(
             # nulls (a per-unit column past the design's N) read as NaN
             column = table.column(name).cast("float64").fill_null(np.nan)
             values[pick, j] = column.to_numpy(zero_copy_only=False)
-    return DesignBatch(n_units=n_units, **arrays), values
+    return DesignBatch(n_units=n_units, **arrays, constants=constants), values
 
 
 def _row_mismatch(index: LookupIndex, f: int, row: int) -> StaleIndexError:

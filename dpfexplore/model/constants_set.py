@@ -18,8 +18,22 @@ match its contents, and a set whose own closed forms give ``k_b <= 0`` or ``alph
 :data:`DEFAULT` is the paper's closed forms (the implementation's digits) written as such a set;
 :meth:`ConstantsSet.evaluate` reproduces :func:`~dpfexplore.model.constants.dome_stiffness`,
 :func:`~dpfexplore.model.constants.dome_alpha` and the unclamped reach to rounding (tested below
-1e-13 relative). The lattice kernels still evaluate the default closed forms compiled in
-(:mod:`dpfexplore.model.constants`); running them on another set is not wired yet.
+1e-13 relative), and so does the compiled path that every command runs on: the kernels read a
+set as one array (:meth:`ConstantsSet.kernel_forms`, rows of ``(p, q, c)`` per closed form) and
+evaluate it with :func:`set_constants_form` and :func:`set_constant_partials`, the same
+arithmetic in the same order as the NumPy methods, so both agree bit for bit. No set is special:
+the paper's is just the default.
+
+Domain
+    A set's domain is a table of ranges, each optional: ``H``, ``t``, ``r_b`` (mm), ``E``
+    (MPa), ``nu``, ``H_over_rb`` and ``t_over_rb``. A dome is inside when it satisfies every
+    range the set states. The paper's set states the ranges of its fit in mm (``H`` 3-5,
+    ``t`` 0.5-1, ``r_b`` 5, ``E`` 5-40: :data:`dpfexplore.model.domain.FITTED_RANGES`); it
+    states no ``nu`` range, since the paper's flag never covered ``nu`` (the regressions were
+    fitted at 0.35 only). Sets identified from unit-cell curves state the dimensionless ranges
+    of their data and its ``E`` and ``nu`` ranges. The domain must bound ``H/r_b`` and
+    ``t/r_b`` (directly, or through ``H``, ``t`` and ``r_b``): :meth:`ConstantsSet.check`
+    evaluates the forms there.
 """
 
 from __future__ import annotations
@@ -32,9 +46,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba.extending import register_jitable
 from numpy.typing import ArrayLike, NDArray
 
 from .constants import _ALPHA_TERMS, _KB_TERMS, TIP_PER_HEIGHT, TIP_PER_THICKNESS
+from .domain import FITTED_RANGES
 
 __all__ = [
     "CONSTANTS_FORMAT",
@@ -43,12 +59,28 @@ __all__ = [
     "ConstantsSet",
     "ConstantsSetError",
     "load_constants_set",
+    "set_constant_partials",
+    "set_constants_form",
 ]
 
 #: Identifies the file layout; bump when it changes incompatibly.
 CONSTANTS_FORMAT = "dpfexplore-constants/1"
 #: Points per axis of the grid on which :meth:`ConstantsSet.check` evaluates a set's domain.
 CHECK_GRID = 41
+#: Rows of :meth:`ConstantsSet.kernel_forms`: the three closed forms.
+FORM_K_HAT = 0
+FORM_ALPHA = 1
+FORM_TIP_RATIO = 2
+#: Ranges a domain may state: name -> (unit, per unit of the finger (True) or shared).
+DOMAIN_KEYS: dict[str, tuple[str, bool]] = {
+    "H": ("mm", True),
+    "t": ("mm", False),
+    "r_b": ("mm", False),
+    "E": ("MPa", False),
+    "nu": ("", False),
+    "H_over_rb": ("", True),
+    "t_over_rb": ("", False),
+}
 
 
 class ConstantsSetError(ValueError):
@@ -86,7 +118,7 @@ class ClosedForm:
         pi1, pi3 = np.asarray(pi1, dtype=float), np.asarray(pi3, dtype=float)
         total = np.zeros(np.broadcast(pi1, pi3).shape)
         for (p, q), c in zip(self.exponents, self.coefficients, strict=True):
-            total = total + c * _ipow(pi1, p) * _ipow(pi3, q)
+            total = total + _term(c, p, q, pi1, pi3)
         return total
 
     def partials(self, pi1: ArrayLike, pi3: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -96,9 +128,9 @@ class ClosedForm:
         d3 = np.zeros_like(d1)
         for (p, q), c in zip(self.exponents, self.coefficients, strict=True):
             if p:
-                d1 = d1 + c * p * _ipow(pi1, p - 1) * _ipow(pi3, q)
+                d1 = d1 + _term(c * p, p - 1, q, pi1, pi3)
             if q:
-                d3 = d3 + c * q * _ipow(pi1, p) * _ipow(pi3, q - 1)
+                d3 = d3 + _term(c * q, p, q - 1, pi1, pi3)
         return d1, d3
 
     def text(self, name: str) -> str:
@@ -140,12 +172,96 @@ class ClosedForm:
         return cls(tuple(exponents), tuple(coefficients))
 
 
-def _ipow(x: NDArray, n: int) -> NDArray:
-    """``x**n`` for a small integer ``n`` by multiplication (as the compiled closed forms)."""
-    result = np.ones_like(x)
+@register_jitable
+def _ipow(x, n):
+    """``x**n`` for a small integer ``n`` by multiplication (identical in NumPy and Numba)."""
+    result = 1.0 + 0.0 * x
     for _ in range(abs(n)):
         result = result * x
-    return 1.0 / result if n < 0 else result
+    if n < 0:
+        return 1.0 / result
+    return result
+
+
+@register_jitable
+def _term(c, p, q, pi1, pi3):
+    """One monomial ``c π1^p π3^q`` (scalars in kernels, arrays in NumPy)."""
+    return c * _ipow(pi1, p) * _ipow(pi3, q)
+
+
+@register_jitable
+def _form_value(forms, f, pi1, pi3):
+    """Closed form ``f`` of a :meth:`ConstantsSet.kernel_forms` array at ``(π1, π3)``."""
+    total = 0.0
+    for j in range(forms.shape[1]):
+        c = forms[f, j, 2]
+        if c != 0.0:  # padding rows (and zero terms) add nothing
+            total = total + _term(c, int(forms[f, j, 0]), int(forms[f, j, 1]), pi1, pi3)
+    return total
+
+
+@register_jitable
+def _form_partials(forms, f, pi1, pi3):
+    """Closed form ``f`` and its partials ``∂/∂π1``, ``∂/∂π3`` at ``(π1, π3)``."""
+    value = 0.0
+    d1 = 0.0
+    d3 = 0.0
+    for j in range(forms.shape[1]):
+        c = forms[f, j, 2]
+        if c == 0.0:
+            continue
+        p = int(forms[f, j, 0])
+        q = int(forms[f, j, 1])
+        value = value + _term(c, p, q, pi1, pi3)
+        if p != 0:
+            d1 = d1 + _term(c * p, p - 1, q, pi1, pi3)
+        if q != 0:
+            d3 = d3 + _term(c * q, p, q - 1, pi1, pi3)
+    return value, d1, d3
+
+
+@register_jitable
+def set_constants_form(forms, E, H, t, r_b):
+    """``(k_b, alpha, tip_dis)`` of one dome under a set (N/mm, --, mm).
+
+    The arithmetic of :meth:`ConstantsSet.evaluate` on scalars, for the kernels that build the
+    lattice tables; ``forms`` is :meth:`ConstantsSet.kernel_forms`.
+    """
+    R = (H * H + r_b * r_b) / (2.0 * H)
+    pi1 = t / H
+    pi3 = H / R
+    k_b = E * (t * t) / R * _form_value(forms, FORM_K_HAT, pi1, pi3)
+    alpha = _form_value(forms, FORM_ALPHA, pi1, pi3)
+    tip = H * _form_value(forms, FORM_TIP_RATIO, pi1, pi3)
+    return k_b, alpha, tip
+
+
+@register_jitable
+def set_constant_partials(forms, E, H, t, r_b):
+    """Derivatives of ``k_b``, ``alpha`` and ``tip_dis`` in ``H`` and ``t`` under a set.
+
+    Returns ``(dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt)`` (units of the constant
+    per mm): the chain rule through ``π1 = t/H``, ``π3 = H/R`` and ``R = (H² + r_b²)/(2H)``
+    (MODEL.md §2-§3), exact for any set.
+    """
+    R = (H * H + r_b * r_b) / (2.0 * H)
+    dR_dH = 0.5 - r_b * r_b / (2.0 * H * H)
+    pi1 = t / H
+    pi3 = H / R
+    dpi1_dH = -t / (H * H)
+    dpi1_dt = 1.0 / H
+    dpi3_dH = (R - H * dR_dH) / (R * R)
+    k, k1, k3 = _form_partials(forms, FORM_K_HAT, pi1, pi3)
+    _, a1, a3 = _form_partials(forms, FORM_ALPHA, pi1, pi3)
+    g, g1, g3 = _form_partials(forms, FORM_TIP_RATIO, pi1, pi3)
+    scale = E * (t * t) / R
+    dkb_dH = scale * (k1 * dpi1_dH + k3 * dpi3_dH) - scale * k * dR_dH / R
+    dkb_dt = 2.0 * E * t / R * k + scale * k1 * dpi1_dt
+    dalpha_dH = a1 * dpi1_dH + a3 * dpi3_dH
+    dalpha_dt = a1 * dpi1_dt
+    dtip_dH = g + H * (g1 * dpi1_dH + g3 * dpi3_dH)
+    dtip_dt = H * g1 * dpi1_dt
+    return dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt
 
 
 def _superscript(n: int) -> str:
@@ -153,18 +269,20 @@ def _superscript(n: int) -> str:
     return "" if n == 1 else str(n).translate(digits)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ConstantsSet:
     """The closed forms for ``k_b``, ``alpha`` and the reach, their domain and provenance.
+
+    Two sets are equal when their fingerprints are (the same forms, domain and provenance), so
+    designs and batches that carry a set compare and hash by it.
 
     Attributes
     ----------
     name : str
     k_hat, alpha, tip_ratio : ClosedForm
         ``k_b R / (E t²)``, ``alpha`` and ``tip_dis / H`` in ``π1 = t/H``, ``π3 = H/R``.
-    domain : dict
-        ``{"H_over_rb": [lo, hi], "t_over_rb": [lo, hi], "E": [lo, hi], "nu": [lo, hi]}``:
-        where the forms were fitted (MPa for ``E``).
+    domain : dict of str to (float, float)
+        Where the forms were fitted: ranges among :data:`DOMAIN_KEYS` (module docstring).
     provenance : dict
         How the set was made (method, settings, data checksum, package versions).
     """
@@ -176,6 +294,31 @@ class ConstantsSet:
     domain: dict[str, tuple[float, float]]
     provenance: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        for key in self.domain:
+            if key not in DOMAIN_KEYS:
+                raise ConstantsSetError(
+                    f"constants set {self.name!r}: unknown domain range {key!r}; "
+                    f"known: {', '.join(DOMAIN_KEYS)}"
+                )
+        self.ratio_ranges()  # the domain must bound H/r_b and t/r_b
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ConstantsSet):
+            return NotImplemented
+        return self is other or self.fingerprint == other.fingerprint
+
+    def __hash__(self) -> int:
+        return hash(self.fingerprint)
+
+    def __repr__(self) -> str:
+        return f"ConstantsSet({self.name!r}, fingerprint={self.fingerprint[:12]}...)"
+
+    @property
+    def label(self) -> str:
+        """``name (fingerprint prefix)``: how messages and reports name the set."""
+        return f"{self.name!r} ({self.fingerprint[:12]})"
+
     # ------------------------------------------------------------------ evaluation
 
     def evaluate(
@@ -183,7 +326,7 @@ class ConstantsSet:
     ) -> dict[str, NDArray]:
         """``k_b`` (N/mm), ``alpha`` and ``tip_dis`` (mm) of domes ``H, t, r_b`` (mm), ``E``.
 
-        ``E`` in MPa; all arguments broadcast.
+        ``E`` in MPa; all arguments broadcast. The arithmetic of :func:`set_constants_form`.
         """
         H, t, r_b, E = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (H, t, r_b, E)))
         R = (H * H + r_b * r_b) / (2.0 * H)
@@ -203,21 +346,112 @@ class ConstantsSet:
             tip - np.asarray(H) - np.asarray(U_sep) - np.asarray(t_ch) / 2.0 - np.asarray(t) / 2.0
         )
 
-    def in_domain(self, H: ArrayLike, t: ArrayLike, r_b: ArrayLike, E: ArrayLike) -> NDArray:
-        """Whether each dome lies in the set's fitted domain."""
-        H, t, r_b, E = (np.asarray(a, dtype=float) for a in (H, t, r_b, E))
-        checks = (("H_over_rb", H / r_b), ("t_over_rb", t / r_b), ("E", E))
-        inside = np.ones(np.broadcast(H, t, r_b, E).shape, dtype=bool)
-        for key, value in checks:
-            lo, hi = self.domain[key]
-            inside &= (value >= lo * (1 - 1e-12)) & (value <= hi * (1 + 1e-12))
+    def springs(
+        self,
+        H: ArrayLike,
+        t: ArrayLike,
+        r_b: ArrayLike,
+        E: ArrayLike,
+        U_sep: ArrayLike,
+        t_ch: ArrayLike,
+    ) -> dict[str, NDArray]:
+        """The dome springs of MODEL.md §3 under this set (broadcasting).
+
+        Returns ``k_b`` (N/mm), ``alpha``, ``d`` (mm; the implementation's
+        :data:`~dpfexplore.model.constants.NO_CONTACT_REACH` where the reach is not positive)
+        and ``no_contact`` (bool: where it was clamped), as the kernel tables hold them.
+        """
+        from .constants import NO_CONTACT_REACH
+
+        values = self.evaluate(H, t, r_b, E)
+        H, t, U_sep, t_ch = (np.asarray(a, dtype=float) for a in (H, t, U_sep, t_ch))
+        raw = values["tip_dis"] - H - U_sep - t_ch / 2.0 - t / 2.0
+        no_contact = raw <= 0.0
+        return {
+            "k_b": values["k_b"],
+            "alpha": values["alpha"],
+            "d": np.where(no_contact, NO_CONTACT_REACH, raw),
+            "no_contact": no_contact,
+        }
+
+    def kernel_forms(self) -> NDArray:
+        """The three closed forms as one array for the kernels.
+
+        Returns
+        -------
+        ndarray of shape (3, n_terms, 3)
+            Rows :data:`FORM_K_HAT`, :data:`FORM_ALPHA`, :data:`FORM_TIP_RATIO`; each term
+            ``(p, q, c)``; shorter forms padded with zero terms (which add nothing). A fresh
+            read-only copy of a cached array.
+        """
+        cached = self.__dict__.get("_kernel_forms")
+        if cached is None:
+            forms = (self.k_hat, self.alpha, self.tip_ratio)
+            width = max(1, *(len(f.coefficients) for f in forms))
+            cached = np.zeros((3, width, 3))
+            for i, form in enumerate(forms):
+                terms = zip(form.exponents, form.coefficients, strict=True)
+                for j, ((p, q), c) in enumerate(terms):
+                    cached[i, j] = (p, q, c)
+            cached.flags.writeable = False
+            object.__setattr__(self, "_kernel_forms", cached)
+        return cached
+
+    def ratio_ranges(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The ``(H/r_b, t/r_b)`` ranges the domain bounds (stated, or from ``H``, ``t``, ``r_b``).
+
+        Raises
+        ------
+        ConstantsSetError
+            When the domain bounds neither.
+        """
+        d = self.domain
+        out = []
+        for ratio, length in (("H_over_rb", "H"), ("t_over_rb", "t")):
+            if ratio in d:
+                out.append(tuple(d[ratio]))
+            elif length in d and "r_b" in d and d["r_b"][0] > 0:
+                out.append((d[length][0] / d["r_b"][1], d[length][1] / d["r_b"][0]))
+            else:
+                raise ConstantsSetError(
+                    f"constants set {self.name!r}: its domain must bound {ratio} "
+                    f"(give {ratio}, or {length} and r_b)"
+                )
+        return out[0], out[1]
+
+    def domain_values(
+        self, H: ArrayLike, t: ArrayLike, r_b: ArrayLike, E: ArrayLike, nu: ArrayLike
+    ) -> dict[str, NDArray]:
+        """The quantities a domain may bound, for domes ``H, t, r_b, E, nu`` (broadcasting)."""
+        H, t, r_b, E, nu = (np.asarray(a, dtype=float) for a in (H, t, r_b, E, nu))
+        with np.errstate(all="ignore"):
+            return {
+                "H": H,
+                "t": t,
+                "r_b": r_b,
+                "E": E,
+                "nu": nu,
+                "H_over_rb": H / r_b,
+                "t_over_rb": t / r_b,
+            }
+
+    def in_domain(
+        self, H: ArrayLike, t: ArrayLike, r_b: ArrayLike, E: ArrayLike, nu: ArrayLike = 0.35
+    ) -> NDArray:
+        """Whether each dome lies in the set's fitted domain (NaN counts as outside)."""
+        values = self.domain_values(H, t, r_b, E, nu)
+        inside = np.ones(np.broadcast(*values.values()).shape, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            for key, (lo, hi) in self.domain.items():
+                value = values[key]
+                inside &= (value >= lo - 1e-12 * abs(lo)) & (value <= hi + 1e-12 * abs(hi))
         return inside
 
     def check(self) -> None:
         """Refuse a set whose forms are unphysical inside its own domain.
 
         Evaluated on a :data:`CHECK_GRID` × :data:`CHECK_GRID` grid of ``(H/r_b, t/r_b)`` over
-        the domain (``k_b`` scales with ``E``, so one ``E`` suffices).
+        :meth:`ratio_ranges` (``k_b`` scales with ``E``, so one ``E`` suffices).
 
         Raises
         ------
@@ -225,14 +459,15 @@ class ConstantsSet:
             Naming the first dome where ``k_b <= 0``, ``alpha`` is outside ``(0, 1)`` or
             ``tip_dis <= H``.
         """
-        h = np.linspace(*self.domain["H_over_rb"], CHECK_GRID)
-        s = np.linspace(*self.domain["t_over_rb"], CHECK_GRID)
-        H, t = np.meshgrid(h, s, indexing="ij")
+        h_range, t_range = self.ratio_ranges()
+        H, t = np.meshgrid(
+            np.linspace(*h_range, CHECK_GRID), np.linspace(*t_range, CHECK_GRID), indexing="ij"
+        )
         values = self.evaluate(H, t, 1.0, 1.0)
         problems = (
-            (values["k_b"] <= 0.0, "k_b <= 0"),
-            ((values["alpha"] <= 0.0) | (values["alpha"] >= 1.0), "alpha outside (0, 1)"),
-            (values["tip_dis"] <= H, "tip_dis <= H (the inverted apex would not pass flat)"),
+            (~(values["k_b"] > 0.0), "k_b <= 0"),
+            (~((values["alpha"] > 0.0) & (values["alpha"] < 1.0)), "alpha outside (0, 1)"),
+            (~(values["tip_dis"] > H), "tip_dis <= H (the inverted apex would not pass flat)"),
         )
         for bad, what in problems:
             if np.any(bad):
@@ -252,7 +487,11 @@ class ConstantsSet:
     @property
     def fingerprint(self) -> str:
         """SHA-256 of the set's canonical JSON (without the fingerprint itself)."""
-        return _fingerprint(self._body())
+        cached = self.__dict__.get("_fingerprint")
+        if cached is None:
+            cached = _fingerprint(self._body())
+            object.__setattr__(self, "_fingerprint", cached)
+        return cached
 
     def _body(self) -> dict[str, Any]:
         return {
@@ -266,10 +505,11 @@ class ConstantsSet:
         }
 
     def save(self, path: str | Path) -> Path:
-        """Write the set as JSON (atomically) and return the path."""
+        """Write the set as JSON (atomically; folders created) and return the path."""
         from .files import atomic_write
 
         path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, json.dumps(self.to_dict(), indent=2, sort_keys=True) + "\n")
         return path
 
@@ -290,25 +530,35 @@ class ConstantsSet:
             raise ConstantsSetError(
                 f"{source}: its contents do not match its fingerprint (edited or damaged)"
             )
+        if not isinstance(data["domain"], Mapping):
+            raise ConstantsSetError(f"{source}: domain must be a table of ranges")
         domain = {}
-        for key in ("H_over_rb", "t_over_rb", "E", "nu"):
-            value = data["domain"].get(key) if isinstance(data["domain"], Mapping) else None
+        for key, value in data["domain"].items():
             if (
                 not isinstance(value, list)
                 or len(value) != 2
-                or not all(isinstance(v, int | float) and np.isfinite(v) for v in value)
+                or not all(
+                    isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
+                    for v in value
+                )
                 or not value[0] <= value[1]
             ):
                 raise ConstantsSetError(f"{source}: domain.{key} must be [low, high]")
-            domain[key] = (float(value[0]), float(value[1]))
-        result = cls(
-            name=str(data["name"]),
-            k_hat=ClosedForm.from_dict(data["k_hat"], f"{source}: k_hat"),
-            alpha=ClosedForm.from_dict(data["alpha"], f"{source}: alpha"),
-            tip_ratio=ClosedForm.from_dict(data["tip_ratio"], f"{source}: tip_ratio"),
-            domain=domain,
-            provenance=dict(data.get("provenance") or {}),
-        )
+            domain[str(key)] = (float(value[0]), float(value[1]))
+        try:
+            result = cls(
+                name=str(data["name"]),
+                k_hat=ClosedForm.from_dict(data["k_hat"], f"{source}: k_hat"),
+                alpha=ClosedForm.from_dict(data["alpha"], f"{source}: alpha"),
+                tip_ratio=ClosedForm.from_dict(data["tip_ratio"], f"{source}: tip_ratio"),
+                domain=domain,
+                provenance=dict(data.get("provenance") or {}),
+            )
+        except ConstantsSetError as exc:
+            message = str(exc)
+            raise ConstantsSetError(
+                message if message.startswith(source) else f"{source}: {message}"
+            ) from None
         result.check()
         return result
 
@@ -356,13 +606,14 @@ def _paper_form(terms: Sequence[tuple[float, int, int, int]], *, kb: bool) -> Cl
 
 
 #: The paper's closed forms (implementation's digits, MODEL.md §3) as a constants set. Domain:
-#: the fitted ranges H 3-5 mm, t 0.5-1 mm at r_b = 5 mm, E 5-40 MPa, the paper's nu = 0.35.
+#: the fitted ranges H 3-5 mm, t 0.5-1 mm at r_b = 5 mm, E 5-40 MPa (no ``nu`` range: the
+#: module docstring says why).
 DEFAULT = ConstantsSet(
     name="paper",
     k_hat=_paper_form(_KB_TERMS, kb=True),
     alpha=_paper_form(_ALPHA_TERMS, kb=False),
     tip_ratio=ClosedForm(((0, 0), (1, 0)), (TIP_PER_HEIGHT, TIP_PER_THICKNESS)),
-    domain={"H_over_rb": (0.6, 1.0), "t_over_rb": (0.1, 0.2), "E": (5.0, 40.0), "nu": (0.35, 0.35)},
+    domain={name: (low, high) for name, (low, high, _) in FITTED_RANGES.items()},
     provenance={
         "method": "the paper's regressions (eq. kb_model, alpha_model, d_model) with the "
         "coefficients of the authors' implementation",

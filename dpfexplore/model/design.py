@@ -6,6 +6,10 @@ struct of arrays, padded to ``MAX_UNITS`` units, for the batch kernels. A single
 row a status code (:func:`DesignBatch.status`) so that one bad design never stops a sweep.
 
 Lengths in mm, ``E`` in MPa.
+
+Every design and batch carries the constants set its domes' closed forms come from
+(:mod:`dpfexplore.model.constants_set`; the paper's, :data:`DEFAULT`, unless given): the
+validation, the kernel tables and the fitted-range flag all read it. A batch holds one set.
 """
 
 from __future__ import annotations
@@ -22,14 +26,13 @@ from numba.extending import register_jitable
 from numpy.typing import NDArray
 
 from . import status as st
-from .constants import (
-    alpha_form,
-    constants_are_valid,
-    dome_alpha,
-    dome_radius,
-    dome_stiffness,
-    kb_form,
-    radius_form,
+from .constants import constants_are_valid
+from .constants_set import (
+    DEFAULT,
+    DOMAIN_KEYS,
+    ConstantsSet,
+    load_constants_set,
+    set_constants_form,
 )
 from .domain import MAX_UNITS, active_units, fitted_range, outside_domain, unit_in_domain
 from .formatting import num as _num
@@ -56,6 +59,7 @@ def _problems(
     n_units: NDArray,
     per_unit: Mapping[str, NDArray],
     shared: Mapping[str, NDArray],
+    constants: ConstantsSet,
 ) -> tuple[NDArray, list[str | None]]:
     """Vectorised validation of padded design arrays.
 
@@ -126,17 +130,20 @@ def _problems(
     # The closed forms of MODEL.md §3 leave their fitted domain silently; catch the nonsense.
     with np.errstate(all="ignore"):
         H = np.where(active, per_unit["H"], 1.0)
-        t = shared["t"][:, None]
-        R = dome_radius(H, shared["r_b"][:, None])
-        k_b = dome_stiffness(shared["E"][:, None], H, t, R)
-        alpha = dome_alpha(H, t, R)
+        values = constants.evaluate(
+            H, shared["t"][:, None], shared["r_b"][:, None], shared["E"][:, None]
+        )
+        k_b, alpha = values["k_b"], values["alpha"]
     bad_const = active & ~constants_are_valid(k_b, alpha)
+    which = "closed forms"
+    if constants != DEFAULT:
+        which += f" of constants set {constants.label}"
 
     def describe_const(i):
         k = int(np.flatnonzero(bad_const[i])[0])
         return (
-            f"H[unit {k + 1}] = {_num(H[i, k])} with t = {_num(shared['t'][i])}: the closed "
-            "forms give "
+            f"H[unit {k + 1}] = {_num(H[i, k])} with t = {_num(shared['t'][i])}: the {which} "
+            "give "
             f"k_b = {k_b[i, k]:.4g} N/mm, alpha = {alpha[i, k]:.4g} "
             "(need k_b > 0 and 0 < alpha < 1; outside the fitted domain)"
         )
@@ -151,14 +158,15 @@ def _positive(v):
 
 
 @register_jitable
-def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
+def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms):
     """Status code of one design under the rules of :func:`_problems` (without the message).
 
     Plain scalar code (``register_jitable``): the Numba kernel that packs batches
     (:mod:`dpfexplore._kernels.tables`) compiles it, and :class:`Design` runs it as Python,
     at a few microseconds per unit where the vectorised :func:`_problems` costs hundreds for
     any batch size; the tests hold the two to the same codes. ``H``, ``U_L``, ``U_sep`` are
-    sequences of at least ``n_units`` values.
+    sequences of at least ``n_units`` values; ``forms`` is the constants set's
+    :meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`.
     """
     if not 1 <= n_units <= MAX_UNITS:
         return st.INVALID_INPUT
@@ -175,9 +183,7 @@ def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
         if not unit_in_domain(H[k], U_L[k], r_b):
             return st.OUTSIDE_DOMAIN
     for k in range(n_units):
-        R = radius_form(H[k], r_b)
-        k_b = kb_form(E, H[k], t, R)
-        alpha = alpha_form(H[k], t, R)
+        k_b, alpha, _ = set_constants_form(forms, E, H[k], t, r_b)
         if not (math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0):
             return st.INVALID_CONSTANTS
     return st.OK
@@ -214,6 +220,30 @@ def _number(name: str, value: Any) -> float:
     return float(value)
 
 
+def _constants_set(value: Any) -> ConstantsSet:
+    if isinstance(value, ConstantsSet):
+        return value
+    if isinstance(value, (str, Path)):
+        return load_constants_set(value)
+    raise ValueError(
+        f"constants = {value!r}: must be a ConstantsSet or the path of a constants set file"
+    )
+
+
+def resolve_constants(value: str | Path, base: str | Path | None = None) -> ConstantsSet:
+    """Load the constants set a file names (``constants = "FILE"``), relative to ``base``.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file (:class:`~dpfexplore.model.constants_set.ConstantsSetError`).
+    """
+    path = Path(value).expanduser()
+    if base is not None and not path.is_absolute():
+        path = Path(base) / path
+    return load_constants_set(path)
+
+
 @dataclass(frozen=True)
 class Design:
     """One Dome Phalanx Finger (MODEL.md §2).
@@ -243,6 +273,10 @@ class Design:
         Chamber wall thickness.
     name : str
         Free-form label (not part of the physics).
+    constants : ConstantsSet or path, optional
+        The closed forms of ``k_b``, ``alpha`` and the reach (MODEL.md §3): a
+        :class:`~dpfexplore.model.constants_set.ConstantsSet` or the path of a constants set
+        file; the paper's (:data:`~dpfexplore.model.constants_set.DEFAULT`) by default.
 
     Raises
     ------
@@ -251,7 +285,7 @@ class Design:
         1-12, per-unit lists of the wrong length, a geometry outside the model's physical
         domain (:mod:`dpfexplore.model.domain`: a dome taller than ``r_b`` or than its unit
         length), or constants the closed forms make nonsense (``k_b <= 0``, ``alpha`` outside
-        (0, 1)). A design inside the domain but outside the ranges the closed forms were
+        (0, 1)). A design inside the domain but outside the ranges the constants set was
         fitted on is accepted and flagged (:attr:`in_fitted_range`).
     """
 
@@ -265,8 +299,10 @@ class Design:
     r_b: float = DEFAULTS["r_b"]
     t_ch: float = DEFAULTS["t_ch"]
     name: str = field(default="", compare=False)
+    constants: ConstantsSet = field(default=DEFAULT, repr=False)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "constants", _constants_set(self.constants))
         H = self.H
         if not _is_list(H) or (isinstance(H, np.ndarray) and H.ndim != 1):
             raise ValueError(f"H = {H!r}: must be a list with one dome height per unit")
@@ -279,7 +315,8 @@ class Design:
         for name in SHARED_FIELDS:
             object.__setattr__(self, name, _number(name, getattr(self, name)))
         shared = (getattr(self, name) for name in SHARED_FIELDS)
-        if status_code(n_units, self.H, self.U_L, self.U_sep, *shared) != st.OK:
+        forms = self.constants.kernel_forms()
+        if status_code(n_units, self.H, self.U_L, self.U_sep, *shared, forms) != st.OK:
             _, message = DesignBatch.from_designs([self]).problems()
             raise ValueError(message[0])
 
@@ -290,9 +327,10 @@ class Design:
 
     @property
     def in_fitted_range(self) -> bool:
-        """Whether ``H``, ``t``, ``E`` and ``r_b`` lie where the closed forms were fitted.
+        """Whether the design lies in the domain its constants set was fitted on.
 
-        :data:`dpfexplore.model.domain.FITTED_RANGES`; outside, every result of this design is
+        The set's :attr:`~dpfexplore.model.constants_set.ConstantsSet.domain` (for the paper's,
+        :data:`dpfexplore.model.domain.FITTED_RANGES`); outside, every result of this design is
         an extrapolation of the closed forms (MODEL.md §3) and is flagged as such.
         """
         return self.fitted_range_note is None
@@ -306,13 +344,15 @@ class Design:
         return DesignBatch.from_designs([self]).fitted_range_notes()[0]
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Design:
+    def from_dict(cls, data: Mapping[str, Any], *, base: str | Path | None = None) -> Design:
         """Build a design from a mapping such as a TOML ``[design]`` table.
 
         ``material = "cheetah-95a"`` sets ``E`` and ``nu`` from :data:`MATERIALS`; giving both
-        ``material`` and ``E`` is an error (which one would win is a guess).
+        ``material`` and ``E`` is an error (which one would win is a guess). ``constants =
+        "FILE"`` names a constants set file, relative to ``base`` (the folder of the file the
+        table came from) unless absolute.
         """
-        known = {"H", "U_L", "U_sep", *SHARED_FIELDS, "material", "name"}
+        known = {"H", "U_L", "U_sep", *SHARED_FIELDS, "material", "name", "constants"}
         for key in data:
             if key not in known:
                 raise ValueError(
@@ -330,10 +370,16 @@ class Design:
             preset = material(str(values.pop("material")))
             values["E"] = preset.E
             values.setdefault("nu", preset.nu)
+        if isinstance(values.get("constants"), str):
+            values["constants"] = resolve_constants(values["constants"], base)
         return cls(**values)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain mapping (lists for per-unit fields) that :meth:`from_dict` reads back."""
+        """Plain mapping (lists for per-unit fields) that :meth:`from_dict` reads back.
+
+        The geometry and material only: the constants set is not a design parameter, and
+        whoever writes a design down records the set beside it (by fingerprint).
+        """
         out: dict[str, Any] = {"H": list(self.H), "U_L": list(self.U_L), "U_sep": list(self.U_sep)}
         out.update({name: getattr(self, name) for name in SHARED_FIELDS})
         if self.name:
@@ -342,7 +388,7 @@ class Design:
 
     def replace(self, **changes: Any) -> Design:
         """Copy with some fields changed (validated again)."""
-        values = self.to_dict()
+        values = {**self.to_dict(), "constants": self.constants}
         values.update(changes)
         return Design(**values)
 
@@ -381,7 +427,7 @@ def load_design(path: str | Path) -> Design:
     data = dict(table)
     data.setdefault("name", path.stem)
     try:
-        return Design.from_dict(data)
+        return Design.from_dict(data, base=path.parent)
     except ValueError as exc:
         raise ValueError(f"{path}: [design] {exc}") from None
 
@@ -396,7 +442,12 @@ class DesignBatch:
     H, U_L, U_sep : ndarray of shape (n, MAX_UNITS), mm
     t, t_lim, E, nu, r_b, t_ch : ndarray of shape (n,)
         As in :class:`Design` (mm, MPa).
+    constants : ConstantsSet
+        The constants set of every design of the batch (keyword only; the paper's by default).
     """
+
+    #: The array attributes, in order (everything but :attr:`constants`).
+    ARRAY_FIELDS = ("n_units", *PER_UNIT_FIELDS, *SHARED_FIELDS)
 
     n_units: NDArray[np.int64]
     H: NDArray[np.float64]
@@ -408,8 +459,10 @@ class DesignBatch:
     nu: NDArray[np.float64]
     r_b: NDArray[np.float64]
     t_ch: NDArray[np.float64]
+    constants: ConstantsSet = field(default=DEFAULT, kw_only=True, repr=False)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "constants", _constants_set(self.constants))
         n = np.asarray(self.n_units).shape[0]
         object.__setattr__(self, "n_units", np.asarray(self.n_units, dtype=np.int64).reshape(n))
         for name in PER_UNIT_FIELDS:
@@ -427,8 +480,25 @@ class DesignBatch:
         return self.n_units.shape[0]
 
     @classmethod
-    def from_designs(cls, designs: Sequence[Design]) -> DesignBatch:
-        """Stack designs into a batch."""
+    def from_designs(
+        cls, designs: Sequence[Design], *, constants: ConstantsSet | None = None
+    ) -> DesignBatch:
+        """Stack designs into a batch.
+
+        The batch takes the designs' constants set (they must share one), or ``constants`` for
+        an empty list.
+
+        Raises
+        ------
+        ValueError
+            When the designs carry different constants sets.
+        """
+        sets = {d.constants for d in designs}
+        if len(sets) > 1:
+            names = ", ".join(sorted(c.label for c in sets))
+            raise ValueError(f"one batch takes one constants set; these designs carry {names}")
+        if sets:
+            constants = sets.pop()
         n = len(designs)
         per_unit = {name: np.full((n, MAX_UNITS), np.nan) for name in PER_UNIT_FIELDS}
         for i, design in enumerate(designs):
@@ -441,13 +511,37 @@ class DesignBatch:
             **{
                 name: np.array([getattr(d, name) for d in designs], float) for name in SHARED_FIELDS
             },
+            constants=DEFAULT if constants is None else constants,
+        )
+
+    @classmethod
+    def concatenate(cls, batches: Sequence[DesignBatch]) -> DesignBatch:
+        """The designs of several batches, in order, as one (they must share a constants set).
+
+        Raises
+        ------
+        ValueError
+            For no batches, or batches under different constants sets.
+        """
+        if not batches:
+            raise ValueError("concatenate needs at least one batch")
+        sets = {b.constants for b in batches}
+        if len(sets) > 1:
+            names = ", ".join(sorted(c.label for c in sets))
+            raise ValueError(f"one batch takes one constants set; these batches carry {names}")
+        return cls(
+            **{
+                name: np.concatenate([getattr(b, name) for b in batches])
+                for name in cls.ARRAY_FIELDS
+            },
+            constants=batches[0].constants,
         )
 
     def problems(self) -> tuple[NDArray[np.int8], list[str | None]]:
         """Status code per design and a description of its first problem (None if valid)."""
         per_unit = {name: getattr(self, name) for name in PER_UNIT_FIELDS}
         shared = {name: getattr(self, name) for name in SHARED_FIELDS}
-        return _problems(self.n_units, per_unit, shared)
+        return _problems(self.n_units, per_unit, shared, self.constants)
 
     def status(self) -> NDArray[np.int8]:
         """Status code per design (``OK``, ``INVALID_INPUT``, ``OUTSIDE_DOMAIN``, ...)."""
@@ -462,8 +556,12 @@ class DesignBatch:
         return self._fitted_range()[1]
 
     def _fitted_range(self) -> tuple[NDArray[np.bool_], list[str | None]]:
-        shared = {name: getattr(self, name) for name in ("t", "E", "r_b")}
-        return fitted_range(self.n_units, self.H, shared)
+        values = self.constants.domain_values(
+            self.H, self.t[:, None], self.r_b[:, None], self.E[:, None], self.nu[:, None]
+        )
+        # shared quantities as (n,), per-unit ones as (n, MAX_UNITS)
+        values = {k: v if DOMAIN_KEYS[k][1] else v[:, 0] for k, v in values.items()}
+        return fitted_range(self.n_units, values, self.constants.domain)
 
     def design(self, i: int) -> Design:
         """Row ``i`` as a :class:`Design` (raises ``ValueError`` if that row is invalid)."""
@@ -475,10 +573,18 @@ class DesignBatch:
             U_L=tuple(self.U_L[i, :n]),
             U_sep=tuple(self.U_sep[i, :n]),
             **{name: float(getattr(self, name)[i]) for name in SHARED_FIELDS},
+            constants=self.constants,
         )
 
     def take(self, index: NDArray) -> DesignBatch:
         """Sub-batch of the given rows."""
         return DesignBatch(
-            **{name: getattr(self, name)[index] for name in self.__dataclass_fields__}
+            **{name: getattr(self, name)[index] for name in self.ARRAY_FIELDS},
+            constants=self.constants,
         )
+
+    def with_arrays(self, **arrays: NDArray) -> DesignBatch:
+        """A batch of other arrays under the same constants set (missing arrays kept)."""
+        values = {name: getattr(self, name) for name in self.ARRAY_FIELDS}
+        values.update(arrays)
+        return DesignBatch(**values, constants=self.constants)

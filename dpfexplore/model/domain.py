@@ -98,58 +98,69 @@ def outside_domain(
     return taller_than_base, taller_than_unit
 
 
+#: Names of the quantities a fitted range may bound, as notes write them.
+RANGE_LABELS = {"H_over_rb": "H/r_b", "t_over_rb": "t/r_b"}
+#: Units of the quantities a fitted range may bound.
+RANGE_UNITS = {"H": "mm", "t": "mm", "r_b": "mm", "E": "MPa"}
+
+
 def _describe(name: str, value: float, low: float, high: float, unit: str) -> str:
     where = "below" if value < low else "above"
-    span = f"{low:g} {unit}" if low == high else f"{low:g}-{high:g} {unit}"
-    return f"{name} = {value:g} {unit} {where} the fitted {span}"
+    unit_text = f" {unit}" if unit else ""
+    span = f"{low:g}{unit_text}" if low == high else f"{low:g}-{high:g}{unit_text}"
+    return f"{name} = {value:g}{unit_text} {where} the fitted {span}"
 
 
 def fitted_range(
-    n_units: NDArray, H: NDArray, shared: dict[str, NDArray]
+    n_units: NDArray,
+    values: dict[str, NDArray],
+    ranges: dict[str, tuple[float, float]],
 ) -> tuple[NDArray[np.bool_], list[str | None]]:
-    """Which designs lie in :data:`FITTED_RANGES`, and a note on those that do not.
+    """Which designs lie in a constants set's fitted ranges, and a note on those that do not.
 
     Parameters
     ----------
     n_units : ndarray of int, shape (n,)
-    H : ndarray of shape (n, MAX_UNITS), mm
-        Dome heights (padding ignored).
-    shared : dict of str to ndarray of shape (n,)
-        ``t``, ``E`` and ``r_b``.
+    values : dict of str to ndarray
+        The bounded quantities by name: per unit ``(n, MAX_UNITS)`` (``H``, ``H_over_rb``;
+        padding ignored) or shared ``(n,)`` (``t``, ``r_b``, ``E``, ``nu``, ``t_over_rb``).
+    ranges : dict of str to (float, float)
+        The set's domain (:attr:`dpfexplore.model.constants_set.ConstantsSet.domain`); for the
+        paper's set, :data:`FITTED_RANGES`.
 
     Returns
     -------
     inside : ndarray of bool, shape (n,)
-        True when every unit's ``H`` and the shared ``t``, ``E``, ``r_b`` are in range (NaN
-        values count as outside).
+        True when every bounded quantity of every unit is in range (NaN counts as outside).
     notes : list of (str or None)
         One line per design naming what is outside, e.g. ``"H[unit 1] = 1.1 mm below the
         fitted 3-5 mm"``; None when inside.
     """
     active = active_units(n_units)
-    low, high, _ = FITTED_RANGES["H"]
+    inside = np.ones(np.asarray(n_units).shape[0], dtype=bool)
+    bad: dict[str, NDArray] = {}
     with np.errstate(invalid="ignore"):
-        bad_H = active & ~((H >= low) & (H <= high))
-        bad_shared = {
-            name: ~((shared[name] >= lo) & (shared[name] <= hi))
-            for name, (lo, hi, _) in FITTED_RANGES.items()
-            if name != "H"
-        }
-    inside = ~bad_H.any(axis=1)
-    for bad in bad_shared.values():
-        inside &= ~bad
+        for name, (lo, hi) in ranges.items():
+            value = np.asarray(values[name], dtype=float)
+            out = ~((value >= lo - 1e-12 * abs(lo)) & (value <= hi + 1e-12 * abs(hi)))
+            bad[name] = active & out if value.ndim == 2 else out
+            inside &= ~(bad[name].any(axis=1) if value.ndim == 2 else bad[name])
     notes: list[str | None] = [None] * len(inside)
     for i in np.flatnonzero(~inside):
         parts = []
-        units = np.flatnonzero(bad_H[i])
-        if units.size:
-            k = int(units[0])
-            text = _describe(f"H[unit {k + 1}]", float(H[i, k]), *FITTED_RANGES["H"])
-            if units.size > 1:
-                text += f" (and {units.size - 1} more unit{'s' if units.size > 2 else ''})"
-            parts.append(text)
-        for name, bad in bad_shared.items():
-            if bad[i]:
-                parts.append(_describe(name, float(shared[name][i]), *FITTED_RANGES[name]))
+        for name, mask in bad.items():
+            label, unit = RANGE_LABELS.get(name, name), RANGE_UNITS.get(name, "")
+            lo, hi = ranges[name]
+            if mask.ndim == 2:
+                units = np.flatnonzero(mask[i])
+                if not units.size:
+                    continue
+                k = int(units[0])
+                text = _describe(f"{label}[unit {k + 1}]", float(values[name][i, k]), lo, hi, unit)
+                if units.size > 1:
+                    text += f" (and {units.size - 1} more unit{'s' if units.size > 2 else ''})"
+                parts.append(text)
+            elif mask[i]:
+                parts.append(_describe(label, float(values[name][i]), lo, hi, unit))
         notes[i] = "; ".join(parts)
     return inside, notes

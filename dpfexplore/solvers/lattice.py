@@ -28,14 +28,12 @@ from ..model.constants import (
     POST_STIFFNESS_FACTOR,
     DomeAnalysis,
     analyse_domes,
-    dome_alpha,
     dome_radius,
-    dome_reach,
-    dome_stiffness,
     limiting_layer_stiffness,
     segment_height,
     torsion_stiffness,
 )
+from ..model.constants_set import ConstantsSet
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 
@@ -97,16 +95,18 @@ class SpringConstants:
     domes: DomeAnalysis
 
 
-def _unit_constants(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, *, domes: bool = True) -> dict:
+def _unit_constants(
+    H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, constants: ConstantsSet, *, domes: bool = True
+) -> dict:
     """Closed forms of MODEL.md §3, broadcasting (per-unit arrays against shared scalars).
 
-    ``domes=False`` skips the isolated-dome analysis (energies, forces, regime names), which
-    the kernel tables do not need and which takes half the time of a batch.
+    ``k_b``, ``alpha`` and the reach from the constants set; ``domes=False`` skips the
+    isolated-dome analysis (energies, forces, regime names), which the kernel tables do not
+    need and which takes half the time of a batch.
     """
     R = dome_radius(H, r_b)
-    k_b = dome_stiffness(E, H, t, R)
-    alpha = dome_alpha(H, t, R)
-    d, no_contact = dome_reach(H, t, U_sep, t_ch)
+    springs = constants.springs(H, t, r_b, E, U_sep, t_ch)
+    k_b, alpha, d, no_contact = (springs[k] for k in ("k_b", "alpha", "d", "no_contact"))
     k_lim = limiting_layer_stiffness(E, t_lim, r_b, U_L, t, t_ch)
     return {
         "R": R,
@@ -124,7 +124,7 @@ def _unit_constants(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, *, domes: bool = 
 
 
 def spring_constants(design: Design) -> SpringConstants:
-    """Evaluate the closed forms of MODEL.md §3 for one design."""
+    """Evaluate the closed forms of MODEL.md §3 for one design (under its constants set)."""
     c = _unit_constants(
         np.asarray(design.H),
         np.asarray(design.U_L),
@@ -135,6 +135,7 @@ def spring_constants(design: Design) -> SpringConstants:
         design.nu,
         design.r_b,
         design.t_ch,
+        design.constants,
     )
     c["h"] = float(c["h"])
     return SpringConstants(**c)
@@ -185,6 +186,7 @@ def batch_constants(batch: DesignBatch, *, domes: bool = True) -> dict:
             batch.U_L,
             batch.U_sep,
             *(getattr(batch, name)[:, None] for name in ("t", "t_lim", "E", "nu", "r_b", "t_ch")),
+            batch.constants,
             domes=domes,
         )
 
@@ -219,7 +221,7 @@ class KernelTables(NamedTuple):
     derivatives: NDArray
 
 
-def _tables(n_units, H, U_L, U_sep, shared, derivatives: bool) -> KernelTables:
+def _tables(n_units, H, U_L, U_sep, shared, forms, derivatives: bool) -> KernelTables:
     n = n_units.shape[0]
     status = np.empty(n, dtype=np.int8)
     table = np.empty((n, MAX_UNITS, lay.N_COLS))
@@ -230,7 +232,9 @@ def _tables(n_units, H, U_L, U_sep, shared, derivatives: bool) -> KernelTables:
         if derivatives
         else ktables.empty_derivative_table()
     )
-    ktables.design_tables(n_units, H, U_L, U_sep, *shared, status, table, h, no_contact, dtab)
+    ktables.design_tables(
+        n_units, H, U_L, U_sep, *shared, forms, status, table, h, no_contact, dtab
+    )
     return KernelTables(status, table, h, n_units, shared[2], no_contact, dtab)
 
 
@@ -241,7 +245,8 @@ def kernel_tables(batch: DesignBatch, *, derivatives: bool = False) -> KernelTab
     the codes those of :meth:`DesignBatch.status`.
     """
     shared = (batch.t, batch.t_lim, batch.E, batch.nu, batch.r_b, batch.t_ch)
-    return _tables(batch.n_units, batch.H, batch.U_L, batch.U_sep, shared, derivatives)
+    forms = batch.constants.kernel_forms()
+    return _tables(batch.n_units, batch.H, batch.U_L, batch.U_sep, shared, forms, derivatives)
 
 
 def design_kernel_tables(design: Design, *, derivatives: bool = False) -> KernelTables:
@@ -253,7 +258,8 @@ def design_kernel_tables(design: Design, *, derivatives: bool = False) -> Kernel
         [[design.t], [design.t_lim], [design.E], [design.nu], [design.r_b], [design.t_ch]]
     )
     n_units = np.array([n], dtype=np.int64)
-    return _tables(n_units, *per_unit, tuple(shared), derivatives)
+    forms = design.constants.kernel_forms()
+    return _tables(n_units, *per_unit, tuple(shared), forms, derivatives)
 
 
 def pack_batch(batch: DesignBatch) -> tuple[NDArray, NDArray, NDArray]:

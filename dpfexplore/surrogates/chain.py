@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, ClassifierMixin, RegressorMixin
 
 from ..model import status as st
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import PER_UNIT_FIELDS, SHARED_FIELDS, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..solvers.statics import solve_batch
@@ -101,11 +102,14 @@ def _check_frame(X: Any) -> pd.DataFrame:
     return X
 
 
-def _designs(X: pd.DataFrame, all_inverted_only: bool | None) -> tuple[DesignBatch, NDArray]:
+def _designs(
+    X: pd.DataFrame, all_inverted_only: bool | None, constants: Mapping[str, Any] | None
+) -> tuple[DesignBatch, NDArray]:
     """Batch and requested sides (n, MAX_UNITS) of design rows.
 
     Without a ``requested`` column the state is all-inverted, allowed only when the model was
-    fitted on that state alone (``all_inverted_only``; None at fit time).
+    fitted on that state alone (``all_inverted_only``; None at fit time). The batch runs on the
+    estimator's constants set (``constants``, its JSON form; None: the paper's).
     """
     X = _check_frame(X)
     n_units = X["n_units"].to_numpy(dtype=np.int64)
@@ -121,7 +125,8 @@ def _designs(X: pd.DataFrame, all_inverted_only: bool | None) -> tuple[DesignBat
         )
     else:
         requested = (np.int64(1) << np.clip(n_units, 0, MAX_UNITS)) - 1
-    return designs_from_rows(X), state_bits(requested, n_units)
+    chosen = DEFAULT if constants is None else ConstantsSet.from_dict(constants)
+    return designs_from_rows(X, chosen), state_bits(requested, n_units)
 
 
 def unit_rows(rigid: RigidUnits) -> NDArray:
@@ -219,7 +224,7 @@ class _UnitBox(BaseEstimator):
             its training range (unit variables pooled over units), or a requested side of a
             unit never seen in training.
         """
-        batch, bits = _designs(X, self.all_inverted_only_)
+        batch, bits = _designs(X, self.all_inverted_only_, self.constants)
         return self._inside(batch, bits)
 
 
@@ -241,6 +246,10 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
     max_train : int, optional
         Fit the per-unit regressor on at most this many unit rows (a random subsample).
     random_state : int
+    constants : dict, optional
+        The constants set the rigid units are solved under, as its JSON form
+        (:meth:`~dpfexplore.model.constants_set.ConstantsSet.to_dict`; verified when used);
+        None for the paper's. The training dataset's set.
 
     Attributes
     ----------
@@ -267,6 +276,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         inner_params: Mapping[str, Any] | None = None,
         max_train: int | None = None,
         random_state: int = 0,
+        constants: Mapping[str, Any] | None = None,
     ) -> None:
         self.outputs = outputs
         self.params = params
@@ -274,6 +284,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
         self.inner_params = inner_params
         self.max_train = max_train
         self.random_state = random_state
+        self.constants = constants
 
     def fit(self, X: pd.DataFrame, y: Any) -> ChainSurrogate:
         """Fit on design rows whose requested state exists and their outputs.
@@ -295,7 +306,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
             )
         if not np.all(np.isfinite(y)):
             raise ValueError("y: non-finite outputs (fit on rows whose outputs exist)")
-        batch, bits = _designs(X, None)
+        batch, bits = _designs(X, None, self.constants)
         if np.any(batch.status() != st.OK):
             raise ValueError("X: invalid designs among the rows (fit on valid designs)")
         self._fit_box(batch, bits)
@@ -387,7 +398,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
 
         Values beyond a design's N are NaN.
         """
-        batch, bits = _designs(X, self.all_inverted_only_)
+        batch, bits = _designs(X, self.all_inverted_only_, self.constants)
         rigid = rigid_units(batch, bits)
         residual = np.zeros((rigid.unit.size, len(TARGETS)))
         if rigid.unit.size:
@@ -441,6 +452,10 @@ class ChainStatusClassifier(ClassifierMixin, _UnitBox):
         Inverse regularisation of the logistic slope that calibrates the probability.
     random_state : int
         Unused (no randomness); kept for the common interface.
+    constants : dict, optional
+        The constants set the rigid units are solved under, as its JSON form
+        (:meth:`~dpfexplore.model.constants_set.ConstantsSet.to_dict`; verified when used);
+        None for the paper's. The training dataset's set.
 
     Attributes
     ----------
@@ -453,9 +468,12 @@ class ChainStatusClassifier(ClassifierMixin, _UnitBox):
     fit_notes_ : list of str
     """
 
-    def __init__(self, *, C: float = 1.0, random_state: int = 0) -> None:
+    def __init__(
+        self, *, C: float = 1.0, random_state: int = 0, constants: Mapping[str, Any] | None = None
+    ) -> None:
         self.C = C
         self.random_state = random_state
+        self.constants = constants
 
     @property
     def kind(self) -> str:
@@ -468,7 +486,7 @@ class ChainStatusClassifier(ClassifierMixin, _UnitBox):
         return False
 
     def _margin(self, X: pd.DataFrame, all_inverted_only: bool | None) -> NDArray:
-        batch, bits = _designs(X, all_inverted_only)
+        batch, bits = _designs(X, all_inverted_only, self.constants)
         rigid = rigid_units(batch, bits)
         margin = rigid.grid(rigid.margin, np.inf).min(axis=1)
         return np.clip(margin / MARGIN_SCALE, -10.0, 10.0)
@@ -480,7 +498,7 @@ class ChainStatusClassifier(ClassifierMixin, _UnitBox):
         y = np.asarray(y, dtype=bool)
         if y.shape != (len(X),):
             raise ValueError(f"y: need one bool per design row, got shape {y.shape}")
-        batch, bits = _designs(X, None)
+        batch, bits = _designs(X, None, self.constants)
         self._fit_box(batch, bits)
         q = self._margin(X, None)
         self.classes_ = np.array([False, True])

@@ -58,11 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model.constants import (
-    dome_alpha,
     dome_extrema,
-    dome_radius,
-    dome_reach,
-    dome_stiffness,
     inversion_threshold,
     limiting_layer_stiffness,
     torsion_stiffness,
@@ -319,8 +315,7 @@ def _unit_constants(batch: DesignBatch, design: NDArray, unit: NDArray) -> dict[
     H, U_L, U_sep = batch.H[design, unit], batch.U_L[design, unit], batch.U_sep[design, unit]
     t, t_ch = shared["t"], shared["t_ch"]
     with np.errstate(all="ignore"):
-        R = dome_radius(H, shared["r_b"])
-        alpha = dome_alpha(H, t, R)
+        springs = batch.constants.springs(H, t, shared["r_b"], shared["E"], U_sep, t_ch)
         return {
             "H": H,
             "U_L": U_L,
@@ -329,16 +324,16 @@ def _unit_constants(batch: DesignBatch, design: NDArray, unit: NDArray) -> dict[
             "t_lim": shared["t_lim"],
             "p": U_L + t_ch + U_sep,
             "h": segment_height(shared["r_b"], shared["t_lim"], t),
-            "k_b": dome_stiffness(shared["E"], H, t, R),
-            "alpha": alpha,
-            "d": dome_reach(H, t, U_sep, t_ch)[0],
+            "k_b": springs["k_b"],
+            "alpha": springs["alpha"],
+            "d": springs["d"],
             "k_lim": limiting_layer_stiffness(
                 shared["E"], shared["t_lim"], shared["r_b"], U_L, t, t_ch
             ),
             "k_t": torsion_stiffness(
                 shared["E"], shared["t_lim"], shared["nu"], shared["r_b"], U_sep, t, t_ch
             ),
-            "extrema": dome_extrema(alpha),
+            "extrema": dome_extrema(springs["alpha"]),
         }
 
 

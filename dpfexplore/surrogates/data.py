@@ -22,8 +22,10 @@ import pandas as pd
 import pyarrow as pa
 from numpy.typing import NDArray
 
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import PER_UNIT_FIELDS, SHARED_FIELDS, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..sweep.datasets import dataset_info
 from ..sweep.store import StoreError, read_manifest, read_results, read_schema
 
 __all__ = [
@@ -84,8 +86,13 @@ def dataset_fingerprint(root: str | Path) -> dict[str, object]:
     digest = hashlib.sha256()
     for path, record in sorted(manifest.chunks.items()):
         digest.update(f"{path}:{record.sha256}\n".encode())
+    recorded = manifest.result_defining.get("constants") or {
+        "name": DEFAULT.name,
+        "fingerprint": DEFAULT.fingerprint,
+    }
     return {
         "job_fingerprint": manifest.fingerprint,
+        "constants": dict(recorded),
         "model_version": manifest.model_version,
         "chunks_sha256": digest.hexdigest(),
         "rows": manifest.n_rows,
@@ -108,6 +115,8 @@ class TrainingData:
         Physical unit of each output (from the dataset schema).
     fingerprint : dict
         :func:`dataset_fingerprint` of ``root``.
+    constants : ConstantsSet
+        The constants set the dataset's rows were computed under.
     """
 
     root: Path
@@ -115,6 +124,7 @@ class TrainingData:
     outputs: tuple[str, ...]
     units: dict[str, str]
     fingerprint: dict[str, object]
+    constants: ConstantsSet = DEFAULT
 
     @property
     def ok(self) -> NDArray[np.bool_]:
@@ -122,14 +132,21 @@ class TrainingData:
         return (self.frame["status_label"] == "ok").to_numpy()
 
 
-def load_training_data(root: str | Path, outputs: Sequence[str]) -> TrainingData:
+def load_training_data(
+    root: str | Path, outputs: Sequence[str], *, constants: ConstantsSet | None = None
+) -> TrainingData:
     """Read the design columns and ``outputs`` of a sweep dataset (only those columns).
+
+    ``constants`` (a user's ``--constants``) must be the dataset's own set; the data carry that
+    set either way (:meth:`~dpfexplore.sweep.datasets.DatasetInfo.constants_set`).
 
     Raises
     ------
     ValueError
         For no outputs, an output that is not a numeric output column of the dataset, or a
         directory that is not a sweep dataset (the message names it).
+    StoreError
+        When ``constants`` is not the dataset's set, or the dataset's set cannot be found.
     """
     root = Path(root)
     try:
@@ -166,7 +183,8 @@ def load_training_data(root: str | Path, outputs: Sequence[str]) -> TrainingData
     for name in outputs:
         meta = schema.field(name).metadata or {}
         units[name] = meta.get(b"unit", b"").decode()
-    return TrainingData(root, frame, tuple(outputs), units, fingerprint)
+    constants = dataset_info(root).constants_set(constants)
+    return TrainingData(root, frame, tuple(outputs), units, fingerprint, constants)
 
 
 def split_by_design(
@@ -255,10 +273,11 @@ def held_out_errors(
     return pd.DataFrame(rows)
 
 
-def designs_from_rows(frame: pd.DataFrame) -> DesignBatch:
+def designs_from_rows(frame: pd.DataFrame, constants: ConstantsSet = DEFAULT) -> DesignBatch:
     """The designs of sweep rows (design columns of the sweep schema) as a batch.
 
-    Per-unit columns missing from ``frame`` (units beyond its largest N) are NaN.
+    Per-unit columns missing from ``frame`` (units beyond its largest N) are NaN; the batch
+    runs on ``constants`` (the rows' dataset's set).
     """
     n = len(frame)
     n_units = frame["n_units"].to_numpy(dtype=np.int64)
@@ -273,4 +292,5 @@ def designs_from_rows(frame: pd.DataFrame) -> DesignBatch:
         n_units=n_units,
         **per_unit,
         **{name: shared[:, j].copy() for j, name in enumerate(SHARED_FIELDS)},
+        constants=constants,
     )

@@ -152,21 +152,7 @@ def training_designs(n: int, seed: int, domain: dict | None = None) -> DesignBat
         batch = batch.take(np.flatnonzero(batch.status() == 0)[: n - count])
         kept.append(batch)
         count += len(batch)
-    return DesignBatch(
-        **{
-            name: np.concatenate([getattr(b, name) for b in kept])
-            for name in DesignBatch.__dataclass_fields__
-        }
-    )
-
-
-def _concat(batches: list[DesignBatch]) -> DesignBatch:
-    return DesignBatch(
-        **{
-            name: np.concatenate([getattr(b, name) for b in batches])
-            for name in DesignBatch.__dataclass_fields__
-        }
-    )
+    return DesignBatch.concatenate(kept)
 
 
 @dataclass
@@ -180,7 +166,7 @@ class _Labelled:
     def extend(self, other: _Labelled) -> _Labelled:
         cat = {k: np.concatenate([self.core[k], other.core[k]]) for k in self.core}
         ref = {k: np.concatenate([self.ref[k], other.ref[k]]) for k in self.ref}
-        return _Labelled(_concat([self.batch, other.batch]), cat, ref)
+        return _Labelled(DesignBatch.concatenate([self.batch, other.batch]), cat, ref)
 
 
 def _label(

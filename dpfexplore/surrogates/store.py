@@ -31,6 +31,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.files import file_sha256
 from ..model.version import MODEL_VERSION, package_versions
 from .data import dataset_fingerprint
@@ -238,7 +239,12 @@ def read_report(path: str | Path) -> dict[str, Any]:
         raise SurrogateLoadError(f"{path / REPORT}: unreadable ({exc})") from None
 
 
-def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None) -> None:
+def check_compatible(
+    meta: dict[str, Any],
+    *,
+    dataset: str | Path | None = None,
+    constants: ConstantsSet | None = None,
+) -> None:
     """Raise :class:`SurrogateLoadError` if a saved surrogate's metadata does not fit this code.
 
     Parameters
@@ -247,6 +253,10 @@ def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None)
         Contents of ``surrogate.json``.
     dataset : path, optional
         A sweep dataset that must be the one the surrogate was fitted on.
+    constants : ConstantsSet, optional
+        The constants set the caller's designs run on: it must be the one of the surrogate's
+        training data (recorded in its dataset fingerprint; the paper's for surrogates saved
+        before sets were recorded).
     """
     if meta.get("surrogate_version") != SURROGATE_VERSION:
         raise SurrogateLoadError(
@@ -265,6 +275,14 @@ def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None)
         raise SurrogateLoadError(
             f"saved with scikit-learn {saved}, this is {sklearn.__version__}: refit it"
         )
+    if constants is not None:
+        recorded = surrogate_constants(meta)
+        if recorded["fingerprint"] != constants.fingerprint:
+            raise SurrogateLoadError(
+                f"fitted on rows of constants set {recorded['name']!r} "
+                f"({recorded['fingerprint'][:12]}), not {constants.label}: refit it on a "
+                "dataset of that set"
+            )
     if dataset is not None:
         try:
             actual = dataset_fingerprint(dataset)
@@ -272,6 +290,7 @@ def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None)
             raise SurrogateLoadError(f"dataset {dataset}: {exc}") from None
         wanted = meta.get("dataset", {}).get("fingerprint", {})
         for key in ("job_fingerprint", "model_version", "chunks_sha256"):
+            # (job_fingerprint covers the dataset's constants set)
             if actual.get(key) != wanted.get(key):
                 raise SurrogateLoadError(
                     f"dataset {dataset} is not the one this surrogate was fitted on "
@@ -279,7 +298,20 @@ def check_compatible(meta: dict[str, Any], *, dataset: str | Path | None = None)
                 )
 
 
-def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> SurrogateSet:
+def surrogate_constants(meta: dict[str, Any]) -> dict[str, str]:
+    """``{"name", "fingerprint"}`` of the constants set a saved surrogate was fitted under."""
+    recorded = meta.get("dataset", {}).get("fingerprint", {}).get("constants")
+    if not isinstance(recorded, dict) or not isinstance(recorded.get("fingerprint"), str):
+        return {"name": DEFAULT.name, "fingerprint": DEFAULT.fingerprint}
+    return {"name": str(recorded.get("name", "?")), "fingerprint": recorded["fingerprint"]}
+
+
+def load_surrogates(
+    path: str | Path,
+    *,
+    dataset: str | Path | None = None,
+    constants: ConstantsSet | None = None,
+) -> SurrogateSet:
     """Load a saved surrogate directory.
 
     Parameters
@@ -288,6 +320,9 @@ def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> S
         Directory written by :func:`save_surrogates`.
     dataset : path, optional
         Sweep dataset to check the surrogate against (its fingerprint must match).
+    constants : ConstantsSet, optional
+        The constants set the designs to predict run on; refused unless it is the one the
+        surrogate was fitted under.
 
     Raises
     ------
@@ -298,7 +333,7 @@ def load_surrogates(path: str | Path, *, dataset: str | Path | None = None) -> S
 
     path = Path(path)
     meta = _read_meta(path)
-    check_compatible(meta, dataset=dataset)
+    check_compatible(meta, dataset=dataset, constants=constants)
     models = path / MODELS
     if not models.is_file():
         raise SurrogateLoadError(f"{path}: no {MODELS}")

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pyarrow as pa
 
+from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, load_constants_set
 from .store import ChunkRecord, Manifest, StoreError, chunk_bytes, read_manifest
 
 __all__ = ["DatasetInfo", "dataset_checksum", "dataset_info"]
@@ -65,6 +66,9 @@ class DatasetInfo:
         Model version that wrote the dataset.
     records : tuple of ChunkRecord
         The committed chunks' manifest records, in the order of :attr:`chunks`.
+    constants : dict
+        ``{"name", "fingerprint"}`` of the constants set the rows were computed under (the
+        paper's for datasets written before sets were recorded).
     """
 
     root: Path
@@ -77,6 +81,46 @@ class DatasetInfo:
     job: Mapping = field(default_factory=dict, compare=False, repr=False)
     model_version: str = ""
     records: tuple[ChunkRecord, ...] = field(default=(), compare=False, repr=False)
+    constants: Mapping = field(default_factory=dict, compare=False, repr=False)
+
+    def constants_set(self, given: ConstantsSet | None = None) -> ConstantsSet:
+        """The constants set the dataset's rows were computed under, checked.
+
+        ``given`` (a user's ``--constants``) must be that set; without it, the paper's set or
+        the file the job named (``job.constants``), which must still hold the same set.
+
+        Raises
+        ------
+        StoreError
+            One line naming both sets when ``given`` is another set, or when the job's file is
+            gone or now holds another set.
+        """
+        recorded = self.constants or {"name": DEFAULT.name, "fingerprint": DEFAULT.fingerprint}
+        wanted = f"{recorded['name']!r} ({str(recorded['fingerprint'])[:12]})"
+        if given is not None:
+            if given.fingerprint != recorded["fingerprint"]:
+                raise StoreError(
+                    f"{self.root}: its rows were computed under constants set {wanted}, not "
+                    f"{given.label}: a dataset answers for its own set only"
+                )
+            return given
+        if recorded["fingerprint"] == DEFAULT.fingerprint:
+            return DEFAULT
+        source = self.job.get("job", {}).get("constants")
+        try:
+            found = load_constants_set(source) if source else None
+        except ConstantsSetError as exc:
+            raise StoreError(
+                f"{self.root}: its rows were computed under constants set {wanted}, whose "
+                f"file cannot be used ({exc}); pass --constants FILE with that set"
+            ) from None
+        if found is None or found.fingerprint != recorded["fingerprint"]:
+            raise StoreError(
+                f"{self.root}: its rows were computed under constants set {wanted}; "
+                f"{source or 'its file'} now holds "
+                f"{found.label if found else 'nothing'}: pass --constants FILE with that set"
+            )
+        return found
 
     def open_chunk(self, path: str, *, verify: bool = True) -> pa.BufferReader | Path:
         """A committed chunk file for :func:`pyarrow.parquet.read_table`.
@@ -127,4 +171,5 @@ def dataset_info(root: str | Path) -> DatasetInfo:
         job=manifest.job,
         model_version=manifest.model_version,
         records=tuple(records),
+        constants=dict(manifest.result_defining.get("constants") or {}),
     )

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import pyarrow as pa
 
+from ..model.constants_set import DEFAULT
 from ..model.version import MODEL_VERSION, package_versions
 from . import store
 from .chunks import (
@@ -198,8 +199,18 @@ def check_output(
             f"--out {out}: not empty and not a sweep directory (no {store.MANIFEST}){hint}"
         )
     manifest = store.read_manifest(out)
-    if manifest.fingerprint != spec.fingerprint():
-        key = spec.first_difference(manifest.result_defining) or "job"
+    # Datasets from before constants sets were recorded hold the paper's set (the only one).
+    recorded = {"constants": _paper_set_entry(), **manifest.result_defining}
+    key = spec.first_difference(recorded)
+    if key is not None:
+        if key.startswith("constants"):
+            theirs = recorded["constants"]
+            raise StoreError(
+                f"--out {out}: holds rows computed under constants set {theirs['name']!r} "
+                f"({str(theirs['fingerprint'])[:12]}), this job runs under "
+                f"{spec.constants.label}; results of two constants sets cannot share a "
+                "dataset: choose another --out"
+            )
         raise StoreError(
             f"--out {out}: holds another job's data ({key} differs: this job has "
             f"{_lookup(spec.result_defining(), key)!r}, the directory's has "
@@ -243,6 +254,10 @@ def check_output(
             dropped.append((path, problem))
     pending = [t for t in tasks if t.path not in manifest.chunks or t.path in dict(dropped)]
     return _Prepared(manifest, tasks, pending, fresh=False, dropped=dropped)
+
+
+def _paper_set_entry() -> dict[str, str]:
+    return {"name": DEFAULT.name, "fingerprint": DEFAULT.fingerprint}
 
 
 def _lookup(data: Mapping, dotted: str) -> object:

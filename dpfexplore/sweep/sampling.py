@@ -274,4 +274,9 @@ def sample_designs(spec: JobSpec, n_units: int, start: int, stop: int) -> Design
         name: column[name] if space.variable(name).sampled else np.full(m, space.variable(name).low)
         for name in SHARED_VARIABLES
     }
-    return DesignBatch(n_units=np.full(m, n_units, dtype=np.int64), **per_unit, **shared)
+    return DesignBatch(
+        n_units=np.full(m, n_units, dtype=np.int64),
+        **per_unit,
+        **shared,
+        constants=spec.constants,
+    )

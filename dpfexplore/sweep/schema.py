@@ -107,21 +107,23 @@ def design_fields(max_units: int) -> list[pa.Field]:
             "fitted_range",
             pa.bool_(),
             "1",
-            "true when the design's H (every unit), t, E and r_b lie in the ranges the closed-form "
-            "spring constants were fitted on (dpfexplore.model.domain.FITTED_RANGES: H 3-5 mm, "
-            "t 0.5-1 mm, E 5-40 MPa, r_b 5 mm); false: its results extrapolate the closed forms",
+            "true when the design lies in the domain its constants set was fitted on (the "
+            "dataset's constants metadata; the paper's set: H 3-5 mm, t 0.5-1 mm, E 5-40 MPa, "
+            "r_b 5 mm); false: its results extrapolate the closed forms",
         )
     )
     return fields
 
 
 def dataset_metadata(spec: JobSpec) -> dict[str, Any]:
-    """The dataset-level metadata: job spec, seed, fingerprint, model and package versions."""
+    """The dataset-level metadata: job spec, seed, fingerprint, constants set, model and package
+    versions."""
     return {
         "format": FORMAT,
         "job": spec.to_dict(),
         "seed": spec.seed,
         "fingerprint": spec.fingerprint(),
+        "constants": spec.result_defining()["constants"],
         "model_version": MODEL_VERSION,
         "versions": package_versions(),
     }

@@ -15,6 +15,8 @@ Layout of a job file (lengths in mm, ``E`` in MPa, pressure in MPa, times in s):
     samples_per_n = 1500          # designs per number of units
     sampler = "lhs"               # "lhs" (Latin hypercube) or "sobol" (scrambled Sobol')
     chunk_size = 2048             # optional: designs per chunk file
+    constants = "results/constants/shell/constants.json"  # optional: a constants set file
+                                  # (relative to the job file); the paper's by default
 
     [space]
     n_units = [2, 3, 4, 5, 6, 7]  # or {min = 2, max = 7}
@@ -45,7 +47,9 @@ Layout of a job file (lengths in mm, ``E`` in MPa, pressure in MPa, times in s):
     method = "rodas4"             # optional: "fast" = the fast reset model (its scene only;
     max_rel_halfwidth = 0.05      # optional, fast only: fall back where an interval is wider)
 
-Only what ``[compute]`` asks for is computed and stored.
+Only what ``[compute]`` asks for is computed and stored. The constants set is part of what
+defines the rows: its fingerprint is in :meth:`JobSpec.result_defining`, so a sweep directory
+started under one set refuses to be resumed under another (naming both).
 """
 
 from __future__ import annotations
@@ -60,8 +64,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..model.design import DEFAULTS, MATERIALS
-from ..model.domain import FITTED_RANGES, MAX_UNITS
+from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError
+from ..model.design import DEFAULTS, MATERIALS, resolve_constants
+from ..model.domain import MAX_UNITS, RANGE_LABELS, RANGE_UNITS
 from ..model.pressure import PressureProfile
 from . import _jobfile as _v
 from ._jobfile import JobSpecError
@@ -253,6 +258,10 @@ class JobSpec:
         Designs per chunk file (None: chosen from the states requested, see
         :func:`dpfexplore.sweep.chunks.default_chunk_size`).
     description : str
+    constants : ConstantsSet
+        The closed forms every design is evaluated under (the paper's by default).
+    constants_file : str or None
+        Where the set was read from (an absolute path; None for the paper's set).
     """
 
     name: str
@@ -263,6 +272,8 @@ class JobSpec:
     sampler: str = "lhs"
     chunk_size: int | None = None
     description: str = ""
+    constants: ConstantsSet = DEFAULT
+    constants_file: str | None = None
 
     @property
     def n_designs(self) -> int:
@@ -286,6 +297,8 @@ class JobSpec:
         }
         if self.chunk_size is not None:
             job["chunk_size"] = self.chunk_size
+        if self.constants_file is not None:
+            job["constants"] = self.constants_file
         compute: dict[str, Any] = {
             "states": self.compute.states,
             "stiffness": self.compute.stiffness,
@@ -321,22 +334,37 @@ class JobSpec:
             "job": {k: job[k] for k in ("seed", "samples_per_n", "sampler")},
             "space": data["space"],
             "compute": data["compute"],
+            "constants": {
+                "name": self.constants.name,
+                "fingerprint": self.constants.fingerprint,
+            },
         }
 
     def fitted_range_note(self) -> str | None:
-        """One line naming the variables whose range leaves the closed forms' fitted ranges.
+        """One line naming the quantities whose range leaves the constants set's domain.
 
-        :data:`dpfexplore.model.domain.FITTED_RANGES`; None when the whole space is inside.
+        The set's :attr:`~dpfexplore.model.constants_set.ConstantsSet.domain` (for the paper's,
+        :data:`dpfexplore.model.domain.FITTED_RANGES`); None when the whole space is inside.
         Which rows are outside is in each row's ``fitted_range`` column.
         """
         parts = []
-        for name, (low, high, unit) in FITTED_RANGES.items():
-            variable = self.space.variable(name)
-            if variable.low < low or variable.high > high:
-                span = f"{variable.low:g}" + (f"-{variable.high:g}" if variable.sampled else "")
+        for name, (low, high) in self.constants.domain.items():
+            lo, hi = self._span(name)
+            if lo < low or hi > high:
+                unit = RANGE_UNITS.get(name, "")
+                unit = f" {unit}" if unit else ""
+                span = f"{lo:g}" + (f"-{hi:g}" if hi > lo else "")
                 fitted = f"{low:g}" if low == high else f"{low:g}-{high:g}"
-                parts.append(f"{name} {span} {unit} (fitted {fitted} {unit})")
+                parts.append(f"{RANGE_LABELS.get(name, name)} {span}{unit} (fitted {fitted}{unit})")
         return "; ".join(parts) if parts else None
+
+    def _span(self, name: str) -> tuple[float, float]:
+        """The range of a quantity a domain may bound over the job's space."""
+        if name in ("H_over_rb", "t_over_rb"):
+            length, r_b = self.space.variable(name[0]), self.space.variable("r_b")
+            return length.low / r_b.high, length.high / r_b.low
+        variable = self.space.variable(name)
+        return variable.low, variable.high
 
     def fingerprint(self) -> str:
         """SHA-256 of :meth:`result_defining` in canonical JSON: equal iff the rows are equal."""
@@ -387,12 +415,14 @@ def load_job(path: str | Path) -> JobSpec:
     except tomllib.TOMLDecodeError as exc:
         raise JobSpecError(f"{path}: not valid TOML ({exc})") from None
     try:
-        return parse_job(document, default_name=path.stem)
+        return parse_job(document, default_name=path.stem, base=path.parent)
     except JobSpecError as exc:
         raise JobSpecError(f"{path}: {exc}") from None
 
 
-def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
+def parse_job(
+    data: Mapping[str, Any], *, default_name: str = "job", base: str | Path | None = None
+) -> JobSpec:
     """Validate a TOML-shaped mapping (see the module docstring) into a :class:`JobSpec`.
 
     Raises
@@ -400,7 +430,8 @@ def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
     JobSpecError
         For an unknown or missing key, a value of the wrong type, ``min > max``, a non-finite
         or non-physical bound, or a number of units outside 1..MAX_UNITS; the message names the
-        dotted key.
+        dotted key. ``job.constants`` names a constants set file, relative to ``base`` (the job
+        file's folder) unless absolute; a set that cannot be read is refused here too.
     """
     _v.check_keys(data, "", required=("job", "space", "compute"), optional=())
     job = _v.table(data, "job")
@@ -408,7 +439,7 @@ def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
         job,
         "job",
         required=("seed", "samples_per_n"),
-        optional=("name", "description", "sampler", "chunk_size"),
+        optional=("name", "description", "sampler", "chunk_size", "constants"),
     )
     name = _v.string(job, "job", "name", default=default_name)
     if not name or any(c in name for c in "/\\") or name in {".", ".."}:
@@ -422,6 +453,18 @@ def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
         else None
     )
     description = _v.string(job, "job", "description", default="")
+    constants, constants_file = DEFAULT, None
+    if "constants" in job:
+        written = _v.string(job, "job", "constants")
+        try:
+            constants = resolve_constants(written, base)
+        except ConstantsSetError as exc:
+            raise JobSpecError(f"job.constants = {written!r}: {exc}") from None
+        constants_file = str(
+            Path(written).expanduser()
+            if Path(written).expanduser().is_absolute() or base is None
+            else (Path(base) / written).resolve()
+        )
     if sampler == "sobol" and samples & (samples - 1):
         logger.warning(
             "job.samples_per_n = %d is not a power of 2: a scrambled Sobol' plan of that size "
@@ -437,6 +480,8 @@ def parse_job(data: Mapping[str, Any], *, default_name: str = "job") -> JobSpec:
         sampler=sampler,
         chunk_size=chunk_size,
         description=description,
+        constants=constants,
+        constants_file=constants_file,
     )
 
 

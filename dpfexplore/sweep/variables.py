@@ -46,6 +46,7 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import DEFAULTS, Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..solvers.sensitivities import parameter_names
@@ -118,6 +119,8 @@ class DesignVariables:
         Least difference between consecutive ordered heights (default 0: equal allowed).
     E, nu, r_b, t_ch : float
         Fixed material and geometry (MPa, 1, mm, mm).
+    constants : ConstantsSet
+        The closed forms the designs run on (the paper's by default).
 
     Raises
     ------
@@ -143,6 +146,7 @@ class DesignVariables:
     nu: float = DEFAULTS["nu"]
     r_b: float = DEFAULTS["r_b"]
     t_ch: float = DEFAULTS["t_ch"]
+    constants: ConstantsSet = DEFAULT
     _bounds: dict[str, tuple[float, float]] = field(init=False, repr=False, compare=False)
     _slots: tuple[_Slot, ...] = field(init=False, repr=False, compare=False)
     _chain: tuple[int, ...] = field(init=False, repr=False, compare=False)
@@ -374,6 +378,7 @@ class DesignVariables:
             **{name: np.hstack([params[name], pad]) for name in _PER_UNIT},
             **{name: params[name] for name in _SHARED},
             **{name: np.full(m, float(getattr(self, name))) for name in _FIXED},
+            constants=self.constants,
         )
 
     def design(self, z: ArrayLike) -> Design:
@@ -478,7 +483,11 @@ class DesignVariables:
     @classmethod
     def from_mapping(cls, n_units: int, data: Mapping) -> DesignVariables:
         """Build from a TOML-shaped mapping with this class's field names as keys."""
-        known = {f for f in cls.__dataclass_fields__ if not f.startswith("_") and f != "n_units"}
+        known = {
+            f
+            for f in cls.__dataclass_fields__
+            if not f.startswith("_") and f not in ("n_units", "constants")
+        }
         for key in data:
             if key not in known:
                 raise ValueError(

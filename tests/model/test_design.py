@@ -96,7 +96,7 @@ def test_a_batch_flags_bad_rows_without_raising():
     t[3] = 1.0
     n_units = batch.n_units.copy()
     n_units[2] = MAX_UNITS + 1
-    fields = {name: getattr(batch, name) for name in DesignBatch.__dataclass_fields__}
+    fields = {name: getattr(batch, name) for name in DesignBatch.ARRAY_FIELDS}
     bad = DesignBatch(**{**fields, "H": H, "t": t, "n_units": n_units})
     codes, messages = bad.problems()
     assert list(codes) == [st.OK, st.INVALID_INPUT, st.INVALID_INPUT, st.INVALID_CONSTANTS]

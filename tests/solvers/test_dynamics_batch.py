@@ -20,7 +20,7 @@ def _with_invalid_rows(designs):
     """A batch of ``designs`` plus one N = 0 row and one row with a negative height."""
     batch = DesignBatch.from_designs(designs)
     n = len(batch)
-    fields = {name: getattr(batch, name) for name in DesignBatch.__dataclass_fields__}
+    fields = {name: getattr(batch, name) for name in DesignBatch.ARRAY_FIELDS}
     extra = {}
     for name, value in fields.items():
         value = np.asarray(value)

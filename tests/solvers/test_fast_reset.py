@@ -338,7 +338,7 @@ def test_fallback_when_the_interval_is_wider_than_asked(pickplace):
 def test_invalid_design_keeps_its_status_without_fallback(pickplace):
     batch = DesignBatch.from_designs([pickplace])
     bad = DesignBatch(
-        **{**{k: getattr(batch, k) for k in batch.__dataclass_fields__}, "t": np.array([-1.0])}
+        **{**{k: getattr(batch, k) for k in batch.ARRAY_FIELDS}, "t": np.array([-1.0])}
     )
     out = reset_times_batch(bad, PULSE, t_end=T_END, method="fast")
     assert out["status"][0] == st.INVALID_INPUT and not out["fallback"][0]

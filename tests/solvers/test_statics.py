@@ -397,7 +397,7 @@ def test_batch_keeps_invalid_rows_and_matches_single_designs():
     batch = DesignBatch.from_designs([good, Design(**GRIPPER)])
     H = batch.H.copy()
     H[1, 2] = -1.0
-    fields = {name: getattr(batch, name) for name in DesignBatch.__dataclass_fields__}
+    fields = {name: getattr(batch, name) for name in DesignBatch.ARRAY_FIELDS}
     mixed = DesignBatch(**{**fields, "H": H})
     rows = solve_batch(mixed, "sequential")
     assert list(rows["design_index"]) == [0] * 7 + [1]

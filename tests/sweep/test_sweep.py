@@ -220,7 +220,7 @@ def test_invalid_input_rows_through_the_evaluator():
     batch = sample_designs(spec, 2, 0, 3)
     H = batch.H.copy()
     H[1, 0] = np.nan
-    bad = DesignBatch(**{**{n: getattr(batch, n) for n in batch.__dataclass_fields__}, "H": H})
+    bad = DesignBatch(**{**{n: getattr(batch, n) for n in batch.ARRAY_FIELDS}, "H": H})
     rows = StaticsEvaluator(spec.compute)(bad)
     np.testing.assert_array_equal(rows["design_index"], [0, 1, 2])
     assert rows["status"][1] == st.INVALID_INPUT and rows["requested"][1] == -1

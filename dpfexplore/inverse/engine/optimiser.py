@@ -136,7 +136,7 @@ def screen(
             p.evaluate(z, purpose="candidate", stiffness=stiffness)
             for p, z in zip(problems, points, strict=True)
         ]
-    batch = _concat([r[0] for r in requests])
+    batch = DesignBatch.concatenate([r[0] for r in requests])
     states = np.vstack([np.broadcast_to(r[1], (len(r[0]), r[1].size)) for r in requests])
     want = requests[0][2]
     evaluator = problems[0].evaluator
@@ -173,15 +173,6 @@ def _candidates(
     for i, ev in zip(missing, screen([problems[i] for i in missing], points), strict=True):
         seeded[i] = ev
     return seeded  # type: ignore[return-value]
-
-
-def _concat(batches: Sequence[DesignBatch]) -> DesignBatch:
-    return DesignBatch(
-        **{
-            name: np.concatenate([getattr(b, name) for b in batches])
-            for name in DesignBatch.__dataclass_fields__
-        }
-    )
 
 
 def _distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> list[int]:

@@ -27,7 +27,6 @@ from ..._kernels.dynamics_batch import (
 )
 from ..._kernels.lattice import dome_extensions, unpack_nodes
 from ...model import status as st
-from ...model.constants import dome_reach
 from ...model.design import Design, DesignBatch
 from ...model.domain import MAX_UNITS
 from ...model.pressure import PressureProfile
@@ -215,7 +214,9 @@ def build_result(
     state = summarise_units(
         rec, profile.t_release, int(status), reset, snap_through, snap_back, classes
     )
-    no_contact = dome_reach(design.H, design.t, design.U_sep, design.t_ch)[1]
+    no_contact = design.constants.springs(
+        np.asarray(design.H), design.t, design.r_b, design.E, np.asarray(design.U_sep), design.t_ch
+    )["no_contact"]
     states = np.array([state], dtype=np.int64)
     mark_no_contact(
         no_contact[None],
@@ -352,7 +353,7 @@ def run_reset_batch(batch, profile, info, atol, max_steps, launch) -> dict[str, 
         numba.set_parallel_chunksize(previous)
     status[valid] = codes[valid].astype(np.int8)
     with np.errstate(invalid="ignore"):
-        no_contact = dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
+        no_contact = unit_no_contact(batch)
     mark_no_contact(
         no_contact & valid[:, None],
         n_units,
@@ -363,3 +364,19 @@ def run_reset_batch(batch, profile, info, atol, max_steps, launch) -> dict[str, 
         out["unit_class"],
     )
     return out
+
+
+def unit_no_contact(batch: DesignBatch) -> NDArray[np.bool_]:
+    """Units whose reach ``d`` is clamped under the batch's constants set, shape (n, MAX_UNITS).
+
+    False on the padding (its NaN reach compares false).
+    """
+    with np.errstate(invalid="ignore"):
+        return batch.constants.springs(
+            batch.H,
+            batch.t[:, None],
+            batch.r_b[:, None],
+            batch.E[:, None],
+            batch.U_sep,
+            batch.t_ch[:, None],
+        )["no_contact"]

@@ -53,7 +53,6 @@ from ..._kernels.fast_reset import (
 from ..._kernels.layout import COL_ALPHA
 from ..._kernels.release import UD_EVENT_ERROR, UD_EVENT_STEP
 from ...model import status as st
-from ...model.constants import dome_reach
 from ...model.design import DesignBatch
 from ...model.domain import MAX_UNITS
 from ...model.pressure import PressureProfile
@@ -66,6 +65,7 @@ from .common import (
     METHODS,
     controls,
     mark_no_contact,
+    unit_no_contact,
 )
 from .reset_model import FEATURES, ResetModel, load_reset_model
 
@@ -229,8 +229,7 @@ def fast_reset_core(
 
 def _no_contact(batch: DesignBatch) -> NDArray[np.bool_]:
     """Units whose reach ``d`` is clamped, shape (n, MAX_UNITS) (False on padding)."""
-    with np.errstate(invalid="ignore"):
-        return dome_reach(batch.H, batch.t[:, None], batch.U_sep, batch.t_ch[:, None])[1]
+    return unit_no_contact(batch)
 
 
 def unit_features(
@@ -340,9 +339,16 @@ def fast_reset_times_batch(
         ``"reset_time_lo"``, ``"reset_time_hi"`` (float64 (n, MAX_UNITS), s: the 90 % interval;
         equal to ``reset_time`` in fallback rows), ``"fallback"`` (bool (n,)) and
         ``"fallback_reason"`` (int16 (n,), bit flags ``FALLBACK_*``).
+
+    Raises
+    ------
+    ValueError
+        For a batch of another constants set than the model was trained on (naming both),
+        or a bad ``max_rel_halfwidth``.
     """
     if not isinstance(model, ResetModel):
         model = load_reset_model(model)
+    model.check_constants(batch.constants)
     if max_rel_halfwidth is not None:
         max_rel_halfwidth = float(max_rel_halfwidth)
         if not max_rel_halfwidth > 0.0:

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..._kernels.trees import tree_ensemble_predict
+from ...model.constants_set import DEFAULT, ConstantsSet
 from ...model.files import atomic_write
 from ...model.version import MODEL_VERSION
 
@@ -210,6 +211,10 @@ class ResetModel:
         A design whose closest snap decision ``|λ|`` is below this falls back.
     info : dict
         Training record: designs, seeds, reference tolerance, metrics, versions, date.
+    constants : dict
+        ``{"name", "fingerprint"}`` of the constants set the training designs ran on (the
+        paper's for models saved before sets were recorded); the model answers for designs of
+        that set only (:meth:`check_constants`).
     """
 
     P0: float
@@ -227,6 +232,22 @@ class ResetModel:
     margin_min: float
     features: tuple[str, ...] = FEATURES
     info: dict[str, Any] = field(default_factory=dict)
+    constants: dict[str, str] = field(default_factory=lambda: _paper_constants())
+
+    def check_constants(self, constants: ConstantsSet) -> None:
+        """Refuse designs of another constants set than the training's (naming both).
+
+        Raises
+        ------
+        ValueError
+        """
+        if constants.fingerprint != self.constants["fingerprint"]:
+            raise ValueError(
+                f"the fast reset model was trained on designs of constants set "
+                f"{self.constants['name']!r} ({self.constants['fingerprint'][:12]}), these run "
+                f"on {constants.label}: use the full model, or refit it "
+                "(dpfexplore reset-model fit) on that set"
+            )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (with the format tag and the physics version)."""
@@ -248,6 +269,7 @@ class ResetModel:
             "abs_halfwidth": self.abs_halfwidth,
             "margin_min": self.margin_min,
             "info": self.info,
+            "constants": dict(self.constants),
         }
 
     @classmethod
@@ -293,6 +315,7 @@ class ResetModel:
             correction=TreeEnsemble.from_dict(data["correction"]),
             scale=TreeEnsemble.from_dict(data["scale"]),
             info=dict(data.get("info", {})),
+            constants=_recorded_constants(data.get("constants")),
             **numbers,
         )
 
@@ -302,6 +325,19 @@ class ResetModel:
         path.parent.mkdir(parents=True, exist_ok=True)
         # atomically: a kill or a full disk mid-write leaves the previous model whole
         return atomic_write(path, json.dumps(self.to_dict(), indent=1) + "\n")
+
+
+def _paper_constants() -> dict[str, str]:
+    return {"name": DEFAULT.name, "fingerprint": DEFAULT.fingerprint}
+
+
+def _recorded_constants(value: Any) -> dict[str, str]:
+    """A model file's constants record; the paper's set when the file predates it."""
+    if value is None:
+        return _paper_constants()
+    if not isinstance(value, dict) or not isinstance(value.get("fingerprint"), str):
+        raise ValueError("constants: need {name, fingerprint}")
+    return {"name": str(value.get("name", "?")), "fingerprint": value["fingerprint"]}
 
 
 def load_reset_model(path: str | Path | None = None) -> ResetModel:

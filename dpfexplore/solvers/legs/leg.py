@@ -58,6 +58,7 @@ from numpy.typing import NDArray
 
 from ..._kernels.lattice import unpack_nodes
 from ...model import status as st
+from ...model.constants_set import ConstantsSet
 from ...model.design import Design
 from ...model.pressure import PressureProfile
 from ..dynamics.simulate import DEFAULT_METHOD, SimulationResult, method_info, simulate
@@ -176,8 +177,12 @@ class Leg:
                 )
 
     @classmethod
-    def from_dict(cls, document: Mapping[str, Any]) -> Leg:
-        """Build a leg from a parsed leg file (module docstring); ``ValueError`` names the key."""
+    def from_dict(cls, document: Mapping[str, Any], *, base: str | Path | None = None) -> Leg:
+        """Build a leg from a parsed leg file (module docstring); ``ValueError`` names the key.
+
+        A ``constants = "FILE"`` design key (in ``[defaults]`` or a section's design) is
+        relative to ``base``, the leg file's folder.
+        """
         _known("top level", document, {"leg", "defaults", "phase", "section"})
         head = dict(document.get("leg", {}))
         _known("[leg]", head, _LEG_KEYS)
@@ -202,7 +207,7 @@ class Leg:
             name = str(table.get("name", f"section-{i + 1}"))
             design_table = {**defaults, **dict(table["design"]), "name": name}
             try:
-                design = Design.from_dict(design_table)
+                design = Design.from_dict(design_table, base=base)
             except ValueError as exc:
                 raise ValueError(f"{where}.design: {exc}") from None
             mount = table.get("mount_deg", 0.0)
@@ -239,6 +244,13 @@ class Leg:
         target = self.section(name)
         design = target.design.replace(**changes)
         sections = tuple(replace(s, design=design) if s.name == name else s for s in self.sections)
+        return replace(self, sections=sections)
+
+    def with_constants(self, constants: ConstantsSet) -> Leg:
+        """Copy with every section's design under the constants set ``constants``."""
+        sections = tuple(
+            replace(s, design=s.design.replace(constants=constants)) for s in self.sections
+        )
         return replace(self, sections=sections)
 
     def times(self) -> NDArray[np.float64]:
@@ -284,7 +296,7 @@ def load_leg(path: str | Path) -> Leg:
             document = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML ({exc})") from None
-    leg = Leg.from_dict(document)
+    leg = Leg.from_dict(document, base=path.parent)
     return leg if leg.name else replace(leg, name=path.stem)
 
 

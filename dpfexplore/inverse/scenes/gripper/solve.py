@@ -35,7 +35,6 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ....model.constants import dome_alpha, dome_radius
 from ....model.design import Design
 from ....model.pressure import PressureProfile
 from ....solvers.dynamics.simulate import simulate
@@ -106,7 +105,7 @@ def alpha_of(problem: GripperProblem, z: NDArray) -> float:
     design = problem.designs(np.atleast_2d(z))
     k = problem.spec.metastable_unit - 1
     H, t = design.H[0, k], design.t[0]
-    return float(dome_alpha(H, t, dome_radius(H, design.r_b[0])))
+    return float(design.constants.evaluate(H, t, design.r_b[0], design.E[0])["alpha"])
 
 
 def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from .._kernels import shell_path
 from .._kernels._jit import is_cached
-from .._kernels.shell import nodes
+from .._kernels.shell import assemble, nodes
 from .geometry import check_inputs, reference_unknowns, shell
 from .path import ZeroForceState, branch_ids, find_zero_force_states, work_along_path
 
@@ -68,13 +68,16 @@ def _announce() -> None:
     if is_cached(shell_path.follow) is False:
         logger.warning(
             "compiling the unit-cell shell kernels for this machine (first run only: about "
-            "15 s of CPU; later runs load them from the Numba cache) ..."
+            "25 s of CPU; later runs load them from the Numba cache) ..."
         )
     geom = shell(1.0, 0.1, 2.0, 1.0, 0.3, 4)
     y = reference_unknowns(geom)
     _trace(geom, 0.2, 0.1, 3, 1e-9, 1e-12, y, 1.0, False)
     shell_path.equilibrate_free(y.copy(), geom, 1e-9, 1e-12)
     shell_path.relax(y.copy(), geom, True, 1e-9, 2)
+    r, z = np.empty(5), np.empty(5)
+    nodes(y, geom, r, z)
+    assemble(y, geom, np.zeros(0), np.zeros((0, 0)), 0)
 
 
 @dataclass(frozen=True, eq=False)

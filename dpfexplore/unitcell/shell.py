@@ -184,19 +184,24 @@ class UnitCellRun:
     def energy_envelope(self, displacement: NDArray) -> NDArray:
         """Lowest energy (N·mm) any branch reaches at each ``displacement`` (mm); inf outside all.
 
-        The curve a slow displacement-controlled test follows when it jumps at the folds
-        (linear interpolation within each branch), and the curve ``identify`` fits.
+        The curve a slow displacement-controlled test follows when it jumps at the folds, and
+        the curve ``identify`` fits. Within a branch (monotone in the travel) the energy is
+        interpolated by cubic Hermite polynomials with the force as its slope (fourth order, so
+        the envelope's error is the model's, not the interpolation's).
         """
+        from scipy.interpolate import CubicHermiteSpline
+
         grid = np.asarray(displacement, dtype=float)
         envelope = np.full(grid.shape, np.inf)
         for key in np.unique(self.branch):
             on = self.branch == key
-            order = np.argsort(self.displacement[on], kind="stable")
-            x, e = self.displacement[on][order], self.energy[on][order]
+            x, first = np.unique(self.displacement[on], return_index=True)
             if x.size < 2:
                 continue
+            e, f = self.energy[on][first], self.force[on][first]
             inside = (grid >= x[0]) & (grid <= x[-1])
-            envelope[inside] = np.minimum(envelope[inside], np.interp(grid[inside], x, e))
+            values = CubicHermiteSpline(x, e, f)(grid[inside])
+            envelope[inside] = np.minimum(envelope[inside], values)
         return envelope
 
     def to_frame(self, curve: str | int | None = None) -> pd.DataFrame:

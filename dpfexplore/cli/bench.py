@@ -20,6 +20,7 @@ BENCHMARKS = (
     "lookup",
     "design",
     "identify",
+    "unitcell",
 )
 
 

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..lookup.files import design_toml as write_design_toml
+from ..lookup.files import write_constants_beside
 from ..model.design import Design
 from ..model.formatting import json_number
 from ..model.gripper import gripper_aperture
@@ -254,8 +255,11 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
 # ----------------------------------------------------------------------------- files
 
 
-def design_toml(row: dict[str, Any], *, title: str) -> str:
-    """A ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table."""
+def design_toml(row: dict[str, Any], *, title: str, constants=None) -> str:
+    """A ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table.
+
+    ``constants``: the scene's set, named in the file when it is not the paper's.
+    """
     keys = (
         "state",
         "target",
@@ -273,6 +277,7 @@ def design_toml(row: dict[str, Any], *, title: str) -> str:
         row["design"],
         [title, "Written by dpfexplore design; [design] is read by dpfexplore states."],
         {key: row.get(key) for key in keys},
+        constants=constants,
     )
 
 
@@ -339,8 +344,9 @@ def write_report(
         else:
             path = out / f"target-{i + 1:02d}.toml"
             title = f"{spec.name}: target {i + 1} {row['target']} mm"
-        path.write_text(design_toml(row, title=title))
+        path.write_text(design_toml(row, title=title, constants=spec.constants))
         written.append(path)
+    written += write_constants_beside(spec.constants, out)
     if plot:
         written += _figures(spec, rows, history, out)
     return written

@@ -6,6 +6,10 @@ outputs exactly), with comments and an optional ``[result]`` table of what was v
 the one writer of the lookup's and the design scenes' result files. :func:`write_designs` saves
 the candidates of a lookup, best first, each with comments saying where it comes from and what
 it was verified to do.
+
+A design of a constants set other than the paper's is written with ``constants =
+"constants.json"``, and the writer of the result directory puts the set there
+(:func:`write_constants_beside`): the files read back under the set they were verified with.
 """
 
 from __future__ import annotations
@@ -17,10 +21,24 @@ from typing import Any
 
 import numpy as np
 
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import Design
 from .query import LookupResult
 
-__all__ = ["design_toml", "toml_value", "write_designs"]
+__all__ = ["CONSTANTS_FILE", "design_toml", "toml_value", "write_constants_beside", "write_designs"]
+
+#: Name of the constants set file a result directory holds beside designs of a non-paper set.
+CONSTANTS_FILE = "constants.json"
+
+
+def write_constants_beside(constants: ConstantsSet, directory: str | Path) -> list[Path]:
+    """Save ``constants`` as ``DIRECTORY/constants.json`` unless it is the paper's set.
+
+    Returns the written path (or nothing).
+    """
+    if constants == DEFAULT:
+        return []
+    return [constants.save(Path(directory) / CONSTANTS_FILE)]
 
 
 def toml_value(value: Any) -> str:
@@ -45,14 +63,22 @@ def design_toml(
     design: Design | Mapping[str, Any],
     comments: Sequence[str] = (),
     result: Mapping[str, Any] | None = None,
+    constants: ConstantsSet | None = None,
 ) -> str:
     """A TOML document with a ``[design]`` table that :func:`~dpfexplore.load_design` reads.
 
     ``design`` is a :class:`Design` or its :meth:`~Design.to_dict`; ``comments`` open the file;
     ``result`` (optional) becomes a ``[result]`` table of what was verified (None values left out).
+    The design's constants set (a Design's own, else ``constants``) other than the paper's is
+    named as ``constants = "constants.json"``: the writer saves it beside the file.
     """
     values = design.to_dict() if isinstance(design, Design) else dict(design)
     lines = [f"# {c}" for c in comments]
+    if isinstance(design, Design):
+        constants = design.constants
+    if constants is not None and constants != DEFAULT:
+        lines.append(f"# under constants set {constants.label}, saved beside this file")
+        values["constants"] = CONSTANTS_FILE
     lines.append("[design]")
     lines += [f"{key} = {toml_value(value)}" for key, value in values.items()]
     if result:
@@ -97,7 +123,9 @@ def _write_candidates(result: LookupResult, directory: Path) -> list[str]:
         if c.fitted_range_note:
             comments.append(c.fitted_range_note)
         design = c.design
-        named = Design(**{**design.to_dict(), "name": f"candidate-{rank:0{width}d}"})
+        named = design.replace(name=f"candidate-{rank:0{width}d}")
         path.write_text(design_toml(named, comments))
         paths.append(path.name)
-    return paths
+    sets = {c.design.constants for c in result.candidates}
+    written = [p for constants in sets for p in write_constants_beside(constants, directory)]
+    return paths + [p.name for p in written]

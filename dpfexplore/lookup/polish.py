@@ -168,6 +168,7 @@ def variables_for(
         nu=design.nu,
         r_b=design.r_b,
         t_ch=design.t_ch,
+        constants=design.constants,
     )
 
 
@@ -247,6 +248,7 @@ def _batch_of(theta: NDArray, like: DesignBatch) -> DesignBatch:
         nu=like.nu[0],
         r_b=like.r_b[0],
         t_ch=like.t_ch[0],
+        constants=like.constants,
     )
 
 
@@ -421,18 +423,7 @@ def _project(design: Design, variables: DesignVariables) -> DesignBatch:
     for group in variables.tied:
         units = [int(u) - 1 for u in group]
         H[0, units] = H[0, units].mean()
-    return DesignBatch(
-        n_units=batch.n_units,
-        H=H,
-        U_L=U_L,
-        U_sep=U_sep,
-        t=batch.t,
-        t_lim=batch.t_lim,
-        E=batch.E,
-        nu=batch.nu,
-        r_b=batch.r_b,
-        t_ch=batch.t_ch,
-    )
+    return batch.with_arrays(H=H, U_L=U_L, U_sep=U_sep)
 
 
 def refine(

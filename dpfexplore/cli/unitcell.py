@@ -4,6 +4,9 @@
   [--plot FILE.png] [--out FILE.csv|.parquet]``: the equilibrium path of a pinned spherical cap
   under apex displacement control, through every fold (geometrically exact axisymmetric
   Kirchhoff shell; docs/guide/unitcell.md). ``--out`` writes the table ``identify fit`` reads.
+* ``unitcell sweep JOB.toml --out DIR [--workers N]``: every geometry of a job (a grid or a
+  Latin hypercube over ``H``, ``t``, ``r_b``, ``E``, ``nu``) traced on ``N`` processes into
+  ``DIR/curves.parquet``, the table ``identify fit`` reads; resumable.
 """
 
 from __future__ import annotations
@@ -61,6 +64,43 @@ def register(subparsers) -> None:
         help="write the path as the table identify fit reads (.csv or .parquet)",
     )
     curve.set_defaults(handler=_curve)
+    sweep = sub.add_parser(
+        "sweep", help="trace every geometry of a job file into the table identify fit reads"
+    )
+    sweep.add_argument("job", type=Path, help="job file (TOML: [grid] or [lhs], [options])")
+    sweep.add_argument("--out", type=Path, required=True, help="sweep directory (resumable)")
+    sweep.add_argument("--workers", type=int, default=1, help="worker processes")
+    sweep.add_argument("--json", action="store_true", help="print the manifest as JSON")
+    sweep.set_defaults(handler=_sweep)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from ..unitcell.sweep import read_job, run_unitcell_sweep
+
+    if args.workers < 1:
+        raise UsageError(f"--workers {args.workers}: must be >= 1")
+    try:
+        job = read_job(args.job)
+        manifest = run_unitcell_sweep(
+            job, args.out, workers=args.workers, progress=None if args.json else _progress
+        )
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if args.json:
+        print(json_text(manifest))
+    else:
+        counts = ", ".join(f"{n} {status}" for status, n in manifest["status"].items())
+        print(f"{manifest['designs']} geometries: {counts}")
+        print(
+            f"wrote {args.out / manifest['curves']} (identify fit reads it) and "
+            f"{args.out / manifest['summary']}"
+        )
+    failed = sum(n for s, n in manifest["status"].items() if s not in ("reached", "partial"))
+    return EXIT_FAILURE if failed else EXIT_OK
+
+
+def _progress(done: int, total: int) -> None:
+    print(f"dpfexplore unitcell sweep: chunk {done}/{total}", file=sys.stderr)
 
 
 def _curve(args: argparse.Namespace) -> int:

@@ -5,19 +5,20 @@
   for ``k_b``, ``alpha`` and ``tip_dis`` (grouped RFECV with ridge), saved as a constants set.
 * ``identify report NAME`` prints a saved identification (``NAME``: a directory, or a name
   under results/constants).
-* ``identify compare NAME [OTHER] --design DESIGN`` sets side by side on a design's units
-  (``OTHER`` defaults to the paper's closed forms).
+* ``identify compare NAME [OTHER] --design DESIGN [--design ...]`` sets side by side on each
+  design's units and on the whole finger (sequential states, tips, stiffness, reset times;
+  ``OTHER`` defaults to the paper's closed forms).
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
+import dataclasses
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_OK, UsageError
 from ._inputs import design_argument, saved_path
-from ._output import json_text
+from ._output import announce_compilation, json_text
 
 CONSTANTS = Path("results") / "constants"
 
@@ -59,11 +60,17 @@ def register(subparsers) -> None:
     report.add_argument("name", help="directory, or a name under results/constants")
     report.add_argument("--json", action="store_true", help="print the report as JSON")
     report.set_defaults(handler=_report)
-    compare = sub.add_parser("compare", help="two constants sets on one design's units")
+    compare = sub.add_parser(
+        "compare", help="two constants sets on designs: units, states, tips, stiffness, resets"
+    )
     compare.add_argument("name", help="a saved identification (directory or name)")
     compare.add_argument("other", nargs="?", default=None, help="another (default: the paper's)")
     compare.add_argument(
-        "--design", required=True, help="design file or example name whose units are compared"
+        "--design",
+        required=True,
+        action="append",
+        help="design file or example name (repeat for several): its units and the whole "
+        "finger under both sets",
     )
     compare.add_argument("--json", action="store_true", help="print the rows as JSON")
     compare.set_defaults(handler=_compare)
@@ -124,28 +131,43 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
+    from ..identification.compare import RESET_PULSE, compare_fingers
     from ..identification.report import compare_sets
     from ..model.constants_set import DEFAULT
 
     first, _ = _load(args.name)
     second = _load(args.other)[0] if args.other else DEFAULT
     if first.name == second.name:
-        second = type(second)(**{**second.__dict__, "name": f"{second.name} (2)"})
-    design = design_argument(args.design)
-    table = compare_sets([first, second], design.H, design.t, design.r_b, design.E)
-    if args.json:
-        print(json_text(table.to_dict(orient="records")))
-    else:
-        print(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
-        outside = [c for c in table.columns if c.endswith(":in_domain") and not table[c].all()]
-        for column in outside:
-            print(
-                f"note: {column.split(':')[0]}: some units lie outside the set's fitted domain",
-                file=sys.stderr,
-            )
-        print(
-            "the lattice (states, dynamics) still runs on the compiled paper forms; whole-finger "
-            "comparisons under another set need that wiring (not yet built)",
-            file=sys.stderr,
+        second = dataclasses.replace(second, name=f"{second.name} (2)")
+    designs = [(text, design_argument(text)) for text in args.design]
+    announce_compilation("identify compare", ["states", "dynamics"])
+    document = []
+    for text, design in designs:
+        units = compare_sets([first, second], design.H, design.t, design.r_b, design.E)
+        states, resets = compare_fingers([first, second], design)
+        document.append(
+            {
+                "design": design.name or text,
+                "units": units.to_dict(orient="records"),
+                "states": states.to_dict(orient="records"),
+                "reset_times": resets.to_dict(orient="records"),
+            }
         )
-    return EXIT_FAILURE if table.empty else EXIT_OK
+        if args.json:
+            continue
+        show = {"index": False, "float_format": lambda v: f"{v:.5g}"}
+        print(f"design {design.name or text}: {design.n_units} units")
+        print("units (k_b N/mm, alpha, tip_dis mm):")
+        print(units.to_string(**show))
+        print("sequential states (tip mm, stiffness N/mm, energy N·mm; tip_shift mm):")
+        print(states.to_string(**show))
+        tau = ", ".join(f"{v:g}" for v in RESET_PULSE["tau"])
+        print(f"reset times (s after a {RESET_PULSE['P0']:g} MPa pulse, tau {tau} s):")
+        print(resets.to_string(**show))
+        for column in units.columns:
+            if column.endswith(":in_domain") and not units[column].all():
+                print(f"note: {column.split(':')[0]}: some units lie outside its fitted domain")
+        print()
+    if args.json:
+        print(json_text(document))
+    return EXIT_OK

@@ -37,9 +37,21 @@ def test_fit_report_compare(table, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "alpha = " in text and "held-out geometries" in text
 
-    assert main(["identify", "compare", str(out), "--design", "gripper", "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)
-    assert len(rows) == 5 and rows[0]["paper:class"] == "bistable"
+    argv = ["identify", "compare", str(out), "--design", "gripper", "--design", "pickplace"]
+    assert main([*argv, "--json"]) == 0
+    gripper, pickplace = json.loads(capsys.readouterr().out)
+    assert len(gripper["units"]) == 5 and gripper["units"][0]["paper:class"] == "bistable"
+    # identification recovers the paper's set: the reference fingers' states to 0.01 mm tip
+    for finger in (gripper, pickplace):
+        assert len(finger["states"]) == len(finger["units"]) + 1
+        assert max(row["tip_shift"] for row in finger["states"]) < 0.01
+        for row in finger["states"]:
+            assert row["mine:found"] == row["paper:found"]
+        classes = [(r["mine:class"], r["paper:class"]) for r in finger["reset_times"]]
+        assert all(a == b for a, b in classes), classes
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "sequential states" in text and "reset times" in text
 
     # a second fit into the same directory needs --force; an edited set is refused
     assert main(["identify", "fit", str(table), "--out", str(out)]) == 2

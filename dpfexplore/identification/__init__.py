@@ -13,4 +13,8 @@ identify
     Curves to a :class:`~dpfexplore.model.constants_set.ConstantsSet`.
 synthetic
     Curves drawn from a constants set, with noise: data with a known answer.
+report
+    Saving, reading and printing an identification; two sets side by side on units.
+compare
+    Two sets side by side on whole fingers: states, tips, stiffness, reset times.
 """

@@ -21,7 +21,8 @@ Tangent
 Steps
     Predictor ``y + h t``, Newton with the exact Hessian. A step is refused (and ``h`` halved)
     when Newton fails or does not contract, moves further than ``h`` from the predictor, or the
-    tangent turns by more than :data:`MAX_TURN` (guards against jumping to another branch);
+    tangent turns by more than :data:`MAX_TURN` (guards against jumping to another branch) or
+    the force-travel curve by more than :data:`MAX_CURVE_TURN` (resolves the folds);
     ``h`` grows by 1.5 after an easy step up to ``h_max``.
 Stability
     The number of negative eigenvalues of the free Hessian at fixed ``δ`` (Sylvester inertia of
@@ -45,6 +46,9 @@ WIDTH = 2 * KL + KU + 1
 PREFER_DELTA = 0.3
 #: Largest tangent turn of an accepted step: ``cos`` of the angle between successive tangents.
 MAX_TURN = 0.9
+#: Largest turn of the curve ``(δ, F / k0)`` in one step (``cos`` 20°; ``k0`` the path's first
+#: stiffness): resolves the folds, where ``δ`` and ``F`` turn faster than the shape does.
+MAX_CURVE_TURN = 0.94
 #: Newton iterations of one corrector.
 MAX_ITER = 12
 
@@ -225,6 +229,8 @@ def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction,
     n = 1
     h = h0
     y_try = np.zeros(m)
+    k0 = abs(slope[0] / t[0]) if t[0] != 0.0 else 0.0
+    fscale = 1.0 / k0 if k0 > 0.0 else 0.0
     while n <= max_steps:
         if h < h_min:
             status = STEP_TOO_SMALL
@@ -243,6 +249,15 @@ def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction,
             ok = tangent(y_try, p, geom, t, wn, g, band, w, piv, t_new) == 0
         if ok:
             ok = _wdot(t_new, t, wn) >= MAX_TURN or h <= 2.0 * h_min
+        if ok and fscale > 0.0:
+            s_new = 0.0
+            for k in range(-BAND, BAND + 1):
+                if 0 <= k < m:
+                    s_new += band[0, BAND + k] * t_new[k]
+            a0, a1 = t[0], slope[n - 1] * fscale
+            b0, b1 = t_new[0], s_new * fscale
+            cos = (a0 * b0 + a1 * b1) / math.sqrt((a0 * a0 + a1 * a1) * (b0 * b0 + b1 * b1))
+            ok = cos >= MAX_CURVE_TURN or h <= 2.0 * h_min
         if not ok:
             h *= 0.5
             continue

@@ -125,8 +125,13 @@ def work_along_path(ys: NDArray, ts: NDArray, force: NDArray, slope: NDArray) ->
     n = force.size
     work = np.zeros(n)
     for i in range(1, n):
-        # local coordinate of the step: the unknown moving most at both ends
-        q = int(np.argmax(np.minimum(np.abs(ts[i - 1]), np.abs(ts[i]))))
+        # local coordinate of the step: the unknown moving most at both ends, the same way
+        # (monotone over the step, so it parametrises it)
+        q = int(
+            np.argmax(
+                np.where(ts[i - 1] * ts[i] > 0.0, np.minimum(abs(ts[i - 1]), abs(ts[i])), 0.0)
+            )
+        )
         tau = ys[i, q] - ys[i - 1, q]
         # derivatives in τ = y_q at both ends, times the step (Hermite form on [0, 1])
         m0d, m1d = ts[i - 1, 0] / ts[i - 1, q] * tau, ts[i, 0] / ts[i, q] * tau

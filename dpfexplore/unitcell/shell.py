@@ -128,6 +128,9 @@ class UnitCellRun:
         ``message`` says it in words.
     elapsed : float, s
         Wall time of the trace (compilation excluded).
+    gap : int or None
+        With status ``partial``: the index of the last point of the traced path, after which
+        the separately traced inverted branch follows (not connected to it); None otherwise.
     """
 
     H: float
@@ -154,6 +157,7 @@ class UnitCellRun:
     message: str
     elapsed: float
     tangents: NDArray = field(repr=False)
+    gap: int | None = None
 
     @property
     def success(self) -> bool:
@@ -172,9 +176,9 @@ class UnitCellRun:
 
     @property
     def folds(self) -> NDArray:
-        """Apex travel (mm) at the last point of every branch but the last (the folds)."""
+        """Apex travel (mm) at the last point of every branch before a fold (limit point)."""
         ends = np.flatnonzero(np.diff(self.branch) > 0)
-        return self.displacement[ends]
+        return self.displacement[ends[ends != self.gap]]
 
     @property
     def bistable(self) -> bool:
@@ -369,6 +373,7 @@ def unit_cell_curve(
         message=_MESSAGES[name],
         elapsed=time.perf_counter() - started,
         tangents=ts,
+        gap=main.force.size - 1 if len(pieces) > 1 else None,
     )
 
 

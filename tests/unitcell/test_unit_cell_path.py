@@ -136,3 +136,29 @@ def test_bad_inputs_are_one_line_errors_naming_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name}=") as error:
         unit_cell_curve(**kwargs)
     assert "\n" not in str(error.value)
+
+
+def test_a_path_that_stops_early_gets_the_inverted_branch_from_the_mirror_image():
+    # Fine apex elements let the first element collapse onto the axis on a high-index branch
+    # (a point load on a tiny element): the trace stops there, and the inverted branch is
+    # traced from the dome's mirror image instead.
+    run = unit_cell_curve(5.0, 1.0, n_elements=128, grading=0.5)
+    assert run.status == "partial" and run.gap is not None
+    assert run.branch[run.gap + 1] == run.branch[run.gap] + 1
+    assert run.displacement[run.gap] not in run.folds  # the gap is not a fold
+    assert run.tip_dis == pytest.approx(unit_cell_curve(5.0, 1.0).tip_dis, rel=1e-4)
+    # the appended piece runs from just past the inverted branch's own fold up to the travel
+    after = slice(run.gap + 2, None)
+    assert run.displacement[-1] >= 2.2 * 5.0 and np.all(run.stable[after])
+    assert abs(run.work[-1] - run.energy[-1]) <= 1e-4 * run.energy.max()
+
+
+def test_a_shallow_thick_dome_is_monostable():
+    run = unit_cell_curve(1.2, 1.0, r_b=7.0)
+    assert run.status == "reached" and run.folds.size == 0
+    assert not run.bistable and run.tip_dis is None
+    assert np.all(run.force[1:] > 0.0)
+    frame = run.to_frame()
+    assert "tip_dis" not in frame
+    (curve,) = curves_from_frame(frame)
+    assert not curve.folded and curve.force is not None

@@ -162,3 +162,20 @@ def test_a_shallow_thick_dome_is_monostable():
     assert "tip_dis" not in frame
     (curve,) = curves_from_frame(frame)
     assert not curve.folded and curve.force is not None
+
+
+def test_linear_elasticity_and_geometric_similarity():
+    # Energy scales with E and with the cube of the size; the shapes do not depend on E.
+    base = unit_cell_curve(3.0, 0.8, 5.0, 26.0, 0.35, n_elements=32)
+    soft = unit_cell_curve(3.0, 0.8, 5.0, 13.0, 0.35, n_elements=32)
+    big = unit_cell_curve(6.0, 1.6, 10.0, 26.0, 0.35, n_elements=32)
+    assert soft.n_steps == base.n_steps
+    np.testing.assert_allclose(soft.displacement, base.displacement, atol=1e-9)
+    np.testing.assert_allclose(soft.energy, 0.5 * base.energy, rtol=1e-7, atol=1e-12)
+    np.testing.assert_allclose(big.tip_dis, 2.0 * base.tip_dis, rtol=1e-8)
+    np.testing.assert_allclose(big.folds, 2.0 * base.folds, rtol=1e-6)
+    np.testing.assert_allclose(big.initial_stiffness, 2.0 * base.initial_stiffness, rtol=1e-8)
+    energies = [s.energy for s in base.zero_force_states]
+    np.testing.assert_allclose(
+        [s.energy for s in big.zero_force_states], 8.0 * np.array(energies), rtol=1e-6
+    )

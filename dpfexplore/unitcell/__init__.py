@@ -16,6 +16,11 @@ path
 checks
     Closed forms the model is validated against: the pinned plate, Reissner's shallow shell,
     Pogorelov's ridge exponent.
+plotting
+    Force and energy against apex travel by branch, deformed meridians.
+sweep
+    Many geometries (a grid or a Latin hypercube) on worker processes into the identification
+    table; resumable.
 """
 
 from .path import ZeroForceState

@@ -250,6 +250,14 @@ def _elements(n_elements) -> int:
     return int(n_elements)
 
 
+def _positive(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+        raise ValueError(f"{name}={value!r}: must be a number (mm)")
+    if not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name}={value!r}: must be finite and > 0 (mm)")
+    return float(value)
+
+
 def _grading(grading) -> float:
     if not isinstance(grading, int | float) or not 0.0 <= grading <= 0.9:
         raise ValueError(f"grading={grading!r}: must be a number in [0, 0.9]")
@@ -304,14 +312,10 @@ def unit_cell_curve(
     H, t, r_b, E, nu = check_inputs(H, t, r_b, E, nu)
     n = _elements(n_elements)
     grading = _grading(grading)
-    travel = DEFAULT_TRAVEL * H if travel is None else float(travel)
-    if not math.isfinite(travel) or travel <= 0.0:
-        raise ValueError(f"travel={travel!r}: must be finite and > 0 (mm)")
+    travel = DEFAULT_TRAVEL * H if travel is None else _positive("travel", travel)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
         raise ValueError(f"max_steps={max_steps!r}: must be a positive integer")
-    h_max = DEFAULT_STEP * travel if step is None else float(step)
-    if not math.isfinite(h_max) or h_max <= 0.0:
-        raise ValueError(f"step={step!r}: must be finite and > 0 (mm)")
+    h_max = DEFAULT_STEP * travel if step is None else _positive("step", step)
     geom = shell(H, t, r_b, E, nu, n, grading)
     ftol, xtol = _tolerances(H, t, E)
     _announce()

@@ -127,6 +127,8 @@ def test_to_frame_is_the_identification_table(box_runs):
         (dict(H=3.0, t=0.5, nu=0.5), "nu"),
         (dict(H=3.0, t=0.5, n_elements=2), "n_elements"),
         (dict(H=3.0, t=0.5, travel=-1.0), "travel"),
+        (dict(H=3.0, t=0.5, travel="far"), "travel"),
+        (dict(H=3.0, t=0.5, step=math.inf), "step"),
         (dict(H=3.0, t=0.5, max_steps=0), "max_steps"),
         (dict(H=3.0, t=0.5, grading=0.95), "grading"),
         (dict(H="3", t=0.5), "H"),

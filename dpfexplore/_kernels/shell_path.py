@@ -27,6 +27,10 @@ Steps
 Stability
     The number of negative eigenvalues of the free Hessian at fixed ``δ`` (Sylvester inertia of
     its band), recorded at every point: 0 is stable under displacement control.
+Free equilibria
+    :func:`equilibrate_free` (Newton on all unknowns, ``δ`` included: a zero-force state, stable
+    or not) and :func:`relax` (energy minimisation from a far start, e.g. the dome's mirror
+    image, with a Levenberg shift and backtracking).
 """
 
 from __future__ import annotations

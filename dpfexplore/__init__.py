@@ -68,7 +68,7 @@ _EXPORTS = {
     "simulate": ".solvers.dynamics.simulate",
     "simulate_leg": ".solvers.legs.leg",
     "snap_pressures": ".solvers.snap.continuation",
-    "snap_pressures_batch": ".solvers.snap.continuation",
+    "snap_pressures_batch": ".solvers.snap.batch",
     "solve_batch": ".solvers.statics",
     "spring_constants": ".solvers.lattice",
 }

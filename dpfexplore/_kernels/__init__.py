@@ -35,8 +35,9 @@ reduced
     The release model: a cheaper reset-time model with its error measured.
 dynamics_batch
     ``prange`` entry point for reset times of many designs.
-bordered_lu, continuation, landing, snap
+bordered_lu, continuation, landing, snap, snap_steps, snap_records
     Equilibrium branches under a slow pressure ramp (bordered banded LU, pseudo-arclength
     continuation, folds, crossings), landings after a snap by the equations of motion, and
-    the snap pressures of one design or many (``prange``).
+    the snap pressures of one design or many (``prange``): the walk, its step's stages, and
+    its output layout and records.
 """

@@ -62,6 +62,14 @@ POLISH_ITER = 10
 POLISH_MOVE = 0.5
 #: Stability margin required of the eigenvalue certificate, relative to the largest rate.
 STABLE_RTOL = 1e-10
+#: Entries of a landing's ``info`` array (:func:`land`): the stability certificate, seconds of
+#: motion simulated, Rodas4 steps, the kick used (mm) and the pressure offset (MPa).
+LAND_CERT = 0
+LAND_SECONDS = 1
+LAND_STEPS = 2
+LAND_KICK = 3
+LAND_OFFSET = 4
+N_LAND_INFO = 5
 
 
 @kernel
@@ -152,8 +160,8 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
     ``direction`` is the branch tangent's position part at the fold (the direction of travel).
     ``phys`` selects the model (node mass 0: overdamped), ``kick`` (mm) the size of the first
     displacement along ``direction`` (``<= 0``: :func:`default_kick`). On success ``x_land``
-    holds the equilibrium at ``p_fold`` and ``info`` ``(certificate, seconds simulated, Rodas4
-    steps, kick, pressure offset)``.
+    holds the equilibrium at ``p_fold`` and ``info`` (``N_LAND_INFO`` entries, read by the
+    ``LAND_*`` indices: certificate, seconds simulated, Rodas4 steps, kick, pressure offset).
     Returns a status.
     """
     n_units = unit_params.shape[0]
@@ -169,7 +177,7 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
         unit[i] = direction[i] / biggest
     if not kick > 0.0:
         kick = default_kick(x_fold, unit, unit_params)
-    info[3] = kick
+    info[LAND_KICK] = kick
     for i in range(n):
         y[i] = x_fold[i] + kick * unit[i]
         y[n + i] = 0.0
@@ -209,7 +217,7 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
             )
             steps += stats[STAT_STEPS]
             if code != st.OK:
-                info[2] = steps
+                info[LAND_STEPS] = steps
                 return code
             t += chunk
             local[CTRL_H_INIT] = chunk / 8.0  # the motion has slowed: no need to start at 1e-6 s
@@ -234,10 +242,10 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
                 x_land, p_fold, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO]
             )
             if cert > 0.0:
-                info[0] = cert
-                info[1] = t
-                info[2] = steps
-                info[4] = offset
+                info[LAND_CERT] = cert
+                info[LAND_SECONDS] = t
+                info[LAND_STEPS] = steps
+                info[LAND_OFFSET] = offset
                 return st.OK
-    info[2] = steps
+    info[LAND_STEPS] = steps
     return st.NOT_CONVERGED

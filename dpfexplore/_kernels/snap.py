@@ -23,6 +23,10 @@ to rest depends on how its motion carries it (which units a cascade takes along)
 
 :func:`snap_batch` runs the rising ramp from the flat finger for many designs in parallel and,
 for every state visited, the release from where it was entered down to ``P_min``.
+
+Each continuation step of :func:`follow` is a sequence of stages, kernels of their own in
+:mod:`.snap_steps`; the output tables' layout (``EV_*``, ``PATH_*``, ``CNT_*``) and the records
+the stages pass are in :mod:`.snap_records`, and are named here too.
 """
 
 from __future__ import annotations
@@ -34,131 +38,93 @@ from numba import prange
 
 from ..model import status as st
 from ._jit import batch_kernel, kernel
-from .continuation import (
-    CORRECT_OK,
-    PRESSURE_SCALE,
-    WHICH_END,
-    WHICH_FOLD,
-    correct,
-    locate,
-    workspace,
-)
-from .dynamics import PHYS_ETA, PHYS_ETA_ISO
+from .continuation import PRESSURE_SCALE
 from .dynamics_batch import rest_state
-from .events import (
-    margins,
+from .events import margins
+from .landing import LAND_CERT, LAND_OFFSET, LAND_SECONDS, LAND_STEPS
+from .layout import n_free
+from .snap_records import (
+    CNT_EVENTS,
+    CNT_LANDING_STEPS,
+    CNT_PATH,
+    CNT_REJECTED,
+    CNT_STEPS,
+    EV_AFTER,
+    EV_BEFORE,
+    EV_CERT,
+    EV_DP,
+    EV_KIND,
+    EV_P,
+    EV_SETTLE,
+    EV_STEPS,
+    KIND_CROSSING,
+    KIND_SNAP,
+    KIND_UNSETTLED,
+    N_CNT,
+    N_EV,
+    N_PATH_FIXED,
+    PATH_P,
+    PATH_SEGMENT,
+    PATH_STATE,
+    PATH_TIP_X,
+    PATH_TIP_Y,
+    PATH_U,
+    Landing,
+    WalkOutputs,
 )
-from .landing import certify_stable, land
-from .layout import COL_D, COL_P, COL_U_INV, n_free
+from .snap_steps import (
+    DS_GROW,
+    DS_INIT,
+    DS_MAX,
+    DS_MIN,
+    EASY_ITER,
+    MAX_STEPS,
+    MAX_TURN,
+    STOP_END,
+    STOP_FOLD,
+    STOP_NONE,
+    crossings,
+    record_crossings,
+    record_path,
+    scratch,
+    snap,
+    start,
+    state_of,
+    step_stop,
+    trial_step,
+)
 
-# ---- outputs -------------------------------------------------------------------------------
-
-#: Columns of the event table.
-EV_P = 0  # pressure, MPa
-EV_KIND = 1  # KIND_SNAP or KIND_CROSSING
-EV_BEFORE = 2  # state integer before (unit 1 = most significant bit)
-EV_AFTER = 3  # state integer after
-EV_CERT = 4  # landing's stability certificate (see certify_stable); inf for crossings
-EV_SETTLE = 5  # s of motion simulated before the landing was accepted (0 for crossings)
-EV_STEPS = 6  # Rodas4 steps of the landing
-EV_DP = 7  # MPa past the fold at which the landing's motion settled (0 for crossings)
-N_EV = 8
-
-KIND_SNAP = 1
-KIND_CROSSING = 2
-#: A fold past which the motion did not settle on any equilibrium within the landing's time
-#: budget (the walk stops there): the follower load is not conservative, and past some folds
-#: of strongly curled fingers the motion is a slow relaxation oscillation instead.
-KIND_UNSETTLED = 3
-
-#: Columns of the path table (one row per accepted branch point, fold and landing).
-PATH_P = 0  # MPa
-PATH_SEGMENT = 1  # branch number: 0 from the start, +1 after each snap
-PATH_STATE = 2  # state integer
-PATH_TIP_X = 3  # mm
-PATH_TIP_Y = 4  # mm
-PATH_U = 5  # first of N columns: dome extension over reach, u = x̄/d
-N_PATH_FIXED = 5
-
-#: Counters.
-CNT_EVENTS = 0  # events found (the table keeps at most its capacity)
-CNT_PATH = 1  # path rows found
-CNT_STEPS = 2  # accepted continuation steps
-CNT_REJECTED = 3  # rejected continuation steps
-CNT_LANDING_STEPS = 4  # Rodas4 steps of all landings
-N_CNT = 5
-
-# ---- continuation controls -------------------------------------------------------------------
-
-#: First arclength step (mm, scaled) on each branch, largest step, smallest before giving up.
-DS_INIT = 0.05
-DS_MAX = 4.0
-DS_MIN = 1e-9
-#: Growth of the step after an easy corrector (at most this many Newton iterations).
-DS_GROW = 2.0
-EASY_ITER = 3
-#: Largest turn of the tangent in one step (rad): keeps the corrector on its own branch.
-MAX_TURN = 0.4
-#: Largest change of a dome's extension in one step, in units of ``max(d, D_FLOOR)``: a jump to
-#: another branch moves some dome by about its reach, and crossings stay resolved.
-DU_MAX = 0.1
-D_FLOOR = 0.1
-#: Continuation steps (accepted + rejected) per branch walk.
-MAX_STEPS = 20000
-
-
-@kernel
-def state_of(g, n_units):
-    """State integer from unit margins ``g = u - u_inv`` (unit 1 = most significant bit)."""
-    state = 0
-    for k in range(n_units):
-        state = 2 * state + (1 if g[k] > 0.0 else 0)
-    return state
-
-
-@kernel
-def _record_path(y, segment, state, unit_params, h, g, path, counts):
-    """Append branch point ``y`` (scaled) to ``path`` if there is room; count it anyway."""
-    row = counts[CNT_PATH]
-    counts[CNT_PATH] += 1
-    if row >= path.shape[0]:
-        return
-    n_units = unit_params.shape[0]
-    n = y.shape[0] - 1
-    path[row, PATH_P] = y[n] / PRESSURE_SCALE
-    path[row, PATH_SEGMENT] = segment
-    path[row, PATH_STATE] = state
-    if n_units == 1:  # the tip L_1 is clamped
-        path[row, PATH_TIP_X] = unit_params[0, COL_P]
-        path[row, PATH_TIP_Y] = h
-    else:
-        path[row, PATH_TIP_X] = y[n - 2]
-        path[row, PATH_TIP_Y] = y[n - 1]
-    margins(y[:n], unit_params, g)
-    for k in range(n_units):
-        path[row, PATH_U + k] = g[k] + unit_params[k, COL_U_INV]
-
-
-@kernel
-def _add_event(ev, ev_x, counts, pressure, kind, before, after, x_before, x_after, info):
-    """Append an event; returns False when the table is full."""
-    j = counts[CNT_EVENTS]
-    if j >= ev.shape[0]:
-        return False
-    counts[CNT_EVENTS] += 1
-    ev[j, EV_P] = pressure
-    ev[j, EV_KIND] = kind
-    ev[j, EV_BEFORE] = before
-    ev[j, EV_AFTER] = after
-    ev[j, EV_CERT] = info[0]
-    ev[j, EV_SETTLE] = info[1]
-    ev[j, EV_STEPS] = info[2]
-    ev[j, EV_DP] = info[4]
-    if ev_x.shape[0] > j:
-        for i in range(x_before.shape[0]):
-            ev_x[j, 0, i] = x_before[i]
-            ev_x[j, 1, i] = x_after[i]
-    return True
+__all__ = [
+    "CNT_EVENTS",
+    "CNT_LANDING_STEPS",
+    "CNT_PATH",
+    "CNT_REJECTED",
+    "CNT_STEPS",
+    "EV_AFTER",
+    "EV_BEFORE",
+    "EV_CERT",
+    "EV_DP",
+    "EV_KIND",
+    "EV_P",
+    "EV_SETTLE",
+    "EV_STEPS",
+    "KIND_CROSSING",
+    "KIND_SNAP",
+    "KIND_UNSETTLED",
+    "N_CNT",
+    "N_EV",
+    "N_PATH_FIXED",
+    "PATH_P",
+    "PATH_SEGMENT",
+    "PATH_STATE",
+    "PATH_TIP_X",
+    "PATH_TIP_Y",
+    "PATH_U",
+    "follow",
+    "release_walks",
+    "snap_batch",
+    "state_of",
+]
 
 
 @kernel
@@ -198,226 +164,95 @@ def follow(
         ``OK``; ``NOT_CONVERGED`` (a step or a landing failed), ``STEP_LIMIT`` (step cap or
         event table full), ``UNSTABLE`` (the start is not a stable equilibrium),
         ``DEGENERATE_GEOMETRY`` or ``NONFINITE``.
+
+    Notes
+    -----
+    Each step, by the stages of :mod:`.snap_steps`: a trial step (``trial_step``, halved until
+    accepted), where it stops (``step_stop``), the crossings before that (``crossings``; a stop
+    or crossing that cannot be located rejects the step), then the crossings' events
+    (``record_crossings``) and, at a fold, the landing (``snap``).
     """
     n_units = unit_params.shape[0]
     n = n_free(n_units)
-    ws = workspace(n_units)
     for i in range(N_CNT):
         counts[i] = 0
-    y0 = np.empty(n + 1)
-    t0 = np.empty(n + 1)
-    y1 = np.empty(n + 1)
-    t1 = np.empty(n + 1)
-    yb = np.empty(n + 1)  # the point where this step stops (fold or end)
-    tb = np.empty(n + 1)
-    yc = np.empty(n + 1)  # scratch for located crossings
-    tc = np.empty(n + 1)
-    border = np.zeros(n + 1)
-    border[n] = sign
-    g0 = np.empty(n_units)
-    g1 = np.empty(n_units)
-    gb = np.empty(n_units)
-    gp = np.empty(n_units)  # scratch of the path recorder
-    d_scale = np.empty(n_units)
-    for k in range(n_units):
-        d_scale[k] = max(1.0, D_FLOOR / unit_params[k, COL_D])
-    cross_s = np.empty(n_units)
-    cross_x = np.empty((n_units, n + 1))
-    cross_k = np.empty(n_units, dtype=np.int64)
-    x_land = np.empty(n)
-    info = np.zeros(5)
+    out = WalkOutputs(ev, ev_x, path, counts, x_final)
+    landing = Landing(phys, ctrl, kick)
+    s = scratch(unit_params, sign)
     p_end_s = p_end * PRESSURE_SCALE
 
     for i in range(n):
-        y1[i] = x_start[i]
         x_final[i] = x_start[i]
-    y1[n] = p_start * PRESSURE_SCALE
-    code, _ = correct(y1, border, 0.0, unit_params, h, ws, y0, t0)
-    if code != CORRECT_OK:
-        return st.NOT_CONVERGED
-    if (
-        not certify_stable(y0[:n], p_start, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO])
-        > 0.0
-    ):
-        for i in range(n):
-            x_final[i] = y0[i]
-        return st.UNSTABLE
-    margins(y0[:n], unit_params, g0)
-    label = state_of(g0, n_units)
+    code = start(x_start, p_start, unit_params, h, phys, s)
+    if code != st.OK:
+        if code == st.UNSTABLE:
+            for i in range(n):
+                x_final[i] = s.y0[i]
+        return code
+    margins(s.y0[:n], unit_params, s.g0)
+    label = state_of(s.g0, n_units)
     segment = 0
-    _record_path(y0, segment, label, unit_params, h, gp, path, counts)
-    if sign * (y0[n] - p_end_s) >= 0.0:
+    record_path(s.y0, segment, label, unit_params, h, s.gp, path, counts)
+    if sign * (s.y0[n] - p_end_s) >= 0.0:
         for i in range(n):
-            x_final[i] = y0[i]
+            x_final[i] = s.y0[i]
         return st.OK
     ds = DS_INIT
     cos_turn = math.cos(MAX_TURN)
     while True:
         for i in range(n):
-            x_final[i] = y0[i]
+            x_final[i] = s.y0[i]
         if counts[CNT_STEPS] + counts[CNT_REJECTED] >= MAX_STEPS:
             return st.STEP_LIMIT
-        code, iters = correct(y0, t0, ds, unit_params, h, ws, y1, t1)
-        accept = code == CORRECT_OK
-        if accept:
-            turn = 0.0
-            for i in range(n + 1):
-                turn += t0[i] * t1[i]
-            accept = turn >= cos_turn
-        if accept:
-            margins(y1[:n], unit_params, g1)
-            for k in range(n_units):
-                if abs(g1[k] - g0[k]) > DU_MAX * d_scale[k]:
-                    accept = False
+        accept, iters = trial_step(ds, cos_turn, unit_params, h, s)
         if not accept:
             counts[CNT_REJECTED] += 1
             ds *= 0.5
             if ds < DS_MIN:
                 return st.NOT_CONVERGED
             continue
-        counts[CNT_STEPS] += 1
-
-        # Where does this step stop: at a fold, at the end of the ramp, or not at all? An
-        # event that cannot be located (a corrector inside the step that does not converge, on
-        # a sharply curved branch) rejects the step: a shorter one brackets it closer.
-        failed = False
-        stop = 0  # 0 none, 1 fold, 2 end
-        s_stop = ds
-        if sign * t1[n] < 0.0:
-            code, s_stop = locate(
-                WHICH_FOLD, y0, t0, 0.0, t0[n], ds, t1[n], unit_params, h, p_end_s, ws, yb, tb
-            )
-            failed = code != CORRECT_OK
-            stop = 1
-            p_last = yb[n]  # pressure is monotone up to the fold
-        else:
-            p_last = y1[n]
-        if not failed and sign * (p_last - p_end_s) >= 0.0:
-            g_end = p_last - p_end_s
-            code, s_stop = locate(
-                WHICH_END,
-                y0,
-                t0,
-                0.0,
-                y0[n] - p_end_s,
-                s_stop,
-                g_end,
-                unit_params,
-                h,
-                p_end_s,
-                ws,
-                yb,
-                tb,
-            )
-            failed = code != CORRECT_OK
-            stop = 2
-        if not failed and stop != 0:
-            margins(yb[:n], unit_params, gb)
-        elif not failed:
-            for k in range(n_units):
-                gb[k] = g1[k]
-
-        # Smooth threshold crossings before the stop point, in arclength order.
+        # An event that cannot be located (a corrector inside the step that does not converge,
+        # on a sharply curved branch) rejects the step: a shorter one brackets it closer.
+        failed, stop, s_stop = step_stop(ds, sign, p_end_s, unit_params, h, s)
         n_cross = 0
-        for k in range(n_units):
-            if failed or (g0[k] > 0.0) == (gb[k] > 0.0):
-                continue
-            code, s = locate(
-                k, y0, t0, 0.0, g0[k], s_stop, gb[k], unit_params, h, p_end_s, ws, yc, tc
-            )
-            if code != CORRECT_OK:
-                failed = True
-                continue
-            j = n_cross
-            while j > 0 and cross_s[j - 1] > s:
-                cross_s[j] = cross_s[j - 1]
-                cross_k[j] = cross_k[j - 1]
-                for i in range(n + 1):
-                    cross_x[j, i] = cross_x[j - 1, i]
-                j -= 1
-            cross_s[j] = s
-            cross_k[j] = k
-            for i in range(n + 1):
-                cross_x[j, i] = yc[i]
-            n_cross += 1
+        if not failed:
+            failed, n_cross = crossings(s_stop, p_end_s, unit_params, h, s)
         if failed:
-            counts[CNT_STEPS] -= 1
             counts[CNT_REJECTED] += 1
             ds *= 0.5
             if ds < DS_MIN:
                 return st.NOT_CONVERGED
             continue
-        if stop != 0:
+        counts[CNT_STEPS] += 1
+        if stop != STOP_NONE:
             for i in range(n + 1):
-                y1[i] = yb[i]
-                t1[i] = tb[i]
-        info[0] = np.inf
-        info[1] = 0.0
-        info[2] = 0.0
-        info[4] = 0.0
-        for j in range(n_cross):
-            bit = 1 << (n_units - 1 - cross_k[j])
-            after = label ^ bit
-            if not _add_event(
-                ev,
-                ev_x,
-                counts,
-                cross_x[j, n] / PRESSURE_SCALE,
-                KIND_CROSSING,
-                label,
-                after,
-                cross_x[j, :n],
-                cross_x[j, :n],
-                info,
-            ):
-                return st.STEP_LIMIT
-            label = after
-            _record_path(cross_x[j], segment, label, unit_params, h, gp, path, counts)
+                s.y1[i] = s.yb[i]
+                s.t1[i] = s.tb[i]
+        s.info[LAND_CERT] = np.inf
+        s.info[LAND_SECONDS] = 0.0
+        s.info[LAND_STEPS] = 0.0
+        s.info[LAND_OFFSET] = 0.0
+        room, label = record_crossings(n_cross, label, segment, unit_params, h, out, s)
+        if not room:
+            return st.STEP_LIMIT
 
-        if stop == 2:
-            _record_path(y1, segment, label, unit_params, h, gp, path, counts)
+        if stop == STOP_END:
+            record_path(s.y1, segment, label, unit_params, h, s.gp, path, counts)
             for i in range(n):
-                x_final[i] = y1[i]
+                x_final[i] = s.y1[i]
             return st.OK
-        if stop == 1:
-            _record_path(y1, segment, label, unit_params, h, gp, path, counts)
-            p_fold = y1[n] / PRESSURE_SCALE
-            code = land(
-                y1[:n], t1[:n], p_fold, sign, unit_params, h, phys, ctrl, kick, x_land, info
-            )
-            counts[CNT_LANDING_STEPS] += int(info[2])
+        if stop == STOP_FOLD:
+            code, label, segment = snap(label, segment, sign, unit_params, h, landing, out, s)
             if code != st.OK:
-                for i in range(n):
-                    x_final[i] = y1[i]
-                if code == st.NOT_CONVERGED:
-                    info[0] = np.nan
-                    _add_event(
-                        ev, ev_x, counts, p_fold, KIND_UNSETTLED, label, -1, y1[:n], y1[:n], info
-                    )
                 return code
-            margins(x_land, unit_params, g0)
-            after = state_of(g0, n_units)
-            if not _add_event(
-                ev, ev_x, counts, p_fold, KIND_SNAP, label, after, y1[:n], x_land, info
-            ):
-                return st.STEP_LIMIT
-            label = after
-            segment += 1
-            for i in range(n):
-                y1[i] = x_land[i]
-            code, _ = correct(y1, border, 0.0, unit_params, h, ws, y0, t0)
-            if code != CORRECT_OK:
-                return st.NOT_CONVERGED
-            margins(y0[:n], unit_params, g0)
-            _record_path(y0, segment, label, unit_params, h, gp, path, counts)
             ds = DS_INIT
             continue
         for i in range(n + 1):
-            y0[i] = y1[i]
-            t0[i] = t1[i]
+            s.y0[i] = s.y1[i]
+            s.t0[i] = s.t1[i]
         for k in range(n_units):
-            g0[k] = g1[k]
-        _record_path(y0, segment, label, unit_params, h, gp, path, counts)
+            s.g0[k] = s.g1[k]
+        record_path(s.y0, segment, label, unit_params, h, s.gp, path, counts)
         if iters <= EASY_ITER:
             ds = min(ds * DS_GROW, DS_MAX)
 

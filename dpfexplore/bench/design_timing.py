@@ -129,7 +129,7 @@ def bench_pickplace(args, jobs) -> list[dict]:
     from ..inverse.kinds import load_scene
     from ..inverse.scenes.pickplace.problem import ResetProblem
     from ..inverse.scenes.pickplace.solve import SEARCH_FRACTION, solve_pickplace
-    from ..inverse.scenes.timing_spec import with_target_reset
+    from ..inverse.scenes.pickplace.spec import with_target_reset
 
     base = load_scene(jobs / "design-pickplace.toml")
     rows = []

@@ -24,9 +24,10 @@ from .report import gripper_report, position_report, write_report
 from .scenes.gripper.solve import solve_gripper
 from .scenes.pickplace.report import pickplace_report, write_timing_report
 from .scenes.pickplace.solve import solve_pickplace
-from .scenes.timing_spec import parse_pickplace, parse_walker
+from .scenes.pickplace.spec import parse_pickplace
 from .scenes.walker.report import walker_report, write_walker_report
 from .scenes.walker.solve import solve_walker
+from .scenes.walker.spec import parse_walker
 from .spec import SceneSpec, build_spec, parse_gripper, parse_position, read_scene_file
 from .spec_fields import SceneSpecError, _keys, _table
 

@@ -9,5 +9,8 @@ pickplace
 walker
     Walker-leg zones that keep time: legs composed from section runs, inversion pressures.
 timing_spec
-    Scene files of the two timing scenes (pick-and-place and walker leg).
+    Scene files of the two timing scenes (pick-and-place and walker leg): the format, and the
+    parsers of :mod:`.pickplace.spec` and :mod:`.walker.spec` by name.
+timing_fields
+    Checks of scene-file values both timing scenes use.
 """

@@ -63,25 +63,26 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from ..._kernels import continuation as kcont
 from ..._kernels import events as kevents
 from ..._kernels import snap as ksnap
-from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, MASS_PER_UNIT, damping_matrix, node_mass
+from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, damping_matrix, node_mass
 from ..._kernels.dynamics_batch import rest_state
 from ..._kernels.layout import n_free
 from ...model import status as st
-from ...model.design import Design, DesignBatch
-from ...model.domain import MAX_UNITS
-from ...model.pressure import MAX_PRESSURE
+from ...model.design import Design
 from ..compilation import announce
-from ..dynamics.common import METHODS, controls
-from ..lattice import LatticeParams, batch_constants, lattice_params, pack_batch, spring_constants
+from ..lattice import LatticeParams, lattice_params, spring_constants
 from ..statics import find_state, state_string
+from .batch import inversion_pressures_batch, snap_pressures_batch
 from .results import SnapEvent, SnapSequence, StateVisit
+from .settings import DEFAULT_P_MAX, EVENT_CAPACITY, LANDING_MODELS, PATH_CAPACITY
+from .settings import check_kick as _kick
+from .settings import check_pressure as _pressure
+from .settings import landing_model as _model
 
 __all__ = [
     "DEFAULT_P_MAX",
@@ -96,66 +97,11 @@ __all__ = [
     "snap_pressures_batch",
 ]
 
-#: Default end of the rising ramp, MPa.
-DEFAULT_P_MAX = 1.0
-#: Models that can decide a landing (names of :data:`~dpfexplore.solvers.dynamics.common.METHODS`).
-LANDING_MODELS = ("rodas4", "rodas4-overdamped")
-#: Rodas4 position tolerance of the landings, mm (module docstring), and largest step, s: a
-#: landing has no events to resolve, and the motion settles over tens of seconds in soft fingers
-#: (the simulations' 0.5 s cap made that hundreds of steps).
-LANDING_ATOL = 3e-3
-LANDING_H_MAX = 100.0
-#: Events kept per walk.
-EVENT_CAPACITY = 4 * MAX_UNITS
-#: Branch points kept per walk (for plots).
-PATH_CAPACITY = 5_000
-
 _KIND_NAMES = {
     ksnap.KIND_SNAP: "snap",
     ksnap.KIND_CROSSING: "crossing",
     ksnap.KIND_UNSETTLED: "unsettled",
 }
-
-
-def _pressure(name: str, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r}: must be a number") from None
-    if not math.isfinite(value):
-        raise ValueError(f"{name} = {value!r}: must be finite")
-    if abs(value) > MAX_PRESSURE:  # the range every other entry point holds (model.pressure)
-        raise ValueError(
-            f"{name} = {value:g} MPa: beyond ±{MAX_PRESSURE:g} MPa, the most the model takes"
-        )
-    return value
-
-
-def _kick(kick) -> float:
-    """The kick (mm) for the kernels: 0 selects their default."""
-    if kick is None:
-        return 0.0
-    kick = _pressure("kick", kick)
-    if not kick > 0.0:
-        raise ValueError(f"kick = {kick}: must be > 0 mm")
-    return kick
-
-
-def _model(model: str, n_units: int) -> tuple[NDArray, NDArray]:
-    """``phys`` and Rodas4 ``ctrl`` of the landings."""
-    if model not in LANDING_MODELS:
-        raise ValueError(f"model = {model!r}: choose one of {LANDING_MODELS}")
-    mass = 0.0 if model == "rodas4-overdamped" else node_mass(n_units)
-    ctrl = controls(
-        METHODS[model],
-        t_release=0.0,
-        atol=LANDING_ATOL,
-        rtol=None,
-        h_max=LANDING_H_MAX,
-        max_steps=None,
-        stop_when_reset=False,
-    )
-    return np.array([ETA_INTERNAL, ETA_ISO, mass]), ctrl
 
 
 class _Walk:
@@ -540,147 +486,3 @@ def inversion_pressure(
     if math.isnan(value):
         raise RuntimeError(f"the slow ramp failed ({seq.status.label}) before unit {unit} inverted")
     return value
-
-
-def snap_pressures_batch(
-    batch: DesignBatch,
-    *,
-    P_max: float = DEFAULT_P_MAX,
-    P_min: float = 0.0,
-    release: bool = True,
-    model: str = "rodas4",
-    kick: float | None = None,
-) -> dict[str, NDArray]:
-    """The rising ramp from the flat finger of many designs, in parallel (Numba ``prange``).
-
-    Parameters
-    ----------
-    batch : DesignBatch
-        Invalid designs keep their status and get no events.
-    P_max, P_min, release, model, kick
-        As for :func:`snap_pressures` (``release`` walks down to ``P_min``).
-
-    Returns
-    -------
-    dict of str to ndarray
-        ``status`` (int8, (n,)); ``n_events`` (int64, (n,)); per event ``j`` (``(n, 48)``,
-        padding NaN / -1): ``event_pressure`` (MPa), ``event_kind`` (int8: 1 snap, 2
-        crossing, 3 unsettled), ``event_before``, ``event_after`` (state integers, unit 1 = most
-        significant bit; -1 after an unsettled fold); per visited state ``j`` (0 = flat,
-        ``j`` = after event ``j - 1``; ``(n, 49)``):
-        ``release_status`` (int8), ``release_state`` (int64, -1 if none) and
-        ``release_pressure`` (MPa: where the state is left on the way down; NaN: never);
-        ``inversion_pressure`` ((n, 12), MPa: first pressure at which each unit is inverted;
-        ``inf`` not by ``P_max``; NaN padding, invalid designs, or a walk that failed first);
-        ``fitted_range`` (bool, (n,)); ``no_contact`` (bool, (n, 12): the unit's dome reach
-        was clamped, see :attr:`SnapSequence.no_contact`).
-
-    Notes
-    -----
-    Landings are certified stable by the kernels (symmetric-part Cholesky or eigenvalues of
-    ``C⁻¹K``); the dense re-check of :func:`snap_pressures` (``verify``) is not repeated here.
-    """
-    if not isinstance(batch, DesignBatch):
-        raise ValueError(f"batch = {batch!r}: must be a DesignBatch")
-    P_max = _pressure("P_max", P_max)
-    P_min = _pressure("P_min", P_min)
-    if not P_min <= 0.0 < P_max:
-        raise ValueError(f"P_min = {P_min}, P_max = {P_max}: need P_min <= 0 < P_max (MPa)")
-    if model not in LANDING_MODELS:
-        raise ValueError(f"model = {model!r}: choose one of {LANDING_MODELS}")
-    kick = _kick(kick)
-    n = len(batch)
-    design_status = batch.status()
-    valid = design_status == st.OK
-    unit_params, h, n_units = pack_batch(batch)
-    _, ctrl = _model(model, 1)
-    status = design_status.astype(np.int64)
-    n_events = np.zeros(n, dtype=np.int64)
-    events = np.full((n, EVENT_CAPACITY, ksnap.N_EV), np.nan)
-    rel_status = np.full((n, EVENT_CAPACITY + 1), st.NOT_COMPUTED, dtype=np.int64)
-    rel_state = np.full((n, EVENT_CAPACITY + 1), -1, dtype=np.int64)
-    rel_p = np.full((n, EVENT_CAPACITY + 1), np.nan)
-    if n:
-        # Rows differ in cost by 10x (number of snaps, slow landings): threads take rows one
-        # at a time as they free up rather than a fixed share each.
-        previous = numba.set_parallel_chunksize(1)
-        try:
-            ksnap.snap_batch(
-                unit_params,
-                h,
-                n_units,
-                valid,
-                P_max,
-                P_min,
-                bool(release),
-                ETA_INTERNAL,
-                ETA_ISO,
-                model == "rodas4-overdamped",
-                MASS_PER_UNIT,
-                ctrl,
-                float(kick),
-                status,
-                n_events,
-                events,
-                rel_status,
-                rel_state,
-                rel_p,
-            )
-        finally:
-            numba.set_parallel_chunksize(previous)
-    slot = np.arange(EVENT_CAPACITY)[None, :] < n_events[:, None]
-    kind = np.where(slot, np.nan_to_num(events[..., ksnap.EV_KIND], nan=-1), -1).astype(np.int8)
-    before = np.where(slot, np.nan_to_num(events[..., ksnap.EV_BEFORE], nan=-1), -1)
-    after = np.where(slot, np.nan_to_num(events[..., ksnap.EV_AFTER], nan=-1), -1)
-    pressure = np.where(slot, events[..., ksnap.EV_P], np.nan)
-    out = {
-        "status": status.astype(np.int8),
-        "n_events": n_events,
-        "event_pressure": pressure,
-        "event_kind": kind,
-        "event_before": before.astype(np.int64),
-        "event_after": after.astype(np.int64),
-        "release_status": rel_status.astype(np.int8),
-        "release_state": rel_state,
-        "release_pressure": rel_p,
-        "fitted_range": valid & batch.in_fitted_range(),
-        "no_contact": np.asarray(batch_constants(batch, domes=False)["no_contact"], dtype=bool)
-        & (np.arange(MAX_UNITS)[None, :] < n_units[:, None])
-        & valid[:, None],
-    }
-    out["inversion_pressure"] = _inversion_from_events(out, n_units, valid)
-    return out
-
-
-def _inversion_from_events(out, n_units, valid) -> NDArray:
-    """First pressure each unit is inverted at, from the rising walks' event columns."""
-    n = n_units.shape[0]
-    result = np.full((n, MAX_UNITS), np.nan)
-    unit = np.arange(MAX_UNITS)[None, :]
-    active = valid[:, None] & (unit < n_units[:, None])
-    ok = out["status"] == st.OK
-    result[active] = np.inf
-    result[active & ~ok[:, None]] = np.nan
-    shift = np.maximum(n_units[:, None] - 1 - unit, 0)
-    for j in range(EVENT_CAPACITY):
-        before = out["event_before"][:, j : j + 1]
-        after = out["event_after"][:, j : j + 1]
-        p = out["event_pressure"][:, j : j + 1]
-        bit_after = (after >> shift) & 1
-        bit_before = (before >> shift) & 1
-        went = active & (before >= 0) & (after >= 0) & (bit_after == 1) & (bit_before == 0)
-        first = went & ~np.isfinite(result)
-        result = np.where(first, p, result)
-    return result
-
-
-def inversion_pressures_batch(
-    batch: DesignBatch, *, P_max: float = DEFAULT_P_MAX, model: str = "rodas4"
-) -> NDArray[np.float64]:
-    """First inversion pressure (MPa) of every unit of many designs, shape ``(n, 12)``.
-
-    See :func:`snap_pressures_batch` (its ``inversion_pressure``; no release walks).
-    """
-    return snap_pressures_batch(batch, P_max=P_max, release=False, model=model)[
-        "inversion_pressure"
-    ]

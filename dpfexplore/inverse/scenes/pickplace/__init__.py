@@ -2,6 +2,8 @@
 
 Modules
 -------
+spec
+    The ``[pickplace]`` table of a scene file and its records.
 problem
     :class:`~.problem.ResetProblem`: reset times of box points; brackets and roots on lines.
 screen

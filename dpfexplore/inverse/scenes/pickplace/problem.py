@@ -42,7 +42,7 @@ from ....solvers.dynamics.common import (
 )
 from ...evaluation import Evaluator
 from ...problem import Evaluation, Problem
-from ..timing_spec import PickPlaceSpec, PulseSpec
+from .spec import PickPlaceSpec, PulseSpec
 
 __all__ = [
     "Bracket",

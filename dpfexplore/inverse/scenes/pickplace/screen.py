@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from ....model.design import Design
 from ....solvers.dynamics.common import CLASS_METASTABLE
 from ...evaluation import Evaluator
-from ..timing_spec import PulseSpec
+from .spec import PulseSpec
 from .problem import ResetEval, ResetProblem, screening_method
 
 __all__ = ["Screen", "check_design", "reachable_range", "screen_pickplace", "second_screen"]

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ....model.design import Design, DesignBatch
-from ....solvers.snap.continuation import inversion_pressures_batch
+from ....solvers.snap.batch import inversion_pressures_batch
 from ...evaluation import Evaluator
 
 __all__ = ["METHOD", "inversion_method", "unit_inversion_pressures"]

@@ -13,7 +13,11 @@ store
 polish
     Polish a design with the exact model until its outputs meet a target.
 query
-    :func:`~.query.lookup`: query, polish, verify.
+    :func:`~.query.lookup`: query, polish, verify, stage by stage.
+rows
+    Candidate rows read back from their chunks, re-solved and merged.
+results
+    :class:`~.results.Candidate` and :class:`~.results.LookupResult`, with provenance.
 files
     Candidates written as ``[design]`` TOML files.
 """

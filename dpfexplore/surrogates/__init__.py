@@ -11,6 +11,8 @@ data
     Training tables from sweep datasets.
 fit
     Fitting every kind on one dataset, with held-out errors.
+speed, goals, progress
+    The fit's timing on one core, its goals and verdict, and how it shows its progress.
 store
     Surrogate sets saved with skops (trusted types only), refused on fingerprint mismatch.
 report

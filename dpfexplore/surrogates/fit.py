@@ -19,29 +19,22 @@ The result, a :class:`SurrogateSet`, carries every fitted estimator and a JSON-a
 from __future__ import annotations
 
 import logging
-import statistics
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
 from ..model.formatting import num
 from ..model.limits import MAX_UNITS
-from ..solvers.statics import solve_batch
 from .chain import CHAIN, ChainStatusClassifier, ChainSurrogate
-from .data import (
-    TIP,
-    TrainingData,
-    designs_from_rows,
-    held_out_errors,
-    split_by_design,
-)
+from .data import TIP, TrainingData, held_out_errors, split_by_design
 from .flat import CLASSIFIER_KINDS, KINDS, DesignSurrogate, StatusClassifier
+from .goals import GOALS, goals_of, verdict
+from .progress import FitProgress, fit_progress
+from .speed import TIMED_BATCH, exact_predict, one_thread, time_per_row
 
 __all__ = [
     "ALL_CLASSIFIER_KINDS",
@@ -55,17 +48,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: Issue 12's goals on held-out designs of the paper's box: tip error (mm), classifier accuracy,
-#: training designs.
-GOALS = {
-    "tip_median_mm": 0.05,
-    "tip_p95_mm": 0.3,
-    "classifier_accuracy": 0.99,
-    "max_train_designs": 100_000,
-}
-#: Largest number of held-out rows timed in one batched call, and rows timed one at a time.
-TIMED_BATCH = 5000
-TIMED_SINGLE = 60
 #: Regressor kinds: the flat ones of :mod:`.surrogates` and the chain (:mod:`.chain`).
 ALL_KINDS = (*KINDS, CHAIN)
 #: Status classifier kinds.
@@ -151,71 +133,6 @@ def _check_unit_counts(designs: pd.DataFrame) -> None:
         )
 
 
-@contextmanager
-def one_thread() -> Iterator[None]:
-    """Limit Numba and BLAS/OpenMP (scikit-learn) to one thread inside the block."""
-    import numba
-    from threadpoolctl import threadpool_limits
-
-    previous = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        with threadpool_limits(limits=1):
-            yield
-    finally:
-        numba.set_num_threads(previous)
-
-
-def _median_seconds(func: Callable[[], object], repeats: int) -> float:
-    samples = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        samples.append(time.perf_counter() - start)
-    return statistics.median(samples)
-
-
-def time_per_row(
-    predict: Callable[[pd.DataFrame], object],
-    frame: pd.DataFrame,
-    *,
-    repeats: int = 3,
-    single_rows: int = TIMED_SINGLE,
-) -> tuple[float, float]:
-    """Microseconds per row of ``predict``: batched (one call on ``frame``) and single.
-
-    Returns
-    -------
-    batched_us, single_us : float
-        Median over ``repeats`` calls on the whole frame, divided by its rows; median over
-        ``single_rows`` rows of one call each (after one warm-up call).
-    """
-    predict(frame.iloc[:1])
-    batched = _median_seconds(lambda: predict(frame), repeats) / len(frame) * 1e6
-    rows = [frame.iloc[[i]] for i in range(min(single_rows, len(frame)))]
-    single = []
-    for row in rows:
-        start = time.perf_counter()
-        predict(row)
-        single.append(time.perf_counter() - start)
-    return batched, statistics.median(single) * 1e6
-
-
-def _exact_predict(outputs: Sequence[str]) -> Callable[[pd.DataFrame], dict[str, NDArray]]:
-    """The exact model as a predictor of sweep rows (their requested states)."""
-    stiffness, min_eig = "stiffness" in outputs, "min_eig" in outputs
-
-    def predict(rows: pd.DataFrame) -> dict[str, NDArray]:
-        return solve_batch(
-            designs_from_rows(rows),
-            rows["requested"].to_numpy(dtype=np.int64),
-            stiffness=stiffness,
-            min_eig=min_eig,
-        )
-
-    return predict
-
-
 def _headline(outputs: Sequence[str]) -> str:
     return TIP if "tip_x" in outputs and "tip_y" in outputs else outputs[0]
 
@@ -232,7 +149,7 @@ def fit_surrogates(
     params: Mapping[str, Mapping[str, Any]] | None = None,
     timing: bool = True,
     threads: int | None = 1,
-    progress: Callable[[str], None] | None = None,
+    progress: FitProgress | Callable[[str], None] | None = None,
 ) -> SurrogateSet:
     """Fit surrogates of ``data`` and report their held-out error and speed.
 
@@ -263,8 +180,9 @@ def fit_surrogates(
         BLAS/OpenMP threads of the scikit-learn fits (None: the libraries' default). One by
         default: on a loaded machine OpenMP's spinning threads made gradient-boosted trees 30x
         slower with two threads than with one.
-    progress : callable, optional
-        Called with a line of text at each step (default: the module logger).
+    progress : FitProgress or callable, optional
+        Told of each step (:mod:`.progress`): a callable gets one line per step; by default a
+        bar when standard error is a terminal, else lines to the module logger.
 
     Returns
     -------
@@ -272,19 +190,23 @@ def fit_surrogates(
     """
     from threadpoolctl import threadpool_limits
 
-    with threadpool_limits(limits=threads):
-        return _fit_surrogates(
-            data,
-            kinds,
-            classifier_kind,
-            per_n,
-            test_fraction,
-            max_train_designs,
-            seed,
-            params,
-            timing,
-            progress,
-        )
+    shown = fit_progress(progress)
+    try:
+        with threadpool_limits(limits=threads):
+            return _fit_surrogates(
+                data,
+                kinds,
+                classifier_kind,
+                per_n,
+                test_fraction,
+                max_train_designs,
+                seed,
+                params,
+                timing,
+                shown,
+            )
+    finally:
+        shown.close()
 
 
 def _make_regressor(
@@ -318,19 +240,21 @@ def _make_classifier(kind: str, per_n: bool, seed: int, params: Mapping[str, Any
     )
 
 
-def _fit_surrogates(
-    data,
-    kinds,
-    classifier_kind,
-    per_n,
-    test_fraction,
-    max_train_designs,
-    seed,
-    params,
-    timing,
-    progress,
-) -> SurrogateSet:
-    say = progress or logger.info
+@dataclass(frozen=True)
+class _Split:
+    """The held-out split of a fit: which rows train, which test, and which are ok."""
+
+    train: np.ndarray
+    test: np.ndarray
+    ok: np.ndarray
+    train_ok: pd.DataFrame
+    test_ok: pd.DataFrame
+    test_all: pd.DataFrame
+    n_designs: dict[str, int]
+
+
+def _checked_kinds(kinds, classifier_kind) -> tuple[list[str], list[str]]:
+    """The regressor and classifier kinds, each once, in the order given; unknown ones refused."""
     kinds = list(dict.fromkeys(kinds))
     for kind in kinds:
         if kind not in ALL_KINDS:
@@ -347,8 +271,12 @@ def _fit_surrogates(
             )
     if not classifier_kinds:
         raise ValueError("classifier kinds: none given")
-    params = dict(params or {})
-    frame, outputs = data.frame, list(data.outputs)
+    return kinds, classifier_kinds
+
+
+def _split(data: TrainingData, test_fraction, seed, max_train_designs) -> _Split:
+    """Hold out a share of the designs (every row of a design on one side)."""
+    frame = data.frame
     train, test = split_by_design(
         frame["design_id"].to_numpy(),
         test_fraction=test_fraction,
@@ -361,28 +289,37 @@ def _fit_surrogates(
             f"{data.root}: no rows whose requested state exists on one side of "
             "the split (too few designs?)"
         )
-    train_ok, test_ok = frame[train & ok], frame[test & ok]
     test_all = frame[test]
-    n_designs = {
-        "train": int(frame.loc[train, "design_id"].nunique()),
-        "test": int(test_all["design_id"].nunique()),
-    }
-    say(
-        f"split by design: {n_designs['train']} training designs ({int(train.sum())} rows, "
-        f"{len(train_ok)} ok), {n_designs['test']} held out ({int(test.sum())} rows)"
+    return _Split(
+        train=train,
+        test=test,
+        ok=ok,
+        train_ok=frame[train & ok],
+        test_ok=frame[test & ok],
+        test_all=test_all,
+        n_designs={
+            "train": int(frame.loc[train, "design_id"].nunique()),
+            "test": int(test_all["design_id"].nunique()),
+        },
     )
 
-    truth_ok = ok[test]
-    test_n = test_all["n_units"].to_numpy()
-    classifiers, classifier_records, classifier_seconds = {}, {}, {}
-    for kind in classifier_kinds:
+
+def _fit_classifiers(frame, split: _Split, kinds, per_n, seed, params, progress: FitProgress):
+    """Fit each status classifier; its held-out accuracy, overall and per N."""
+    truth_ok = split.ok[split.test]
+    test_n = split.test_all["n_units"].to_numpy()
+    classifiers, records, seconds = {}, {}, {}
+    for kind in kinds:
+        progress.begin(f"fitting classifier ({kind})")
         start = time.perf_counter()
-        classifier = _make_classifier(kind, per_n, seed, params).fit(frame[train], ok[train])
-        classifier_seconds[kind] = time.perf_counter() - start
-        predicted_ok = classifier.predict(test_all)
+        classifier = _make_classifier(kind, per_n, seed, params).fit(
+            frame[split.train], split.ok[split.train]
+        )
+        seconds[kind] = time.perf_counter() - start
+        predicted_ok = classifier.predict(split.test_all)
         right = predicted_ok == truth_ok
         classifiers[kind] = classifier
-        classifier_records[kind] = {
+        records[kind] = {
             "kind": kind,
             "accuracy": float(np.mean(right)),
             "accuracy_per_n": {
@@ -390,74 +327,130 @@ def _fit_surrogates(
             },
             "missed": int(np.sum(truth_ok & ~predicted_ok)),
             "false_alarms": int(np.sum(~truth_ok & predicted_ok)),
-            "test_rows": int(test.sum()),
+            "test_rows": int(split.test.sum()),
         }
-        say(
-            f"classifier ({kind}): held-out accuracy {classifier_records[kind]['accuracy']:.4f}"
-            f" ({classifier_seconds[kind]:.1f} s)"
+        progress.step(
+            f"classifier ({kind}): held-out accuracy {records[kind]['accuracy']:.4f}"
+            f" ({seconds[kind]:.1f} s)"
         )
+    return classifiers, records, seconds
+
+
+def _fit_regressors(split: _Split, kinds, outputs, per_n, seed, params, progress: FitProgress):
+    """Fit each regressor; its held-out errors per output and per N."""
+    regressors, seconds, tables = {}, {}, []
+    y_train = split.train_ok[outputs].to_numpy(dtype=float)
+    headline = _headline(outputs)
+    for kind in kinds:
+        progress.begin(f"fitting {kind}")
+        start = time.perf_counter()
+        model = _make_regressor(kind, outputs, per_n, seed, params.get(kind) or {}).fit(
+            split.train_ok, y_train
+        )
+        seconds[kind] = time.perf_counter() - start
+        table = held_out_errors(split.test_ok, model.predict(split.test_ok), outputs)
+        table.insert(0, "model", kind)
+        tables.append(table)
+        regressors[kind] = model
+        line = table[(table["output"] == headline) & (table["n_units"] == "all")]
+        progress.step(
+            f"{kind}: fitted in {seconds[kind]:.1f} s; held-out {headline} error "
+            f"median {line['median'].iloc[0]:.4g}, p95 {line['p95'].iloc[0]:.4g}"
+        )
+    return regressors, seconds, tables
+
+
+def _speed(
+    regressors, classifiers, classifier_seconds, fit_seconds, exact, test_ok, pooled, headline
+):
+    """Time per row of every regressor, classifier and the exact model, on one thread."""
+    speed = []
+    timed = test_ok.iloc[:TIMED_BATCH]
+    with one_thread():
+        for kind, model in regressors.items():
+            batched, single = time_per_row(model.predict, timed)
+            speed.append({"model": kind, "us_batched": batched, "us_single": single})
+        for kind, model in classifiers.items():
+            batched, single = time_per_row(model.predict, timed)
+            speed.append(
+                {
+                    "model": f"classifier ({kind})",
+                    "us_batched": batched,
+                    "us_single": single,
+                    "fit_s": classifier_seconds[kind],
+                }
+            )
+        batched, single = time_per_row(exact, timed)
+        speed.append({"model": "exact", "us_batched": batched, "us_single": single})
+    for row in speed:
+        if row["model"] in pooled.index:
+            for stat in ("median", "p95", "max"):
+                row[f"{headline}_{stat}"] = float(pooled.loc[row["model"], stat])
+        row.setdefault("fit_s", fit_seconds.get(row["model"], 0.0))
+    return speed
+
+
+def _fit_surrogates(
+    data,
+    kinds,
+    classifier_kind,
+    per_n,
+    test_fraction,
+    max_train_designs,
+    seed,
+    params,
+    timing,
+    progress: FitProgress,
+) -> SurrogateSet:
+    kinds, classifier_kinds = _checked_kinds(kinds, classifier_kind)
+    params = dict(params or {})
+    frame, outputs = data.frame, list(data.outputs)
+    split = _split(data, test_fraction, seed, max_train_designs)
+    progress.start(len(classifier_kinds) + len(kinds) + 1 + int(bool(timing)))
+    progress.note(
+        f"split by design: {split.n_designs['train']} training designs "
+        f"({int(split.train.sum())} rows, {len(split.train_ok)} ok), "
+        f"{split.n_designs['test']} held out ({int(split.test.sum())} rows)"
+    )
+    classifiers, classifier_records, classifier_seconds = _fit_classifiers(
+        frame, split, classifier_kinds, per_n, seed, params, progress
+    )
     # Ties go to the first kind given.
     best_classifier = max(classifier_kinds, key=lambda k: classifier_records[k]["accuracy"])
     classifier = classifiers[best_classifier]
-    classifier_s = classifier_seconds[best_classifier]
+    regressors, fit_seconds, error_tables = _fit_regressors(
+        split, kinds, outputs, per_n, seed, params, progress
+    )
 
-    regressors, fit_seconds, error_tables = {}, {}, []
-    y_train = train_ok[outputs].to_numpy(dtype=float)
-    for kind in kinds:
-        start = time.perf_counter()
-        model = _make_regressor(kind, outputs, per_n, seed, params.get(kind) or {}).fit(
-            train_ok, y_train
-        )
-        fit_seconds[kind] = time.perf_counter() - start
-        table = held_out_errors(test_ok, model.predict(test_ok), outputs)
-        table.insert(0, "model", kind)
-        error_tables.append(table)
-        regressors[kind] = model
-        line = table[(table["output"] == _headline(outputs)) & (table["n_units"] == "all")]
-        say(
-            f"{kind}: fitted in {fit_seconds[kind]:.1f} s; held-out {_headline(outputs)} error "
-            f"median {line['median'].iloc[0]:.4g}, p95 {line['p95'].iloc[0]:.4g}"
-        )
-
-    exact = _exact_predict(outputs)
-    exact_out = exact(test_all)
-    exact_pred = np.column_stack([exact_out[name] for name in outputs])[ok[test]]
-    table = held_out_errors(test_ok, exact_pred, outputs)
+    progress.begin("exact model on the held-out designs")
+    exact = exact_predict(outputs)
+    exact_out = exact(split.test_all)
+    exact_pred = np.column_stack([exact_out[name] for name in outputs])[split.ok[split.test]]
+    table = held_out_errors(split.test_ok, exact_pred, outputs)
     table.insert(0, "model", "exact")
     error_tables.append(table)
     errors = pd.concat(error_tables, ignore_index=True)
-    exact_status_agreement = float(np.mean((exact_out["status"] == 0) == truth_ok))
+    exact_status_agreement = float(np.mean((exact_out["status"] == 0) == split.ok[split.test]))
+    progress.step(f"exact model: status agreement {exact_status_agreement:.4f}")
 
     headline = _headline(outputs)
     pooled = errors[(errors["output"] == headline) & (errors["n_units"] == "all")]
     pooled = pooled.set_index("model")
     best = min(kinds, key=lambda k: pooled.loc[k, "p95"])
-
     speed = []
     if timing:
-        say("timing on one thread ...")
-        timed = test_ok.iloc[:TIMED_BATCH]
-        with one_thread():
-            for kind in kinds:
-                batched, single = time_per_row(regressors[kind].predict, timed)
-                speed.append({"model": kind, "us_batched": batched, "us_single": single})
-            for kind, model in classifiers.items():
-                batched, single = time_per_row(model.predict, timed)
-                speed.append(
-                    {
-                        "model": f"classifier ({kind})",
-                        "us_batched": batched,
-                        "us_single": single,
-                        "fit_s": classifier_seconds[kind],
-                    }
-                )
-            batched, single = time_per_row(exact, timed)
-            speed.append({"model": "exact", "us_batched": batched, "us_single": single})
-        for row in speed:
-            if row["model"] in pooled.index:
-                for stat in ("median", "p95", "max"):
-                    row[f"{headline}_{stat}"] = float(pooled.loc[row["model"], stat])
-            row.setdefault("fit_s", fit_seconds.get(row["model"], 0.0))
+        progress.begin("timing on one thread")
+        speed = _speed(
+            regressors,
+            classifiers,
+            classifier_seconds,
+            fit_seconds,
+            exact,
+            split.test_ok,
+            pooled,
+            headline,
+        )
+        progress.step("timed on one thread")
 
     report = {
         "outputs": outputs,
@@ -474,10 +467,10 @@ def _fit_surrogates(
             "test_fraction": test_fraction,
             "seed": seed,
             "max_train_designs": max_train_designs,
-            "train_designs": n_designs["train"],
-            "test_designs": n_designs["test"],
-            "train_rows_ok": len(train_ok),
-            "test_rows_ok": len(test_ok),
+            "train_designs": split.n_designs["train"],
+            "test_designs": split.n_designs["test"],
+            "train_rows_ok": len(split.train_ok),
+            "test_rows_ok": len(split.test_ok),
         },
         "per_n": per_n,
         "kinds": kinds,
@@ -490,7 +483,7 @@ def _fit_surrogates(
         "classifiers": [classifier_records[k] for k in classifier_kinds],
         "fit_seconds": {
             **fit_seconds,
-            "classifier": classifier_s,
+            "classifier": classifier_seconds[best_classifier],
             **{f"classifier ({k})": v for k, v in classifier_seconds.items()},
         },
         "fit_notes": {
@@ -503,8 +496,8 @@ def _fit_surrogates(
     by_n = errors[
         (errors["model"] == best) & (errors["output"] == headline) & (errors["n_units"] != "all")
     ]
-    report["goals"] = _goals(report, pooled.loc[best], by_n, headline)
-    report["verdict"] = _verdict(report)
+    report["goals"] = goals_of(report, pooled.loc[best], by_n, headline)
+    report["verdict"] = verdict(report)
     return SurrogateSet(
         tuple(outputs),
         dict(data.units),
@@ -515,91 +508,3 @@ def _fit_surrogates(
         dict(data.fingerprint),
         classifiers,
     )
-
-
-def _goals(
-    report: Mapping[str, Any], best: pd.Series, by_n: pd.DataFrame, headline: str
-) -> dict[str, Any]:
-    """The issue's goals on all held-out designs, and on the worst N (``n_units`` says which)."""
-    goals: dict[str, Any] = {}
-    if headline == TIP:
-        for stat in ("median", "p95"):
-            goal = GOALS[f"tip_{stat}_mm"]
-            goals[f"tip_{stat}_mm"] = {
-                "goal": goal,
-                "value": float(best[stat]),
-                "met": bool(best[stat] <= goal),
-            }
-            if len(by_n):
-                worst = by_n.loc[by_n[stat].astype(float).idxmax()]
-                goals[f"tip_{stat}_mm_worst_n"] = {
-                    "goal": goal,
-                    "value": float(worst[stat]),
-                    "n_units": int(worst["n_units"]),
-                    "met": bool(worst[stat] <= goal),
-                }
-    accuracy = report["classifier"]["accuracy"]
-    goals["classifier_accuracy"] = {
-        "goal": GOALS["classifier_accuracy"],
-        "value": accuracy,
-        "met": bool(accuracy >= GOALS["classifier_accuracy"]),
-    }
-    per_n = report["classifier"]["accuracy_per_n"]
-    if per_n:
-        n, value = min(per_n.items(), key=lambda item: item[1])
-        goals["classifier_accuracy_worst_n"] = {
-            "goal": GOALS["classifier_accuracy"],
-            "value": value,
-            "n_units": int(n),
-            "met": bool(value >= GOALS["classifier_accuracy"]),
-        }
-    train = report["split"]["train_designs"]
-    goals["train_designs"] = {
-        "goal": GOALS["max_train_designs"],
-        "value": train,
-        "met": bool(train <= GOALS["max_train_designs"]),
-    }
-    return goals
-
-
-def _verdict(report: Mapping[str, Any]) -> str:
-    """Plain sentences: is any surrogate faster than the exact model, and at what error."""
-    speed = {row["model"]: row for row in report["speed"]}
-    if "exact" not in speed:
-        return "Speed not measured."
-    exact = speed["exact"]
-    headline = report["headline"]
-    unit = "mm" if headline == TIP else report["units"].get(headline, "")
-    lines = [
-        f"The exact model takes {exact['us_batched']:.1f} µs per design batched and "
-        f"{exact['us_single']:.0f} µs for a single design on one core, with no error."
-    ]
-    for kind in report["kinds"]:
-        row = speed[kind]
-        batched = exact["us_batched"] / row["us_batched"]
-        single = exact["us_single"] / row["us_single"]
-        relation = (
-            f"{batched:.1f}x faster than the exact model batched"
-            if batched > 1
-            else f"{1 / batched:.1f}x slower than the exact model batched"
-        )
-        relation += (
-            f", {single:.1f}x faster single" if single > 1 else f", {1 / single:.1f}x slower single"
-        )
-        lines.append(
-            f"{kind}: {relation}, at a held-out {headline} error of "
-            f"{row[f'{headline}_median']:.3g} {unit} median, "
-            f"{row[f'{headline}_p95']:.3g} {unit} p95."
-        )
-    faster = [k for k in report["kinds"] if speed[k]["us_batched"] < exact["us_batched"]]
-    if not faster:
-        lines.append(
-            "No surrogate is faster than the exact model: call the exact model "
-            "(solve_batch) instead; the surrogates only add error."
-        )
-    else:
-        lines.append(
-            f"Faster than the exact model batched: {', '.join(faster)}; each at the "
-            "error above, where the exact model has none."
-        )
-    return " ".join(lines)

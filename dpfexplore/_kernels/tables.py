@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from ..model import status as st
 from ..model.constants import (
     ALPHA_BISTABLE,
     NO_CONTACT_REACH,
@@ -32,8 +33,8 @@ from ..model.constants import (
     k_t_form,
     segment_height_form,
 )
-from ..model.constants_set import set_constant_partials, set_constants_form
-from ..model.design import status_code
+from ..model.constants_set import power_tables, set_constant_partials, set_constants_form
+from ..model.design import constants_status, geometry_status
 from ..model.domain import MAX_UNITS
 from ._jit import kernel
 from .layout import (
@@ -67,9 +68,9 @@ N_DPARAM = 5
 
 
 @kernel
-def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, row):
+def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, powers, row):
     """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact)."""
-    k_b, alpha, tip = set_constants_form(forms, E, H, t, r_b)
+    k_b, alpha, tip = set_constants_form(forms, E, H, t, r_b, powers)
     # the reach of MODEL.md §3, in ConstantsSet.reach's order of operations
     raw = tip - H - U_sep - t_ch / 2.0 - t / 2.0
     no_contact = raw <= 0.0
@@ -102,14 +103,14 @@ def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, row):
 
 
 @kernel
-def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, contact, dtab):
+def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, powers, contact, dtab):
     """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule).
 
     ``k_b``, ``alpha`` and the reach through the constants set's own derivatives; ``contact``
     is 0 where the reach is clamped (a constant there, so its derivatives vanish).
     """
     dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt = set_constant_partials(
-        forms, E, H, t, r_b
+        forms, E, H, t, r_b, powers
     )
     dd_dH = (dtip_dH - 1.0) * contact
     dd_dt = (dtip_dt - 0.5) * contact
@@ -185,9 +186,12 @@ def design_tables(
         columns ``DP_*``), or is skipped when empty.
     """
     want_derivatives = dtab.shape[0] > 0
+    powers = power_tables()
     for i in range(n_units.shape[0]):
-        status[i] = status_code(
-            n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], forms
+        # the status of design.status_code: geometry first, then the constants, checked on the
+        # rows computed below (each closed form evaluated once)
+        status[i] = geometry_status(
+            n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i]
         )
         h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
         active = min(max(n_units[i], 0), MAX_UNITS)
@@ -202,9 +206,22 @@ def design_tables(
             U_Lk = U_L[i, k]
             U_sepk = U_sep[i, k]
             clamped = _unit_row(
-                Hk, U_Lk, U_sepk, t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i], forms, table[i, k]
+                Hk,
+                U_Lk,
+                U_sepk,
+                t[i],
+                t_lim[i],
+                E[i],
+                nu[i],
+                r_b[i],
+                t_ch[i],
+                forms,
+                powers,
+                table[i, k],
             )
             no_contact[i, k] = clamped
+            if status[i] == st.OK:
+                status[i] = constants_status(table[i, k, COL_KB], table[i, k, COL_ALPHA])
             if want_derivatives:
                 _derivative_rows(
                     Hk,
@@ -217,6 +234,7 @@ def design_tables(
                     r_b[i],
                     t_ch[i],
                     forms,
+                    powers,
                     0.0 if clamped else 1.0,
                     dtab[i, k],
                 )

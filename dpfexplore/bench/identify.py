@@ -8,6 +8,12 @@ held-out geometries, OLS refit); the baseline, the paper's per-curve route: SciP
 of the energy law from a generic start. Errors: per-curve ``k_b`` and ``alpha`` against the truth
 (median, max, failures), and the identified closed forms against the truth on geometries between
 the grid points (median, max). The goal: 1,000 curves fitted and selected in at most 10 s.
+
+Second part, the cost of running on a constants set: ``k_b``, ``alpha`` and the reach of a
+million domes evaluated by the general path of every kernel table (the paper's set read as
+data, :func:`~dpfexplore.model.constants_set.set_constants_form`) against the paper's forms
+compiled as plain arithmetic, side by side (medians of interleaved runs, compile apart), with
+their largest difference; and the whole table build of a batch for scale.
 """
 
 from __future__ import annotations
@@ -46,6 +52,12 @@ def register(subparsers) -> None:
         "--baseline-curves", type=count(1), default=200, help="curves fitted by the baseline"
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the noise")
+    parser.add_argument(
+        "--domes", type=count(1), default=1_000_000, help="domes of the table-build comparison"
+    )
+    parser.add_argument(
+        "--repeats", type=count(1), default=7, help="interleaved runs of the table comparison"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -94,6 +106,78 @@ def _baseline(curves) -> tuple[float, np.ndarray, np.ndarray]:
         except RuntimeError:  # no convergence within maxfev: a failure of the baseline
             pass
     return time.perf_counter() - start, k_b, alpha
+
+
+def _table_build(n: int, repeats: int, seed: int) -> dict:
+    """The constants of ``n`` domes: a set's general path against the compiled paper forms."""
+    from .._kernels.closed_form_loops import paper_forms, set_forms
+    from ..model.constants_set import DEFAULT
+    from ..model.design import DesignBatch
+    from ..model.domain import MAX_UNITS
+    from ..solvers.lattice import kernel_tables
+
+    rng = np.random.default_rng(seed)
+    H, t = rng.uniform(3.0, 5.0, n), rng.uniform(0.5, 1.0, n)
+    r_b, E = np.full(n, 5.0), rng.uniform(5.0, 40.0, n)
+    U_sep, t_ch = rng.uniform(1.0, 5.0, n), np.full(n, 1.0)
+    forms = DEFAULT.kernel_forms()
+    ours, paper = np.empty((n, 3)), np.empty((n, 3))
+    start = time.perf_counter()
+    set_forms(forms, H[:2], t[:2], r_b[:2], E[:2], U_sep[:2], t_ch[:2], ours[:2])
+    compile_set = time.perf_counter() - start
+    start = time.perf_counter()
+    paper_forms(H[:2], t[:2], r_b[:2], E[:2], U_sep[:2], t_ch[:2], paper[:2])
+    compile_paper = time.perf_counter() - start
+    times: dict[str, list[float]] = {"set": [], "paper": []}
+    for _ in range(repeats):
+        start = time.perf_counter()
+        set_forms(forms, H, t, r_b, E, U_sep, t_ch, ours)
+        times["set"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        paper_forms(H, t, r_b, E, U_sep, t_ch, paper)
+        times["paper"].append(time.perf_counter() - start)
+    rel = np.abs(ours[:, :2] - paper[:, :2]) / np.abs(paper[:, :2])
+    # a whole table build for scale: designs of 6 units under the paper's set
+    m = max(1, n // 6)
+    per_unit = np.full((3, m, MAX_UNITS), np.nan)
+    per_unit[0, :, :6] = H[: 6 * m].reshape(m, 6)
+    per_unit[1, :, :6] = 8.0
+    per_unit[2, :, :6] = U_sep[: 6 * m].reshape(m, 6)
+    batch = DesignBatch(
+        n_units=np.full(m, 6),
+        H=per_unit[0],
+        U_L=per_unit[1],
+        U_sep=per_unit[2],
+        t=t[:m],
+        t_lim=1.5,
+        E=E[:m],
+        nu=0.35,
+        r_b=5.0,
+        t_ch=1.0,
+    )
+    kernel_tables(batch.take(np.arange(2)))
+    table_s = []
+    for _ in range(max(1, repeats // 2)):
+        start = time.perf_counter()
+        kernel_tables(batch)
+        table_s.append(time.perf_counter() - start)
+    set_s, paper_s = float(np.median(times["set"])), float(np.median(times["paper"]))
+    return {
+        "domes": n,
+        "repeats": repeats,
+        "set_median_s": set_s,
+        "paper_median_s": paper_s,
+        "ratio_set_over_paper": set_s / paper_s,
+        "set_ns_per_dome": 1e9 * set_s / n,
+        "paper_ns_per_dome": 1e9 * paper_s / n,
+        "compile_set_s": compile_set,
+        "compile_paper_s": compile_paper,
+        "max_rel_difference_k_b": float(rel[:, 0].max()),
+        "max_rel_difference_alpha": float(rel[:, 1].max()),
+        "max_abs_difference_reach_mm": float(np.abs(ours[:, 2] - paper[:, 2]).max()),
+        "table_build_designs": m,
+        "table_build_median_s": float(np.median(table_s)),
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -165,6 +249,7 @@ def run(args: argparse.Namespace) -> int:
         "closed_form_alpha_error": _errors(alpha_form, truth["alpha"]),
         "terms": {name: len(s.form.exponents) for name, s in forms.items()},
         "heldout_winner": {name: s.heldout.get("winner") for name, s in forms.items()},
+        "constants_tables": _table_build(args.domes, args.repeats, args.seed),
     }
     m = record["machine"]
 
@@ -187,8 +272,23 @@ def run(args: argparse.Namespace) -> int:
             f"{pct(record['baseline_alpha_error'])}",
             f"closed forms between grid points: k_b {pct(record['closed_form_k_b_error'])}; "
             f"alpha {pct(record['closed_form_alpha_error'])}",
+            _tables_text(record["constants_tables"]),
         ]
     )
     save = REPORTS / "bench-identify.json" if args.save else None
     emit(record, as_json=args.json, text=text, save=save)
     return 0
+
+
+def _tables_text(t: dict) -> str:
+    return (
+        f"constants of {t['domes']:,} domes (median of {t['repeats']}): set as data "
+        f"{1e3 * t['set_median_s']:.1f} ms ({t['set_ns_per_dome']:.0f} ns/dome), paper forms "
+        f"compiled {1e3 * t['paper_median_s']:.1f} ms ({t['paper_ns_per_dome']:.0f} ns/dome): "
+        f"ratio {t['ratio_set_over_paper']:.2f}; compile {t['compile_set_s']:.2f} s / "
+        f"{t['compile_paper_s']:.2f} s; largest difference k_b "
+        f"{t['max_rel_difference_k_b']:.1e}, alpha {t['max_rel_difference_alpha']:.1e} "
+        f"(relative), reach {t['max_abs_difference_reach_mm']:.1e} mm\n"
+        f"whole kernel-table build, {t['table_build_designs']:,} designs of 6 units: "
+        f"{1e3 * t['table_build_median_s']:.1f} ms"
+    )

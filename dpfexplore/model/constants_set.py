@@ -59,6 +59,7 @@ __all__ = [
     "ConstantsSet",
     "ConstantsSetError",
     "load_constants_set",
+    "power_tables",
     "set_constant_partials",
     "set_constants_form",
 ]
@@ -67,6 +68,9 @@ __all__ = [
 CONSTANTS_FORMAT = "dpfexplore-constants/1"
 #: Points per axis of the grid on which :meth:`ConstantsSet.check` evaluates a set's domain.
 CHECK_GRID = 41
+#: Largest power of ``π1`` or ``π3`` a closed form may hold (either sign): identification's
+#: libraries go to degree 5.
+MAX_POWER = 6
 #: Rows of :meth:`ConstantsSet.kernel_forms`: the three closed forms.
 FORM_K_HAT = 0
 FORM_ALPHA = 1
@@ -109,6 +113,11 @@ class ClosedForm:
             )
         if len(set(self.exponents)) != len(self.exponents):
             raise ConstantsSetError(f"repeated exponent pairs in {self.exponents}")
+        for p, q in self.exponents:
+            if max(abs(p), abs(q)) > MAX_POWER:
+                raise ConstantsSetError(
+                    f"powers ({p}, {q}): each must lie in -{MAX_POWER}..{MAX_POWER}"
+                )
         for c in self.coefficients:
             if not np.isfinite(c):
                 raise ConstantsSetError(f"coefficient {c!r} is not a finite number")
@@ -190,19 +199,44 @@ def _term(c, p, q, pi1, pi3):
 
 
 @register_jitable
-def _form_value(forms, f, pi1, pi3):
-    """Closed form ``f`` of a :meth:`ConstantsSet.kernel_forms` array at ``(π1, π3)``."""
+def _power_table(x, out):
+    """``out[k] = x**k`` for ``k = 0..MAX_POWER``, by the multiplications of :func:`_ipow`."""
+    power = 1.0
+    out[0] = power
+    for k in range(1, MAX_POWER + 1):
+        power = power * x
+        out[k] = power
+
+
+@register_jitable
+def _tabled(table, n):
+    """``x**n`` from a :func:`_power_table` (negative ``n``: ``1/x**|n|``, as :func:`_ipow`)."""
+    if n < 0:
+        return 1.0 / table[-n]
+    return table[n]
+
+
+@register_jitable
+def _form_value(forms, f, P1, P3):
+    """Closed form ``f`` of a :meth:`ConstantsSet.kernel_forms` array from power tables.
+
+    ``P1``, ``P3``: :func:`_power_table` of ``π1`` and ``π3``. Each term is
+    ``c · π1^p · π3^q`` with the powers of :func:`_ipow`, so the sum equals the NumPy
+    :meth:`ClosedForm.__call__` bit for bit; the tables only spare recomputing them per term.
+    """
     total = 0.0
     for j in range(forms.shape[1]):
         c = forms[f, j, 2]
         if c != 0.0:  # padding rows (and zero terms) add nothing
-            total = total + _term(c, int(forms[f, j, 0]), int(forms[f, j, 1]), pi1, pi3)
+            p = int(forms[f, j, 0])
+            q = int(forms[f, j, 1])
+            total = total + c * _tabled(P1, p) * _tabled(P3, q)
     return total
 
 
 @register_jitable
-def _form_partials(forms, f, pi1, pi3):
-    """Closed form ``f`` and its partials ``∂/∂π1``, ``∂/∂π3`` at ``(π1, π3)``."""
+def _form_partials(forms, f, P1, P3):
+    """Closed form ``f`` and its partials ``∂/∂π1``, ``∂/∂π3`` from power tables."""
     value = 0.0
     d1 = 0.0
     d3 = 0.0
@@ -212,37 +246,52 @@ def _form_partials(forms, f, pi1, pi3):
             continue
         p = int(forms[f, j, 0])
         q = int(forms[f, j, 1])
-        value = value + _term(c, p, q, pi1, pi3)
+        value = value + c * _tabled(P1, p) * _tabled(P3, q)
         if p != 0:
-            d1 = d1 + _term(c * p, p - 1, q, pi1, pi3)
+            d1 = d1 + c * p * _tabled(P1, p - 1) * _tabled(P3, q)
         if q != 0:
-            d3 = d3 + _term(c * q, p, q - 1, pi1, pi3)
+            d3 = d3 + c * q * _tabled(P1, p) * _tabled(P3, q - 1)
     return value, d1, d3
 
 
 @register_jitable
-def set_constants_form(forms, E, H, t, r_b):
+def power_tables():
+    """Scratch of :func:`set_constants_form`: the powers of ``π1`` and ``π3``.
+
+    Allocated once per batch by the kernels (an allocation per dome would cost more than the
+    closed forms themselves).
+    """
+    return np.empty((2, MAX_POWER + 1))
+
+
+@register_jitable
+def set_constants_form(forms, E, H, t, r_b, powers):
     """``(k_b, alpha, tip_dis)`` of one dome under a set (N/mm, --, mm).
 
     The arithmetic of :meth:`ConstantsSet.evaluate` on scalars, for the kernels that build the
-    lattice tables; ``forms`` is :meth:`ConstantsSet.kernel_forms`.
+    lattice tables; ``forms`` is :meth:`ConstantsSet.kernel_forms`, ``powers`` a
+    :func:`power_tables` scratch.
     """
     R = (H * H + r_b * r_b) / (2.0 * H)
     pi1 = t / H
     pi3 = H / R
-    k_b = E * (t * t) / R * _form_value(forms, FORM_K_HAT, pi1, pi3)
-    alpha = _form_value(forms, FORM_ALPHA, pi1, pi3)
-    tip = H * _form_value(forms, FORM_TIP_RATIO, pi1, pi3)
+    P1 = powers[0]
+    P3 = powers[1]
+    _power_table(pi1, P1)
+    _power_table(pi3, P3)
+    k_b = E * (t * t) / R * _form_value(forms, FORM_K_HAT, P1, P3)
+    alpha = _form_value(forms, FORM_ALPHA, P1, P3)
+    tip = H * _form_value(forms, FORM_TIP_RATIO, P1, P3)
     return k_b, alpha, tip
 
 
 @register_jitable
-def set_constant_partials(forms, E, H, t, r_b):
+def set_constant_partials(forms, E, H, t, r_b, powers):
     """Derivatives of ``k_b``, ``alpha`` and ``tip_dis`` in ``H`` and ``t`` under a set.
 
     Returns ``(dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt)`` (units of the constant
     per mm): the chain rule through ``π1 = t/H``, ``π3 = H/R`` and ``R = (H² + r_b²)/(2H)``
-    (MODEL.md §2-§3), exact for any set.
+    (MODEL.md §2-§3), exact for any set. ``powers``: a :func:`power_tables` scratch.
     """
     R = (H * H + r_b * r_b) / (2.0 * H)
     dR_dH = 0.5 - r_b * r_b / (2.0 * H * H)
@@ -251,9 +300,13 @@ def set_constant_partials(forms, E, H, t, r_b):
     dpi1_dH = -t / (H * H)
     dpi1_dt = 1.0 / H
     dpi3_dH = (R - H * dR_dH) / (R * R)
-    k, k1, k3 = _form_partials(forms, FORM_K_HAT, pi1, pi3)
-    _, a1, a3 = _form_partials(forms, FORM_ALPHA, pi1, pi3)
-    g, g1, g3 = _form_partials(forms, FORM_TIP_RATIO, pi1, pi3)
+    P1 = powers[0]
+    P3 = powers[1]
+    _power_table(pi1, P1)
+    _power_table(pi3, P3)
+    k, k1, k3 = _form_partials(forms, FORM_K_HAT, P1, P3)
+    _, a1, a3 = _form_partials(forms, FORM_ALPHA, P1, P3)
+    g, g1, g3 = _form_partials(forms, FORM_TIP_RATIO, P1, P3)
     scale = E * (t * t) / R
     dkb_dH = scale * (k1 * dpi1_dH + k3 * dpi3_dH) - scale * k * dR_dH / R
     dkb_dt = 2.0 * E * t / R * k + scale * k1 * dpi1_dt

@@ -32,6 +32,7 @@ from .constants_set import (
     DOMAIN_KEYS,
     ConstantsSet,
     load_constants_set,
+    power_tables,
     set_constants_form,
 )
 from .domain import MAX_UNITS, active_units, fitted_range, outside_domain, unit_in_domain
@@ -158,15 +159,12 @@ def _positive(v):
 
 
 @register_jitable
-def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms):
-    """Status code of one design under the rules of :func:`_problems` (without the message).
+def geometry_status(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
+    """Status code of one design's inputs and geometry (all of :func:`status_code` but constants).
 
-    Plain scalar code (``register_jitable``): the Numba kernel that packs batches
-    (:mod:`dpfexplore._kernels.tables`) compiles it, and :class:`Design` runs it as Python,
-    at a few microseconds per unit where the vectorised :func:`_problems` costs hundreds for
-    any batch size; the tests hold the two to the same codes. ``H``, ``U_L``, ``U_sep`` are
-    sequences of at least ``n_units`` values; ``forms`` is the constants set's
-    :meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`.
+    ``OK``, ``INVALID_INPUT`` or ``OUTSIDE_DOMAIN``. The kernel that packs batches
+    (:mod:`dpfexplore._kernels.tables`) runs this and checks the
+    constants on the table rows it computes anyway, evaluating each closed form once.
     """
     if not 1 <= n_units <= MAX_UNITS:
         return st.INVALID_INPUT
@@ -182,10 +180,36 @@ def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms):
     for k in range(n_units):
         if not unit_in_domain(H[k], U_L[k], r_b):
             return st.OUTSIDE_DOMAIN
+    return st.OK
+
+
+@register_jitable
+def constants_status(k_b, alpha):
+    """``OK`` where a unit's ``k_b`` and ``alpha`` make sense, else ``INVALID_CONSTANTS``."""
+    if math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0:
+        return st.OK
+    return st.INVALID_CONSTANTS
+
+
+def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms):
+    """Status code of one design under the rules of :func:`_problems` (without the message).
+
+    Scalar code shared with the kernel that packs batches (:func:`geometry_status` and
+    :func:`constants_status`, compiled there): :class:`Design` runs it at a few microseconds
+    per unit where the vectorised :func:`_problems` costs hundreds for any batch size; the
+    tests hold the two to the same codes. ``H``, ``U_L``, ``U_sep`` are sequences of at least
+    ``n_units`` values; ``forms`` is the constants set's
+    :meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`.
+    """
+    code = geometry_status(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch)
+    if code != st.OK:
+        return code
+    powers = power_tables()
     for k in range(n_units):
-        k_b, alpha, _ = set_constants_form(forms, E, H[k], t, r_b)
-        if not (math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0):
-            return st.INVALID_CONSTANTS
+        k_b, alpha, _ = set_constants_form(forms, E, H[k], t, r_b, powers)
+        code = constants_status(k_b, alpha)
+        if code != st.OK:
+            return code
     return st.OK
 
 

@@ -167,7 +167,13 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
             "scene needs one number of units"
         )
     n = fields["n_units"][0]
-    variables = DesignVariables(n_units=n, E=fields["E"], nu=fields["nu"], **fields["variables"])
+    variables = DesignVariables(
+        n_units=n,
+        E=fields["E"],
+        nu=fields["nu"],
+        constants=fields["constants"],
+        **fields["variables"],
+    )
     names = variables.names
     if len(names) != 2 or not names[0].startswith("H_") or names[1] != "t":
         raise SceneSpecError(

@@ -184,6 +184,7 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
             nu=design.nu,
             r_b=design.r_b,
             t_ch=design.t_ch,
+            constants=design.constants,
         )
     except ValueError as exc:
         raise SceneSpecError(f"{where}: {exc}") from None
@@ -202,17 +203,13 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
     )
     leg, source = _leg(w.get("leg", "walker-leg"), "walker.leg")
     mono, mono_source = _leg(w.get("monostable_leg", "walker-leg"), "walker.monostable_leg")
-    # The scene's material: every section of both legs.
-    sections = tuple(
-        replace(s, design=s.design.replace(E=fields["E"], nu=fields["nu"])) for s in leg.sections
+    # The scene's material and constants set: every section of both legs.
+    scene = {"E": fields["E"], "nu": fields["nu"], "constants": fields["constants"]}
+    leg = replace(
+        leg, sections=tuple(replace(s, design=s.design.replace(**scene)) for s in leg.sections)
     )
-    leg = replace(leg, sections=sections)
     mono = replace(
-        mono,
-        sections=tuple(
-            replace(s, design=s.design.replace(E=fields["E"], nu=fields["nu"]))
-            for s in mono.sections
-        ),
+        mono, sections=tuple(replace(s, design=s.design.replace(**scene)) for s in mono.sections)
     )
     legs = w.get("legs", list(LEG_KINDS))
     if (

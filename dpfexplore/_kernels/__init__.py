@@ -14,7 +14,7 @@ newton
     Globalised Newton minimisation with a caller-set tolerance and iteration cap.
 tables
     Status codes, per-unit tables and their derivative tables of a batch of designs, in one
-    compiled pass over the closed forms of ``model.constants``.
+    compiled pass over a constants set (``model.constants_set``) and the beam constants.
 states
     Geometric guess, stable-state search and per-state outputs (MODEL.md §6-§7).
 batch
@@ -40,4 +40,11 @@ bordered_lu, continuation, landing, snap, snap_steps, snap_records
     continuation, folds, crossings), landings after a snap by the equations of motion, and
     the snap pressures of one design or many (``prange``): the walk, its step's stages, and
     its output layout and records.
+shell, shell_linalg, shell_path
+    The unit-cell shell model of one dome (:mod:`dpfexplore.unitcell`): energy, gradient and
+    exact Hessian of the discretised meridian, banded LU with an inertia count, and the
+    continuation of its equilibrium path under apex displacement control.
+closed_form_loops
+    The closed forms of many domes, by a constants set and by the paper's compiled forms
+    (``bench identify``).
 """

@@ -9,7 +9,6 @@ neglects: ``docs/guide/unitcell.md``). :class:`UnitCellRun` holds the path;
 
 from __future__ import annotations
 
-import logging
 import math
 import time
 from dataclasses import dataclass, field
@@ -19,8 +18,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from .._kernels import shell_path
-from .._kernels._jit import is_cached
 from .._kernels.shell import assemble, nodes
+from ..solvers.compilation import announce
 from .geometry import check_inputs, reference_unknowns, shell
 from .path import ZeroForceState, branch_ids, find_zero_force_states, work_along_path
 
@@ -52,7 +51,6 @@ _MESSAGES = {
     ),
 }
 
-logger = logging.getLogger("dpfexplore.compile")
 _ANNOUNCED: list[bool] = []
 
 
@@ -65,11 +63,7 @@ def _announce() -> None:
     if _ANNOUNCED:
         return
     _ANNOUNCED.append(True)
-    if is_cached(shell_path.follow) is False:
-        logger.warning(
-            "compiling the unit-cell shell kernels for this machine (first run only: about "
-            "25 s of CPU; later runs load them from the Numba cache) ..."
-        )
+    announce(["unit-cell shell"])
     geom = shell(1.0, 0.1, 2.0, 1.0, 0.3, 4)
     y = reference_unknowns(geom)
     _trace(geom, 0.2, 0.1, 3, 1e-9, 1e-12, y, 1.0, False)

@@ -70,6 +70,18 @@ def register(subparsers) -> None:
     sweep.add_argument("job", type=Path, help="job file (TOML: [grid] or [lhs], [options])")
     sweep.add_argument("--out", type=Path, required=True, help="sweep directory (resumable)")
     sweep.add_argument("--workers", type=int, default=1, help="worker processes")
+    sweep.add_argument(
+        "--engine",
+        choices=("local", "dask"),
+        default="local",
+        help="local: worker processes here (default); dask: a Dask cluster",
+    )
+    sweep.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="dask: address of a running scheduler, e.g. tcp://host:8786 (default: a "
+        "LocalCluster of --workers processes)",
+    )
     sweep.add_argument("--json", action="store_true", help="print the manifest as JSON")
     sweep.set_defaults(handler=_sweep)
 
@@ -82,7 +94,12 @@ def _sweep(args: argparse.Namespace) -> int:
     try:
         job = read_job(args.job)
         manifest = run_unitcell_sweep(
-            job, args.out, workers=args.workers, progress=None if args.json else _progress
+            job,
+            args.out,
+            workers=args.workers,
+            progress=None if args.json else _progress,
+            engine=args.engine,
+            scheduler=args.scheduler,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from None

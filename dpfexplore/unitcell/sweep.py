@@ -19,8 +19,11 @@ A job (TOML) names the geometries, as a grid or a Latin hypercube, and the run's
     max_steps = 3000
 
 :func:`run_unitcell_sweep` traces every geometry with :func:`~.shell.unit_cell_curve` on
-``workers`` processes (the kernels compiled in the parent first: several processes writing
-Numba's cache at once is a known source of crashes). Each chunk is written as two Parquet files
+``workers`` local processes, or on a Dask cluster (``engine="dask"``: a ``LocalCluster`` of
+``workers`` processes, or the running scheduler at ``scheduler``; the workers send their chunks
+back and this process writes them, so remote workers need no shared disk). The kernels are
+compiled in this process first: several processes writing Numba's cache at once is a known
+source of crashes. Each chunk is written as two Parquet files
 under ``DIR/chunks/`` by a write-then-rename, so an interrupted sweep resumes where it stopped
 (chunks present are skipped; the job's fingerprint in ``DIR/job.json`` must match). At the end
 ``DIR/curves.parquet`` (the table ``identify fit`` reads, every point of every path with its
@@ -203,16 +206,56 @@ def _warm() -> None:
     _announce()
 
 
+def _dask_results(chunks, pending, options, workers, scheduler):
+    """``(chunk index, result)`` of the pending chunks as Dask workers finish them."""
+    import logging
+
+    from distributed import Client, LocalCluster
+    from distributed import as_completed as completed
+
+    cluster = None
+    if scheduler is None:
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+    client = Client(scheduler if scheduler is not None else cluster)
+    try:
+        client.run(_warm)  # each worker loads the kernels this process compiled
+        futures = {client.submit(_trace_chunk, chunks[k], options, pure=False): k for k in pending}
+        for future in completed(futures):
+            yield futures[future], future.result()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def run_unitcell_sweep(
-    job: UnitCellJob, out: str | Path, *, workers: int = 1, progress=None
+    job: UnitCellJob,
+    out: str | Path,
+    *,
+    workers: int = 1,
+    progress=None,
+    engine: str = "local",
+    scheduler: str | None = None,
 ) -> dict[str, Any]:
     """Trace every geometry of ``job`` into ``out`` (module docstring); resumes a partial run.
 
-    Returns the manifest: counts of designs per status, chunk count, paths.
+    ``engine``: ``"local"`` (``workers`` processes; one: this process) or ``"dask"`` (a
+    ``LocalCluster`` of ``workers`` processes, or the scheduler at ``scheduler``, e.g.
+    ``tcp://host:8786``). Returns the manifest: counts of designs per status, chunk count, paths.
     """
     out = Path(out)
     if not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers={workers!r}: must be a positive integer")
+    if engine not in ("local", "dask"):
+        raise ValueError(f"engine={engine!r}: choose 'local' or 'dask'")
+    if scheduler is not None and engine != "dask":
+        raise ValueError("scheduler: only with engine='dask'")
     chunks_dir = out / "chunks"
     chunks_dir.mkdir(parents=True, exist_ok=True)
     marker = out / "job.json"
@@ -240,7 +283,10 @@ def run_unitcell_sweep(
         if progress is not None:
             progress(done, len(chunks))
 
-    if workers == 1:
+    if engine == "dask" and pending:
+        for k, result in _dask_results(chunks, pending, job.options, workers, scheduler):
+            commit(k, *result)
+    elif workers == 1:
         for k in pending:
             commit(k, *_trace_chunk(chunks[k], job.options))
     elif pending:

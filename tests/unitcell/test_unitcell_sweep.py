@@ -75,3 +75,18 @@ def test_cli_sweep_on_two_workers(tmp_path, capsys):
     assert len(read_curves(tmp_path / "sw" / "curves.parquet")) == 2
     assert read_job(job).options["n_elements"] == 32
     assert main(["unitcell", "sweep", str(tmp_path / "none.toml"), "--out", str(tmp_path)]) == 2
+
+
+def test_a_dask_cluster_traces_the_same_curves_as_this_process(tmp_path):
+    """A real LocalCluster of two worker processes: the chunks come back whole and equal."""
+    job = job_from_dict(
+        {"grid": {"H": [3.0, 4.0], "t": [0.8]}, "options": {"n_elements": 32, "chunk": 1}}
+    )
+    here = run_unitcell_sweep(job, tmp_path / "here")
+    there = run_unitcell_sweep(job, tmp_path / "there", workers=2, engine="dask")
+    assert here["status"] == there["status"] == {"reached": 2}
+    a = pd.read_parquet(tmp_path / "here" / "curves.parquet")
+    b = pd.read_parquet(tmp_path / "there" / "curves.parquet")
+    pd.testing.assert_frame_equal(a, b)
+    with pytest.raises(ValueError, match="engine"):
+        run_unitcell_sweep(job, tmp_path / "x", engine="ray")

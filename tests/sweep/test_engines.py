@@ -9,9 +9,11 @@ import threading
 import time
 
 import numba
+import numpy as np
 import pandas as pd
 import pytest
 from distributed import Client, LocalCluster
+from model_helpers import other_set
 from sweep_helpers import CrashingEvaluator, UnitConstantsEvaluator, make_job
 
 from dpfexplore.sweep import store
@@ -201,3 +203,19 @@ def test_a_chunk_that_kills_every_worker_fails_alone(tmp_path):
     run_sweep(spec, reference, evaluator=UnitConstantsEvaluator(), chunk_size=60)
     by = ["design_id", "unit"]
     pd.testing.assert_frame_equal(read_sorted(tmp_path / "out", by), read_sorted(reference, by))
+
+
+def test_dask_workers_run_on_the_jobs_constants_set(tmp_path, cluster):
+    """The job's constants set travels to the workers with the job (issue 20)."""
+    path = other_set().save(tmp_path / "other.json")
+    spec = make_job(**{"job.samples_per_n": 40, "job.constants": str(path)})
+    assert spec.constants == other_set()
+    local, remote, paper = tmp_path / "local", tmp_path / "remote", tmp_path / "paper"
+    run_sweep(spec, local, engine=LocalEngine(), chunk_size=40)
+    run_sweep(spec, remote, engine=DaskEngine(scheduler=cluster.scheduler_address), chunk_size=7)
+    by = ["design_id", "requested"]
+    pd.testing.assert_frame_equal(read_sorted(local, by), read_sorted(remote, by))
+    run_sweep(make_job(**{"job.samples_per_n": 40}), paper, engine=LocalEngine(), chunk_size=40)
+    # the same designs, other constants: other tips
+    a, b = read_sorted(local, by), read_sorted(paper, by)
+    assert (a["H_1"] == b["H_1"]).all() and not np.allclose(a["tip_x"], b["tip_x"])

@@ -1,8 +1,8 @@
 """``dpfexplore bench design``: our inverse-design optimiser against black-box optimisers.
 
-All on the same exact evaluator (:class:`dpfexplore.inverse.evaluation.Evaluator`, counting every
-design solved, in the same box of design variables, so the constraints are exact for every
-method):
+All on the same exact evaluator (:class:`dpfexplore.inverse.evaluation.SceneEvaluator`,
+counting every design solved, in the same box of design variables, so the constraints are exact
+for every method):
 
 * ours: :func:`dpfexplore.inverse.engine.optimiser.solve_position_target` (Latin hypercube for
   every N, gradient refinement with the model's sensitivities) and
@@ -217,10 +217,10 @@ def _summary(evaluator, paper: float, ours_evals: float, ours_wall: float) -> di
 def bench_position(spec, index: int, material: str, args) -> dict:
     """One position target: ours, TPE and GP-BO."""
     from ..inverse.engine.optimiser import position_problems, solve_position_target
-    from ..inverse.evaluation import Evaluator
+    from ..inverse.evaluation import SceneEvaluator
 
     paper = PAPER_OBJECTIVES[material][index]
-    ours = Evaluator(max(spec.n_units))
+    ours = SceneEvaluator(max(spec.n_units))
     solve_position_target(spec, index, ours)
     mine = _summary(ours, paper, np.inf, np.inf)
     methods = {"ours": mine}
@@ -228,13 +228,13 @@ def bench_position(spec, index: int, material: str, args) -> dict:
         from ..inverse.spec import with_seeds
 
         seeded_spec = with_seeds(spec, seed_dataset(spec, args.seed_datasets))
-        seeded = Evaluator(max(spec.n_units))  # its clock starts here: after the one-off open
+        seeded = SceneEvaluator(max(spec.n_units))  # its clock starts here: after the one-off open
         solve_position_target(seeded_spec, index, seeded)
         methods["ours_seeded"] = _summary(seeded, paper, np.inf, np.inf)
         methods["ours_seeded"]["seeds"] = seeded.counts["seeds"]
     for name, runner, budget in (("tpe", run_tpe, args.tpe_budget), ("gp", run_gp, args.gp_budget)):
         try:
-            evaluator = Evaluator(max(spec.n_units))
+            evaluator = SceneEvaluator(max(spec.n_units))
             problems = {p.n_units: p for p in position_problems(spec, index, evaluator)}
             runner(
                 problems,
@@ -312,12 +312,12 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
 
 def bench_gripper(args) -> dict:
     """The gripper: ours against the baselines on the apertures' squared error (mm²)."""
-    from ..inverse.evaluation import Evaluator
+    from ..inverse.evaluation import SceneEvaluator
     from ..inverse.kinds import load_scene
     from ..inverse.scenes.gripper.solve import gripper_problem, solve_gripper
 
     spec = load_scene(JOBS / "design-gripper.toml")
-    ours = Evaluator(5)
+    ours = SceneEvaluator(5)
     result = solve_gripper(spec, 0, ours)
     mine = _summary(ours, 0.05**2, np.inf, np.inf)
     mine["final_objective"] = float(result.best.objective)
@@ -325,7 +325,7 @@ def bench_gripper(args) -> dict:
     methods = {"ours": mine}
     for name, runner in (("tpe", run_tpe), ("gp", run_gp)):
         try:
-            evaluator = Evaluator(5)
+            evaluator = SceneEvaluator(5)
             problem = gripper_problem(spec, evaluator)
 
             def f(n, z, problem=problem):

@@ -1,6 +1,6 @@
 """The timing scenes of ``dpfexplore bench design``: ours against Optuna TPE at equal wall time.
 
-Both methods run on the same exact evaluator (:class:`dpfexplore.inverse.evaluation.Evaluator`)
+Both methods run on the same exact evaluator (:class:`dpfexplore.inverse.evaluation.SceneEvaluator`)
 and are measured by the same objective on the full model:
 
 * **pick-and-place** (``jobs/design-pickplace.toml``, one target reset time at a time): the
@@ -125,7 +125,7 @@ def _row(
 
 def bench_pickplace(args, jobs) -> list[dict]:
     """Each target reset time: ours (screening + bracket + Brent) against TPE."""
-    from ..inverse.evaluation import Evaluator
+    from ..inverse.evaluation import SceneEvaluator
     from ..inverse.kinds import load_scene
     from ..inverse.scenes.pickplace.problem import ResetProblem
     from ..inverse.scenes.pickplace.solve import SEARCH_FRACTION, solve_pickplace
@@ -136,13 +136,13 @@ def bench_pickplace(args, jobs) -> list[dict]:
     for target in [float(v) for v in args.pickplace_targets.split(",") if v]:
         spec = with_target_reset(base, target)
         goal = spec.pickplace.tolerance
-        ours_ev = Evaluator(max(spec.n_units))
+        ours_ev = SceneEvaluator(max(spec.n_units))
         solve_pickplace(spec, 0, ours_ev)
         tight = SEARCH_FRACTION * goal
         ours = _summary(ours_ev, goal, tight=tight)
         seconds = max(args.timing_tpe_factor * ours["wall_s"], args.timing_min_seconds)
         try:
-            evaluator = Evaluator(max(spec.n_units))
+            evaluator = SceneEvaluator(max(spec.n_units))
             problem = ResetProblem(spec, evaluator, target_index=0)
 
             def f(z, problem=problem, spec=spec, target=target) -> float:
@@ -168,7 +168,7 @@ def bench_pickplace(args, jobs) -> list[dict]:
 
 def bench_walker(args, jobs) -> list[dict]:
     """Each leg of the walker scene: ours (section by section, roots) against TPE on the leg."""
-    from ..inverse.evaluation import Evaluator
+    from ..inverse.evaluation import SceneEvaluator
     from ..inverse.kinds import load_scene
     from ..inverse.scenes.walker.solve import WalkerSearch, solve_walker, violation
 
@@ -176,12 +176,12 @@ def bench_walker(args, jobs) -> list[dict]:
     rows = []
     for kind in base.walker.legs:
         spec = replace(base, walker=replace(base.walker, legs=(kind,)))
-        ours_ev = Evaluator(4)
+        ours_ev = SceneEvaluator(4)
         solve_walker(spec, 0, ours_ev)
         ours = _summary(ours_ev, 0.0)
         seconds = max(args.timing_tpe_factor * ours["wall_s"], args.timing_min_seconds)
         try:
-            evaluator = Evaluator(4)
+            evaluator = SceneEvaluator(4)
             search = WalkerSearch(spec, evaluator)
             variables = spec.walker.variables
             sizes = {role: variables[role].n_variables for role in ("purple", "green", "action")}

@@ -8,7 +8,7 @@ spec, spec_fields
     Design variables (:class:`~dpfexplore.sweep.variables.DesignVariables`) come from the sweep
     stage, which lookup shares.
 evaluation
-    :class:`Evaluator`: every exact model solve of a scene, counted by kind and recorded.
+    :class:`SceneEvaluator`: every exact model solve of a scene, counted by kind and recorded.
 problem
     The problems of the shape scenes: residuals and stiffness of box points.
 engine

@@ -18,13 +18,13 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ..sweep.result_dirs import check_output_dir, result_directory
-from .evaluation import Evaluator
+from .evaluation import SceneEvaluator
 from .kinds import SCENE_KINDS
 from .spec import SceneSpec
 
 __all__ = [
     "DesignOutcome",
-    "Progress",
+    "TargetProgress",
     "design_scene",
     "run_design",
 ]
@@ -32,7 +32,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 
-class Progress(Protocol):
+class TargetProgress(Protocol):
     """Receives progress: ``start(total)``, ``advance(text)`` per target, ``close()``."""
 
     def start(self, total: int) -> None: ...  # noqa: D102
@@ -48,7 +48,7 @@ class DesignOutcome:
 
     spec: SceneSpec
     rows: list[dict[str, Any]]
-    evaluator: Evaluator
+    evaluator: SceneEvaluator
     wall_s: float
 
 
@@ -58,9 +58,9 @@ def _progress_text(i: int, total: int, row: dict[str, Any]) -> str:
     return f"result {i + 1}/{total} {row.get('target')}: objective {shown}"
 
 
-def design_scene(spec: SceneSpec, *, progress: Progress | None = None) -> DesignOutcome:
+def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> DesignOutcome:
     """Solve every target of a scene and verify every reported design."""
-    evaluator = Evaluator(max(spec.n_units))
+    evaluator = SceneEvaluator(max(spec.n_units))
     kind = SCENE_KINDS[spec.kind]
     total = kind.n_results(spec)
     if progress is not None:
@@ -90,7 +90,7 @@ def run_design(
     out: str | Path,
     *,
     plot: bool = False,
-    progress: Progress | None = None,
+    progress: TargetProgress | None = None,
     force: bool = False,
 ) -> DesignOutcome:
     """Solve a scene and write its report to the result directory ``out``.

@@ -1,6 +1,6 @@
 """The exact evaluator of inverse design: every model solve of a scene goes through here.
 
-:class:`Evaluator` wraps :func:`dpfexplore.solvers.statics.solve_batch` (and the dynamics and
+:class:`SceneEvaluator` wraps :func:`dpfexplore.solvers.statics.solve_batch` (and the dynamics and
 snap-pressure checks of final candidates), counts each kind of evaluation so that a user sees
 what was computed, and records every evaluated design with its outputs for the history. It runs
 small batches (a refinement step, a finite-difference stencil) on one Numba thread: waking the
@@ -42,7 +42,7 @@ from ..model.pressure import PressureProfile
 from ..solvers.dynamics.simulate import SimulationResult, reset_times_batch, simulate
 from ..solvers.statics import solve_batch
 
-__all__ = ["EVALUATION_KINDS", "Evaluator", "few_threads"]
+__all__ = ["EVALUATION_KINDS", "SceneEvaluator", "few_threads"]
 
 EVALUATION_KINDS = (
     "designs",
@@ -82,7 +82,7 @@ def few_threads(rows: int, limit: int = _SMALL_BATCH) -> Iterator[None]:
         numba.set_num_threads(previous)
 
 
-class Evaluator:
+class SceneEvaluator:
     """Exact model solves with counts by kind and a record of every evaluated design.
 
     Parameters

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from .engine.optimiser import TargetResult, solve_position_target
-from .evaluation import Evaluator
+from .evaluation import SceneEvaluator
 from .report import gripper_report, position_report, write_report
 from .scenes.gripper.solve import solve_gripper
 from .scenes.pickplace.report import pickplace_report, write_timing_report
@@ -63,8 +63,8 @@ class SceneKind:
     own_variables: bool
     parse: Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]]
     n_results: Callable[[SceneSpec], int]
-    solve: Callable[[SceneSpec, int, Evaluator], TargetResult]
-    report: Callable[[SceneSpec, TargetResult, Evaluator], dict[str, Any]]
+    solve: Callable[[SceneSpec, int, SceneEvaluator], TargetResult]
+    report: Callable[[SceneSpec, TargetResult, SceneEvaluator], dict[str, Any]]
     write: Callable[..., list[Path]]
 
 
@@ -72,7 +72,7 @@ def _per_target(spec: SceneSpec) -> int:
     return len(spec.targets)
 
 
-def _solve_front(spec: SceneSpec, index: int, evaluator: Evaluator) -> TargetResult:
+def _solve_front(spec: SceneSpec, index: int, evaluator: SceneEvaluator) -> TargetResult:
     return solve_position_target(spec, index, evaluator, exhaustive=True)
 
 

@@ -34,7 +34,7 @@ from ..solvers.lattice import segment_height
 from ..solvers.sensitivities import batch_columns
 from ..sweep.variables import DesignVariables
 from .engine.derivatives import BOX_BOUNDS, STEP
-from .evaluation import Evaluator
+from .evaluation import SceneEvaluator
 from .spec import GripperSpec
 
 __all__ = ["Evaluation", "GripperProblem", "PositionProblem", "Problem"]
@@ -81,7 +81,7 @@ class Problem:
     n_residuals: int
     target_index: int
     #: Solves, records and remembers (best point seen, archives): a problem holds no run state.
-    evaluator: Evaluator
+    evaluator: SceneEvaluator
 
     @property
     def n_units(self) -> int:
@@ -97,7 +97,7 @@ class Problem:
         raise NotImplementedError
 
     def finish(self, z: NDArray, batch: DesignBatch, out: dict[str, NDArray]) -> Evaluation:
-        """The evaluation of ``z`` from the solved columns of :meth:`Evaluator.solve`."""
+        """The evaluation of ``z`` from the solved columns of :meth:`SceneEvaluator.solve`."""
         raise NotImplementedError
 
     def evaluate(self, z: NDArray, *, purpose: str, stiffness: bool = False) -> Evaluation:
@@ -210,7 +210,7 @@ class PositionProblem(Problem):
     target : (x, y), mm
     state : str
         ``"all_inverted"`` or a bit string of ``N`` characters.
-    evaluator : Evaluator
+    evaluator : SceneEvaluator
     target_index : int
         Index of the target in its scene (recorded in the history).
     """
@@ -222,7 +222,7 @@ class PositionProblem(Problem):
         variables: DesignVariables,
         target,
         state: str,
-        evaluator: Evaluator,
+        evaluator: SceneEvaluator,
         target_index: int = 0,
     ) -> None:
         self.variables = variables
@@ -269,7 +269,9 @@ class GripperProblem(Problem):
     activated state.
     """
 
-    def __init__(self, variables: DesignVariables, spec: GripperSpec, evaluator: Evaluator) -> None:
+    def __init__(
+        self, variables: DesignVariables, spec: GripperSpec, evaluator: SceneEvaluator
+    ) -> None:
         self.variables = variables
         self.spec = spec
         self.n_finger = variables.n_variables

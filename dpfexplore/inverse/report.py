@@ -40,10 +40,10 @@ from ..model.gripper import gripper_aperture
 from ..solvers.lattice import spring_constants
 from ..solvers.statics import find_state
 from .engine.optimiser import TargetResult
-from .evaluation import Evaluator
+from .evaluation import SceneEvaluator
 from .scenes.gripper.windows import pressure_windows
 
-__all__ = ["fitted_range", "gripper_report", "position_report", "write_report"]
+__all__ = ["gripper_report", "position_report", "write_report"]
 
 _VERIFIED_BY = (
     "re-solved alone by find_state (exact model, default solver options); the "
@@ -51,16 +51,7 @@ _VERIFIED_BY = (
 )
 
 
-def fitted_range(design: Design) -> tuple[bool, str | None]:
-    """Whether a design lies where the closed forms were fitted, and a note naming what does not.
-
-    :attr:`Design.in_fitted_range` and :attr:`Design.fitted_range_note` (MODEL.md §3;
-    :data:`dpfexplore.model.domain.FITTED_RANGES`).
-    """
-    return bool(design.in_fitted_range), design.fitted_range_note
-
-
-def _verify(design: Design, state: str, evaluator: Evaluator) -> dict[str, Any]:
+def _verify(design: Design, state: str, evaluator: SceneEvaluator) -> dict[str, Any]:
     result = find_state(design, state)
     evaluator.count("verifications")
     return {
@@ -74,12 +65,12 @@ def _verify(design: Design, state: str, evaluator: Evaluator) -> dict[str, Any]:
     }
 
 
-def _design_entry(design: Design, state: str, target, evaluator: Evaluator) -> dict[str, Any]:
+def _design_entry(design: Design, state: str, target, evaluator: SceneEvaluator) -> dict[str, Any]:
     """A design with its verified tip, objective and stiffness."""
     check = _verify(design, state, evaluator)
     tip = np.array(check["tip"])
     objective = float(np.sum((tip - np.asarray(target)) ** 2)) if check["stable"] else math.inf
-    inside, note = fitted_range(design)
+    inside, note = bool(design.in_fitted_range), design.fitted_range_note
     return {
         "design": design.to_dict(),
         "n_units": design.n_units,
@@ -100,7 +91,7 @@ def _design_entry(design: Design, state: str, target, evaluator: Evaluator) -> d
     }
 
 
-def position_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
+def position_report(spec, result: TargetResult, evaluator: SceneEvaluator) -> dict[str, Any]:
     """The verified report of one position target (the ``--json`` row)."""
     target = spec.targets[result.target_index]
     best = result.best
@@ -178,7 +169,9 @@ def _dominating(row: dict[str, Any], ref: dict[str, Any]) -> dict[str, Any] | No
     return None
 
 
-def _gripper_entry(design: Design, g, theta: float, base_l: float, evaluator: Evaluator) -> dict:
+def _gripper_entry(
+    design: Design, g, theta: float, base_l: float, evaluator: SceneEvaluator
+) -> dict:
     h = float(spring_constants(design).h)
     apertures, stiffness, statuses, nodes = [], math.nan, [], []
     for state in dict.fromkeys([*g.states, g.activated]):
@@ -190,7 +183,7 @@ def _gripper_entry(design: Design, g, theta: float, base_l: float, evaluator: Ev
         if state == g.activated:
             stiffness = check["stiffness"]
     errors = [a - t for a, t in zip(apertures, g.apertures, strict=True)]
-    inside, note = fitted_range(design)
+    inside, note = bool(design.in_fitted_range), design.fitted_range_note
     return {
         "design": design.to_dict(),
         "n_units": design.n_units,
@@ -213,7 +206,7 @@ def _gripper_entry(design: Design, g, theta: float, base_l: float, evaluator: Ev
     }
 
 
-def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
+def gripper_report(spec, result: TargetResult, evaluator: SceneEvaluator) -> dict[str, Any]:
     """The verified report of the gripper scene (the ``--json`` row)."""
     from .scenes.gripper.solve import metastability, windows_ok
 
@@ -255,7 +248,7 @@ def gripper_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str
 # ----------------------------------------------------------------------------- files
 
 
-def design_toml(row: dict[str, Any], *, title: str, constants=None) -> str:
+def result_row_toml(row: dict[str, Any], *, title: str, constants=None) -> str:
     """A ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table.
 
     ``constants``: the scene's set, named in the file when it is not the paper's.
@@ -289,7 +282,7 @@ def public(row: dict[str, Any]) -> dict[str, Any]:
 def write_summary(
     spec,
     rows: list[dict[str, Any]],
-    evaluator: Evaluator,
+    evaluator: SceneEvaluator,
     out: Path,
     *,
     wall_s: float,
@@ -298,7 +291,8 @@ def write_summary(
     """Write ``summary.json`` and ``history.parquet`` in ``out``; returns their paths.
 
     The summary holds the scene, the results, the evaluations by kind and the wall time; the
-    history every evaluated design (``history``: :meth:`Evaluator.history`, if the caller has it).
+    history every evaluated design (``history``: :meth:`SceneEvaluator.history`, if the caller
+    has it).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -321,7 +315,7 @@ def write_summary(
 def write_report(
     spec,
     rows: list[dict[str, Any]],
-    evaluator: Evaluator,
+    evaluator: SceneEvaluator,
     out: Path,
     *,
     wall_s: float,
@@ -344,7 +338,7 @@ def write_report(
         else:
             path = out / f"target-{i + 1:02d}.toml"
             title = f"{spec.name}: target {i + 1} {row['target']} mm"
-        path.write_text(design_toml(row, title=title, constants=spec.constants))
+        path.write_text(result_row_toml(row, title=title, constants=spec.constants))
         written.append(path)
     written += write_constants_beside(spec.constants, out)
     if plot:

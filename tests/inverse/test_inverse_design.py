@@ -18,7 +18,7 @@ from conftest import read_reference
 from dpfexplore.bench.numpy_model import NumpyLattice
 from dpfexplore.cli import main
 from dpfexplore.inverse.design import design_scene
-from dpfexplore.inverse.evaluation import Evaluator
+from dpfexplore.inverse.evaluation import SceneEvaluator
 from dpfexplore.inverse.kinds import load_scene, parse_scene
 from dpfexplore.inverse.problem import GripperProblem, PositionProblem
 from dpfexplore.inverse.spec import SceneSpecError
@@ -38,7 +38,8 @@ BASE = {"theta_B_deg": -27.065, "base_L": 20.081}
 def reference_apertures(states) -> np.ndarray:
     """Apertures (mm) of the gripper finger's ``states`` from the tips in the reference data
     (gripper_states.csv, design 1), through the transform of MODEL.md §7 written out here:
-    shift by ``-h``, rotate by ``θ_B``, aperture ``2 (Base_L - y)``."""
+    shift by ``-h``, rotate by ``θ_B``, aperture ``2 (Base_L - y)``.
+    """
     frame = read_reference("gripper_states.csv")
     frame = frame[frame.design == 1]
     h = 15.0 / 2 + GRIPPER["t_lim"] + GRIPPER["t"]  # UC / 2 + t_lim + t, UC = 3 r_b
@@ -54,7 +55,8 @@ def reference_apertures(states) -> np.ndarray:
 def numpy_tip_stiffness(design: Design, x: np.ndarray) -> float:
     """``K = 1 / (nᵀ H⁻¹ n)`` (MODEL.md §7) at the free coordinates ``x``, with the Hessian from
     central differences of the independent NumPy gradient (bench/numpy_model.py) and ``n`` the
-    unit normal at the tip ``L_N`` to the last limiting-layer segment."""
+    unit normal at the tip ``L_N`` to the last limiting-layer segment.
+    """
     params = lattice_params(design)
     lattice = NumpyLattice.from_params(params.unit_params, params.h)
     n, step = x.size, 1e-5
@@ -244,7 +246,7 @@ def test_front_and_weighted_sum(tmp_path):
 
 def test_gripper_transform_reproduces_the_implementation_apertures():
     spec = load_scene(JOBS / "design-gripper.toml")
-    problem = GripperProblem(spec.design_variables(5), spec.gripper, Evaluator(5))
+    problem = GripperProblem(spec.design_variables(5), spec.gripper, SceneEvaluator(5))
     reference = Design(**GRIPPER)
     z, inside = problem.variables.encode(DesignBatch.from_designs([reference]))
     assert inside[0]
@@ -282,15 +284,16 @@ def test_gripper_transform_reproduces_the_implementation_apertures():
 @pytest.mark.parametrize("kind", ["position", "gripper"])
 def test_scene_jacobians_from_sensitivities_equal_central_differences(kind):
     """The optimiser's derivatives (one solve with the model's sensitivities, chained through
-    the reparametrisation) against central differences of the exact model in the same box."""
+    the reparametrisation) against central differences of the exact model in the same box.
+    """
     if kind == "gripper":
         spec = load_scene(JOBS / "design-gripper.toml")
-        problem = GripperProblem(spec.design_variables(5), spec.gripper, Evaluator(5))
+        problem = GripperProblem(spec.design_variables(5), spec.gripper, SceneEvaluator(5))
         z, _ = problem.variables.encode(DesignBatch.from_designs([Design(**GRIPPER)]))
         point = np.append(z[0], [0.4, 0.6])
     else:
         variables = DesignVariables(n_units=4, heights="descending")
-        problem = PositionProblem(variables, (40.0, 30.0), "all_inverted", Evaluator(4))
+        problem = PositionProblem(variables, (40.0, 30.0), "all_inverted", SceneEvaluator(4))
         point = np.random.default_rng(5).uniform(0.2, 0.8, variables.n_variables)
     ev = problem.evaluate(point[None], purpose="test", stiffness=True)
     assert ev.ok[0]
@@ -492,7 +495,7 @@ def test_pressure_windows_agree_with_a_slow_ramp_simulation():
 
     design = Design(**GRIPPER)
     states = ["10000", "11000", "11100", "11110"]
-    report = pressure_windows(design, states, Evaluator(5))
+    report = pressure_windows(design, states, SceneEvaluator(5))
     assert report["computed"] and report["in_order"]
     # A 2000 s ramp to 1 MPa: slow against the lattice's relaxation, so each unit's first
     # inversion lags the quasi-static snap by about a kPa (O(rate^(2/3)) at a fold).
@@ -511,7 +514,7 @@ def test_pressure_windows_hold_their_states_in_the_full_model():
 
     design = Design(**GRIPPER)
     states = ["10000", "11000", "11100", "11110"]
-    report = pressure_windows(design, states, Evaluator(5))
+    report = pressure_windows(design, states, SceneEvaluator(5))
     assert report["computed"] and report["in_order"]
     # The metastable tip unit snaps first under the ramp; it resets on release.
     assert report["sequence"][:3] == ["00000", "00001", "10001"]
@@ -598,11 +601,11 @@ def test_seed_set_reads_each_n_once_and_gives_the_rows_designs(tmp_path):
 
 def test_problems_hold_no_run_state_the_evaluator_remembers():
     from dpfexplore.inverse.engine.optimiser import position_problems
-    from dpfexplore.inverse.evaluation import Evaluator
+    from dpfexplore.inverse.evaluation import SceneEvaluator
     from dpfexplore.inverse.kinds import parse_scene
 
     spec = parse_scene(position_scene([(40.0, 25.0)], n_units=(2,)))
-    evaluator = Evaluator(2)
+    evaluator = SceneEvaluator(2)
     (problem,) = position_problems(spec, 0, evaluator)
     before = dict(vars(problem))
     rng = np.random.default_rng(0)

@@ -43,19 +43,19 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 from scipy.stats import qmc
 
-from ...model.design import Design, DesignBatch
+from ...model.design import DesignBatch
 from ...numerics.local import least_squares_in_box
-from ..evaluation import Evaluator
+from ..evaluation import SceneEvaluator
 from ..problem import Evaluation, PositionProblem, Problem
 from .seeds import seed_candidates
 
 __all__ = [
     "FrontPoint",
-    "Refinement",
+    "ResidualRefinement",
     "TargetResult",
     "latin_candidates",
     "maximise_stiffness",
-    "refine",
+    "refine_residual",
     "screen",
     "solve_position_target",
 ]
@@ -76,7 +76,7 @@ FRONT_STARTS = 3
 
 
 @dataclass(eq=False)
-class Refinement:
+class ResidualRefinement:
     """Outcome of one gradient refinement."""
 
     problem: Problem
@@ -104,12 +104,12 @@ class TargetResult:
 
     target_index: int
     target: tuple[float, ...]
-    best: Refinement | None
+    best: ResidualRefinement | None
     reachable: bool
     per_n: dict[int, float] = field(default_factory=dict)
-    starts: list[Refinement] = field(default_factory=list)
+    starts: list[ResidualRefinement] = field(default_factory=list)
     front: list[FrontPoint] = field(default_factory=list)
-    weighted: Refinement | None = None
+    weighted: ResidualRefinement | None = None
     counts: dict[str, int] = field(default_factory=dict)
     wall_s: float = 0.0
     extra: dict = field(default_factory=dict)
@@ -152,7 +152,7 @@ def screen(
 
 
 def _candidates(
-    problems: Sequence[PositionProblem], spec, evaluator: Evaluator
+    problems: Sequence[PositionProblem], spec, evaluator: SceneEvaluator
 ) -> list[Evaluation]:
     """Candidates of every N: the scene's dataset seeds, else a screened Latin hypercube.
 
@@ -192,14 +192,14 @@ def _distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> li
 # ----------------------------------------------------------------------------- refinement
 
 
-def refine(
+def refine_residual(
     problem: Problem,
     z0: NDArray,
     *,
     goal: float,
     max_iter: int,
     weights: tuple[float, float] | None = None,
-) -> Refinement:
+) -> ResidualRefinement:
     """Least-squares refinement (TRF in the box) of a problem's residual from ``z0``.
 
     :func:`~dpfexplore.numerics.local.least_squares_in_box` on the residual (tip minus target,
@@ -219,7 +219,7 @@ def refine(
 
     Returns
     -------
-    Refinement
+    ResidualRefinement
         The best exactly evaluated point of the run.
     """
     stiffness = weights is not None
@@ -258,7 +258,7 @@ def refine(
     )
     ev = run.info
     objective = float(ev.objective[0])
-    return Refinement(
+    return ResidualRefinement(
         problem=problem,
         z=run.x,
         evaluation=ev,
@@ -357,7 +357,7 @@ def maximise_stiffness(
 # ----------------------------------------------------------------------------- position
 
 
-def position_problems(spec, target_index: int, evaluator: Evaluator) -> list[PositionProblem]:
+def position_problems(spec, target_index: int, evaluator: SceneEvaluator) -> list[PositionProblem]:
     """One problem per N of the scene for one target."""
     target = spec.targets[target_index].point
     return [
@@ -367,7 +367,7 @@ def position_problems(spec, target_index: int, evaluator: Evaluator) -> list[Pos
 
 
 def solve_position_target(
-    spec, target_index: int, evaluator: Evaluator, *, exhaustive: bool = False
+    spec, target_index: int, evaluator: SceneEvaluator, *, exhaustive: bool = False
 ) -> TargetResult:
     """Meet one target of a position scene (and its front or weighted sum when asked).
 
@@ -375,7 +375,7 @@ def solve_position_target(
     ----------
     spec : SceneSpec
     target_index : int
-    evaluator : Evaluator
+    evaluator : SceneEvaluator
     exhaustive : bool
         Refine from every N even after the target is met (the front needs every N where the
         target is reachable).
@@ -409,7 +409,7 @@ def solve_position_target(
     quick = max(8, settings.max_iter // 5)
     plan = [(0, quick, False), (0, settings.max_iter, True)]
     plan += [(k, settings.max_iter, False) for k in range(1, settings.starts_per_n)]
-    last: dict[int, Refinement] = {}
+    last: dict[int, ResidualRefinement] = {}
     for start, budget, resume in plan:
         if resume:
             order = sorted(order, key=lambda i: result.per_n[problems[i].n_units])
@@ -419,10 +419,10 @@ def solve_position_target(
             if n in reached_n or start >= len(starts[n]):
                 continue
             z0 = last[n].z if resume and n in last else ev.z[starts[n][start]]
-            run = refine(problem, z0, goal=goal, max_iter=budget)
+            run = refine_residual(problem, z0, goal=goal, max_iter=budget)
             if not resume and budget < settings.max_iter and goal < run.objective <= PROMISING:
                 # Converging on this N: finish here rather than after the other N.
-                run = refine(problem, run.z, goal=goal, max_iter=settings.max_iter)
+                run = refine_residual(problem, run.z, goal=goal, max_iter=settings.max_iter)
             if resume and n in last:  # the continued run replaces the short one
                 slot = next(j for j, r in enumerate(result.starts) if r is last[n])
                 result.starts[slot] = run
@@ -445,13 +445,13 @@ def solve_position_target(
         objective, z = problem.evaluator.best_seen(problem)
         if z is not None and (result.best is None or objective < result.best.objective):
             ev = problem.evaluate(z[None, :], purpose="nearest")
-            result.best = Refinement(problem, z, ev, float(ev.objective[0]), 0, False)
+            result.best = ResidualRefinement(problem, z, ev, float(ev.objective[0]), 0, False)
         for p in problems:
             result.per_n[p.n_units] = min(result.per_n[p.n_units], p.evaluator.best_seen(p)[0])
     if result.best is None:  # no design had the targeted state: report the best candidate
         i = order[0]
         j = int(np.argmin(candidates[i].objective))
-        result.best = Refinement(
+        result.best = ResidualRefinement(
             problems[i],
             candidates[i].z[j],
             candidates[i],
@@ -467,7 +467,7 @@ def solve_position_target(
         seeds = [(r.problem, r.z) for r in _best_per_n(result.starts)]
         seeds += [(p.problem, p.z) for p in result.front if p.z is not None]
         runs = [
-            refine(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
+            refine_residual(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
             for problem, z in seeds
         ]
         result.weighted = min(runs, key=lambda r: _weighted(r, spec.weights))
@@ -476,13 +476,13 @@ def solve_position_target(
     return result
 
 
-def _weighted(run: Refinement, weights: tuple[float, float]) -> float:
+def _weighted(run: ResidualRefinement, weights: tuple[float, float]) -> float:
     k = run.evaluation.stiffness[0]
     return weights[0] * run.objective + weights[1] / k**2 if np.isfinite(k) else np.inf
 
 
-def _best_per_n(runs: Sequence[Refinement]) -> list[Refinement]:
-    best: dict[int, Refinement] = {}
+def _best_per_n(runs: Sequence[ResidualRefinement]) -> list[ResidualRefinement]:
+    best: dict[int, ResidualRefinement] = {}
     for r in runs:
         n = r.problem.n_units
         if n not in best or r.objective < best[n].objective:
@@ -535,8 +535,3 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
                     point.stiffness = float(stiffness[i])
                     point.distance = math.sqrt(float(objective[i]))
     return front
-
-
-def designs_of(problem: Problem, z: NDArray) -> Design:
-    """The finger design of one box point."""
-    return problem.designs(np.atleast_2d(z)).design(0)

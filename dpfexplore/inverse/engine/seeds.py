@@ -29,7 +29,7 @@ from ...lookup.store import open_index
 from ...model.design import DesignBatch
 from ...model.version import MODEL_VERSION
 from ...sweep.datasets import dataset_info
-from ..evaluation import Evaluator
+from ..evaluation import SceneEvaluator
 from ..problem import Evaluation, PositionProblem
 
 __all__ = ["SeedSet", "open_seeds", "seed_candidates"]
@@ -90,7 +90,7 @@ def open_seeds(dataset: str | Path, n_units: tuple[int, ...] = ()) -> SeedSet:
 
 
 def seed_candidates(
-    problems: list[PositionProblem], dataset: str | Path, per_n: int, evaluator: Evaluator
+    problems: list[PositionProblem], dataset: str | Path, per_n: int, evaluator: SceneEvaluator
 ) -> list[Evaluation | None]:
     """Per problem (one per N), up to ``per_n`` dataset designs nearest its target.
 

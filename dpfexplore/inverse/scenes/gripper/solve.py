@@ -39,14 +39,14 @@ from ....model.design import Design
 from ....model.pressure import PressureProfile
 from ....solvers.dynamics.simulate import simulate
 from ...engine.optimiser import (
-    Refinement,
+    ResidualRefinement,
     TargetResult,
     _distinct_starts,
     latin_candidates,
     maximise_stiffness,
-    refine,
+    refine_residual,
 )
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from ...problem import Evaluation, GripperProblem
 from ...spec import GripperSpec
 from .windows import pressure_windows, window_widths
@@ -63,7 +63,7 @@ _ROUNDS = 6
 _THETA_GRID = 721
 
 
-def gripper_problem(spec, evaluator: Evaluator) -> GripperProblem:
+def gripper_problem(spec, evaluator: SceneEvaluator) -> GripperProblem:
     """The gripper problem of a scene."""
     return GripperProblem(spec.design_variables(spec.n_units[0]), spec.gripper, evaluator)
 
@@ -134,7 +134,7 @@ def _alpha_band(problem: GripperProblem, low: float, high: float) -> list[dict]:
     ]
 
 
-def _window_constraints(problem: GripperProblem, evaluator: Evaluator) -> list[dict]:
+def _window_constraints(problem: GripperProblem, evaluator: SceneEvaluator) -> list[dict]:
     """SLSQP constraints ``window_j >= min_window`` (kPa) from the snap-pressure continuation."""
     g = problem.spec
     cache: dict = {}
@@ -164,7 +164,7 @@ def _window_constraints(problem: GripperProblem, evaluator: Evaluator) -> list[d
     ]
 
 
-def metastability(design: Design, g: GripperSpec, evaluator: Evaluator) -> dict:
+def metastability(design: Design, g: GripperSpec, evaluator: SceneEvaluator) -> dict:
     """Full-model run of the scene's pulse: the tip unit must reset late enough, and alone."""
     profile = PressureProfile.pulse(g.pulse_P0, g.pulse_tau)
     run = simulate(design, profile, t_end=g.pulse_t_end, stop_when_reset=True, n_samples=0)
@@ -191,7 +191,7 @@ def windows_ok(windows: dict, min_window_kPa: float) -> bool:
     )
 
 
-def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
+def solve_gripper(spec, target_index: int, evaluator: SceneEvaluator) -> TargetResult:
     """Design the multi-aperture gripper of a scene (see the module docstring)."""
     counts0 = dict(evaluator.counts)
     wall0 = evaluator.wall_s
@@ -210,7 +210,7 @@ def solve_gripper(spec, target_index: int, evaluator: Evaluator) -> TargetResult
         per_n={problem.n_units: float(np.min(candidates.objective))},
     )
     for i in _distinct_starts(candidates, settings.starts_per_n):
-        run = refine(problem, candidates.z[i], goal=goal, max_iter=settings.max_iter)
+        run = refine_residual(problem, candidates.z[i], goal=goal, max_iter=settings.max_iter)
         result.starts.append(run)
         if result.best is None or run.objective < result.best.objective:
             result.best = run
@@ -274,7 +274,9 @@ def _next_band(a_lo: float, a_hi: float) -> tuple[float, float]:
     return max(ALPHA_BISTABLE, a_hi - 1.5 * _ALPHA_STEP), a_hi - 0.5 * _ALPHA_STEP
 
 
-def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spec) -> dict:
+def _stiffen(
+    problem: GripperProblem, run: ResidualRefinement, evaluator: SceneEvaluator, spec
+) -> dict:
     """Maximise the activated state's stiffness from an aperture solution; simulate the result."""
     g = problem.spec
     tol = 0.5 * g.aperture_tol
@@ -315,7 +317,7 @@ def _stiffen(problem: GripperProblem, run: Refinement, evaluator: Evaluator, spe
         low, high = _next_band(a_lo, a_hi)
     if not np.isfinite(ev.stiffness[0]):
         ev = problem.evaluate(np.atleast_2d(z), purpose="front", stiffness=True)
-    refinement = Refinement(
+    refinement = ResidualRefinement(
         problem=problem,
         z=z,
         evaluation=ev,

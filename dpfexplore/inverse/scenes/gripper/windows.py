@@ -28,7 +28,7 @@ import numpy as np
 
 from ....model.design import Design
 from ....solvers.snap.continuation import snap_pressures
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 
 __all__ = ["METHOD", "pressure_windows", "window_widths"]
 
@@ -37,7 +37,7 @@ METHOD = "quasi-static continuation with release (dpfexplore.solvers.snap.contin
 
 
 def pressure_windows(
-    design: Design, states: Sequence[str], evaluator: Evaluator, *, P_max: float = 1.0
+    design: Design, states: Sequence[str], evaluator: SceneEvaluator, *, P_max: float = 1.0
 ) -> dict:
     """Windows ``[P_enter, P_leave]`` (kPa) from which a slow release leaves each of ``states``.
 
@@ -79,7 +79,7 @@ def pressure_windows(
     }
 
 
-def window_widths(design: Design, states: Sequence[str], evaluator: Evaluator) -> list[float]:
+def window_widths(design: Design, states: Sequence[str], evaluator: SceneEvaluator) -> list[float]:
     """Width (kPa) of each state's window; ``-inf`` everywhere when they are not met in order."""
     report = pressure_windows(design, states, evaluator)
     if not report["in_order"]:

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from .problem import ResetProblem, finite_log, root_on_line
 from .screen import Screen, check_design
 
@@ -28,7 +28,7 @@ __all__ = ["FRONT_LINES", "solve_difference"]
 FRONT_LINES = 8
 
 
-def solve_difference(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
+def solve_difference(spec, index: int, evaluator: SceneEvaluator, screen: Screen) -> dict:
     """The front of the difference objective (module docstring) from a complete screening."""
     p = spec.pickplace
     d = p.difference

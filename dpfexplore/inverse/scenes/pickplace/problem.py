@@ -4,8 +4,8 @@
 (one height variable, usually the tied ``H_5 = H_6``, and ``t``). Its static part (the grasp
 state's tip stiffness) goes through the problem interface (``requests``/``finish``); its dynamic
 part through :meth:`ResetProblem.resets`, which runs the reduced model for screening or the full
-model (:meth:`Evaluator.reset_times`), records every design in the history and derives the scene's
-objective reset time:
+model (:meth:`SceneEvaluator.reset_times`), records every design in the history and derives the
+scene's objective reset time:
 
 * ``reset_unit = "last"``: the time at which every inverted unit other than the hold units has
   reset (the finger is back at its set point, the object released): the largest of their reset
@@ -40,7 +40,7 @@ from ....solvers.dynamics.common import (
     CLASS_MONOSTABLE,
     CLASS_NAMES,
 )
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from ...problem import Evaluation, Problem
 from .spec import PickPlaceSpec, PulseSpec
 
@@ -156,14 +156,14 @@ class ResetProblem(Problem):
     ----------
     spec : SceneSpec
         A ``pickplace`` scene.
-    evaluator : Evaluator
+    evaluator : SceneEvaluator
     target_index : int
         Result row this problem serves (recorded in the history).
     """
 
     n_residuals = 1
 
-    def __init__(self, spec, evaluator: Evaluator, target_index: int = 0) -> None:
+    def __init__(self, spec, evaluator: SceneEvaluator, target_index: int = 0) -> None:
         self.spec = spec
         self.p: PickPlaceSpec = spec.pickplace
         self.variables = spec.design_variables(spec.n_units[0])

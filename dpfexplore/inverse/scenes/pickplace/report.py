@@ -29,7 +29,7 @@ from ....model.design import Design
 from ....model.formatting import json_number
 from ....solvers.statics import find_state
 from ...engine.optimiser import TargetResult
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from ...report import write_summary
 
 __all__ = ["json_times", "pickplace_report", "write_timing_report"]
@@ -59,7 +59,7 @@ def design_flags(design: Design) -> dict[str, Any]:
     }
 
 
-def _grasp(design: Design, state: str, evaluator: Evaluator) -> dict[str, Any]:
+def _grasp(design: Design, state: str, evaluator: SceneEvaluator) -> dict[str, Any]:
     result = find_state(design, state)
     evaluator.count("verifications")
     return {
@@ -79,7 +79,7 @@ def _check_entry(check: dict) -> dict[str, Any]:
     }
 
 
-def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
+def pickplace_report(spec, result: TargetResult, evaluator: SceneEvaluator) -> dict[str, Any]:
     """The verified ``--json`` row of one pick-and-place result (target, unit pair or front)."""
     from .screen import reachable_range, screen_pickplace
 
@@ -178,7 +178,7 @@ def pickplace_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[s
     return {**row, **common}
 
 
-def _difference_row(spec, extra: dict, evaluator: Evaluator) -> dict[str, Any]:
+def _difference_row(spec, extra: dict, evaluator: SceneEvaluator) -> dict[str, Any]:
     p = spec.pickplace
     d = p.difference
 
@@ -280,7 +280,7 @@ def _result_toml(row: dict[str, Any], title: str) -> str:
 def write_timing_report(
     spec,
     rows: list[dict[str, Any]],
-    evaluator: Evaluator,
+    evaluator: SceneEvaluator,
     out: Path,
     *,
     wall_s: float,
@@ -318,7 +318,7 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _pickplace_figures(spec, rows, evaluator: Evaluator, history, out: Path) -> list[Path]:
+def _pickplace_figures(spec, rows, evaluator: SceneEvaluator, history, out: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -20,9 +20,9 @@ from numpy.typing import NDArray
 
 from ....model.design import Design
 from ....solvers.dynamics.common import CLASS_METASTABLE
-from ...evaluation import Evaluator
-from .spec import PulseSpec
+from ...evaluation import SceneEvaluator
 from .problem import ResetEval, ResetProblem, screening_method
+from .spec import PulseSpec
 
 __all__ = ["Screen", "check_design", "reachable_range", "screen_pickplace", "second_screen"]
 
@@ -86,7 +86,7 @@ def _fill(full: ResetEval, rows: NDArray, part: ResetEval) -> None:
     full.extra["methods"][rows] = part.extra.get("methods", part.method)
 
 
-def screen_pickplace(spec, evaluator: Evaluator, *, complete: bool = False) -> Screen:
+def screen_pickplace(spec, evaluator: SceneEvaluator, *, complete: bool = False) -> Screen:
     """The screening of a scene (cached on the evaluator: computed once per run).
 
     The first call screens the grid rows inside the fast model's trained domain (all rows when
@@ -131,7 +131,7 @@ def screen_pickplace(spec, evaluator: Evaluator, *, complete: bool = False) -> S
     return screen
 
 
-def second_screen(spec, evaluator: Evaluator) -> Screen:
+def second_screen(spec, evaluator: SceneEvaluator) -> Screen:
     """The complete screening with the difference objective's second profile screened too."""
     screen = screen_pickplace(spec, evaluator, complete=True)
     if screen.second is None:
@@ -150,7 +150,7 @@ def second_screen(spec, evaluator: Evaluator) -> Screen:
     return screen
 
 
-def reachable_range(spec, evaluator: Evaluator) -> dict:
+def reachable_range(spec, evaluator: SceneEvaluator) -> dict:
     """The range of reset times over the whole box (completes the screening; cached)."""
     screen = screen_pickplace(spec, evaluator, complete=True)
     if screen.ranges is None:
@@ -185,7 +185,7 @@ def check_design(
     }
 
 
-def _reachable_range(spec, screen: Screen, evaluator: Evaluator) -> dict:
+def _reachable_range(spec, screen: Screen, evaluator: SceneEvaluator) -> dict:
     """Range of the objective reset over admissible, metastable-objective screening designs."""
     ev, p = screen.ev, spec.pickplace
     problem = screen.problem

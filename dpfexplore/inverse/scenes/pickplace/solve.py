@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq, minimize_scalar
 
 from ...engine.optimiser import TargetResult
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from .front import solve_difference
 from .problem import (
     Bracket,
@@ -93,7 +93,7 @@ def _brackets(screen: Screen, target: float, prefer_fitted: bool) -> list[Bracke
     )
 
 
-def _solve_target(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
+def _solve_target(spec, index: int, evaluator: SceneEvaluator, screen: Screen) -> dict:
     p = spec.pickplace
     target = p.targets[index]
     problem = ResetProblem(spec, evaluator, target_index=index)
@@ -243,7 +243,7 @@ def _line_estimate(f1: NDArray, f2: NDArray, zh: NDArray) -> tuple[float, float]
     return None
 
 
-def _solve_units(spec, index: int, evaluator: Evaluator, screen: Screen) -> dict:
+def _solve_units(spec, index: int, evaluator: SceneEvaluator, screen: Screen) -> dict:
     p = spec.pickplace
     goal = p.unit_targets[index - len(p.targets)]
     (u1, u2), (t1, t2) = goal.units, goal.reset
@@ -390,7 +390,7 @@ def _finite_or(v: float, outer, ga: float, gb: float, a: float, b: float) -> flo
 # ----------------------------------------------------------------------------- solver
 
 
-def solve_pickplace(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
+def solve_pickplace(spec, target_index: int, evaluator: SceneEvaluator) -> TargetResult:
     """One result of a pick-and-place scene: a target, a pair of unit targets, or the front.
 
     Result ``i`` is target ``i`` for ``i < len(targets)``, then the unit targets, then the

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from ....model.design import Design, DesignBatch
 from ....solvers.snap.batch import inversion_pressures_batch
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 
 __all__ = ["METHOD", "inversion_method", "unit_inversion_pressures"]
 
@@ -35,14 +35,14 @@ def inversion_method() -> str:
 
 
 def unit_inversion_pressures(
-    designs: Sequence[Design], evaluator: Evaluator, *, P_max: float = 1.0
+    designs: Sequence[Design], evaluator: SceneEvaluator, *, P_max: float = 1.0
 ) -> NDArray[np.float64]:
     """First inversion pressure (MPa) of every unit under a slowly rising pressure.
 
     Parameters
     ----------
     designs : sequence of Design
-    evaluator : Evaluator
+    evaluator : SceneEvaluator
         Counts the continuations (``snap``, one per design).
     P_max : float, MPa
         End of the rise; units still flat there get ``inf``.

@@ -17,7 +17,7 @@ import numpy as np
 from ....lookup.files import toml_value
 from ....model.formatting import json_number
 from ...engine.optimiser import TargetResult
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from ...report import write_summary
 from ..pickplace.report import VERIFIED_BY, json_times
 from .solve import violation
@@ -40,7 +40,7 @@ def _path_rows(leg, digits: int = 6) -> list[list[float | None]]:
     return [[None if not np.isfinite(v) else v for v in row] for row in rows]
 
 
-def walker_report(spec, result: TargetResult, evaluator: Evaluator) -> dict[str, Any]:
+def walker_report(spec, result: TargetResult, evaluator: SceneEvaluator) -> dict[str, Any]:
     """The verified ``--json`` row of one designed leg."""
     extra = result.extra
     kind = extra["kind"]
@@ -235,7 +235,7 @@ def _leg_toml(row: dict[str, Any], spec, title: str) -> str:
 def write_walker_report(
     spec,
     rows: list[dict[str, Any]],
-    evaluator: Evaluator,
+    evaluator: SceneEvaluator,
     out: Path,
     *,
     wall_s: float,

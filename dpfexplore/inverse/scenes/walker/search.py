@@ -16,10 +16,10 @@ from numpy.typing import NDArray
 from ....model.design import Design, DesignBatch
 from ....model.pressure import PressureProfile
 from ....solvers.dynamics.common import CLASS_NAMES
-from ...evaluation import Evaluator
-from .spec import WalkerSpec
+from ...evaluation import SceneEvaluator
 from .inversion import inversion_method, unit_inversion_pressures
 from .legs import LegComposer
+from .spec import WalkerSpec
 
 __all__ = ["SCAN", "STEP", "SearchBase"]
 
@@ -37,7 +37,7 @@ def _code(name: str | None) -> int:
 class SearchBase(LegComposer):
     """One scene run's sections and the runs its searches are made of."""
 
-    def __init__(self, spec, evaluator: Evaluator) -> None:
+    def __init__(self, spec, evaluator: SceneEvaluator) -> None:
         self.spec = spec
         self.w: WalkerSpec = spec.walker
         self.req = self.w.requirements

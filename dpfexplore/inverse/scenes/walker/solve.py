@@ -46,7 +46,7 @@ import math
 
 from ....model.design import DesignBatch
 from ...engine.optimiser import TargetResult
-from ...evaluation import Evaluator
+from ...evaluation import SceneEvaluator
 from .action import ActionSearch
 from .legs import requirement as _req
 from .legs import violation
@@ -64,14 +64,14 @@ class WalkerSearch(ZoneSearch, ActionSearch):
     """
 
 
-def search_of(spec, evaluator: Evaluator) -> WalkerSearch:
+def search_of(spec, evaluator: SceneEvaluator) -> WalkerSearch:
     """The scene run's search (one per evaluator, shared by its legs)."""
     if "walker" not in evaluator.cache:
         evaluator.cache["walker"] = WalkerSearch(spec, evaluator)
     return evaluator.cache["walker"]
 
 
-def solve_walker(spec, target_index: int, evaluator: Evaluator) -> TargetResult:
+def solve_walker(spec, target_index: int, evaluator: SceneEvaluator) -> TargetResult:
     """Design one leg of the scene (``legs[target_index]``: front or middle)."""
     counts0 = dict(evaluator.counts)
     wall0 = evaluator.wall_s

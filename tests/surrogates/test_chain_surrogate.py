@@ -425,3 +425,22 @@ def test_cli_fits_the_chain_and_rejects_an_unknown_classifier(dataset, tmp_path,
     assert main(bad) == 2 and not (tmp_path / "m2").exists()
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "classifier kind 'svm'" in err
+
+
+def test_the_chain_solves_its_rigid_units_under_its_constants_set(data):
+    """Issue 20: a chain surrogate fitted on a dataset of another set keeps that set (as its
+    JSON form, an estimator parameter) and solves its rigid units under it."""
+    from model_helpers import other_set
+
+    from dpfexplore.model.constants_set import DEFAULT
+    from dpfexplore.surrogates.chain import _designs
+
+    assert data.constants == DEFAULT
+    rows = data.frame[data.ok].head(20)
+    paper, _ = _designs(rows, None, None)
+    other, bits = _designs(rows, None, other_set().to_dict())
+    assert paper.constants == DEFAULT and other.constants == other_set()
+    a, b = rigid_units(paper, bits.astype(bool)), rigid_units(other, bits.astype(bool))
+    assert not np.allclose(a.u, b.u, equal_nan=True)
+    estimator = ChainStatusClassifier(constants=other_set().to_dict())
+    assert estimator.get_params()["constants"]["name"] == "other"

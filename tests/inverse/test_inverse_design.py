@@ -38,8 +38,7 @@ BASE = {"theta_B_deg": -27.065, "base_L": 20.081}
 def reference_apertures(states) -> np.ndarray:
     """Apertures (mm) of the gripper finger's ``states`` from the tips in the reference data
     (gripper_states.csv, design 1), through the transform of MODEL.md §7 written out here:
-    shift by ``-h``, rotate by ``θ_B``, aperture ``2 (Base_L - y)``.
-    """
+    shift by ``-h``, rotate by ``θ_B``, aperture ``2 (Base_L - y)``."""
     frame = read_reference("gripper_states.csv")
     frame = frame[frame.design == 1]
     h = 15.0 / 2 + GRIPPER["t_lim"] + GRIPPER["t"]  # UC / 2 + t_lim + t, UC = 3 r_b
@@ -55,8 +54,7 @@ def reference_apertures(states) -> np.ndarray:
 def numpy_tip_stiffness(design: Design, x: np.ndarray) -> float:
     """``K = 1 / (nᵀ H⁻¹ n)`` (MODEL.md §7) at the free coordinates ``x``, with the Hessian from
     central differences of the independent NumPy gradient (bench/numpy_model.py) and ``n`` the
-    unit normal at the tip ``L_N`` to the last limiting-layer segment.
-    """
+    unit normal at the tip ``L_N`` to the last limiting-layer segment."""
     params = lattice_params(design)
     lattice = NumpyLattice.from_params(params.unit_params, params.h)
     n, step = x.size, 1e-5
@@ -284,8 +282,7 @@ def test_gripper_transform_reproduces_the_implementation_apertures():
 @pytest.mark.parametrize("kind", ["position", "gripper"])
 def test_scene_jacobians_from_sensitivities_equal_central_differences(kind):
     """The optimiser's derivatives (one solve with the model's sensitivities, chained through
-    the reparametrisation) against central differences of the exact model in the same box.
-    """
+    the reparametrisation) against central differences of the exact model in the same box."""
     if kind == "gripper":
         spec = load_scene(JOBS / "design-gripper.toml")
         problem = GripperProblem(spec.design_variables(5), spec.gripper, SceneEvaluator(5))

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
+from ._inputs import add_constants_option
 from ._output import json_text
 
 
@@ -56,6 +57,7 @@ def register(subparsers) -> None:
         metavar="T",
         help="pick-and-place scenes: one target reset time T (s) instead of the scene's targets",
     )
+    add_constants_option(parser)
     parser.set_defaults(handler=run)
 
 
@@ -99,7 +101,7 @@ class _LineProgress:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore design``."""
     from ..inverse.design import run_design
-    from ..inverse.kinds import load_scene
+    from ..inverse.kinds import load_scene, with_constants_file
     from ..inverse.report import public
     from ..inverse.scenes.timing_spec import with_target_reset
     from ..inverse.spec import SceneSpecError, with_seeds
@@ -107,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         spec = load_scene(args.scene)
+        if args.constants is not None:
+            spec = with_constants_file(spec, args.constants)
         if args.target_reset is not None:
             spec = with_target_reset(spec, args.target_reset)
         if args.seeds is not None:

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..model.constants_set import DEFAULT
+from ..model.design import resolve_constants
 from .engine.optimiser import TargetResult, solve_position_target
 from .evaluation import SceneEvaluator
 from .report import gripper_report, position_report, write_report
@@ -136,8 +138,13 @@ SCENE_KINDS: dict[str, SceneKind] = {
 }
 
 
-def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> SceneSpec:
-    """Validate a TOML-shaped mapping into a :class:`SceneSpec` (one-line errors naming keys)."""
+def parse_scene(
+    data: Mapping[str, Any], *, default_name: str = "scene", base: str | Path | None = None
+) -> SceneSpec:
+    """Validate a TOML-shaped mapping into a :class:`SceneSpec` (one-line errors naming keys).
+
+    ``base`` is the folder relative paths in the scene (``scene.constants``) start from.
+    """
     if "scene" not in data and ("job" in data or "space" in data):
         raise SceneSpecError(
             "this is a sweep job ([job], [space]), not a design scene ([scene]): run it with "
@@ -158,9 +165,29 @@ def parse_scene(data: Mapping[str, Any], *, default_name: str = "scene") -> Scen
         own_variables=kind.own_variables,
         parse=kind.parse,
         default_name=default_name,
+        base=base,
     )
 
 
 def load_scene(path: str | Path) -> SceneSpec:
     """Read and validate a scene file (:class:`SceneSpecError` naming the key)."""
-    return parse_scene(read_scene_file(path), default_name=Path(path).stem)
+    return parse_scene(read_scene_file(path), default_name=Path(path).stem, base=Path(path).parent)
+
+
+def with_constants_file(spec: SceneSpec, path: str | Path) -> SceneSpec:
+    """The scene read again under the constants set file ``path`` (``design --constants``).
+
+    Re-read from its document, so that every design the scene makes (reference designs, the
+    pick-and-place and walker legs) runs on the set; a scene that names another set is refused.
+    """
+    given = resolve_constants(path)
+    if spec.constants == given:
+        return spec
+    if spec.constants != DEFAULT:
+        raise SceneSpecError(
+            f"--constants names constants set {given.label} but the scene names "
+            f"{spec.constants.label} (scene.constants); give one"
+        )
+    document = {**spec.document, "scene": {**spec.document["scene"]}}
+    document["scene"]["constants"] = str(Path(path).resolve())
+    return parse_scene(document, default_name=spec.name)

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ....lookup.files import design_toml
+from ....lookup.files import design_toml, write_constants_beside
 from ....model.design import Design
 from ....model.formatting import json_number
 from ....solvers.statics import find_state
@@ -250,7 +250,7 @@ def _difference_row(spec, extra: dict, evaluator: SceneEvaluator) -> dict[str, A
 # ----------------------------------------------------------------------------- files
 
 
-def _result_toml(row: dict[str, Any], title: str) -> str:
+def _result_toml(row: dict[str, Any], title: str, constants=None) -> str:
     keys = (
         "objective_kind",
         "target_reset",
@@ -274,7 +274,8 @@ def _result_toml(row: dict[str, Any], title: str) -> str:
         "Written by dpfexplore design; [design] is read by dpfexplore states and "
         "dpfexplore simulate.",
     ]
-    return design_toml(row["design"], comments, {key: row.get(key) for key in keys})
+    result = {key: row.get(key) for key in keys}
+    return design_toml(row["design"], comments, result, constants=constants)
 
 
 def write_timing_report(
@@ -303,8 +304,10 @@ def write_timing_report(
             if row["target_reset"] is not None
             else "largest reset-time difference of the two profiles"
         )
-        path.write_text(_result_toml(row, f"{spec.name}: result {i + 1}, {what}"))
+        title = f"{spec.name}: result {i + 1}, {what}"
+        path.write_text(_result_toml(row, title, constants=spec.constants))
         written.append(path)
+    written += write_constants_beside(spec.constants, out)
     if plot:
         written += _pickplace_figures(spec, rows, evaluator, evaluator.history(), out)
     return written

@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ....lookup.files import toml_value
+from ....lookup.files import CONSTANTS_FILE, toml_value, write_constants_beside
+from ....model.constants_set import DEFAULT
 from ....model.formatting import json_number
 from ...engine.optimiser import TargetResult
 from ...evaluation import SceneEvaluator
@@ -202,6 +203,10 @@ def _leg_toml(row: dict[str, Any], spec, title: str) -> str:
         "",
         "[leg]",
         'composition = "dpw"',
+    ]
+    if spec.constants != DEFAULT:
+        lines[2:2] = [f"# under constants set {spec.constants.label}, saved beside this file"]
+    lines += [
         f"t_end = {g.t_end!r}",
         "n_samples = 501",
         "",
@@ -214,7 +219,9 @@ def _leg_toml(row: dict[str, Any], spec, title: str) -> str:
         f"tau = {toml_value(list(g.phase2))}",
     ]
     for role, phase in (("purple", "1"), ("green", "2"), ("action", "2")):
-        d = row["design"][role]
+        d = dict(row["design"][role])
+        if spec.constants != DEFAULT:
+            d["constants"] = CONSTANTS_FILE
         body = ", ".join(f"{k} = {toml_value(v)}" for k, v in d.items() if k != "name")
         lines += [
             "",
@@ -255,6 +262,7 @@ def write_walker_report(
         path = out / f"leg-{row['leg']}.toml"
         path.write_text(_leg_toml(row, spec, f"{spec.name}: designed {row['leg']} leg"))
         written.append(path)
+    written += write_constants_beside(spec.constants, out)
     if plot:
         written += _figures(spec, rows, out)
     return written

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError
+from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, data_hull
 from .closed_forms import Selection, select_closed_form
 from .curves import CurveError, UnitCellCurve
 from .spring_fit import CurveFit, fit_curve
@@ -157,6 +157,7 @@ def identify(
         tip_ratio=selections["tip_ratio"].form if "tip_ratio" in selections else DEFAULT.tip_ratio,
         domain=domain,
         provenance=provenance,
+        hull=data_hull(H / r_b, t / r_b),
     )
     try:
         constants.check()

@@ -58,6 +58,7 @@ __all__ = [
     "ClosedForm",
     "ConstantsSet",
     "ConstantsSetError",
+    "data_hull",
     "load_constants_set",
     "power_tables",
     "set_constant_partials",
@@ -338,6 +339,10 @@ class ConstantsSet:
         Where the forms were fitted: ranges among :data:`DOMAIN_KEYS` (module docstring).
     provenance : dict
         How the set was made (method, settings, data checksum, package versions).
+    hull : tuple of (float, float), optional
+        Vertices of the convex hull of the data's ``(H/r_b, t/r_b)`` (counter-clockwise); when
+        given, a dome is in the domain only inside it too (the ranges alone would also admit
+        the corners of the box the data never reached).
     """
 
     name: str
@@ -346,6 +351,7 @@ class ConstantsSet:
     tip_ratio: ClosedForm
     domain: dict[str, tuple[float, float]]
     provenance: dict[str, Any] = field(default_factory=dict)
+    hull: tuple[tuple[float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         for key in self.domain:
@@ -355,6 +361,14 @@ class ConstantsSet:
                     f"known: {', '.join(DOMAIN_KEYS)}"
                 )
         self.ratio_ranges()  # the domain must bound H/r_b and t/r_b
+        if self.hull is not None:
+            vertices = np.asarray(self.hull, dtype=float)
+            if vertices.ndim != 2 or vertices.shape[0] < 3 or vertices.shape[1] != 2:
+                raise ConstantsSetError(
+                    f"constants set {self.name!r}: hull needs at least 3 (H/r_b, t/r_b) vertices"
+                )
+            if not np.all(np.isfinite(vertices)):
+                raise ConstantsSetError(f"constants set {self.name!r}: hull has non-finite values")
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ConstantsSet):
@@ -498,6 +512,25 @@ class ConstantsSet:
             for key, (lo, hi) in self.domain.items():
                 value = values[key]
                 inside &= (value >= lo - 1e-12 * abs(lo)) & (value <= hi + 1e-12 * abs(hi))
+        return inside & self.inside_hull(values["H_over_rb"], values["t_over_rb"])
+
+    def inside_hull(self, h: ArrayLike, s: ArrayLike) -> NDArray:
+        """Whether each ``(H/r_b, t/r_b)`` lies in the data's hull (all True without a hull).
+
+        A point on the boundary counts as inside (to 1e-12 of the hull's size); NaN as outside.
+        """
+        h, s = np.broadcast_arrays(np.asarray(h, dtype=float), np.asarray(s, dtype=float))
+        if self.hull is None:
+            return np.ones(h.shape, dtype=bool)
+        vertices = np.asarray(self.hull, dtype=float)
+        edges = np.roll(vertices, -1, axis=0) - vertices
+        scale = float(np.abs(vertices).max())
+        inside = np.isfinite(h) & np.isfinite(s)
+        with np.errstate(invalid="ignore"):
+            for (x0, y0), (dx, dy) in zip(vertices, edges, strict=True):
+                # counter-clockwise: the inside is on the left of every edge
+                cross = dx * (s - y0) - dy * (h - x0)
+                inside &= cross >= -1e-12 * scale * np.hypot(dx, dy)
         return inside
 
     def check(self) -> None:
@@ -517,12 +550,14 @@ class ConstantsSet:
             np.linspace(*h_range, CHECK_GRID), np.linspace(*t_range, CHECK_GRID), indexing="ij"
         )
         values = self.evaluate(H, t, 1.0, 1.0)
+        claimed = self.inside_hull(H, t)  # the box's corners outside the data's hull are not
         problems = (
             (~(values["k_b"] > 0.0), "k_b <= 0"),
             (~((values["alpha"] > 0.0) & (values["alpha"] < 1.0)), "alpha outside (0, 1)"),
             (~(values["tip_dis"] > H), "tip_dis <= H (the inverted apex would not pass flat)"),
         )
         for bad, what in problems:
+            bad = bad & claimed
             if np.any(bad):
                 i, j = np.argwhere(bad)[0]
                 raise ConstantsSetError(
@@ -555,6 +590,8 @@ class ConstantsSet:
             "tip_ratio": self.tip_ratio.to_dict(),
             "domain": {k: list(v) for k, v in self.domain.items()},
             "provenance": self.provenance,
+            # only when present, so that sets without a hull keep their fingerprints
+            **({"hull": [list(v) for v in self.hull]} if self.hull is not None else {}),
         }
 
     def save(self, path: str | Path) -> Path:
@@ -606,6 +643,7 @@ class ConstantsSet:
                 tip_ratio=ClosedForm.from_dict(data["tip_ratio"], f"{source}: tip_ratio"),
                 domain=domain,
                 provenance=dict(data.get("provenance") or {}),
+                hull=_hull(data.get("hull"), source),
             )
         except ConstantsSetError as exc:
             message = str(exc)
@@ -614,6 +652,34 @@ class ConstantsSet:
             ) from None
         result.check()
         return result
+
+
+def _hull(value: Any, source: str) -> tuple[tuple[float, float], ...] | None:
+    if value is None:
+        return None
+    if not isinstance(value, list) or not all(
+        isinstance(v, list)
+        and len(v) == 2
+        and all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)
+        for v in value
+    ):
+        raise ConstantsSetError(f"{source}: hull must be a list of [H/r_b, t/r_b] vertices")
+    return tuple((float(a), float(b)) for a, b in value)
+
+
+def data_hull(h: ArrayLike, s: ArrayLike) -> tuple[tuple[float, float], ...] | None:
+    """The counter-clockwise convex hull of points ``(H/r_b, t/r_b)``; None when degenerate."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    points = np.column_stack([np.ravel(h), np.ravel(s)]).astype(float)
+    points = np.unique(points[np.all(np.isfinite(points), axis=1)], axis=0)
+    if points.shape[0] < 3:
+        return None
+    try:
+        hull = ConvexHull(points)
+    except QhullError:  # collinear: the ranges say all there is
+        return None
+    return tuple((float(x), float(y)) for x, y in points[hull.vertices])  # 2-D: counter-clockwise
 
 
 def _fingerprint(body: Mapping[str, Any]) -> str:

@@ -585,7 +585,20 @@ class DesignBatch:
         )
         # shared quantities as (n,), per-unit ones as (n, MAX_UNITS)
         values = {k: v if DOMAIN_KEYS[k][1] else v[:, 0] for k, v in values.items()}
-        return fitted_range(self.n_units, values, self.constants.domain)
+        inside, notes = fitted_range(self.n_units, values, self.constants.domain)
+        if self.constants.hull is None:
+            return inside, notes
+        h, s = values["H_over_rb"], values["t_over_rb"][:, None]
+        outside = active_units(self.n_units) & ~self.constants.inside_hull(h, s)
+        for i in np.flatnonzero(outside.any(axis=1)):
+            k = int(np.flatnonzero(outside[i])[0])
+            text = (
+                f"(H/r_b, t/r_b)[unit {k + 1}] = ({h[i, k]:.4g}, {s[i, 0]:.4g}) outside the "
+                "hull of the data the constants set was fitted on"
+            )
+            inside[i] = False
+            notes[i] = f"{notes[i]}; {text}" if notes[i] else text
+        return inside, notes
 
     def design(self, i: int) -> Design:
         """Row ``i`` as a :class:`Design` (raises ``ValueError`` if that row is invalid)."""

@@ -7,13 +7,21 @@ the set's own derivatives, against finite differences) and the states.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from model_helpers import FINGER, other_set
 
 from dpfexplore import Design, find_state
 from dpfexplore._kernels import layout as lay
-from dpfexplore.model.constants_set import DEFAULT, ClosedForm, ConstantsSet, ConstantsSetError
+from dpfexplore.model.constants_set import (
+    DEFAULT,
+    ClosedForm,
+    ConstantsSet,
+    ConstantsSetError,
+    load_constants_set,
+)
 from dpfexplore.model.design import DesignBatch, load_design
 from dpfexplore.model.status import Status
 from dpfexplore.solvers.lattice import batch_constants, kernel_tables, spring_constants
@@ -145,3 +153,36 @@ def test_derivative_tables_follow_the_sets_own_derivatives():
         for name, row in (("k_b", lay.COL_KB), ("alpha", lay.COL_ALPHA), ("d", lay.COL_D)):
             fd = (hi[name] - lo[name]) / (2 * step)
             np.testing.assert_allclose(dtab[:, row, j], fd, rtol=1e-7, atol=1e-9, err_msg=name)
+
+
+def test_a_hull_narrows_the_domain_to_where_the_data_were(tmp_path):
+    """A set fitted on a triangle of (H/r_b, t/r_b) flags the box corner it never saw."""
+    from dpfexplore.model.constants_set import data_hull
+
+    h = [0.6, 1.0, 0.6, 0.8]
+    s = [0.1, 0.1, 0.2, 0.12]  # the last point is inside: not a vertex
+    hull = data_hull(h, s)
+    assert hull is not None and len(hull) == 3
+    triangle = ConstantsSet(
+        name="triangle",
+        k_hat=DEFAULT.k_hat,
+        alpha=DEFAULT.alpha,
+        tip_ratio=DEFAULT.tip_ratio,
+        domain={"H_over_rb": (0.6, 1.0), "t_over_rb": (0.1, 0.2)},
+        hull=hull,
+    )
+    # inside the triangle, and the corner (1.0, 0.2) of the box that is not
+    assert triangle.in_domain([3.5, 5.0], [0.6, 1.0], 5.0, 26.0).tolist() == [True, False]
+    corner = Design(H=[5.0], U_L=8.0, U_sep=1.5, t=1.0, t_lim=1.5, constants=triangle)
+    assert corner.fitted_range_note == (
+        "(H/r_b, t/r_b)[unit 1] = (1, 0.2) outside the hull of the data the constants set was "
+        "fitted on"
+    )
+    assert Design(H=[3.5], U_L=8.0, U_sep=1.5, t=0.6, t_lim=1.5, constants=triangle).in_fitted_range
+    # the hull is part of the set: saved, fingerprinted, read back
+    path = triangle.save(tmp_path / "triangle.json")
+    again = load_constants_set(path)
+    assert again.hull == triangle.hull and again == triangle
+    assert again.fingerprint != dataclasses.replace(triangle, hull=None).fingerprint
+    # collinear data have no hull (the ranges say all there is)
+    assert data_hull([0.6, 0.8, 1.0], [0.1, 0.15, 0.2]) is None

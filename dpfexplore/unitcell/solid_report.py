@@ -1,0 +1,314 @@
+"""The solid-versus-shell cross-check and its record (issue 21 §3).
+
+:func:`compare` sets a solid curve (:mod:`dpfexplore.unitcell.solid_check`) beside the shell
+model's first branch (:func:`dpfexplore.unitcell.unit_cell_curve`) at matching apex travel;
+:func:`build_report` runs the closed-form checks, the domes, the load-introduction sensitivity
+and the solid's mesh refinement and writes ``results/reports/unitcell-solid-check.json``::
+
+    .venv/bin/python -m dpfexplore.unitcell.solid_report [OUT.json]
+
+Two figures are reported per dome, over the travel ``0.25 H ≤ δ ≤`` the first fold of either
+model:
+
+* **raw**: ``E_solid(δ) / E_shell(δ) − 1``;
+* **series-corrected**: the shell's curve seen through a linear series spring of compliance
+  ``Δc = 1/k_solid − 1/k_shell``, the difference of the two models' small-deflection apex
+  compliances (each computed, nothing fitted to the curves): ``δ = δ_s + F Δc``,
+  ``E = E_s + F² Δc / 2``. A shear-rigid shell under a point load and a solid loaded over a disc
+  of radius ``a`` differ near the load by transverse shear and the load's spread (a compliance
+  that depends on ``a`` like ``ln a``); if that local difference is what separates the curves,
+  the corrected figure is small for every ``a`` while the raw one is not.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import CubicHermiteSpline
+
+from .solid_check import MeshSpec, SolidCurve, solid_curve, solid_stiffness
+
+__all__ = ["DEFAULT_MESH", "build_report", "compare", "shell_first_branch"]
+
+logger = logging.getLogger(__name__)
+
+#: The solid mesh of the cross-check: 30 elements along the meridian past the apex column,
+#: 2 through the thickness, 2 across the column (quadratic elements; its refinement by 2 in
+#: every direction is in the report).
+DEFAULT_MESH = MeshSpec(n_along=30, n_through=2, n_disc=2, grading=1.1)
+#: Start of the compared travel, in dome heights: below it both energies are tiny and the
+#: ratio measures the initial stiffness only (reported apart).
+LOW = 0.25
+
+
+def shell_first_branch(H: float, t: float, r_b: float, E: float, nu: float) -> dict:
+    """The shell model's stable first branch: travel (mm), energy (N·mm), force (N), fold (mm)."""
+    from . import apex_stiffness, unit_cell_curve
+
+    start = time.perf_counter()
+    run = unit_cell_curve(H, t, r_b, E, nu)
+    elapsed = time.perf_counter() - start
+    first = (run.branch == 0) & run.stable
+    d, unique = np.unique(run.displacement[first], return_index=True)
+    return {
+        "displacement": d,
+        "energy": run.energy[first][unique],
+        "force": run.force[first][unique],
+        "fold": float(run.folds[0]) if run.folds.size else float(d[-1]),
+        "stiffness": float(apex_stiffness(H, t, r_b, E, nu)),
+        "elapsed": elapsed,
+        "n_elements": int(run.n_elements),
+    }
+
+
+def _spline(d: NDArray, e: NDArray, f: NDArray) -> CubicHermiteSpline:
+    """Energy against travel with the force as its slope (exact for an equilibrium path)."""
+    keep = np.concatenate([[True], np.diff(d) > 0])
+    keep &= np.maximum.accumulate(d) <= d  # cut where the travel turns back
+    return CubicHermiteSpline(d[keep], e[keep], f[keep])
+
+
+def compare(solid: SolidCurve, shell: dict, k_solid: float) -> dict:
+    """Energy of the solid against the shell's at matching apex travel.
+
+    Parameters
+    ----------
+    solid : SolidCurve
+    shell : dict
+        From :func:`shell_first_branch`.
+    k_solid : float, N/mm
+        The solid's small-deflection apex stiffness (same mesh and load).
+
+    Returns
+    -------
+    dict
+        ``raw`` and ``series_corrected`` relative energy differences (max of the absolute value,
+        mean, and the signed value at the end of the window), the window (mm), the folds (mm),
+        the peak forces (N), the initial stiffnesses (N/mm) and ``delta_c`` (mm/N).
+    """
+    H = solid.H
+    solid_end = solid.fold if solid.fold is not None else float(solid.displacement[-1])
+    upto = min(solid_end, shell["fold"])
+    d_s, e_s, f_s = shell["displacement"], shell["energy"], shell["force"]
+    window = (solid.displacement >= LOW * H) & (solid.displacement <= upto)
+    d = solid.displacement[window]
+    e = solid.energy[window]
+    raw = e / _spline(d_s, e_s, f_s)(d) - 1.0
+    dc = 1.0 / k_solid - 1.0 / shell["stiffness"]
+    spline_c = _spline(d_s + f_s * dc, e_s + 0.5 * f_s**2 * dc, f_s)
+    inside = d <= spline_c.x[-1]
+    corrected = e[inside] / spline_c(d[inside]) - 1.0
+
+    def stats(x: NDArray) -> dict:
+        return {
+            "max_abs": float(np.abs(x).max()),
+            "mean": float(x.mean()),
+            "at_end": float(x[-1]),
+            "points": int(x.size),
+        }
+
+    return {
+        "window_mm": [float(d[0]), float(d[-1])],
+        "raw": stats(raw),
+        "series_corrected": stats(corrected),
+        "fold_mm": {"solid": solid.fold, "shell": shell["fold"]},
+        "peak_force_N": {"solid": float(solid.force.max()), "shell": float(f_s.max())},
+        "initial_stiffness_N_per_mm": {"solid": k_solid, "shell": shell["stiffness"]},
+        "delta_c_mm_per_N": dc,
+    }
+
+
+def _solid(
+    H, t, r_b, E, nu, mesh, a, apex, n_steps, material="neo-hookean"
+) -> tuple[SolidCurve, float]:
+    curve = solid_curve(
+        H,
+        t,
+        r_b,
+        E,
+        nu,
+        n_steps=n_steps,
+        mesh=mesh,
+        disc_radius=a,
+        apex=apex,
+        material=material,
+    )
+    k = solid_stiffness(H, t, r_b, E, nu, mesh=mesh, disc_radius=a, apex=apex)
+    return curve, k
+
+
+def _curve_record(curve: SolidCurve) -> dict:
+    return {
+        "status": curve.status,
+        "fold_mm": curve.fold,
+        "n_dofs": curve.n_dofs,
+        "points": int(curve.displacement.size),
+        "elapsed_s": round(curve.elapsed, 2),
+        "displacement_mm": np.round(curve.displacement, 6).tolist(),
+        "energy_Nmm": np.round(curve.energy, 6).tolist(),
+        "force_N": np.round(curve.force, 6).tolist(),
+    }
+
+
+def _mindlin_plate_excess(E: float, nu: float, t: float, r_b: float, a: float) -> float:
+    """Transverse-shear compliance of a pinned plate loaded over radius ``a`` (mm/N).
+
+    Mindlin's correction to the Kirchhoff centre deflection, ``P/(2π κ G t) ln(r_b/a)`` with
+    ``κ = 5/6`` (leading order in ``a/r_b``); an estimate of what the solid adds.
+    """
+    G = E / (2.0 * (1.0 + nu))
+    return math.log(r_b / a) / (2.0 * math.pi * (5.0 / 6.0) * G * t)
+
+
+def build_report(
+    out: str | Path = "results/reports/unitcell-solid-check.json",
+    *,
+    domes: tuple[tuple[float, float], ...] = ((3.0, 1.0), (4.0, 1.0), (3.0, 0.8), (5.0, 1.0)),
+    n_steps: int = 30,
+) -> dict:
+    """Run the cross-check and write its record (JSON) to ``out``; returns the record."""
+    from .checks import bending_length, plate_stiffness, shallow_shell_stiffness
+
+    r_b, E, nu = 5.0, 26.0, 0.35
+    record: dict = {
+        "what": "2-D axisymmetric solid (scikit-fem) against the shell model (issue 21 §3)",
+        "command": "python -m dpfexplore.unitcell.solid_report",
+        "machine": {"uname_m": platform.machine(), "cpu_count": os.cpu_count()},
+        "software": {"python": sys.version.split()[0], "scikit-fem": _version("scikit-fem")},
+        "material": {"law": "compressible neo-Hookean", "E_MPa": E, "nu": nu},
+        "mesh": vars(DEFAULT_MESH),
+        "load": "apex column s <= a through the thickness, u_z = -delta (apex='column')",
+        "edge": "mean position of the edge face held (length-weighted), rotation free",
+    }
+    # closed forms: pinned plate (thin and thick), Reissner's shallow cap
+    plates = []
+    for t in (0.1, 0.2, 0.5, 1.0):
+        k_plate = plate_stiffness(E, nu, t, r_b)
+        row = {"t_mm": t, "kirchhoff_N_per_mm": k_plate}
+        for apex in ("column", "mean"):
+            k = solid_stiffness(0.0, t, r_b, E, nu, mesh=MeshSpec(40, 2, 2, 1.1), apex=apex)
+            row[f"solid_{apex}_N_per_mm"] = k
+            row[f"solid_{apex}_rel"] = k / k_plate - 1.0
+        mindlin = 1.0 / (1.0 / k_plate + _mindlin_plate_excess(E, nu, t, r_b, 0.5 * t))
+        row["kirchhoff_plus_mindlin_shear_rel"] = mindlin / k_plate - 1.0
+        plates.append(row)
+    record["plate"] = plates
+    t_c, R_c = 0.05, 10.0
+    ell = bending_length(R_c, t_c, nu)
+    caps = []
+    for n_ell in (10.0, 16.0):
+        rb = n_ell * ell
+        H_c = R_c - math.sqrt(R_c**2 - rb**2)
+        k_r = shallow_shell_stiffness(E, nu, t_c, R_c)
+        spec = MeshSpec(max(40, int(4 * rb / t_c) // 8), 2, 2, 1.1)
+        k = solid_stiffness(H_c, t_c, rb, E, nu, mesh=spec)
+        from . import apex_stiffness
+
+        k_sh = apex_stiffness(H_c, t_c, rb, E, nu)
+        caps.append(
+            {
+                "R_mm": R_c,
+                "t_mm": t_c,
+                "r_b_over_ell": n_ell,
+                "reissner_N_per_mm": k_r,
+                "solid_rel": k / k_r - 1.0,
+                "shell_rel": k_sh / k_r - 1.0,
+                "solid_vs_shell": k / k_sh - 1.0,
+                "mesh_n_along": spec.n_along,
+            }
+        )
+    record["reissner"] = caps
+    # the domes
+    rows = []
+    for H, t in domes:
+        shell = shell_first_branch(H, t, r_b, E, nu)
+        curve, k = _solid(H, t, r_b, E, nu, DEFAULT_MESH, 0.5 * t, "column", n_steps)
+        rows.append(
+            {
+                "H_mm": H,
+                "t_mm": t,
+                "a_mm": 0.5 * t,
+                **compare(curve, shell, k),
+                "shell_elapsed_s": round(shell["elapsed"], 3),
+                "shell_elements": shell["n_elements"],
+                "solid": _curve_record(curve),
+            }
+        )
+        logger.info("dome H=%g t=%g done", H, t)
+    record["domes"] = rows
+    # load introduction: radius and kind, on the thickest low dome
+    H, t = domes[0]
+    shell = shell_first_branch(H, t, r_b, E, nu)
+    sens = []
+    for apex, a in (("column", 0.25 * t), ("column", t), ("mean", 0.5 * t), ("mean", t)):
+        curve, k = _solid(H, t, r_b, E, nu, DEFAULT_MESH, a, apex, n_steps)
+        sens.append(
+            {"apex": apex, "a_mm": a, **compare(curve, shell, k), "elapsed_s": curve.elapsed}
+        )
+    record["load_sensitivity"] = {"H_mm": H, "t_mm": t, "runs": sens}
+    # the solid's own mesh convergence
+    fine = DEFAULT_MESH.refined()
+    coarse_curve, _ = _solid(H, t, r_b, E, nu, DEFAULT_MESH, 0.5 * t, "column", n_steps)
+    fine_curve, _ = _solid(H, t, r_b, E, nu, fine, 0.5 * t, "column", n_steps)
+    upto = min(coarse_curve.displacement[-1], fine_curve.displacement[-1])
+    grid = coarse_curve.displacement[
+        (coarse_curve.displacement >= LOW * H) & (coarse_curve.displacement <= upto)
+    ]
+    e_fine = _spline(fine_curve.displacement, fine_curve.energy, fine_curve.force)(grid)
+    e_coarse = _spline(coarse_curve.displacement, coarse_curve.energy, coarse_curve.force)(grid)
+    # the law: SVK (Green-Lagrange) against neo-Hookean on the same mesh and load
+    svk, _ = _solid(H, t, r_b, E, nu, DEFAULT_MESH, 0.5 * t, "column", n_steps, "svk")
+    common = coarse_curve.displacement[
+        (coarse_curve.displacement > 0) & (coarse_curve.displacement <= svk.displacement[-1])
+    ]
+    e_svk = _spline(svk.displacement, svk.energy, svk.force)(common)
+    e_nh = _spline(coarse_curve.displacement, coarse_curve.energy, coarse_curve.force)(common)
+    record["svk"] = {
+        "status": svk.status,
+        "last_travel_mm": float(svk.displacement[-1]),
+        "energy_rel_to_neo_hookean_max_abs": float(np.abs(e_svk / e_nh - 1.0).max()),
+    }
+    record["mesh_refinement"] = {
+        "H_mm": H,
+        "t_mm": t,
+        "coarse": {
+            **vars(DEFAULT_MESH),
+            "n_dofs": coarse_curve.n_dofs,
+            "fold_mm": coarse_curve.fold,
+            "elapsed_s": coarse_curve.elapsed,
+        },
+        "fine": {
+            **vars(fine),
+            "n_dofs": fine_curve.n_dofs,
+            "fold_mm": fine_curve.fold,
+            "elapsed_s": fine_curve.elapsed,
+        },
+        "energy_max_abs_rel": float(np.abs(e_coarse / e_fine - 1.0).max()),
+    }
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(record, indent=1) + "\n")
+    tmp.replace(path)
+    return record
+
+
+def _version(name: str) -> str:
+    from importlib.metadata import version
+
+    return version(name)
+
+
+if __name__ == "__main__":
+    logging.basicConfig(level=logging.WARNING)
+    logger.setLevel(logging.INFO)  # this module's progress, not scikit-fem's per-assembly lines
+    build_report(*sys.argv[1:2])

@@ -169,8 +169,8 @@ def design_tables(
     H, U_L, U_sep : ndarray of shape (n, MAX_UNITS), mm
     t, t_lim, E, nu, r_b, t_ch : ndarray of shape (n,)
         The arrays of a :class:`DesignBatch`.
-    forms : ndarray of shape (3, n_terms, 3)
-        The batch's constants set
+    forms : tuple of (ndarray of int64, shape (3, n_terms, 2); ndarray, shape (3, n_terms))
+        The batch's constants set: powers and coefficients of its closed forms
         (:meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`).
     status : ndarray of int8, shape (n,)
         Receives each design's status code.

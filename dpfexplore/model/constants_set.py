@@ -19,7 +19,8 @@ match its contents, and a set whose own closed forms give ``k_b <= 0`` or ``alph
 :meth:`ConstantsSet.evaluate` reproduces :func:`~dpfexplore.model.constants.dome_stiffness`,
 :func:`~dpfexplore.model.constants.dome_alpha` and the unclamped reach to rounding (tested below
 1e-13 relative), and so does the compiled path that every command runs on: the kernels read a
-set as one array (:meth:`ConstantsSet.kernel_forms`, rows of ``(p, q, c)`` per closed form) and
+set as a record of two arrays (:meth:`ConstantsSet.kernel_forms`: each term's powers and
+coefficient) and
 evaluate it with :func:`set_constants_form` and :func:`set_constant_partials`, the same
 arithmetic in the same order as the NumPy methods, so both agree bit for bit. No set is special:
 the paper's is just the default.
@@ -210,48 +211,46 @@ def _power_table(x, out):
 
 
 @register_jitable
-def _tabled(table, n):
-    """``x**n`` from a :func:`_power_table` (negative ``n``: ``1/x**|n|``, as :func:`_ipow`)."""
-    if n < 0:
-        return 1.0 / table[-n]
-    return table[n]
-
-
-@register_jitable
 def _form_value(forms, f, P1, P3):
-    """Closed form ``f`` of a :meth:`ConstantsSet.kernel_forms` array from power tables.
+    """Closed form ``f`` of a :meth:`ConstantsSet.kernel_forms` record from power tables.
 
-    ``P1``, ``P3``: :func:`_power_table` of ``π1`` and ``π3``. Each term is
-    ``c · π1^p · π3^q`` with the powers of :func:`_ipow`, so the sum equals the NumPy
-    :meth:`ClosedForm.__call__` bit for bit; the tables only spare recomputing them per term.
+    ``P1``, ``P3``: :func:`_power_table` of ``π1`` and ``π3``; a negative power is
+    ``1 / x**|n|``, as :func:`_ipow` computes it. Each term is ``c · π1^p · π3^q`` with those
+    powers, so the sum equals the NumPy :meth:`ClosedForm.__call__` bit for bit (padding terms
+    ``0 · 1 · 1`` add zero); the tables only spare recomputing the powers per term. (The power
+    lookups stay inline expressions: as a helper function they made the loop 5x slower.)
     """
+    powers, coefficients = forms
     total = 0.0
-    for j in range(forms.shape[1]):
-        c = forms[f, j, 2]
-        if c != 0.0:  # padding rows (and zero terms) add nothing
-            p = int(forms[f, j, 0])
-            q = int(forms[f, j, 1])
-            total = total + c * _tabled(P1, p) * _tabled(P3, q)
+    for j in range(coefficients.shape[1]):
+        p = powers[f, j, 0]
+        q = powers[f, j, 1]
+        a = P1[p] if p >= 0 else 1.0 / P1[-p]
+        b = P3[q] if q >= 0 else 1.0 / P3[-q]
+        total = total + coefficients[f, j] * a * b
     return total
 
 
 @register_jitable
 def _form_partials(forms, f, P1, P3):
     """Closed form ``f`` and its partials ``∂/∂π1``, ``∂/∂π3`` from power tables."""
+    powers, coefficients = forms
     value = 0.0
     d1 = 0.0
     d3 = 0.0
-    for j in range(forms.shape[1]):
-        c = forms[f, j, 2]
-        if c == 0.0:
-            continue
-        p = int(forms[f, j, 0])
-        q = int(forms[f, j, 1])
-        value = value + c * _tabled(P1, p) * _tabled(P3, q)
+    for j in range(coefficients.shape[1]):
+        c = coefficients[f, j]
+        p = powers[f, j, 0]
+        q = powers[f, j, 1]
+        a = P1[p] if p >= 0 else 1.0 / P1[-p]
+        b = P3[q] if q >= 0 else 1.0 / P3[-q]
+        value = value + c * a * b
         if p != 0:
-            d1 = d1 + c * p * _tabled(P1, p - 1) * _tabled(P3, q)
+            a1 = P1[p - 1] if p >= 1 else 1.0 / P1[1 - p]
+            d1 = d1 + c * p * a1 * b
         if q != 0:
-            d3 = d3 + c * q * _tabled(P1, p) * _tabled(P3, q - 1)
+            b1 = P3[q - 1] if q >= 1 else 1.0 / P3[1 - q]
+            d3 = d3 + c * q * a * b1
     return value, d1, d3
 
 
@@ -262,7 +261,7 @@ def power_tables():
     Allocated once per batch by the kernels (an allocation per dome would cost more than the
     closed forms themselves).
     """
-    return np.empty((2, MAX_POWER + 1))
+    return np.empty(MAX_POWER + 1), np.empty(MAX_POWER + 1)
 
 
 @register_jitable
@@ -276,8 +275,7 @@ def set_constants_form(forms, E, H, t, r_b, powers):
     R = (H * H + r_b * r_b) / (2.0 * H)
     pi1 = t / H
     pi3 = H / R
-    P1 = powers[0]
-    P3 = powers[1]
+    P1, P3 = powers
     _power_table(pi1, P1)
     _power_table(pi3, P3)
     k_b = E * (t * t) / R * _form_value(forms, FORM_K_HAT, P1, P3)
@@ -301,8 +299,7 @@ def set_constant_partials(forms, E, H, t, r_b, powers):
     dpi1_dH = -t / (H * H)
     dpi1_dt = 1.0 / H
     dpi3_dH = (R - H * dR_dH) / (R * R)
-    P1 = powers[0]
-    P3 = powers[1]
+    P1, P3 = powers
     _power_table(pi1, P1)
     _power_table(pi3, P3)
     k, k1, k3 = _form_partials(forms, FORM_K_HAT, P1, P3)
@@ -441,26 +438,32 @@ class ConstantsSet:
             "no_contact": no_contact,
         }
 
-    def kernel_forms(self) -> NDArray:
-        """The three closed forms as one array for the kernels.
+    def kernel_forms(self) -> tuple[NDArray, NDArray]:
+        """The three closed forms as the record the kernels read.
 
         Returns
         -------
-        ndarray of shape (3, n_terms, 3)
-            Rows :data:`FORM_K_HAT`, :data:`FORM_ALPHA`, :data:`FORM_TIP_RATIO`; each term
-            ``(p, q, c)``; shorter forms padded with zero terms (which add nothing). A fresh
-            read-only copy of a cached array.
+        powers : ndarray of int64, shape (3, n_terms, 2)
+            ``(p, q)`` of each term; rows :data:`FORM_K_HAT`, :data:`FORM_ALPHA`,
+            :data:`FORM_TIP_RATIO`.
+        coefficients : ndarray of shape (3, n_terms)
+            ``c`` of each term. Shorter forms are padded with terms ``0 · π1⁰ · π3⁰``, which
+            add nothing. Both arrays cached and read-only.
         """
         cached = self.__dict__.get("_kernel_forms")
         if cached is None:
             forms = (self.k_hat, self.alpha, self.tip_ratio)
             width = max(1, *(len(f.coefficients) for f in forms))
-            cached = np.zeros((3, width, 3))
+            powers = np.zeros((3, width, 2), dtype=np.int64)
+            coefficients = np.zeros((3, width))
             for i, form in enumerate(forms):
                 terms = zip(form.exponents, form.coefficients, strict=True)
                 for j, ((p, q), c) in enumerate(terms):
-                    cached[i, j] = (p, q, c)
-            cached.flags.writeable = False
+                    powers[i, j] = (p, q)
+                    coefficients[i, j] = c
+            powers.flags.writeable = False
+            coefficients.flags.writeable = False
+            cached = (powers, coefficients)
             object.__setattr__(self, "_kernel_forms", cached)
         return cached
 

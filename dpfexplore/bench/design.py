@@ -458,6 +458,35 @@ def _fmt(v, spec=".3g") -> str:
     return "-" if v is None else format(v, spec)
 
 
+def _baseline_lines(row: dict) -> list[str]:
+    """One line per baseline of a row: its budget and best objective, or why it did not run.
+
+    The table's columns show the best baseline only; these lines keep every baseline visible
+    (a GP-BO run that lost to TPE, or one that could not run), so none is dropped silently.
+    """
+    key = "paper" if row.get("paper_objective") is not None else "1e-6"
+    lines = []
+    for name, method in row.get("methods", {}).items():
+        if name.startswith("ours"):
+            continue
+        if "error" in method:
+            lines.append(f"    {name}: not run: {method['error']}")
+            continue
+        reached = method.get(f"evals_to_{key}")
+        seconds = _fmt(method.get(f"wall_s_to_{key}"), ".2f")
+        to_goal = (
+            f"reached {key} in {reached} evaluations ({seconds} s)"
+            if reached is not None
+            else f"did not reach {key}"
+        )
+        lines.append(
+            f"    {name}: {method.get('evals')} evaluations in "
+            f"{_fmt(method.get('wall_s'), '.2f')} s, best objective "
+            f"{_fmt(method.get('objective'), '.2e')}; {to_goal}"
+        )
+    return lines
+
+
 def _text(record: dict) -> str:
     lines = [
         "bench design: evaluations (designs solved) and wall time to reach the paper's "
@@ -478,6 +507,7 @@ def _text(record: dict) -> str:
             f"{_fmt(r['baseline_evals'], 'd'):>6} {_fmt(r['baseline_wall_s'], '.2f'):>7} "
             f"{_fmt(r['baseline_objective'], '.2e'):>9} {_fmt(r['baseline_budget_evals'], 'd'):>6}"
         )
+        lines.extend(_baseline_lines(r))
     s = record["summary"]
     lines.append(
         f"position targets met to 1e-6 mm²: {s['position_met_1e-6']}/"

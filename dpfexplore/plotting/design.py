@@ -6,7 +6,7 @@ Plain arrays and DataFrames in (the history written by ``dpfexplore design``), A
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -58,26 +58,50 @@ def plot_target_shapes(
     return ax
 
 
-def plot_objective_history(history, ax: Axes | None = None) -> Axes:
-    """Best objective so far (mm²) against exact evaluations, one line per target.
+def plot_objective_history(
+    history,
+    ax: Axes | None = None,
+    *,
+    labels: Mapping[int, str] | None = None,
+    ylabel: str = "best objective so far (mm²)",
+) -> Axes:
+    """Best objective so far against exact evaluations, one line per target.
+
+    Every evaluation is a marker, so a target met at its first evaluations is still drawn; a
+    target without a finite objective is left out of the plot and of the legend.
 
     Parameters
     ----------
     history : pandas.DataFrame
         The scene's history (columns ``evaluation``, ``target``, ``objective``).
+    labels : mapping of int to str, optional
+        Legend label of each target index (default ``"target i"``, 1-based).
+    ylabel : str
+        What the objective is (mm² for the position scenes).
     """
     ax = _axes(ax)
+    counts = []
     for target, part in history.groupby("target"):
         objective = part["objective"].to_numpy(dtype=float)
         best = np.minimum.accumulate(np.where(np.isfinite(objective), objective, np.inf))
         count = np.arange(1, len(best) + 1)
         keep = np.isfinite(best)
-        ax.plot(count[keep], np.maximum(best[keep], 1e-16), label=f"target {int(target) + 1}")
-    ax.set_xscale("log")
+        if not keep.any():
+            continue
+        label = (labels or {}).get(int(target), f"target {int(target) + 1}")
+        ax.plot(count[keep], np.maximum(best[keep], 1e-16), "-o", ms=3, lw=1.2, label=label)
+        counts.append(int(count[keep][-1]))
     ax.set_yscale("log")
+    if counts and max(counts) > 20:
+        ax.set_xscale("log")
+    else:  # a few evaluations: whole numbers on a linear axis read better than 2×10⁰
+        from matplotlib.ticker import MaxNLocator
+
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("exact evaluations (designs solved)")
-    ax.set_ylabel("best objective so far (mm²)")
-    ax.legend(fontsize="small")
+    ax.set_ylabel(ylabel)
+    if counts:
+        ax.legend(fontsize="small")
     ax.set_title("Objective against evaluations")
     return ax
 

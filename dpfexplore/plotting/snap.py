@@ -67,19 +67,13 @@ def plot_snap(sequence: SnapSequence, ax: Axes | None = None, *, quantity: str =
             ax.plot(
                 [pressure[i], pressure[j]], [values[i, k], values[j, k]], ":", color=color, lw=1.0
             )
-    for event in sequence.snaps:
-        ax.axvline(event.pressure, color="0.6", lw=0.6, zorder=0)
-        ax.annotate(
-            event.after,
-            (event.pressure, 1.0),
-            xycoords=("data", "axes fraction"),
-            rotation=90,
-            va="top",
-            ha="right",
-            fontsize="x-small",
-            color="0.3",
-        )
-    ax.set_xlabel("chamber pressure (MPa)")
+    _label_snaps(ax, sequence.snaps)
+    # In a column of panels sharing the pressure axis, the axis label and the title go once:
+    # under the bottom panel and over the top one (repeated, they crowd the space between).
+    spec = ax.get_subplotspec()
+    shared = len(ax.get_shared_x_axes().get_siblings(ax)) > 1
+    if not (shared and spec is not None and not spec.is_last_row()):
+        ax.set_xlabel("chamber pressure (MPa)")
     title = (
         f"slow ramp ({sequence.direction}), snaps at "
         + ", ".join(f"{e.pressure:.4g}" for e in sequence.snaps)
@@ -87,6 +81,51 @@ def plot_snap(sequence: SnapSequence, ax: Axes | None = None, *, quantity: str =
         if sequence.snaps
         else f"slow ramp ({sequence.direction}), no snap"
     )
-    ax.set_title(title, fontsize="small")
-    ax.legend(fontsize="small")
+    if not (shared and spec is not None and not spec.is_first_row()):
+        ax.set_title(title, fontsize="small")
+    ax.legend(fontsize="small", loc="lower right")
     return ax
+
+
+#: Headroom above the curves (fraction of their range) where the snaps' state labels stand.
+_HEADROOM = 0.22
+#: Two labels closer than this (fraction of the pressure range) stand on either side of their
+#: lines instead of both on the left.
+_CLOSE = 0.03
+
+
+def _label_snaps(ax: Axes, snaps) -> None:
+    """A grey line at each snap and the state it lands in, above the curves, inside the frame.
+
+    The y range grows by :data:`_HEADROOM` so that the labels stand clear of the curves; each
+    label is offset from the frame and from its line by a few points, on a white ground, and a
+    label close to the one before it goes to the other side of its line.
+    """
+    if not snaps:
+        return
+    low, high = ax.get_ylim()
+    ax.set_ylim(low, high + _HEADROOM * (high - low))
+    x_low, x_high = ax.get_xlim()
+    span = max(x_high - x_low, 1e-12)
+    previous = None
+    left = True
+    for event in sorted(snaps, key=lambda e: e.pressure):
+        ax.axvline(event.pressure, color="0.6", lw=0.6, zorder=0)
+        if previous is not None and (event.pressure - previous) / span < _CLOSE and left:
+            left = False
+        else:
+            left = True
+        previous = event.pressure
+        ax.annotate(
+            event.after or "unsettled",
+            (event.pressure, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(-2 if left else 2, -4),
+            textcoords="offset points",
+            rotation=90,
+            va="top",
+            ha="right" if left else "left",
+            fontsize="x-small",
+            color="0.3",
+            bbox={"boxstyle": "square,pad=0.1", "facecolor": "white", "edgecolor": "none"},
+        )

@@ -124,21 +124,22 @@ def plot_difference_front(
     if front:
         d, k, tt = np.array(front, dtype=float).T
         order = np.argsort(d)
-        ax.plot(d[order], k[order], "o-", color="tab:blue", label="front (verified)")
-        for di, ki, ti in zip(d, k, tt, strict=True):
-            ax.annotate(
-                f"t={ti:.3f}",
-                (di, ki),
-                textcoords="offset points",
-                xytext=(4, 3),
-                fontsize="x-small",
-            )
+        ax.plot(
+            d[order], k[order], "-", color="tab:blue", lw=1.2, zorder=2, label="front (verified)"
+        )
+        # t by colour, not by text: labels of neighbouring points overlapped and were clipped
+        dots = ax.scatter(
+            d, k, c=tt, cmap="viridis", s=36, edgecolors="k", linewidths=0.5, zorder=3
+        )
+        colorbar = ax.figure.colorbar(dots, ax=ax)
+        colorbar.set_label("t (mm) of the front's designs")
     if weighted is not None:
-        ax.plot(*weighted, "*", color="tab:red", ms=14, mec="k", label="weighted sum")
+        ax.plot(*weighted, "*", color="tab:red", ms=14, mec="k", label="weighted sum", zorder=4)
+    ax.margins(0.08)
     ax.set_xlabel("RT_2 - RT_1 (s)")
     ax.set_ylabel("grasp stiffness (N/mm)")
     ax.set_title("Two-profile difference against grasp stiffness", fontsize="medium")
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="small", loc="best")
     return ax
 
 

@@ -321,6 +321,17 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def _target_label(row: dict[str, Any]) -> str:
+    """A result row's target as the legend names it: its reset time, units or the front."""
+    if row.get("target_units"):
+        units = ", ".join(str(u) for u in row["target_units"])
+        resets = ", ".join(f"{r:g}" for r in row.get("target_reset") or [])
+        return f"units {units}: reset {resets} s"
+    if row.get("target_reset") is not None:
+        return f"reset {row['target_reset']:g} s"
+    return "max RT_2 - RT_1"
+
+
 def _pickplace_figures(spec, rows, evaluator: SceneEvaluator, history, out: Path) -> list[Path]:
     import matplotlib
 
@@ -363,8 +374,12 @@ def _pickplace_figures(spec, rows, evaluator: SceneEvaluator, history, out: Path
     )
     if len(frame):
         fig, ax = plt.subplots(figsize=(6, 5))
-        plot_objective_history(frame, ax=ax)
-        ax.set_ylabel("best relative error of the reset time so far")
+        plot_objective_history(
+            frame,
+            ax=ax,
+            labels={i: _target_label(row) for i, row in enumerate(rows)},
+            ylabel="best relative error of the reset time so far",
+        )
         paths.append(_save(fig, out / "objective.png"))
     for i, row in enumerate(rows):
         if row.get("front"):

@@ -5,6 +5,9 @@ where it stops (:func:`step_stop`: a fold or the end of the ramp), the smooth cr
 that (:func:`crossings`), their events (:func:`record_crossings`) and, at a fold, the landing
 (:func:`snap`). They read and write the walk's scratch and outputs by name
 (:mod:`.snap_records`). The controls of the continuation are here.
+
+The stages are inlined into the walk (``inline="always"``, Numba IR inlining): as separate
+calls, handing the scratch record across each call cost 10-15 % of a small finger's walk.
 """
 
 from __future__ import annotations
@@ -113,7 +116,7 @@ def record_path(y, segment, state, unit_params, h, g, path, counts):
         path[row, PATH_U + k] = g[k] + unit_params[k, COL_U_INV]
 
 
-@kernel
+@kernel(inline="always")
 def add_event(out, pressure, kind, before, after, x_before, x_after, info):
     """Append an event to ``out``; returns False when the table is full."""
     ev, ev_x, counts = out.ev, out.ev_x, out.counts
@@ -170,26 +173,27 @@ def scratch(unit_params, sign):
     )
 
 
-@kernel
+@kernel(inline="always")
 def start(x_start, p_start, unit_params, h, phys, s):
     """Polish the start onto the branch (``s.y0``, ``s.t0``) and certify it stable.
 
     Returns ``OK``, ``NOT_CONVERGED`` (no equilibrium there) or ``UNSTABLE``.
     """
+    y1, border, ws, y0, t0 = s.y1, s.border, s.ws, s.y0, s.t0
     n = x_start.shape[0]
     for i in range(n):
-        s.y1[i] = x_start[i]
-    s.y1[n] = p_start * PRESSURE_SCALE
-    code, _ = correct(s.y1, s.border, 0.0, unit_params, h, s.ws, s.y0, s.t0)
+        y1[i] = x_start[i]
+    y1[n] = p_start * PRESSURE_SCALE
+    code, _ = correct(y1, border, 0.0, unit_params, h, ws, y0, t0)
     if code != CORRECT_OK:
         return st.NOT_CONVERGED
-    cert = certify_stable(s.y0[:n], p_start, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO])
+    cert = certify_stable(y0[:n], p_start, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO])
     if not cert > 0.0:
         return st.UNSTABLE
     return st.OK
 
 
-@kernel
+@kernel(inline="always")
 def trial_step(ds, cos_turn, unit_params, h, s):
     """Predict and correct a step of arclength ``ds`` into ``s.y1``, ``s.t1``, ``s.g1``.
 
@@ -197,24 +201,25 @@ def trial_step(ds, cos_turn, unit_params, h, s):
     :data:`MAX_TURN` or a unit's margin moves by more than :data:`DU_MAX` (scaled).
     Returns ``(accepted, corrector iterations)``.
     """
+    y0, t0, ws, y1, t1, g1, g0, d_scale = s.y0, s.t0, s.ws, s.y1, s.t1, s.g1, s.g0, s.d_scale
     n_units = unit_params.shape[0]
-    n = s.y0.shape[0] - 1
-    code, iters = correct(s.y0, s.t0, ds, unit_params, h, s.ws, s.y1, s.t1)
+    n = y0.shape[0] - 1
+    code, iters = correct(y0, t0, ds, unit_params, h, ws, y1, t1)
     if code != CORRECT_OK:
         return False, iters
     turn = 0.0
     for i in range(n + 1):
-        turn += s.t0[i] * s.t1[i]
+        turn += t0[i] * t1[i]
     if turn < cos_turn:
         return False, iters
-    margins(s.y1[:n], unit_params, s.g1)
+    margins(y1[:n], unit_params, g1)
     for k in range(n_units):
-        if abs(s.g1[k] - s.g0[k]) > DU_MAX * s.d_scale[k]:
+        if abs(g1[k] - g0[k]) > DU_MAX * d_scale[k]:
             return False, iters
     return True, iters
 
 
-@kernel
+@kernel(inline="always")
 def step_stop(ds, sign, p_end_s, unit_params, h, s):
     """Where an accepted step stops: at a fold, at the end of the ramp, or not at all.
 
@@ -222,123 +227,151 @@ def step_stop(ds, sign, p_end_s, unit_params, h, s):
     (the step's end if nowhere before). Returns ``(failed, stop, s_stop)``: ``stop`` 0 none,
     :data:`STOP_FOLD` or :data:`STOP_END`; ``failed`` when a stop could not be located.
     """
+    y0, t1, t0, ws, yb, tb, y1, gb, g1 = s.y0, s.t1, s.t0, s.ws, s.yb, s.tb, s.y1, s.gb, s.g1
     n_units = unit_params.shape[0]
-    n = s.y0.shape[0] - 1
+    n = y0.shape[0] - 1
     failed = False
     stop = STOP_NONE
     s_stop = ds
-    if sign * s.t1[n] < 0.0:
+    if sign * t1[n] < 0.0:
         code, s_stop = locate(
             WHICH_FOLD,
-            s.y0,
-            s.t0,
+            y0,
+            t0,
             0.0,
-            s.t0[n],
+            t0[n],
             ds,
-            s.t1[n],
+            t1[n],
             unit_params,
             h,
             p_end_s,
-            s.ws,
-            s.yb,
-            s.tb,
+            ws,
+            yb,
+            tb,
         )
         failed = code != CORRECT_OK
         stop = STOP_FOLD
-        p_last = s.yb[n]  # pressure is monotone up to the fold
+        p_last = yb[n]  # pressure is monotone up to the fold
     else:
-        p_last = s.y1[n]
+        p_last = y1[n]
     if not failed and sign * (p_last - p_end_s) >= 0.0:
         g_end = p_last - p_end_s
         code, s_stop = locate(
             WHICH_END,
-            s.y0,
-            s.t0,
+            y0,
+            t0,
             0.0,
-            s.y0[n] - p_end_s,
+            y0[n] - p_end_s,
             s_stop,
             g_end,
             unit_params,
             h,
             p_end_s,
-            s.ws,
-            s.yb,
-            s.tb,
+            ws,
+            yb,
+            tb,
         )
         failed = code != CORRECT_OK
         stop = STOP_END
     if not failed and stop != STOP_NONE:
-        margins(s.yb[:n], unit_params, s.gb)
+        margins(yb[:n], unit_params, gb)
     elif not failed:
         for k in range(n_units):
-            s.gb[k] = s.g1[k]
+            gb[k] = g1[k]
     return failed, stop, s_stop
 
 
-@kernel
+@kernel(inline="always")
 def crossings(s_stop, p_end_s, unit_params, h, s):
     """Smooth threshold crossings before the stop point, sorted by arclength into ``s.cross_*``.
 
     Returns ``(failed, number of crossings)``; ``failed`` when one could not be located.
     """
+    y0, g0, gb, t0, ws, yc, tc, cross_s, cross_k, cross_x = (
+        s.y0,
+        s.g0,
+        s.gb,
+        s.t0,
+        s.ws,
+        s.yc,
+        s.tc,
+        s.cross_s,
+        s.cross_k,
+        s.cross_x,
+    )
     n_units = unit_params.shape[0]
-    n = s.y0.shape[0] - 1
+    n = y0.shape[0] - 1
     n_cross = 0
     for k in range(n_units):
-        if (s.g0[k] > 0.0) == (s.gb[k] > 0.0):
+        if (g0[k] > 0.0) == (gb[k] > 0.0):
             continue
         code, arc = locate(
-            k, s.y0, s.t0, 0.0, s.g0[k], s_stop, s.gb[k], unit_params, h, p_end_s, s.ws, s.yc, s.tc
+            k, y0, t0, 0.0, g0[k], s_stop, gb[k], unit_params, h, p_end_s, ws, yc, tc
         )
         if code != CORRECT_OK:
             return True, n_cross
         j = n_cross
-        while j > 0 and s.cross_s[j - 1] > arc:
-            s.cross_s[j] = s.cross_s[j - 1]
-            s.cross_k[j] = s.cross_k[j - 1]
+        while j > 0 and cross_s[j - 1] > arc:
+            cross_s[j] = cross_s[j - 1]
+            cross_k[j] = cross_k[j - 1]
             for i in range(n + 1):
-                s.cross_x[j, i] = s.cross_x[j - 1, i]
+                cross_x[j, i] = cross_x[j - 1, i]
             j -= 1
-        s.cross_s[j] = arc
-        s.cross_k[j] = k
+        cross_s[j] = arc
+        cross_k[j] = k
         for i in range(n + 1):
-            s.cross_x[j, i] = s.yc[i]
+            cross_x[j, i] = yc[i]
         n_cross += 1
     return False, n_cross
 
 
-@kernel
+@kernel(inline="always")
 def record_crossings(n_cross, label, segment, unit_params, h, out, s):
     """Add the step's crossings as events (and path points). Returns ``(room left, label)``."""
+    y0, cross_k, cross_x, info, gp = s.y0, s.cross_k, s.cross_x, s.info, s.gp
+    path, counts = out.path, out.counts
     n_units = unit_params.shape[0]
-    n = s.y0.shape[0] - 1
+    n = y0.shape[0] - 1
     for j in range(n_cross):
-        bit = 1 << (n_units - 1 - s.cross_k[j])
+        bit = 1 << (n_units - 1 - cross_k[j])
         after = label ^ bit
-        x = s.cross_x[j, :n]
-        pressure = s.cross_x[j, n] / PRESSURE_SCALE
-        if not add_event(out, pressure, KIND_CROSSING, label, after, x, x, s.info):
+        x = cross_x[j, :n]
+        pressure = cross_x[j, n] / PRESSURE_SCALE
+        if not add_event(out, pressure, KIND_CROSSING, label, after, x, x, info):
             return False, label
         label = after
-        record_path(s.cross_x[j], segment, label, unit_params, h, s.gp, out.path, out.counts)
+        record_path(cross_x[j], segment, label, unit_params, h, gp, path, counts)
     return True, label
 
 
-@kernel
+@kernel(inline="always")
 def snap(label, segment, sign, unit_params, h, landing, out, s):
     """Land from the fold at ``s.y1``, add the snap, restart the branch from the landing.
 
     Returns ``(status, label, segment)``: ``OK`` with the state and branch after the snap;
     otherwise the walk ends (an unsettled landing is added as an event first).
     """
+    y0, y1, gp, t1, x_land, info, g0, border, ws, t0 = (
+        s.y0,
+        s.y1,
+        s.gp,
+        s.t1,
+        s.x_land,
+        s.info,
+        s.g0,
+        s.border,
+        s.ws,
+        s.t0,
+    )
+    path, counts, x_final = out.path, out.counts, out.x_final
     n_units = unit_params.shape[0]
-    n = s.y0.shape[0] - 1
-    record_path(s.y1, segment, label, unit_params, h, s.gp, out.path, out.counts)
-    p_fold = s.y1[n] / PRESSURE_SCALE
-    x_fold = s.y1[:n]
+    n = y0.shape[0] - 1
+    record_path(y1, segment, label, unit_params, h, gp, path, counts)
+    p_fold = y1[n] / PRESSURE_SCALE
+    x_fold = y1[:n]
     code = land(
         x_fold,
-        s.t1[:n],
+        t1[:n],
         p_fold,
         sign,
         unit_params,
@@ -346,28 +379,28 @@ def snap(label, segment, sign, unit_params, h, landing, out, s):
         landing.phys,
         landing.ctrl,
         landing.kick,
-        s.x_land,
-        s.info,
+        x_land,
+        info,
     )
-    out.counts[CNT_LANDING_STEPS] += int(s.info[LAND_STEPS])
+    counts[CNT_LANDING_STEPS] += int(info[LAND_STEPS])
     if code != st.OK:
         for i in range(n):
-            out.x_final[i] = s.y1[i]
+            x_final[i] = y1[i]
         if code == st.NOT_CONVERGED:
-            s.info[LAND_CERT] = np.nan
-            add_event(out, p_fold, KIND_UNSETTLED, label, -1, x_fold, x_fold, s.info)
+            info[LAND_CERT] = np.nan
+            add_event(out, p_fold, KIND_UNSETTLED, label, -1, x_fold, x_fold, info)
         return code, label, segment
-    margins(s.x_land, unit_params, s.g0)
-    after = state_of(s.g0, n_units)
-    if not add_event(out, p_fold, KIND_SNAP, label, after, x_fold, s.x_land, s.info):
+    margins(x_land, unit_params, g0)
+    after = state_of(g0, n_units)
+    if not add_event(out, p_fold, KIND_SNAP, label, after, x_fold, x_land, info):
         return st.STEP_LIMIT, label, segment
     label = after
     segment += 1
     for i in range(n):
-        s.y1[i] = s.x_land[i]
-    code, _ = correct(s.y1, s.border, 0.0, unit_params, h, s.ws, s.y0, s.t0)
+        y1[i] = x_land[i]
+    code, _ = correct(y1, border, 0.0, unit_params, h, ws, y0, t0)
     if code != CORRECT_OK:
         return st.NOT_CONVERGED, label, segment
-    margins(s.y0[:n], unit_params, s.g0)
-    record_path(s.y0, segment, label, unit_params, h, s.gp, out.path, out.counts)
+    margins(y0[:n], unit_params, g0)
+    record_path(y0, segment, label, unit_params, h, gp, path, counts)
     return st.OK, label, segment

@@ -54,9 +54,9 @@ def shell_first_branch(H: float, t: float, r_b: float, E: float, nu: float) -> d
     """The shell model's stable first branch: travel (mm), energy (N·mm), force (N), fold (mm)."""
     from . import apex_stiffness, unit_cell_curve
 
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     run = unit_cell_curve(H, t, r_b, E, nu)
-    elapsed = time.perf_counter() - start
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     first = (run.branch == 0) & run.stable
     d, unique = np.unique(run.displacement[first], return_index=True)
     return {
@@ -66,6 +66,7 @@ def shell_first_branch(H: float, t: float, r_b: float, E: float, nu: float) -> d
         "fold": float(run.folds[0]) if run.folds.size else float(d[-1]),
         "stiffness": float(apex_stiffness(H, t, r_b, E, nu)),
         "elapsed": elapsed,
+        "cpu": cpu,
         "n_elements": int(run.n_elements),
     }
 
@@ -121,6 +122,8 @@ def compare(solid: SolidCurve, shell: dict, k_solid: float) -> dict:
         "raw": stats(raw),
         "series_corrected": stats(corrected),
         "fold_mm": {"solid": solid.fold, "shell": shell["fold"]},
+        "solid_status": solid.status,
+        "solid_last_travel_mm": float(solid.displacement[-1]),
         "peak_force_N": {"solid": float(solid.force.max()), "shell": float(f_s.max())},
         "initial_stiffness_N_per_mm": {"solid": k_solid, "shell": shell["stiffness"]},
         "delta_c_mm_per_N": dc,
@@ -153,6 +156,7 @@ def _curve_record(curve: SolidCurve) -> dict:
         "n_dofs": curve.n_dofs,
         "points": int(curve.displacement.size),
         "elapsed_s": round(curve.elapsed, 2),
+        "cpu_s": round(curve.cpu, 2),
         "displacement_mm": np.round(curve.displacement, 6).tolist(),
         "energy_Nmm": np.round(curve.energy, 6).tolist(),
         "force_N": np.round(curve.force, 6).tolist(),
@@ -176,13 +180,18 @@ def build_report(
     n_steps: int = 30,
 ) -> dict:
     """Run the cross-check and write its record (JSON) to ``out``; returns the record."""
+    from . import apex_stiffness
     from .checks import bending_length, plate_stiffness, shallow_shell_stiffness
 
     r_b, E, nu = 5.0, 26.0, 0.35
     record: dict = {
         "what": "2-D axisymmetric solid (scikit-fem) against the shell model (issue 21 §3)",
         "command": "python -m dpfexplore.unitcell.solid_report",
-        "machine": {"uname_m": platform.machine(), "cpu_count": os.cpu_count()},
+        "machine": {
+            "uname_m": platform.machine(),
+            "cpu_count": os.cpu_count(),
+            "load_average_at_start": os.getloadavg()[0],
+        },
         "software": {"python": sys.version.split()[0], "scikit-fem": _version("scikit-fem")},
         "material": {"law": "compressible neo-Hookean", "E_MPa": E, "nu": nu},
         "mesh": vars(DEFAULT_MESH),
@@ -210,35 +219,36 @@ def build_report(
         H_c = R_c - math.sqrt(R_c**2 - rb**2)
         k_r = shallow_shell_stiffness(E, nu, t_c, R_c)
         spec = MeshSpec(max(40, int(4 * rb / t_c) // 8), 2, 2, 1.1)
-        k = solid_stiffness(H_c, t_c, rb, E, nu, mesh=spec)
-        from . import apex_stiffness
-
         k_sh = apex_stiffness(H_c, t_c, rb, E, nu)
-        caps.append(
-            {
-                "R_mm": R_c,
-                "t_mm": t_c,
-                "r_b_over_ell": n_ell,
-                "reissner_N_per_mm": k_r,
-                "solid_rel": k / k_r - 1.0,
-                "shell_rel": k_sh / k_r - 1.0,
-                "solid_vs_shell": k / k_sh - 1.0,
-                "mesh_n_along": spec.n_along,
-            }
-        )
+        row = {
+            "R_mm": R_c,
+            "t_mm": t_c,
+            "r_b_over_ell": n_ell,
+            "H_over_r_b": H_c / rb,
+            "reissner_N_per_mm": k_r,
+            "shell_rel": k_sh / k_r - 1.0,
+            "mesh_n_along": spec.n_along,
+        }
+        for apex in ("column", "mean"):
+            k = solid_stiffness(H_c, t_c, rb, E, nu, mesh=spec, apex=apex)
+            row[f"solid_{apex}_rel"] = k / k_r - 1.0
+        caps.append(row)
     record["reissner"] = caps
     # the domes
     rows = []
     for H, t in domes:
         shell = shell_first_branch(H, t, r_b, E, nu)
         curve, k = _solid(H, t, r_b, E, nu, DEFAULT_MESH, 0.5 * t, "column", n_steps)
+        k_mean = solid_stiffness(H, t, r_b, E, nu, mesh=DEFAULT_MESH, apex="mean")
         rows.append(
             {
                 "H_mm": H,
                 "t_mm": t,
                 "a_mm": 0.5 * t,
                 **compare(curve, shell, k),
+                "initial_stiffness_solid_mean_load_N_per_mm": k_mean,
                 "shell_elapsed_s": round(shell["elapsed"], 3),
+                "shell_cpu_s": round(shell["cpu"], 3),
                 "shell_elements": shell["n_elements"],
                 "solid": _curve_record(curve),
             }
@@ -252,7 +262,13 @@ def build_report(
     for apex, a in (("column", 0.25 * t), ("column", t), ("mean", 0.5 * t), ("mean", t)):
         curve, k = _solid(H, t, r_b, E, nu, DEFAULT_MESH, a, apex, n_steps)
         sens.append(
-            {"apex": apex, "a_mm": a, **compare(curve, shell, k), "elapsed_s": curve.elapsed}
+            {
+                "apex": apex,
+                "a_mm": a,
+                **compare(curve, shell, k),
+                "elapsed_s": curve.elapsed,
+                "cpu_s": curve.cpu,
+            }
         )
     record["load_sensitivity"] = {"H_mm": H, "t_mm": t, "runs": sens}
     # the solid's own mesh convergence
@@ -272,10 +288,17 @@ def build_report(
     ]
     e_svk = _spline(svk.displacement, svk.energy, svk.force)(common)
     e_nh = _spline(coarse_curve.displacement, coarse_curve.energy, coarse_curve.force)(common)
+    drops = np.flatnonzero(np.diff(svk.energy) < 0.0)
     record["svk"] = {
+        "H_mm": H,
+        "t_mm": t,
         "status": svk.status,
         "last_travel_mm": float(svk.displacement[-1]),
-        "energy_rel_to_neo_hookean_max_abs": float(np.abs(e_svk / e_nh - 1.0).max()),
+        "first_energy_drop_mm": float(svk.displacement[drops[0] + 1]) if drops.size else None,
+        "energy_rel_to_neo_hookean": {
+            f"{x:.3g}": float(y)
+            for x, y in zip(common[::4], (e_svk / e_nh - 1.0)[::4], strict=True)
+        },
     }
     record["mesh_refinement"] = {
         "H_mm": H,
@@ -285,14 +308,36 @@ def build_report(
             "n_dofs": coarse_curve.n_dofs,
             "fold_mm": coarse_curve.fold,
             "elapsed_s": coarse_curve.elapsed,
+            "cpu_s": coarse_curve.cpu,
         },
         "fine": {
             **vars(fine),
             "n_dofs": fine_curve.n_dofs,
             "fold_mm": fine_curve.fold,
             "elapsed_s": fine_curve.elapsed,
+            "cpu_s": fine_curve.cpu,
         },
         "energy_max_abs_rel": float(np.abs(e_coarse / e_fine - 1.0).max()),
+    }
+    domes_ = record["domes"]
+    record["summary"] = {
+        "what": (
+            "over the domes: largest |E_solid/E_shell - 1| for 0.25 H <= delta <= first fold, "
+            "largest relative difference of the first fold's travel and of the peak force"
+        ),
+        "energy_max_abs_rel": max(d["raw"]["max_abs"] for d in domes_),
+        "fold_max_abs_rel": max(
+            abs(d["fold_mm"]["solid"] / d["fold_mm"]["shell"] - 1.0)
+            for d in domes_
+            if d["fold_mm"]["solid"] is not None
+        ),
+        "peak_force_max_abs_rel": max(
+            abs(d["peak_force_N"]["solid"] / d["peak_force_N"]["shell"] - 1.0) for d in domes_
+        ),
+        "load_sensitivity_energy_max_abs_rel": [
+            min(r["raw"]["max_abs"] for r in sens),
+            max(r["raw"]["max_abs"] for r in sens),
+        ],
     }
     path = Path(out)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -1,9 +1,22 @@
 """Numba kernels: arrays in, arrays out, no Python objects.
 
+Arguments that travel together reach a kernel as one named record (STYLE.md §12): the lattice
+(``Lattice``, ``LatticeBatch``, ``DesignTable``), the Newton controls (``NewtonControls``), the
+pressure knots (``PressureKnots``), the model of motion (``Physics``, ``MotionModel``), and what a
+kernel writes (``StateRows``, ``ResetRows``, ``RunRecord``, ...). Records are
+``collections.namedtuple`` classes of arrays and scalars defined at module level in
+:mod:`.records` (or beside the one family that uses them, :mod:`.snap_records`): Numba compiles
+them as structs at no run-time cost, and ``cache=True`` finds a record's type again in a later
+process through its importable class. The Python callers build them with scalars of a fixed type,
+so one record type is one compiled signature; a kernel unpacks a record by name or position at
+its top, and the ``prange`` entry points and their serial twins take the same records.
+
 Modules
 -------
 _jit
     The project's one JIT policy (``cache=True``, ``nogil``, ``parallel`` only on batch kernels).
+records
+    The named records kernels take and fill (lattices, controls, knots, physics, outputs).
 layout
     Column indices of the per-unit parameter table and the node numbering shared by all kernels.
 lattice

@@ -18,6 +18,7 @@ from ..model.domain import MAX_UNITS
 from ._jit import batch_kernel, kernel
 from .layout import n_free
 from .newton import workspace
+from .records import Lattice
 from .states import N_OUT, solve_state
 
 #: Rows per parallel block: large enough to amortise the workspace allocation, small enough to
@@ -26,32 +27,15 @@ BLOCK_ROWS = 16
 
 
 @kernel
-def _solve_rows(
-    unit_params,
-    h,
-    n_units,
-    design_status,
-    row_design,
-    row_state,
-    first,
-    last,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    out,
-    status,
-    found,
-    n_iter,
-    shapes,
-):
+def _solve_rows(designs, rows, first, last, controls, outputs):
+    """Solve rows ``first`` to ``last - 1`` (arguments as :func:`solve_rows`)."""
     ws = workspace()
     x = np.empty(n_free(MAX_UNITS))
+    unit_params, h, n_units, design_status = designs
+    out, status, found, n_iter, shapes = outputs
     keep_shape = shapes.shape[1] > 0
     for r in range(first, last):
-        i = row_design[r]
+        i = rows.design[r]
         if design_status[i] != st.OK:
             status[r] = design_status[i]
             found[r] = -1
@@ -60,15 +44,11 @@ def _solve_rows(
             continue
         up = unit_params[i, : n_units[i]]
         s, f, it = solve_state(
-            up,
-            h[i],
-            row_state[r],
-            gtol,
-            xtol,
-            max_iter,
-            max_step,
-            want_stiffness,
-            want_min_eig,
+            Lattice(up, h[i]),
+            rows.state[r],
+            controls,
+            rows.want_stiffness,
+            rows.want_min_eig,
             x,
             out[r],
             ws,
@@ -83,142 +63,45 @@ def _solve_rows(
 
 
 @batch_kernel
-def solve_rows(
-    unit_params,
-    h,
-    n_units,
-    design_status,
-    row_design,
-    row_state,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    out,
-    status,
-    found,
-    n_iter,
-    shapes,
-):
+def solve_rows(designs, rows, controls, outputs):
     """Solve every (design, state) row in parallel.
 
     Parameters
     ----------
-    unit_params : ndarray of shape (n_designs, MAX_UNITS, N_COLS)
-    h : ndarray of shape (n_designs,), mm
-    n_units : ndarray of int64, shape (n_designs,)
-    design_status : ndarray of int8, shape (n_designs,)
-        Rows of designs whose status is not ``OK`` are copied through with NaN outputs.
-    row_design : ndarray of int64, shape (n_rows,)
-        Design of each row.
-    row_state : ndarray of int64, shape (n_rows,)
-        Requested state of each row.
-    gtol, xtol, max_iter, max_step
+    designs : DesignTable
+        The batch's kernel tables and status codes (:mod:`.records`); rows of designs whose
+        status is not ``OK`` are copied through with NaN outputs.
+    rows : RowPlan
+        Design and requested state of each row, and which optional outputs to compute.
+    controls : NewtonControls
         Newton controls.
-    want_stiffness, want_min_eig : bool
-        Which optional outputs to compute.
-    out : ndarray of shape (n_rows, N_OUT)
-        Per-state outputs (columns ``OUT_*`` of :mod:`.states`).
-    status : ndarray of int8, shape (n_rows,)
-    found : ndarray of int64, shape (n_rows,)
-    n_iter : ndarray of int32, shape (n_rows,)
-    shapes : ndarray of shape (n_rows, 4·MAX_UNITS - 2) or (n_rows, 0)
-        Free coordinates of each row's minimum (NaN-padded), or nothing.
+    outputs : StateRows
+        Receive each row's outputs, status, state found, iterations and (when not empty) shape.
     """
-    n_rows = row_design.shape[0]
+    n_rows = rows.design.shape[0]
     n_blocks = (n_rows + BLOCK_ROWS - 1) // BLOCK_ROWS
     for b in prange(n_blocks):
         first = b * BLOCK_ROWS
         last = min(first + BLOCK_ROWS, n_rows)
-        _solve_rows(
-            unit_params,
-            h,
-            n_units,
-            design_status,
-            row_design,
-            row_state,
-            first,
-            last,
-            gtol,
-            xtol,
-            max_iter,
-            max_step,
-            want_stiffness,
-            want_min_eig,
-            out,
-            status,
-            found,
-            n_iter,
-            shapes,
-        )
+        _solve_rows(designs, rows, first, last, controls, outputs)
 
 
 @kernel
-def solve_rows_serial(
-    unit_params,
-    h,
-    n_units,
-    design_status,
-    row_design,
-    row_state,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    out,
-    status,
-    found,
-    n_iter,
-    shapes,
-):
+def solve_rows_serial(designs, rows, controls, outputs):
     """:func:`solve_rows` on the calling thread, for small batches.
 
     Starting a parallel region wakes the worker threads, which costs from tens of microseconds on
     an idle machine to milliseconds on a loaded one: more than a few designs' solves. Same
     arguments and results as :func:`solve_rows`.
     """
-    _solve_rows(
-        unit_params,
-        h,
-        n_units,
-        design_status,
-        row_design,
-        row_state,
-        0,
-        row_design.shape[0],
-        gtol,
-        xtol,
-        max_iter,
-        max_step,
-        want_stiffness,
-        want_min_eig,
-        out,
-        status,
-        found,
-        n_iter,
-        shapes,
-    )
+    _solve_rows(designs, rows, 0, rows.design.shape[0], controls, outputs)
 
 
 @kernel
-def solve_repeatedly(
-    unit_params,
-    h,
-    requested,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    repeats,
-):
+def solve_repeatedly(lattice, requested, controls, want_stiffness, want_min_eig, repeats):
     """Solve one design-state ``repeats`` times (for timing single designs); returns the status.
 
+    ``lattice`` is a :class:`~.records.Lattice`, ``controls`` :class:`~.records.NewtonControls`.
     Workspace and outputs are allocated once, as in :func:`solve_rows`, so the time per repeat
     is the solver's own.
     """
@@ -228,18 +111,7 @@ def solve_repeatedly(
     status = 0
     for _ in range(repeats):
         status, _, _ = solve_state(
-            unit_params,
-            h,
-            requested,
-            gtol,
-            xtol,
-            max_iter,
-            max_step,
-            want_stiffness,
-            want_min_eig,
-            x,
-            out,
-            ws,
+            lattice, requested, controls, want_stiffness, want_min_eig, x, out, ws
         )
     return status
 

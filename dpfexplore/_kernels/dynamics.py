@@ -256,12 +256,14 @@ def add_damping_position_jacobian(pos, vel, unit_params, h, eta, jac):
 
 
 @kernel(inline="always")
-def _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
+def _residual_from_gradient(v, t, model, scratch, out):
     """``out = R`` given ``∇E`` in ``work`` and the node positions in ``pos``.
 
     ``work`` is used as scratch afterwards; ``vel`` receives the node velocities. Returns the
     pressure (MPa) at ``t``.
     """
+    unit_params, h, knot_t, knot_p, phys = model
+    pos, vel, work = scratch
     n_units = unit_params.shape[0]
     nf = n_free(n_units)
     node_velocities(v, n_units, vel)
@@ -278,26 +280,28 @@ def _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel
 
 
 @kernel
-def force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
+def force_residual(x, v, t, model, scratch, out):
     """Fill ``out`` with ``R = F_ext - ∇E - F_damp - η_iso v`` (N), so that ``M a = R``.
 
-    ``phys`` is ``(η, η_iso, node mass)``; ``pos``, ``vel`` (shape ``(2N + 2, 2)``) and
-    ``work`` (shape ``(4N - 2,)``) are scratch; ``pos`` holds the node positions on return.
-    Returns the pressure (MPa) at ``t``.
+    ``model`` is a :class:`~.records.MotionModel` (``phys`` is ``(η, η_iso, node mass)``),
+    ``scratch`` a :class:`~.records.MotionScratch`; its ``pos`` holds the node positions on
+    return. Returns the pressure (MPa) at ``t``.
     """
     split = np.empty(N_SPLIT)
-    assemble(x, unit_params, h, pos, work, np.empty((0, 0)), GRADIENT, split)
-    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out)
+    assemble(
+        x, model.unit_params, model.h, scratch.pos, scratch.work, np.empty((0, 0)), GRADIENT, split
+    )
+    return _residual_from_gradient(v, t, model, scratch, out)
 
 
 @kernel
-def acceleration(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, acc):
+def acceleration(x, v, t, model, scratch, acc):
     """Fill ``acc`` (mm/s²) with the accelerations ``R / m`` of the full second-order model.
 
     Arguments as for :func:`force_residual`; returns the pressure (MPa) at ``t``.
     """
-    pressure = force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, acc)
-    inv_m = 1.0 / phys[PHYS_MASS]
+    pressure = force_residual(x, v, t, model, scratch, acc)
+    inv_m = 1.0 / model.phys[PHYS_MASS]
     for i in range(acc.shape[0]):
         acc[i] *= inv_m
     return pressure
@@ -326,8 +330,9 @@ def extension_margins(x, unit_params, h, pos, out):
 
 
 @kernel(inline="always")
-def _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, out):
+def _finish_stiffness_jacobian(v, t, model, pos, vel, out):
     """``out``: from the Hessian to ``∂R/∂x = P_J - H - D`` (positions in ``pos``)."""
+    unit_params, h, knot_t, knot_p, phys = model
     n_units = unit_params.shape[0]
     nf = n_free(n_units)
     node_velocities(v, n_units, vel)
@@ -339,32 +344,32 @@ def _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, 
 
 
 @kernel
-def stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out):
+def stiffness_jacobian(x, v, t, model, scratch, out):
     """Fill ``out`` with ``∂R/∂x = P_J - H - D`` (N/mm) at ``(x, v, t)``.
 
     ``H`` is the analytic Hessian, ``D = ∂F_damp/∂x`` at the velocities ``v`` and ``P_J`` the
-    pressure-follower Jacobian. Scratch as for :func:`force_residual`.
+    pressure-follower Jacobian. Arguments as for :func:`force_residual`.
     """
     split = np.empty(N_SPLIT)
-    assemble(x, unit_params, h, pos, work, out, HESSIAN, split)
-    _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, out)
+    assemble(x, model.unit_params, model.h, scratch.pos, scratch.work, out, HESSIAN, split)
+    _finish_stiffness_jacobian(v, t, model, scratch.pos, scratch.vel, out)
 
 
 @kernel
-def residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res, jac):
+def residual_and_jacobian(x, v, t, model, scratch, res, jac):
     """:func:`force_residual` into ``res`` and :func:`stiffness_jacobian` into ``jac`` at once.
 
     The Hessian assembly computes the gradient on the way, so the residual at the same point
     costs only its damping and pressure terms: a Rosenbrock step needs both at its start.
     """
     split = np.empty(N_SPLIT)
-    assemble(x, unit_params, h, pos, work, jac, HESSIAN, split)
-    _finish_stiffness_jacobian(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, jac)
-    return _residual_from_gradient(v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res)
+    assemble(x, model.unit_params, model.h, scratch.pos, scratch.work, jac, HESSIAN, split)
+    _finish_stiffness_jacobian(v, t, model, scratch.pos, scratch.vel, jac)
+    return _residual_from_gradient(v, t, model, scratch, res)
 
 
 @kernel
-def full_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, out):
+def full_jacobian(x, v, t, model, scratch, cmat, out):
     """Jacobian (shape ``(2n, 2n)``) of ``ẏ = [v, R/m]`` for ``y = [x, v]``, ``n = 4N - 2``.
 
     ``[[0, I], [(P_J - H - D)/m, -C/m]]``; ``cmat`` (shape ``(n, n)``) is scratch.
@@ -377,8 +382,11 @@ def full_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work,
         out[i, nf + i] = 1.0
     block = out[nf:, :nf]
     stiff = np.empty((nf, nf))
-    stiffness_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, stiff)
-    damping_matrix(pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], work, cmat)
+    stiffness_jacobian(x, v, t, model, scratch, stiff)
+    unit_params, h, _, _, phys = model
+    damping_matrix(
+        scratch.pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], scratch.work, cmat
+    )
     inv_m = 1.0 / phys[PHYS_MASS]
     for i in range(nf):
         for j in range(nf):

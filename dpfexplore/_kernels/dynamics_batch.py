@@ -29,7 +29,7 @@ from numba import prange
 
 from ..model import status as st
 from ._jit import batch_kernel, kernel
-from .dynamics import MASS_PER_UNIT, N_PHYS, PHYS_MASS
+from .dynamics import N_PHYS, PHYS_MASS
 from .events import (
     N_REC,
     N_STATS,
@@ -43,6 +43,7 @@ from .integrators_explicit import dopri5
 from .integrators_rosenbrock import rodas4
 from .lattice import pack_free, rest_nodes
 from .layout import n_free, n_nodes
+from .records import MotionModel, RunRecord
 
 #: Shortest reset time (s) of a metastable unit; quicker ones are monostable (MODEL.md §8).
 METASTABLE_MIN_RESET = 0.05
@@ -67,57 +68,15 @@ def rest_state(unit_params, h, y):
 
 
 @kernel
-def integrate(
-    integrator,
-    y,
-    t0,
-    t_end,
-    unit_params,
-    h,
-    knot_t,
-    knot_p,
-    phys,
-    ctrl,
-    t_out,
-    x_out,
-    unit_rec,
-    event_log,
-    stats,
-):
-    """Dispatch to the integrator with id ``integrator``; returns its status."""
+def integrate(integrator, y, t0, t_end, model, ctrl, record):
+    """Dispatch to the integrator with id ``integrator``; returns its status.
+
+    ``model`` is a :class:`~.records.MotionModel`, ``ctrl`` the integrator's controls
+    (:mod:`.events` layout) and ``record`` a :class:`~.records.RunRecord` receiving the run.
+    """
     if integrator == INTEGRATOR_RODAS4:
-        return rodas4(
-            y,
-            t0,
-            t_end,
-            unit_params,
-            h,
-            knot_t,
-            knot_p,
-            phys,
-            ctrl,
-            t_out,
-            x_out,
-            unit_rec,
-            event_log,
-            stats,
-        )
-    return dopri5(
-        y,
-        t0,
-        t_end,
-        unit_params,
-        h,
-        knot_t,
-        knot_p,
-        phys,
-        ctrl,
-        t_out,
-        x_out,
-        unit_rec,
-        event_log,
-        stats,
-    )
+        return rodas4(y, t0, t_end, model, ctrl, record)
+    return dopri5(y, t0, t_end, model, ctrl, record)
 
 
 @kernel
@@ -153,31 +112,32 @@ def summarise_units(unit_rec, tau_end, status, reset, snap_through, snap_back, u
 
 
 @batch_kernel
-def reset_times_kernel(
-    unit_params,
-    h,
-    n_units,
-    valid,
-    knot_t,
-    knot_p,
-    eta,
-    eta_iso,
-    overdamped,
-    integrator,
-    ctrl,
-    t_end,
-    status,
-    final_state,
-    reset,
-    snap_through,
-    snap_back,
-    unit_class,
-):
+def reset_times_kernel(lattice, valid, knots, physics, integrator, ctrl, t_end, out):
     """Simulate every valid design from rest under one profile, in parallel (``prange``).
 
-    Invalid rows (``valid[i] == False``) are left untouched. Output arrays are
-    ``(n,)`` or ``(n, MAX_UNITS)``; the padding beyond a design's ``N`` is left untouched too.
+    Parameters
+    ----------
+    lattice : LatticeBatch
+        The padded batch tables (:mod:`.records`).
+    valid : ndarray of bool, shape (n,)
+        Rows to run; invalid rows are left untouched.
+    knots : PressureKnots
+        The pressure profile.
+    physics : Physics
+        Damping and mass per unit (0: the overdamped model).
+    integrator : int
+        Integrator id (:mod:`.integrator_ids`).
+    ctrl : ndarray of shape (N_CTRL,)
+        Integrator controls (:mod:`.events` layout).
+    t_end : float, s
+    out : ResetRows
+        Arrays of shape ``(n,)`` or ``(n, MAX_UNITS)``; the padding beyond a design's ``N`` is
+        left untouched.
     """
+    unit_params, h, n_units = lattice
+    knot_t, knot_p = knots
+    eta, eta_iso, mass_per_unit = physics
+    status, final_state, reset, snap_through, snap_back, unit_class = out
     n = unit_params.shape[0]
     tau_end = knot_t[knot_t.shape[0] - 1]
     for i in prange(n):
@@ -191,7 +151,7 @@ def reset_times_kernel(
         phys = np.empty(N_PHYS)
         phys[0] = eta
         phys[1] = eta_iso
-        phys[PHYS_MASS] = 0.0 if overdamped else MASS_PER_UNIT * nu / (2.0 * nu + 2.0)
+        phys[PHYS_MASS] = mass_per_unit * nu / (2.0 * nu + 2.0)
         rec = np.empty((nu, N_REC))
         log = np.empty((0, 3))
         stats = np.zeros(N_STATS, dtype=np.int64)
@@ -202,17 +162,9 @@ def reset_times_kernel(
             y,
             0.0,
             t_end,
-            params,
-            h[i],
-            knot_t,
-            knot_p,
-            phys,
+            MotionModel(params, h[i], knot_t, knot_p, phys),
             ctrl,
-            t_out,
-            x_out,
-            rec,
-            log,
-            stats,
+            RunRecord(t_out, x_out, rec, log, stats),
         )
         status[i] = code
         cls = np.empty(nu, dtype=np.int64)

@@ -27,6 +27,7 @@ from .events import N_REC, N_STATS, REC_CROSSINGS, STAT_REJECTED, STAT_STEPS, ST
 from .layout import n_free
 from .loaded_state import loaded_state
 from .newton import workspace
+from .records import FastResetUnits, Lattice
 from .release import N_RELEASE_DIAG, release_rodas3, release_workspace
 
 # Per-design diagnostics (``design_diag`` columns).
@@ -49,42 +50,32 @@ N_UNIT_DIAG = UD_RELEASE + N_RELEASE_DIAG
 
 
 @kernel
-def fast_reset_design(
-    unit_params,
-    h,
-    knot_t,
-    knot_p,
-    eta,
-    eta_iso,
-    ctrl,
-    t_end,
-    reset,
-    snap_back,
-    unit_class,
-    unit_diag,
-    design_diag,
-    newton_ws,
-):
+def fast_reset_design(lattice, knots, physics, ctrl, t_end, out, newton_ws):
     """Reset times of one design under a single pulse; returns ``(status, final_state)``.
 
     Parameters
     ----------
-    unit_params : ndarray of shape (N, N_COLS)
-    h : float, mm
-    knot_t, knot_p : ndarray of shape (4,)
+    lattice : Lattice
+        ``unit_params`` of shape (N, N_COLS) and ``h`` (mm) (:mod:`.records`).
+    knots : PressureKnots
         The pulse ``(τ1..τ4)``, ``(0, P0, P0, 0)``; the release starts at ``τ3``.
-    eta, eta_iso : float, N·s/mm
+    physics : Physics
+        Damping ``eta``, ``eta_iso`` (N·s/mm); the model is overdamped (no mass read).
     ctrl : ndarray of shape (N_CTRL,)
         Release controls (:mod:`.events` layout).
     t_end : float, s
-    reset, snap_back : ndarray of shape (N,), s
-        As in ``reset_times_batch`` (reset after ``τ4``; inf / NaN).
-    unit_class : ndarray of int8, shape (N,)
-    unit_diag : ndarray of shape (N, N_UNIT_DIAG)
-    design_diag : ndarray of shape (N_DESIGN_DIAG,)
+    out : FastResetUnits
+        ``reset``, ``snap_back`` (N,), s, as in ``reset_times_batch`` (reset after ``τ4``;
+        inf / NaN); ``unit_class`` (int8, (N,)); ``unit_diag`` (N, N_UNIT_DIAG);
+        ``design_diag`` (N_DESIGN_DIAG,).
     newton_ws : tuple
         :func:`.newton.workspace`.
     """
+    unit_params, h = lattice
+    knot_t, knot_p = knots
+    reset, snap_back, unit_class, unit_diag, design_diag = out
+    eta = physics.eta
+    eta_iso = physics.eta_iso
     n_units = unit_params.shape[0]
     x = np.empty(n_free(n_units))
     margin = np.empty(n_units)
@@ -136,48 +127,32 @@ def fast_reset_design(
 
 
 @batch_kernel
-def fast_reset_batch(
-    unit_params,
-    h,
-    n_units,
-    valid,
-    knot_t,
-    knot_p,
-    eta,
-    eta_iso,
-    ctrl,
-    t_end,
-    status,
-    final_state,
-    reset,
-    snap_back,
-    unit_class,
-    unit_diag,
-    design_diag,
-):
+def fast_reset_batch(lattice, valid, knots, physics, ctrl, t_end, out):
     """:func:`fast_reset_design` over the valid rows of a batch in parallel (``prange``).
 
-    Arrays are ``(n,)``, ``(n, MAX_UNITS)``, ``(n, MAX_UNITS, N_UNIT_DIAG)`` and
+    ``lattice`` a :class:`~.records.LatticeBatch`, ``out`` :class:`~.records.FastResetRows`:
+    arrays ``(n,)``, ``(n, MAX_UNITS)``, ``(n, MAX_UNITS, N_UNIT_DIAG)`` and
     ``(n, N_DESIGN_DIAG)``; invalid rows and the padding beyond each ``N`` are left untouched.
     """
+    unit_params, h, n_units = lattice
+    status, final_state, reset, snap_back, unit_class, unit_diag, design_diag = out
     for i in prange(unit_params.shape[0]):
         if not valid[i]:
             continue
         nu = n_units[i]
         code, state = fast_reset_design(
-            unit_params[i, :nu],
-            h[i],
-            knot_t,
-            knot_p,
-            eta,
-            eta_iso,
+            Lattice(unit_params[i, :nu], h[i]),
+            knots,
+            physics,
             ctrl,
             t_end,
-            reset[i, :nu],
-            snap_back[i, :nu],
-            unit_class[i, :nu],
-            unit_diag[i, :nu],
-            design_diag[i],
+            FastResetUnits(
+                reset[i, :nu],
+                snap_back[i, :nu],
+                unit_class[i, :nu],
+                unit_diag[i, :nu],
+                design_diag[i],
+            ),
             workspace(),
         )
         status[i] = code

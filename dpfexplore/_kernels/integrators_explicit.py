@@ -49,6 +49,7 @@ from .events import (
     settled_reset,
 )
 from .layout import n_free, n_nodes
+from .records import MotionScratch
 
 DP_C = np.array([0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0])
 DP_A = np.array(
@@ -86,16 +87,17 @@ _FAC_MAX = 10.0
 
 
 @kernel
-def _slope(y, t, n, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, out):
+def _slope(y, t, n, model, scratch, cmat, piv, out):
     """``ẏ`` of the full model (``m > 0``) or ``ẋ`` of the overdamped one (``m = 0``).
 
-    Returns 0, or 1 if the overdamped damping matrix is singular.
+    ``model``, ``scratch``: as for :func:`.dynamics.force_residual`. Returns 0, or 1 if the
+    overdamped damping matrix is singular.
     """
+    unit_params, h, _, _, phys = model
+    pos, _, work = scratch
     mass = phys[PHYS_MASS]
     if mass > 0.0:
-        force_residual(
-            y[:n], y[n:], t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out[n:]
-        )
+        force_residual(y[:n], y[n:], t, model, scratch, out[n:])
         inv_m = 1.0 / mass
         for i in range(n):
             out[i] = y[n + i]
@@ -104,7 +106,7 @@ def _slope(y, t, n, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, 
     # Overdamped: at v = 0 the residual is F_ext - ∇E; then solve C ẋ = that.
     for i in range(n):
         out[n + i] = 0.0
-    force_residual(y[:n], out[n:], t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, out)
+    force_residual(y[:n], out[n:], t, model, scratch, out)
     damping_matrix(pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], work, cmat)
     if lu_factor(cmat, n, piv, BAND) != 0:
         return 1
@@ -113,27 +115,14 @@ def _slope(y, t, n, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, 
 
 
 @kernel
-def dopri5(
-    y,
-    t0,
-    t_end,
-    unit_params,
-    h,
-    knot_t,
-    knot_p,
-    phys,
-    ctrl,
-    t_out,
-    x_out,
-    unit_rec,
-    event_log,
-    stats,
-):
+def dopri5(y, t0, t_end, model, ctrl, record):
     """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
 
     Same arguments as :func:`.integrators_rosenbrock.rodas4`. For the overdamped model
     (``phys[PHYS_MASS] == 0``) only ``x`` is integrated and ``v`` receives ``ẋ``.
     """
+    unit_params, _, knot_t, _, phys = model
+    t_out, x_out, unit_rec, event_log, stats = record
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     dim = 2 * n if phys[PHYS_MASS] > 0.0 else n
@@ -157,7 +146,8 @@ def dopri5(
     g0 = np.empty(n_units)
     g1 = np.empty(n_units)
 
-    if _slope(y, t0, n, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, k[0]):
+    scratch = MotionScratch(pos, vel, work)
+    if _slope(y, t0, n, model, scratch, cmat, piv, k[0]):
         return st.DEGENERATE_GEOMETRY
     init_record(y[:n], t0, unit_params, unit_rec, stats, g0)
     record_initial_samples(t0, y[:n], t_out, x_out, stats)
@@ -193,14 +183,8 @@ def dopri5(
                 y_stage,
                 t + DP_C[s] * step,
                 n,
-                unit_params,
-                h,
-                knot_t,
-                knot_p,
-                phys,
-                pos,
-                vel,
-                work,
+                model,
+                scratch,
                 cmat,
                 piv,
                 k[s],

@@ -92,6 +92,7 @@ from .events import (
 )
 from .layout import n_free, n_nodes
 from .linalg import band_matvec_add, cholesky, cholesky_solve
+from .records import MotionScratch, StepStart
 
 # Rodas4 in the transformed form of Hairer & Wanner's RODAS code:
 #   (M/(hγ) - J) K_i = f(t + α_i h, y + Σ_j A_ij K_j) + M Σ_j C_ij K_j / h + γ_i h ∂f/∂t,
@@ -163,16 +164,20 @@ _FAC_MAX = 6.0
 
 
 @kernel
-def consistent_velocity(x, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v):
+def consistent_velocity(x, t, model, scratch, cmat, piv, v):
     """Overdamped velocities ``v = C(x)⁻¹ (F_ext - ∇E)`` (the algebraic equation at ``t``).
 
-    Returns 0, or 1 if the damping matrix is singular.
+    ``model``, ``scratch``: as for :func:`.dynamics.force_residual`. Returns 0, or 1 if the
+    damping matrix is singular.
     """
+    unit_params, h, _, _, phys = model
     n = x.shape[0]
     for i in range(n):
         v[i] = 0.0
-    force_residual(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, v)
-    damping_matrix(pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], work, cmat)
+    force_residual(x, v, t, model, scratch, v)
+    damping_matrix(
+        scratch.pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], scratch.work, cmat
+    )
     if lu_factor(cmat, n, piv, BAND) != 0:
         return 1
     lu_solve(cmat, n, piv, v, BAND)
@@ -180,20 +185,21 @@ def consistent_velocity(x, t, unit_params, h, knot_t, knot_p, phys, pos, vel, wo
 
 
 @kernel
-def step_start(
-    x, v, t, step, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0, jac, cmat, ft
-):
+def step_start(x, v, t, step, model, scratch, out):
     """``R``, ``∂R/∂x``, ``C`` and ``∂R/∂t`` at the step start ``(t, x, v)``.
 
-    Into ``res0``, ``jac``, ``cmat`` and ``ft``; ``pos``, ``vel``, ``work`` are scratch (as
-    for :func:`.dynamics.force_residual`). A rejected step retries from the same point, so
+    Into ``out`` (:class:`~.records.StepStart`); ``model``, ``scratch`` as for
+    :func:`.dynamics.force_residual`. A rejected step retries from the same point, so
     these serve every retry; ``∂R/∂t`` is the pressure load at unit pressure times ``dP/dt``
     on this profile segment (steps never cross a knot, so a retry with a shorter step stays on
     it).
     """
+    unit_params, h, knot_t, knot_p, phys = model
+    pos, _, work = scratch
+    res0, jac, cmat, ft = out
     n_units = unit_params.shape[0]
     n = n_free(n_units)
-    residual_and_jacobian(x, v, t, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res0, jac)
+    residual_and_jacobian(x, v, t, model, scratch, res0, jac)
     damping_matrix(pos, unit_params, h, phys[PHYS_ETA], phys[PHYS_ETA_ISO], work, cmat)
     slope = pressure_slope(t + 0.5 * step, knot_t, knot_p)
     for i in range(n):
@@ -223,22 +229,7 @@ def accepted_step_factor(err, step, h_acc, err_acc, expo, fac_max, last_rejected
 
 
 @kernel
-def rodas4(
-    y,
-    t0,
-    t_end,
-    unit_params,
-    h,
-    knot_t,
-    knot_p,
-    phys,
-    ctrl,
-    t_out,
-    x_out,
-    unit_rec,
-    event_log,
-    stats,
-):
+def rodas4(y, t0, t_end, model, ctrl, record):
     """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
 
     Parameters
@@ -247,19 +238,19 @@ def rodas4(
         Positions (mm) then velocities (mm/s); overwritten with the final state. For the
         overdamped model (``phys[PHYS_MASS] == 0``) the velocities are recomputed consistently.
     t0, t_end : float, s
-    unit_params, h
-        Lattice parameters (:mod:`.layout`).
-    knot_t, knot_p : ndarray
-        Piecewise-linear pressure profile (s, MPa).
-    phys : ndarray of shape (N_PHYS,)
-        ``(η, η_iso, node mass)``; mass 0 selects the overdamped model.
+    model : MotionModel
+        Lattice parameters ``unit_params``, ``h`` (:mod:`.layout`), the piecewise-linear
+        pressure profile ``knot_t``, ``knot_p`` (s, MPa) and ``phys`` of shape (N_PHYS,),
+        ``(η, η_iso, node mass)``; mass 0 selects the overdamped model (:mod:`.records`).
     ctrl : ndarray of shape (N_CTRL,)
         Solver controls (:mod:`.events`).
-    t_out : ndarray of shape (m,)
-        Increasing output times (s); ``x_out`` (shape ``(m, 4N - 2)``) receives the positions.
-    unit_rec, event_log, stats
-        Event records and counters (:mod:`.events`).
+    record : RunRecord
+        Increasing output times ``t_out`` (s, shape ``(m,)``) and ``x_out`` (shape
+        ``(m, 4N - 2)``) receiving the positions; the event records and counters
+        ``unit_rec``, ``event_log``, ``stats`` (:mod:`.events`).
     """
+    unit_params, _, knot_t, knot_p, phys = model
+    t_out, x_out, unit_rec, event_log, stats = record
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     mass = phys[PHYS_MASS]
@@ -294,14 +285,11 @@ def rodas4(
     g1 = np.empty(n_units)
     x = y[:n]
     v = y[n:]
+    scratch = MotionScratch(pos, vel, work)
+    start = StepStart(res0, jac, cmat, ft)
 
     if mass == 0.0:
-        if (
-            consistent_velocity(
-                x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v
-            )
-            != 0
-        ):
+        if consistent_velocity(x, t0, model, scratch, cmat, piv, v) != 0:
             return st.DEGENERATE_GEOMETRY
     init_record(x, t0, unit_params, unit_rec, stats, g0)
     record_initial_samples(t0, x, t_out, x_out, stats)
@@ -333,18 +321,9 @@ def rodas4(
                 v,
                 t,
                 step,
-                unit_params,
-                h,
-                knot_t,
-                knot_p,
-                phys,
-                pos,
-                vel,
-                work,
-                res0,
-                jac,
-                cmat,
-                ft,
+                model,
+                scratch,
+                start,
             )
             stats[STAT_RHS] += 1
             fresh = True
@@ -390,20 +369,7 @@ def rodas4(
                         res[i] = res0[i]
                 else:
                     t_stage = t + RODAS4_ALPHA[s] * step
-                    force_residual(
-                        yx,
-                        yv,
-                        t_stage,
-                        unit_params,
-                        h,
-                        knot_t,
-                        knot_p,
-                        phys,
-                        pos,
-                        vel,
-                        work,
-                        res,
-                    )
+                    force_residual(yx, yv, t_stage, model, scratch, res)
                     stats[STAT_RHS] += 1
                 gam_h = RODAS4_GAMMA_SUM[s] * step
                 for i in range(n):

@@ -27,6 +27,7 @@ from .events import CTRL_H_INIT, N_REC, N_STATS, STAT_STEPS, margins
 from .integrators_rosenbrock import rodas4
 from .layout import n_free
 from .linalg import cholesky
+from .records import MotionModel, RunRecord
 from .reduced import loaded_equilibrium
 
 #: Default kick (mm, largest coordinate) along the fold's null direction before the motion
@@ -203,17 +204,9 @@ def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_la
                 y,
                 t,
                 t + chunk,
-                unit_params,
-                h,
-                knot_t,
-                knot_p,
-                phys,
+                MotionModel(unit_params, h, knot_t, knot_p, phys),
                 local,
-                t_out,
-                x_out,
-                rec,
-                log,
-                stats,
+                RunRecord(t_out, x_out, rec, log, stats),
             )
             steps += stats[STAT_STEPS]
             if code != st.OK:

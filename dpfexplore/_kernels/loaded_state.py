@@ -52,6 +52,7 @@ from .layout import (
     n_free,
     n_nodes,
 )
+from .records import MotionModel, MotionScratch
 
 #: Extension (in units of ``d``) of the snapped domes in the geometric guess of a round.
 SNAPPED_GUESS_EXTENSION = 1.3
@@ -161,7 +162,9 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
     knot_t = np.zeros(1)
     knot_p = np.full(1, pressure)
     phys = np.zeros(N_PHYS)
-    force_residual(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, res)
+    model = MotionModel(unit_params, h, knot_t, knot_p, phys)
+    motion = MotionScratch(pos, vel, work)
+    force_residual(x, zero, 0.0, model, motion, res)
     merit = 0.0
     for i in range(n):
         merit += res[i] * res[i]
@@ -175,7 +178,7 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
             return st.OK, it
         if it == max_iter:
             break
-        stiffness_jacobian(x, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, jac)
+        stiffness_jacobian(x, zero, 0.0, model, motion, jac)
         for i in range(n):
             for j in range(n):
                 jac[i, j] = -jac[i, j]  # H - P_J: solve (H - P_J) dx = R
@@ -195,9 +198,7 @@ def loaded_newton(x, unit_params, h, pressure, ftol, max_iter, max_move, scratch
         for _ in range(30):
             for i in range(n):
                 trial[i] = x[i] + scale * step[i]
-            force_residual(
-                trial, zero, 0.0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, trial_res
-            )
+            force_residual(trial, zero, 0.0, model, motion, trial_res)
             trial_merit = 0.0
             for i in range(n):
                 trial_merit += trial_res[i] * trial_res[i]

@@ -9,17 +9,23 @@ scalars of a fixed type (``float`` tolerances, ``int`` counts), so one record ty
 compiled signature.
 
 Records shared by the statics and the dynamics kernels live here; a record that only one family
-of kernels uses may live beside those kernels.
+of kernels uses may live beside those kernels (:mod:`.snap_records`).
 """
 
 from __future__ import annotations
 
 from collections import namedtuple
 
-#: The lattice of one design or of a batch: ``unit_params`` of shape ``(MAX_UNITS, N_COLS)`` (or
-#: ``(n_designs, MAX_UNITS, N_COLS)``; columns in :mod:`.layout`) and the segment height ``h``
-#: (mm; a float, or an array of shape ``(n_designs,)``).
+# ---- inputs shared by the families ---------------------------------------------------------
+
+#: The lattice of one design: ``unit_params`` of shape ``(N, N_COLS)`` (columns in
+#: :mod:`.layout`) and the segment height ``h`` (mm, float).
 Lattice = namedtuple("Lattice", ["unit_params", "h"])
+
+#: The padded lattices of a batch (:func:`dpfexplore.solvers.lattice.pack_batch`):
+#: ``unit_params`` of shape ``(n, MAX_UNITS, N_COLS)``, ``h`` (mm) of shape ``(n,)`` and the
+#: unit counts ``n_units`` (int64, ``(n,)``).
+LatticeBatch = namedtuple("LatticeBatch", ["unit_params", "h", "n_units"])
 
 #: Newton controls of the energy minimisation: gradient tolerance ``gtol`` (N), step tolerance
 #: ``xtol`` (mm), iteration cap ``max_iter`` (int) and the largest step ``max_step`` (mm).
@@ -28,3 +34,93 @@ NewtonControls = namedtuple("NewtonControls", ["gtol", "xtol", "max_iter", "max_
 #: A piecewise-linear pressure profile: knot times ``t`` (s) and pressures ``p`` (MPa), arrays of
 #: one length.
 PressureKnots = namedtuple("PressureKnots", ["t", "p"])
+
+#: The model of the motion of a batch: damping ``eta``, ``eta_iso`` (N·s/mm) and the mass per
+#: unit ``mass_per_unit`` (tonne; a design of ``N`` units has node masses of
+#: ``mass_per_unit · N / (2N + 2)``); 0 for the overdamped model. The release models are
+#: overdamped and read only the damping.
+Physics = namedtuple("Physics", ["eta", "eta_iso", "mass_per_unit"])
+
+# ---- statics -------------------------------------------------------------------------------
+
+#: The design arrays of a batch (those of :class:`dpfexplore.model.design.DesignBatch`):
+#: ``n_units`` (int64, ``(n,)``), ``H``, ``U_L``, ``U_sep`` (mm, ``(n, MAX_UNITS)``) and the
+#: shared ``t``, ``t_lim`` (mm), ``E`` (MPa), ``nu``, ``r_b``, ``t_ch`` (mm), each ``(n,)``.
+DesignArrays = namedtuple(
+    "DesignArrays", ["n_units", "H", "U_L", "U_sep", "t", "t_lim", "E", "nu", "r_b", "t_ch"]
+)
+
+#: The parameters of one design that all its units share (scalars; units as in
+#: :data:`DesignArrays`).
+SharedParams = namedtuple("SharedParams", ["t", "t_lim", "E", "nu", "r_b", "t_ch"])
+
+#: What :func:`.tables.design_tables` writes: the ``status`` code (int8, ``(n,)``), the per-unit
+#: ``table`` ``(n, MAX_UNITS, N_COLS)``, the segment heights ``h`` ``(n,)``, the clamped reaches
+#: ``no_contact`` (bool, ``(n, MAX_UNITS)``) and the derivative table ``dtab``
+#: ``(n, MAX_UNITS, N_DCONST, N_DPARAM)`` (or ``(0, 0, 0, 0)``: skipped).
+TableOutputs = namedtuple("TableOutputs", ["status", "table", "h", "no_contact", "dtab"])
+
+#: The kernel tables of a batch, as the state kernels read them: the lattices (as
+#: :data:`LatticeBatch`) and each design's ``status`` code (int8, ``(n,)``).
+DesignTable = namedtuple("DesignTable", ["unit_params", "h", "n_units", "status"])
+
+#: The rows to solve: the ``design`` (int64, ``(n_rows,)``) and requested ``state`` (int64) of
+#: each row, and which optional outputs to compute (``want_stiffness``, ``want_min_eig``: bool).
+RowPlan = namedtuple("RowPlan", ["design", "state", "want_stiffness", "want_min_eig"])
+
+#: What the row kernels write per row: ``out`` ``(n_rows, N_OUT)`` (columns ``OUT_*`` of
+#: :mod:`.states`), ``status`` (int8), ``found`` (int64), ``n_iter`` (int32) and ``shapes``
+#: ``(n_rows, 4·MAX_UNITS - 2)`` or ``(n_rows, 0)`` (the minimum's free coordinates,
+#: NaN-padded, or nothing).
+StateRows = namedtuple("StateRows", ["out", "status", "found", "n_iter", "shapes"])
+
+#: The derivative tables ``dtab`` ``(n, MAX_UNITS, N_DCONST, N_DPARAM)`` of a batch
+#: (:func:`.tables.design_tables`) and its Young's moduli ``E`` (MPa, ``(n,)``).
+DesignDerivatives = namedtuple("DesignDerivatives", ["dtab", "E"])
+
+#: What the sensitivity rows write: ``sens`` ``(n_rows, N_SENS, 3·MAX_UNITS + 3)`` (rows
+#: ``SENS_*`` of :mod:`.sensitivity`) and ``dxs`` ``(n_rows, 4·MAX_UNITS - 2, 3·MAX_UNITS + 3)``
+#: or ``(0, 0, 0)`` (skipped).
+SensitivityRows = namedtuple("SensitivityRows", ["sens", "dxs"])
+
+# ---- dynamics ------------------------------------------------------------------------------
+
+#: What the equations of motion of one design read: its lattice ``unit_params``, ``h``, the
+#: pressure profile's knots ``knot_t``, ``knot_p`` and the model array ``phys`` (``PHYS_*`` of
+#: :mod:`.dynamics`).
+MotionModel = namedtuple("MotionModel", ["unit_params", "h", "knot_t", "knot_p", "phys"])
+
+#: Scratch of the right-hand side and its Jacobians: node positions ``pos`` and node velocities
+#: ``vel`` of shape ``(2N + 2, 2)``, and ``work`` of shape ``(4N - 2,)``; ``pos`` holds the node
+#: positions on return (:mod:`.dynamics`).
+MotionScratch = namedtuple("MotionScratch", ["pos", "vel", "work"])
+
+#: What a Rosenbrock step start fills (:func:`.integrators_rosenbrock.step_start`): the residual
+#: ``res`` and ``ft = ∂R/∂t`` of shape ``(4N - 2,)``, ``jac = ∂R/∂x`` and the damping matrix
+#: ``cmat`` of shape ``(4N - 2, 4N - 2)``.
+StepStart = namedtuple("StepStart", ["res", "jac", "cmat", "ft"])
+
+#: What a run writes: samples ``x_out`` ``(n_samples, 4N - 2)`` at the times ``t_out``, the
+#: per-unit record ``unit_rec`` ``(N, N_REC)``, the ``event_log`` ``(capacity, 3)`` and the
+#: ``stats`` counters (int64, ``(N_STATS,)``) (:mod:`.events`).
+RunRecord = namedtuple("RunRecord", ["t_out", "x_out", "unit_rec", "event_log", "stats"])
+
+#: What the reset-time batches write per design: the run's ``status`` and ``final_state``
+#: ``(n,)``, and per unit ``reset``, ``snap_through``, ``snap_back`` (s) and ``unit_class``
+#: ``(n, MAX_UNITS)``.
+ResetRows = namedtuple(
+    "ResetRows", ["status", "final_state", "reset", "snap_through", "snap_back", "unit_class"]
+)
+
+#: What the fast reset model writes per design: ``status``, ``final_state`` ``(n,)``;
+#: ``reset``, ``snap_back`` (s), ``unit_class`` ``(n, MAX_UNITS)``; ``unit_diag``
+#: ``(n, MAX_UNITS, N_UNIT_DIAG)`` and ``design_diag`` ``(n, N_DESIGN_DIAG)``
+#: (:mod:`.fast_reset`). One design's slices, without ``status`` and ``final_state``, are a
+#: :data:`FastResetUnits`.
+FastResetRows = namedtuple(
+    "FastResetRows",
+    ["status", "final_state", "reset", "snap_back", "unit_class", "unit_diag", "design_diag"],
+)
+FastResetUnits = namedtuple(
+    "FastResetUnits", ["reset", "snap_back", "unit_class", "unit_diag", "design_diag"]
+)

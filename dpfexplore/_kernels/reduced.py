@@ -44,6 +44,7 @@ from .events import (
 from .integrators_rosenbrock import rodas4
 from .layout import n_free
 from .loaded_state import loaded_newton, newton_scratch
+from .records import Lattice, MotionModel, RunRecord
 
 #: Position tolerance (mm) of the loading phase: loose, because only the inversion pattern and
 #: the snap-through times (to ~1e-3 s) are taken from it; the Newton solve fixes the state.
@@ -63,19 +64,22 @@ def loaded_equilibrium(x, unit_params, h, pressure, ftol, max_iter, max_move):
 
 
 @kernel
-def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, stats, y):
+def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
     """Loose loading, the loaded equilibrium at ``τ3`` by Newton, then the release.
 
     ``knot_t`` must be a single pulse ``(τ1, τ2, τ3, τ4)``. ``y`` (shape ``(2 (4N - 2),)``)
     receives the final state; ``rec`` the per-unit record of both phases (snap-through times
-    from the loose loading). Returns a status.
+    from the loose loading). ``lattice``, ``knots``, ``physics``: :mod:`.records` (the model is
+    overdamped: ``physics.mass_per_unit`` is not read). Returns a status.
     """
+    unit_params, h = lattice
+    knot_t, knot_p = knots
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     rest_state(unit_params, h, y)
     phys = np.empty(N_PHYS)
-    phys[0] = eta
-    phys[1] = eta_iso
+    phys[0] = physics.eta
+    phys[1] = physics.eta_iso
     phys[2] = 0.0
     t_out = np.empty(0)
     x_out = np.empty((0, n))
@@ -85,9 +89,8 @@ def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, 
     loose[CTRL_ATOL] = max(ctrl[CTRL_ATOL], LOADING_ATOL)
     loose[CTRL_STOP_WHEN_RESET] = 0.0
     loading = np.empty((n_units, N_REC))
-    code = rodas4(
-        y, 0.0, tau3, unit_params, h, knot_t, knot_p, phys, loose, t_out, x_out, loading, log, stats
-    )
+    model = MotionModel(unit_params, h, knot_t, knot_p, phys)
+    code = rodas4(y, 0.0, tau3, model, loose, RunRecord(t_out, x_out, loading, log, stats))
     if code != st.OK:
         return code
     steps = stats[STAT_STEPS]
@@ -96,9 +99,7 @@ def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, 
     code = loaded_equilibrium(y[:n], unit_params, h, knot_p[2], 1e-9, 50, 0.5)
     if code != st.OK:
         return code
-    code = rodas4(
-        y, tau3, t_end, unit_params, h, knot_t, knot_p, phys, ctrl, t_out, x_out, rec, log, stats
-    )
+    code = rodas4(y, tau3, t_end, model, ctrl, RunRecord(t_out, x_out, rec, log, stats))
     stats[STAT_STEPS] += steps
     for k in range(n_units):
         # carry over what happened during the loading
@@ -111,26 +112,12 @@ def release_run(unit_params, h, knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, 
 
 
 @batch_kernel
-def release_batch(
-    unit_params,
-    h,
-    n_units,
-    valid,
-    knot_t,
-    knot_p,
-    eta,
-    eta_iso,
-    ctrl,
-    t_end,
-    status,
-    final_state,
-    reset,
-    snap_through,
-    snap_back,
-    unit_class,
-):
-    """:func:`release_run` over many designs in parallel (layout as ``reset_times_kernel``)."""
+def release_batch(lattice, valid, knots, physics, ctrl, t_end, out):
+    """:func:`release_run` over many designs in parallel (arguments as ``reset_times_kernel``)."""
+    unit_params, h, n_units = lattice
+    status, final_state, reset, snap_through, snap_back, unit_class = out
     n = unit_params.shape[0]
+    knot_t = knots.t
     tau_end = knot_t[knot_t.shape[0] - 1]
     for i in prange(n):
         if not valid[i]:
@@ -140,7 +127,7 @@ def release_batch(
         y = np.empty(2 * n_free(nu))
         rec = np.empty((nu, N_REC))
         stats = np.zeros(N_STATS, dtype=np.int64)
-        code = release_run(params, h[i], knot_t, knot_p, eta, eta_iso, ctrl, t_end, rec, stats, y)
+        code = release_run(Lattice(params, h[i]), knots, physics, ctrl, t_end, rec, stats, y)
         status[i] = code
         if code != st.OK and stats[STAT_STEPS] == 0:
             continue  # failed before any step: nothing to summarise

@@ -78,6 +78,7 @@ from .integrators_rosenbrock import (
 from .layout import n_free, n_nodes
 from .linalg import band_matvec_add, cholesky, cholesky_solve
 from .newton import minimize
+from .records import MotionModel, MotionScratch, StepStart
 from .states import inversion_state
 
 # Rodas3 in the transformed form (as RODAS4_* in .integrators_rosenbrock):
@@ -256,6 +257,9 @@ def release_rodas3(
     phys = np.zeros(N_PHYS)
     phys[PHYS_ETA] = eta
     phys[PHYS_ETA_ISO] = eta_iso
+    model = MotionModel(unit_params, h, knot_t, knot_p, phys)
+    scratch = MotionScratch(pos, vel, work)
+    start = StepStart(res0, jac, cmat, ft)
     rtol = ctrl[CTRL_RTOL]
     atol = ctrl[CTRL_ATOL]
     h_max = ctrl[CTRL_H_MAX]
@@ -264,12 +268,7 @@ def release_rodas3(
     tau_end = knot_t[knot_t.shape[0] - 1]
     expo = 1.0 / ERROR_ORDER
     v = np.empty(n)
-    if (
-        consistent_velocity(
-            x, t0, unit_params, h, knot_t, knot_p, phys, pos, vel, work, cmat, piv, v
-        )
-        != 0
-    ):
+    if consistent_velocity(x, t0, model, scratch, cmat, piv, v) != 0:
         return st.DEGENERATE_GEOMETRY
     init_record(x, t0, unit_params, unit_rec, stats, g0)
     for k in range(n_units):
@@ -309,18 +308,9 @@ def release_rodas3(
                 v,
                 t,
                 step,
-                unit_params,
-                h,
-                knot_t,
-                knot_p,
-                phys,
-                pos,
-                vel,
-                work,
-                res0,
-                jac,
-                cmat,
-                ft,
+                model,
+                scratch,
+                start,
             )
             stats[STAT_RHS] += 1
             fresh = True
@@ -355,20 +345,7 @@ def release_rodas3(
                     for i in range(n):
                         res[i] = res0[i]
                 else:
-                    force_residual(
-                        yx,
-                        yv,
-                        t + RODAS3_ALPHA[s] * step,
-                        unit_params,
-                        h,
-                        knot_t,
-                        knot_p,
-                        phys,
-                        pos,
-                        vel,
-                        work,
-                        res,
-                    )
+                    force_residual(yx, yv, t + RODAS3_ALPHA[s] * step, model, scratch, res)
                     stats[STAT_RHS] += 1
                 gam_h = RODAS3_GAMMA_SUM[s] * step
                 kx_s = kx[s]

@@ -22,53 +22,15 @@ from .sensitivity import N_SENS, design_sensitivities, n_parameters, workspace
 
 
 @kernel
-def _sensitivity_rows(
-    unit_params,
-    h,
-    n_units,
-    design_status,
-    row_design,
-    row_state,
-    first,
-    last,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    out,
-    status,
-    found,
-    n_iter,
-    shapes,
-    dtab,
-    E,
-    sens,
-    dxs,
-):
-    _solve_rows(
-        unit_params,
-        h,
-        n_units,
-        design_status,
-        row_design,
-        row_state,
-        first,
-        last,
-        gtol,
-        xtol,
-        max_iter,
-        max_step,
-        want_stiffness,
-        want_min_eig,
-        out,
-        status,
-        found,
-        n_iter,
-        shapes,
-    )
+def _sensitivity_rows(designs, rows, first, last, controls, outputs, derivatives, sens_rows):
+    """Rows ``first`` to ``last - 1`` (arguments as :func:`solve_rows_sensitivities`)."""
+    _solve_rows(designs, rows, first, last, controls, outputs)
     ws = workspace()
+    unit_params, h, n_units, _ = designs
+    status = outputs.status
+    shapes = outputs.shapes
+    dtab, E = derivatives
+    sens, dxs = sens_rows
     keep_dx = dxs.shape[0] > 0
     no_dx = np.empty((0, 0))
     for r in range(first, last):
@@ -77,7 +39,7 @@ def _sensitivity_rows(
             if keep_dx:
                 dxs[r] = np.nan
             continue
-        i = row_design[r]
+        i = rows.design[r]
         m = n_units[i]
         dx_r = dxs[r] if keep_dx else no_dx
         design_sensitivities(
@@ -94,128 +56,33 @@ def _sensitivity_rows(
 
 
 @batch_kernel
-def solve_rows_sensitivities(
-    unit_params,
-    h,
-    n_units,
-    design_status,
-    row_design,
-    row_state,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    out,
-    status,
-    found,
-    n_iter,
-    shapes,
-    dtab,
-    E,
-    sens,
-    dxs,
-):
+def solve_rows_sensitivities(designs, rows, controls, outputs, derivatives, sens_rows):
     """:func:`.batch.solve_rows` plus the sensitivities of every row, in parallel.
 
     Parameters
     ----------
-    unit_params, h, n_units, design_status, row_design, row_state, gtol, xtol, max_iter, \
-max_step, want_stiffness, want_min_eig, out, status, found, n_iter
-        As in :func:`.batch.solve_rows`.
-    shapes : ndarray of shape (n_rows, 4·MAX_UNITS - 2)
-        Receives the free coordinates of each row (needed here, so never empty).
-    dtab : ndarray of shape (n_designs, MAX_UNITS, N_DCONST, N_DPARAM)
-        Derivative tables (:func:`.tables.design_tables`).
-    E : ndarray of shape (n_designs,), MPa
-    sens : ndarray of shape (n_rows, N_SENS, 3·MAX_UNITS + 3)
-        Receives the sensitivities (rows ``SENS_*`` of :mod:`.sensitivity`).
-    dxs : ndarray of shape (n_rows, 4·MAX_UNITS - 2, 3·MAX_UNITS + 3) or (0, 0, 0)
-        Receives ``dx*/dθ`` of every row when not empty.
+    designs, rows, controls, outputs
+        As in :func:`.batch.solve_rows`; ``outputs.shapes`` of shape (n_rows, 4·MAX_UNITS - 2)
+        receives the free coordinates of each row (needed here, so never empty).
+    derivatives : DesignDerivatives
+        Derivative tables (:func:`.tables.design_tables`) and Young's moduli of the designs.
+    sens_rows : SensitivityRows
+        Receive the sensitivities (rows ``SENS_*`` of :mod:`.sensitivity`) and, when not empty,
+        ``dx*/dθ`` of every row.
     """
-    n_rows = row_design.shape[0]
+    n_rows = rows.design.shape[0]
     n_blocks = (n_rows + BLOCK_ROWS - 1) // BLOCK_ROWS
     for b in prange(n_blocks):
         first = b * BLOCK_ROWS
         last = min(first + BLOCK_ROWS, n_rows)
-        _sensitivity_rows(
-            unit_params,
-            h,
-            n_units,
-            design_status,
-            row_design,
-            row_state,
-            first,
-            last,
-            gtol,
-            xtol,
-            max_iter,
-            max_step,
-            want_stiffness,
-            want_min_eig,
-            out,
-            status,
-            found,
-            n_iter,
-            shapes,
-            dtab,
-            E,
-            sens,
-            dxs,
-        )
+        _sensitivity_rows(designs, rows, first, last, controls, outputs, derivatives, sens_rows)
 
 
 @kernel
-def solve_rows_sensitivities_serial(
-    unit_params,
-    h,
-    n_units,
-    design_status,
-    row_design,
-    row_state,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    out,
-    status,
-    found,
-    n_iter,
-    shapes,
-    dtab,
-    E,
-    sens,
-    dxs,
-):
+def solve_rows_sensitivities_serial(designs, rows, controls, outputs, derivatives, sens_rows):
     """:func:`solve_rows_sensitivities` on the calling thread (small batches)."""
-    _sensitivity_rows(
-        unit_params,
-        h,
-        n_units,
-        design_status,
-        row_design,
-        row_state,
-        0,
-        row_design.shape[0],
-        gtol,
-        xtol,
-        max_iter,
-        max_step,
-        want_stiffness,
-        want_min_eig,
-        out,
-        status,
-        found,
-        n_iter,
-        shapes,
-        dtab,
-        E,
-        sens,
-        dxs,
-    )
+    n_rows = rows.design.shape[0]
+    _sensitivity_rows(designs, rows, 0, n_rows, controls, outputs, derivatives, sens_rows)
 
 
 @kernel

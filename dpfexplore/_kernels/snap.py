@@ -43,6 +43,7 @@ from .dynamics_batch import rest_state
 from .events import margins
 from .landing import LAND_CERT, LAND_OFFSET, LAND_SECONDS, LAND_STEPS
 from .layout import n_free
+from .records import Lattice
 from .snap_records import (
     CNT_EVENTS,
     CNT_LANDING_STEPS,
@@ -70,6 +71,8 @@ from .snap_records import (
     PATH_TIP_Y,
     PATH_U,
     Landing,
+    Releases,
+    RisingWalk,
     WalkOutputs,
 )
 from .snap_steps import (
@@ -128,35 +131,28 @@ __all__ = [
 
 
 @kernel
-def follow(
-    unit_params, h, x_start, p_start, p_end, sign, phys, ctrl, kick, ev, ev_x, path, counts, x_final
-):
+def follow(lattice, x_start, p_start, p_end, sign, landing, out):
     """Follow the equilibrium from ``(x_start, p_start)`` to ``p_end``, snapping at folds.
 
     Parameters
     ----------
-    unit_params, h
-        Lattice parameters (:mod:`.layout`).
+    lattice : Lattice
+        Lattice parameters ``unit_params``, ``h`` (:mod:`.records`, :mod:`.layout`).
     x_start : ndarray of shape (4N - 2,), mm
         A stable equilibrium at ``p_start`` (polished here).
     p_start, p_end : float, MPa
     sign : int
         +1: rising pressure (``p_end > p_start``), -1: falling.
-    phys, ctrl
-        Model and Rodas4 controls of the landings (:mod:`.dynamics`, :mod:`.events`).
-    kick : float, mm
-        First displacement of each landing along the fold's null direction (:func:`land`);
-        ``<= 0``: :func:`default_kick`.
-    ev : ndarray of shape (capacity, N_EV)
-        Receives the events in order (``EV_*`` columns).
-    ev_x : ndarray of shape (capacity, 2, 4N - 2) or (0, 2, 4N - 2)
-        Receives each event's shape before and after (skipped if empty).
-    path : ndarray of shape (rows, N_PATH_FIXED + N)
-        Receives the branch points (``PATH_*`` columns), as many as fit.
-    counts : ndarray of int64, shape (N_CNT,)
-        Filled with the ``CNT_*`` counters.
-    x_final : ndarray of shape (4N - 2,)
-        The equilibrium at ``p_end`` (or where the walk stopped).
+    landing : Landing
+        Model ``phys`` and Rodas4 controls ``ctrl`` of the landings (:mod:`.dynamics`,
+        :mod:`.events`), and the ``kick`` (mm): first displacement of each landing along the
+        fold's null direction (:func:`land`); ``<= 0``: :func:`default_kick`.
+    out : WalkOutputs
+        Receives the events in order ``ev`` (capacity, N_EV; ``EV_*`` columns), each event's
+        shape before and after ``ev_x`` (capacity or 0, 2, 4N - 2; skipped if empty), the
+        branch points ``path`` (rows, N_PATH_FIXED + N; ``PATH_*`` columns, as many as fit),
+        the ``CNT_*`` ``counts`` (int64, (N_CNT,)) and ``x_final`` (4N - 2,), the equilibrium
+        at ``p_end`` (or where the walk stopped).
 
     Returns
     -------
@@ -172,18 +168,20 @@ def follow(
     or crossing that cannot be located rejects the step), then the crossings' events
     (``record_crossings``) and, at a fold, the landing (``snap``).
     """
+    unit_params, h = lattice
+    path = out.path
+    counts = out.counts
+    x_final = out.x_final
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     for i in range(N_CNT):
         counts[i] = 0
-    out = WalkOutputs(ev, ev_x, path, counts, x_final)
-    landing = Landing(phys, ctrl, kick)
     s = scratch(unit_params, sign)
     p_end_s = p_end * PRESSURE_SCALE
 
     for i in range(n):
         x_final[i] = x_start[i]
-    code = start(x_start, p_start, unit_params, h, phys, s)
+    code = start(x_start, p_start, unit_params, h, landing.phys, s)
     if code != st.OK:
         if code == st.UNSTABLE:
             for i in range(n):
@@ -258,50 +256,24 @@ def follow(
 
 
 @batch_kernel
-def snap_batch(
-    unit_params,
-    h,
-    n_units,
-    valid,
-    p_max,
-    p_min,
-    release,
-    phys_eta,
-    phys_eta_iso,
-    overdamped,
-    mass_per_unit,
-    ctrl,
-    kick,
-    status,
-    n_events,
-    events,
-    release_status,
-    release_state,
-    release_p,
-):
+def snap_batch(lattice, valid, ramp, landing, out):
     """The rising ramp from the flat finger, and each visited state's release, for many designs.
 
     Parameters
     ----------
-    unit_params, h, n_units, valid
-        Padded batch tables (:func:`dpfexplore.solvers.lattice.pack_batch`) and which rows to run.
-    p_max, p_min : float, MPa
-        End of the rising ramp; end of every release.
-    release : bool
-        Also follow each visited state down to ``p_min``.
-    phys_eta, phys_eta_iso, overdamped, mass_per_unit
-        Model of the landings (damping, N·s/mm; inertia dropped or node masses of
-        ``mass_per_unit · N / (2N + 2)`` tonne).
-    ctrl : ndarray
-        Rodas4 controls of the landings.
-    kick : float, mm
-        See :func:`follow` (``<= 0``: :func:`default_kick`).
-    status, n_events : ndarray of shape (n,)
-        Status of the rising walk and its number of events (int64).
-    events : ndarray of shape (n, capacity, N_EV)
-        The rising walk's events.
-    release_status, release_state, release_p : ndarray of shape (n, capacity + 1)
-        For visited state ``j`` (0 = the flat start, ``j`` = after event ``j - 1``): status of
+    lattice : LatticeBatch
+        Padded batch tables (:func:`dpfexplore.solvers.lattice.pack_batch`, :mod:`.records`).
+    valid : ndarray of bool, shape (n,)
+        Which rows to run.
+    ramp : Ramp
+        End of the rising ramp ``p_max`` and of every release ``p_min`` (MPa); ``release``:
+        also follow each visited state down to ``p_min``.
+    landing : BatchLanding
+        Model of the landings (damping, N·s/mm; node masses of ``mass_per_unit · N / (2N + 2)``
+        tonne, 0: inertia dropped), their Rodas4 controls and the kick (mm; see :func:`follow`).
+    out : SnapRows
+        Status of the rising walk and its number of events (int64), its events, and for
+        visited state ``j`` (0 = the flat start, ``j`` = after event ``j - 1``) the status of
         its release, the state it ends in at ``p_min`` and the pressure of the first event on
         the way down (NaN: none, the state lasts down to ``p_min``).
 
@@ -311,6 +283,16 @@ def snap_batch(
     release retraces the crossing (its first event on the way down) and then that state's
     release: only the start and each landing need a walk of their own.
     """
+    unit_params, h, n_units = lattice
+    p_max, p_min, release = ramp
+    # a record handed into the prange body must be an argument (Numba's parfor lowering rebuilds
+    # only those), so the landing's physics is read into scalars here
+    eta = landing.physics.eta
+    eta_iso = landing.physics.eta_iso
+    mass_per_unit = landing.physics.mass_per_unit
+    ctrl = landing.ctrl
+    kick = landing.kick
+    status, n_events, events, release_status, release_state, release_p = out
     n = unit_params.shape[0]
     capacity = events.shape[1]
     for i in prange(n):
@@ -320,30 +302,25 @@ def snap_batch(
         params = unit_params[i, :nu]
         nf = n_free(nu)
         phys = np.empty(3)
-        phys[0] = phys_eta
-        phys[1] = phys_eta_iso
-        phys[2] = 0.0 if overdamped else mass_per_unit * nu / (2.0 * nu + 2.0)
+        phys[0] = eta
+        phys[1] = eta_iso
+        phys[2] = mass_per_unit * nu / (2.0 * nu + 2.0)
         y = np.empty(2 * nf)
         rest_state(params, h[i], y)
         ev_x = np.empty((capacity, 2, nf))
         path = np.empty((0, N_PATH_FIXED + nu))
         counts = np.zeros(N_CNT, dtype=np.int64)
         x_final = np.empty(nf)
+        one = Lattice(params, h[i])
+        walk_landing = Landing(phys, ctrl, kick)
         code = follow(
-            params,
-            h[i],
+            one,
             y[:nf],
             0.0,
             p_max,
             1,
-            phys,
-            ctrl,
-            kick,
-            events[i],
-            ev_x,
-            path,
-            counts,
-            x_final,
+            walk_landing,
+            WalkOutputs(events[i], ev_x, path, counts, x_final),
         )
         status[i] = code
         ne = min(counts[CNT_EVENTS], capacity)
@@ -352,46 +329,25 @@ def snap_batch(
             ne -= 1  # no state after it to release
         if release:
             release_walks(
-                params,
-                h[i],
-                y[:nf],
-                0.0,
-                events[i],
-                ev_x,
-                ne,
+                one,
+                RisingWalk(y[:nf], 0.0, events[i], ev_x, ne),
                 p_min,
-                phys,
-                ctrl,
-                kick,
-                release_status[i],
-                release_state[i],
-                release_p[i],
+                walk_landing,
+                Releases(release_status[i], release_state[i], release_p[i]),
             )
 
 
 @kernel
-def release_walks(
-    unit_params,
-    h,
-    x_start,
-    p_start,
-    ev,
-    ev_x,
-    n_events,
-    p_min,
-    phys,
-    ctrl,
-    kick,
-    release_status,
-    release_state,
-    release_p,
-):
-    """Release each state of a rising walk (start, then ``ev``) down to ``p_min``.
+def release_walks(lattice, rising, p_min, landing, out):
+    """Release each state of a rising walk (start, then its events) down to ``p_min``.
 
-    The walk started at ``(x_start, p_start)``. Fills entry ``j`` (0 = the start, ``j`` = the
-    state after event ``j - 1``) of ``release_status``, ``release_state`` and ``release_p``
-    (see :func:`snap_batch`).
+    ``rising`` is the walk (:class:`~.snap_records.RisingWalk`), started at ``(x_start,
+    p_start)``; fills entry ``j`` (0 = the start, ``j`` = the state after event ``j - 1``) of
+    ``out`` (:class:`~.snap_records.Releases`; see :func:`snap_batch`).
     """
+    unit_params = lattice.unit_params
+    x_start, p_start, ev, ev_x, n_events = rising
+    release_status, release_state, release_p = out
     n_units = unit_params.shape[0]
     nf = n_free(n_units)
     capacity = ev.shape[0]
@@ -400,6 +356,7 @@ def release_walks(
     path = np.empty((0, N_PATH_FIXED + n_units))
     counts = np.zeros(N_CNT, dtype=np.int64)
     x_final = np.empty(nf)
+    walk = WalkOutputs(ev2, ev2_x, path, counts, x_final)
     g = np.empty(n_units)
     x_entry = np.empty(nf)
     for j in range(n_events + 1):
@@ -416,22 +373,7 @@ def release_walks(
             p_entry = ev[j - 1, EV_P]
             for i in range(nf):
                 x_entry[i] = ev_x[j - 1, 1, i]
-        code = follow(
-            unit_params,
-            h,
-            x_entry,
-            p_entry,
-            p_min,
-            -1,
-            phys,
-            ctrl,
-            kick,
-            ev2,
-            ev2_x,
-            path,
-            counts,
-            x_final,
-        )
+        code = follow(lattice, x_entry, p_entry, p_min, -1, landing, walk)
         release_status[j] = code
         margins(x_final, unit_params, g)
         release_state[j] = state_of(g, n_units) if code == st.OK else -1

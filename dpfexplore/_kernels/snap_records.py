@@ -93,3 +93,27 @@ FollowScratch = namedtuple(
         "ws",
     ],
 )
+
+# ---- records of a batch of walks ------------------------------------------------------------
+
+#: A rising walk, as its releases read it: its start ``x_start`` (4N - 2,), mm, at
+#: ``p_start`` (MPa), its event table ``ev`` (capacity, N_EV), the events' shapes ``ev_x``
+#: (capacity, 2, 4N - 2) and the number of its events ``n_events`` whose states to release.
+RisingWalk = namedtuple("RisingWalk", ["x_start", "p_start", "ev", "ev_x", "n_events"])
+#: What the releases of a rising walk write, one entry per visited state (0 = the start,
+#: ``j`` = the state after event ``j - 1``): the release's ``status``, the ``state`` it ends in
+#: and the pressure ``p`` of its first event (NaN: none).
+Releases = namedtuple("Releases", ["status", "state", "p"])
+#: The ramps of a batch: the rising walk ends at ``p_max``, every release at ``p_min`` (MPa);
+#: ``release`` (bool) says whether to follow the releases at all.
+Ramp = namedtuple("Ramp", ["p_max", "p_min", "release"])
+#: How the landings of a batch are modelled: the :class:`~.records.Physics` ``physics``, the
+#: Rodas4 controls ``ctrl`` and the ``kick`` (mm; ``<= 0``: :func:`.landing.default_kick`).
+BatchLanding = namedtuple("BatchLanding", ["physics", "ctrl", "kick"])
+#: What :func:`.snap.snap_batch` writes per design: the rising walk's ``status`` and number of
+#: events ``n_events`` (n,), its ``events`` (n, capacity, N_EV), and per visited state
+#: (n, capacity + 1) its release's ``release_status``, ``release_state`` and ``release_p``.
+SnapRows = namedtuple(
+    "SnapRows",
+    ["status", "n_events", "events", "release_status", "release_state", "release_p"],
+)

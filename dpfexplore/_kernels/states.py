@@ -180,7 +180,7 @@ def _steering_params(unit_params, state, hold, steer):
 
 
 @kernel
-def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws):
+def find_state(unit_params, h, requested, controls, x, ws):
     """Search the minimum with inversion vector ``requested`` (see the module docstring).
 
     Parameters
@@ -189,8 +189,8 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
     h : float, mm
     requested : int
         Requested state.
-    gtol, xtol, max_iter, max_step
-        Newton controls (see :func:`.newton.minimize`).
+    controls : NewtonControls
+        Newton controls (:mod:`.records`; see :func:`.newton.minimize`).
     x : ndarray of shape (>= 4N - 2,)
         Receives the minimum found (the requested one, or where the finger collapses to).
     ws : tuple
@@ -206,6 +206,7 @@ def find_state(unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws)
     n_iter : int
         Newton iterations over all attempts.
     """
+    gtol, xtol, max_iter, max_step = controls
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     pos = ws[0]
@@ -356,31 +357,20 @@ def tip_stiffness(pos, low, factored, load, response, n_units):
 
 
 @kernel
-def solve_state(
-    unit_params,
-    h,
-    requested,
-    gtol,
-    xtol,
-    max_iter,
-    max_step,
-    want_stiffness,
-    want_min_eig,
-    x,
-    out,
-    ws,
-):
+def solve_state(lattice, requested, controls, want_stiffness, want_min_eig, x, out, ws):
     """Find a state and evaluate its outputs; returns ``(status, found, n_iter)``.
+
+    ``lattice`` (:class:`~.records.Lattice`) and ``controls`` (:class:`~.records.NewtonControls`)
+    as in :func:`find_state`.
 
     ``out`` is NaN-filled when no minimum was reached. A minimum whose outputs are not all
     finite (which would be a bug or a degenerate design) is reported as ``NONFINITE`` rather
     than stored as a converged row.
     """
+    unit_params, h = lattice
     for j in range(out.shape[0]):
         out[j] = np.nan
-    status, found, n_iter = find_state(
-        unit_params, h, requested, gtol, xtol, max_iter, max_step, x, ws
-    )
+    status, found, n_iter = find_state(unit_params, h, requested, controls, x, ws)
     if status == st.OK or status == st.COLLAPSED:
         state_outputs(x, unit_params, h, want_stiffness, want_min_eig, out, ws)
         for j in range(out.shape[0]):

@@ -52,6 +52,7 @@ from .layout import (
     COL_U_LO,
     N_COLS,
 )
+from .records import SharedParams
 
 #: Rows of the derivative table: the kernel table's physical columns ``COL_P..COL_KT`` (same
 #: indices), then the segment height ``h``.
@@ -68,8 +69,13 @@ N_DPARAM = 5
 
 
 @kernel
-def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, powers, row):
-    """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact)."""
+def _unit_row(H, U_L, U_sep, shared, forms, powers, row):
+    """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact).
+
+    ``H``, ``U_L``, ``U_sep``: the unit's (mm); ``shared``: the design's
+    :class:`~.records.SharedParams`.
+    """
+    t, t_lim, E, nu, r_b, t_ch = shared
     k_b, alpha, tip = set_constants_form(forms, E, H, t, r_b, powers)
     # the reach of MODEL.md §3, in ConstantsSet.reach's order of operations
     raw = tip - H - U_sep - t_ch / 2.0 - t / 2.0
@@ -103,12 +109,14 @@ def _unit_row(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, powers, row):
 
 
 @kernel
-def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, powers, contact, dtab):
+def _derivative_rows(H, U_L, U_sep, shared, forms, powers, contact, dtab):
     """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule).
 
     ``k_b``, ``alpha`` and the reach through the constants set's own derivatives; ``contact``
-    is 0 where the reach is clamped (a constant there, so its derivatives vanish).
+    is 0 where the reach is clamped (a constant there, so its derivatives vanish). Arguments as
+    :func:`_unit_row`.
     """
+    t, t_lim, E, nu, r_b, t_ch = shared
     dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt = set_constant_partials(
         forms, E, H, t, r_b, powers
     )
@@ -158,33 +166,26 @@ def _derivative_rows(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, powers, c
 
 
 @kernel
-def design_tables(
-    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms, status, table, h, no_contact, dtab
-):
+def design_tables(designs, forms, out):
     """Status, kernel table and (on request) derivative table of every design of a batch.
 
     Parameters
     ----------
-    n_units : ndarray of int64, shape (n,)
-    H, U_L, U_sep : ndarray of shape (n, MAX_UNITS), mm
-    t, t_lim, E, nu, r_b, t_ch : ndarray of shape (n,)
-        The arrays of a :class:`DesignBatch`.
+    designs : DesignArrays
+        The arrays of a :class:`DesignBatch` (:mod:`.records`).
     forms : tuple of (ndarray of int64, shape (3, n_terms, 2); ndarray, shape (3, n_terms))
         The batch's constants set: powers and coefficients of its closed forms
         (:meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`).
-    status : ndarray of int8, shape (n,)
-        Receives each design's status code.
-    table : ndarray of shape (n, MAX_UNITS, N_COLS)
-        Receives the per-unit tables; rows past a design's ``N`` are NaN. Filled for invalid
-        designs too (meaningless there), as :func:`dpfexplore.solvers.lattice.pack_batch` did.
-    h : ndarray of shape (n,), mm
-        Receives the segment heights.
-    no_contact : ndarray of bool, shape (n, MAX_UNITS)
-        Receives True where the unit's ``d`` is clamped.
-    dtab : ndarray of shape (n, MAX_UNITS, N_DCONST, N_DPARAM) or (0, 0, 0, 0)
-        Receives ``∂(constant)/∂(parameter)`` per unit (rows :data:`DC_H` and ``COL_P..COL_KT``,
-        columns ``DP_*``), or is skipped when empty.
+    out : TableOutputs
+        Receives each design's ``status`` code; the per-unit tables ``table`` (n, MAX_UNITS,
+        N_COLS), whose rows past a design's ``N`` are NaN, filled for invalid designs too
+        (meaningless there), as :func:`dpfexplore.solvers.lattice.pack_batch` did; the segment
+        heights ``h`` (mm); ``no_contact``, True where the unit's ``d`` is clamped; and
+        ``dtab`` (n, MAX_UNITS, N_DCONST, N_DPARAM), ``∂(constant)/∂(parameter)`` per unit
+        (rows :data:`DC_H` and ``COL_P..COL_KT``, columns ``DP_*``), skipped when empty.
     """
+    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch = designs
+    status, table, h, no_contact, dtab = out
     want_derivatives = dtab.shape[0] > 0
     powers = power_tables()
     for i in range(n_units.shape[0]):
@@ -194,6 +195,7 @@ def design_tables(
             n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i]
         )
         h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
+        shared = SharedParams(t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i])
         active = min(max(n_units[i], 0), MAX_UNITS)
         for k in range(MAX_UNITS):
             if k >= active:
@@ -205,38 +207,13 @@ def design_tables(
             Hk = H[i, k]
             U_Lk = U_L[i, k]
             U_sepk = U_sep[i, k]
-            clamped = _unit_row(
-                Hk,
-                U_Lk,
-                U_sepk,
-                t[i],
-                t_lim[i],
-                E[i],
-                nu[i],
-                r_b[i],
-                t_ch[i],
-                forms,
-                powers,
-                table[i, k],
-            )
+            clamped = _unit_row(Hk, U_Lk, U_sepk, shared, forms, powers, table[i, k])
             no_contact[i, k] = clamped
             if status[i] == st.OK:
                 status[i] = constants_status(table[i, k, COL_KB], table[i, k, COL_ALPHA])
             if want_derivatives:
                 _derivative_rows(
-                    Hk,
-                    U_Lk,
-                    U_sepk,
-                    t[i],
-                    t_lim[i],
-                    E[i],
-                    nu[i],
-                    r_b[i],
-                    t_ch[i],
-                    forms,
-                    powers,
-                    0.0 if clamped else 1.0,
-                    dtab[i, k],
+                    Hk, U_Lk, U_sepk, shared, forms, powers, 0.0 if clamped else 1.0, dtab[i, k]
                 )
 
 

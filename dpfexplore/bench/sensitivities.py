@@ -192,6 +192,7 @@ def bench_size(
 ) -> dict:
     """Sensitivities of one finger size: kernel costs, the finite-difference baseline, errors."""
     from .._kernels.batch import solve_repeatedly
+    from .._kernels.records import Lattice
     from .._kernels.sensitivity_batch import sensitivities_repeatedly
     from ..solvers.lattice import design_kernel_tables
     from ..solvers.sensitivities import OUTPUTS
@@ -205,15 +206,16 @@ def bench_size(
         up = tables.unit_params[0, :n_units].copy()
         dtab = tables.derivatives[0, :n_units].copy()
         h = float(tables.h[0])
-        solve_repeatedly(up, h, state, *controls, True, False, 1)
+        solve_repeatedly(Lattice(up, h), state, controls, True, False, 1)
         sensitivities_repeatedly(x, up, h, dtab, design.E, 1)
         prepared.append((up, h, state, x, dtab, design.E))
     t_solve = np.empty((passes, len(prepared)))
     t_sens = np.empty((passes, len(prepared)))
     for k in range(passes):
         for i, (up, h, state, x, dtab, E) in enumerate(prepared):
+            lattice = Lattice(up, h)
             start = time.perf_counter()
-            solve_repeatedly(up, h, state, *controls, True, False, repeats)
+            solve_repeatedly(lattice, state, controls, True, False, repeats)
             t_solve[k, i] = (time.perf_counter() - start) / repeats
             start = time.perf_counter()
             sensitivities_repeatedly(x, up, h, dtab, E, repeats)
@@ -308,6 +310,13 @@ def _interleaved(calls: dict, rounds: int = 40, min_time: float = 0.005) -> dict
 def _row_kernel(tables, states, *, sensitivities: bool, shape_derivatives: bool = False):
     """The serial row kernel :func:`solve_batch` runs, on prepared arrays, as a callable."""
     from .._kernels.batch import solve_rows_serial
+    from .._kernels.records import (
+        DesignDerivatives,
+        DesignTable,
+        RowPlan,
+        SensitivityRows,
+        StateRows,
+    )
     from .._kernels.sensitivity_batch import solve_rows_sensitivities_serial
     from ..model.domain import MAX_UNITS
     from ..solvers.statics import DEFAULT_OPTIONS
@@ -315,27 +324,25 @@ def _row_kernel(tables, states, *, sensitivities: bool, shape_derivatives: bool 
     n_rows = len(states)
     nf = 4 * MAX_UNITS - 2
     args = (
-        tables.unit_params,
-        tables.h,
-        tables.n_units,
-        tables.status,
-        np.arange(n_rows, dtype=np.int64),
-        np.asarray(states, dtype=np.int64),
-        *DEFAULT_OPTIONS.kernel_args(),
-        True,
-        True,
-        np.empty((n_rows, 11)),
-        np.empty(n_rows, np.int8),
-        np.empty(n_rows, np.int64),
-        np.empty(n_rows, np.int32),
-        np.empty((n_rows, nf if sensitivities else 0)),
+        DesignTable(tables.unit_params, tables.h, tables.n_units, tables.status),
+        RowPlan(np.arange(n_rows, dtype=np.int64), np.asarray(states, dtype=np.int64), True, True),
+        DEFAULT_OPTIONS.kernel_args(),
+        StateRows(
+            np.empty((n_rows, 11)),
+            np.empty(n_rows, np.int8),
+            np.empty(n_rows, np.int64),
+            np.empty(n_rows, np.int32),
+            np.empty((n_rows, nf if sensitivities else 0)),
+        ),
     )
     if not sensitivities:
         return lambda: solve_rows_serial(*args)
     n_params = 3 * MAX_UNITS + 3
     sens = np.empty((n_rows, 6, n_params))
     dx = np.empty((n_rows, nf, n_params) if shape_derivatives else (0, 0, 0))
-    return lambda: solve_rows_sensitivities_serial(*args, tables.derivatives, tables.E, sens, dx)
+    derivatives = DesignDerivatives(tables.derivatives, tables.E)
+    sens_rows = SensitivityRows(sens, dx)
+    return lambda: solve_rows_sensitivities_serial(*args, derivatives, sens_rows)
 
 
 def bench_api(seed: int) -> dict:

@@ -192,6 +192,7 @@ def _per_design_times(batch, n_units: int, passes: int = 5, repeats: int = 20) -
     (which can last the half second one pass takes) inflates one pass, not the figure.
     """
     from .._kernels.batch import solve_repeatedly
+    from .._kernels.records import Lattice
     from ..solvers.lattice import lattice_params
     from ..solvers.statics import DEFAULT_OPTIONS
 
@@ -199,12 +200,13 @@ def _per_design_times(batch, n_units: int, passes: int = 5, repeats: int = 20) -
     state = 2**n_units - 1
     params = [lattice_params(batch.design(i)) for i in range(len(batch))]
     for p in params:
-        solve_repeatedly(p.unit_params, p.h, state, *controls, True, False, 1)
+        solve_repeatedly(Lattice(p.unit_params, p.h), state, controls, True, False, 1)
     samples = np.empty((passes, len(params)))
+    lattices = [Lattice(p.unit_params, p.h) for p in params]
     for k in range(passes):
-        for i, p in enumerate(params):
+        for i, lattice in enumerate(lattices):
             start = time.perf_counter()
-            solve_repeatedly(p.unit_params, p.h, state, *controls, True, False, repeats)
+            solve_repeatedly(lattice, state, controls, True, False, repeats)
             samples[k, i] = (time.perf_counter() - start) / repeats
     return np.median(samples, axis=0) * 1e6
 

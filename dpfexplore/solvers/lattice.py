@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from .._kernels import layout as lay
 from .._kernels import tables as ktables
+from .._kernels.records import DesignArrays, TableOutputs
 from ..model.constants import (
     POST_STIFFNESS_FACTOR,
     DomeAnalysis,
@@ -233,7 +234,9 @@ def _tables(n_units, H, U_L, U_sep, shared, forms, derivatives: bool) -> KernelT
         else ktables.empty_derivative_table()
     )
     ktables.design_tables(
-        n_units, H, U_L, U_sep, *shared, forms, status, table, h, no_contact, dtab
+        DesignArrays(n_units, H, U_L, U_sep, *shared),
+        forms,
+        TableOutputs(status, table, h, no_contact, dtab),
     )
     return KernelTables(status, table, h, n_units, shared[2], no_contact, dtab)
 

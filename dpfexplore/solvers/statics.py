@@ -36,6 +36,14 @@ from numpy.typing import NDArray
 from .._kernels import states as kstates
 from .._kernels.batch import solve_rows, solve_rows_serial
 from .._kernels.layout import n_free, n_nodes
+from .._kernels.records import (
+    DesignDerivatives,
+    DesignTable,
+    NewtonControls,
+    RowPlan,
+    SensitivityRows,
+    StateRows,
+)
 from .._kernels.sensitivity import N_SENS, n_parameters
 from .._kernels.sensitivity_batch import (
     solve_rows_sensitivities,
@@ -101,9 +109,11 @@ class SolverOptions:
         ):
             raise ValueError(f"max_iter = {self.max_iter!r}: must be an integer >= 1")
 
-    def kernel_args(self) -> tuple[float, float, int, float]:
-        """``(gtol, xtol, max_iter, max_step)`` in kernel order."""
-        return float(self.gtol), float(self.xtol), int(self.max_iter), float(self.max_step)
+    def kernel_args(self) -> NewtonControls:
+        """The kernels' :class:`~dpfexplore._kernels.records.NewtonControls` record."""
+        return NewtonControls(
+            float(self.gtol), float(self.xtol), int(self.max_iter), float(self.max_step)
+        )
 
 
 DEFAULT_OPTIONS = SolverOptions()
@@ -399,20 +409,10 @@ def _solve(
         else np.empty((n_rows, 0))
     )
     args = (
-        tables.unit_params,
-        tables.h,
-        tables.n_units,
-        tables.status,
-        row_design,
-        row_state,
-        *controls,
-        stiffness,
-        min_eig,
-        out,
-        status,
-        found,
-        n_iter,
-        x,
+        DesignTable(tables.unit_params, tables.h, tables.n_units, tables.status),
+        RowPlan(row_design, row_state, stiffness, min_eig),
+        controls,
+        StateRows(out, status, found, n_iter, x),
     )
     if serial is None:
         serial = n_rows <= SERIAL_MAX_ROWS
@@ -423,7 +423,7 @@ def _solve(
         table = np.empty((n_rows, N_SENS, n_params))
         dx = np.empty((n_rows, n_free(MAX_UNITS), n_params) if shape_derivatives else (0, 0, 0))
         run = solve_rows_sensitivities_serial if serial else solve_rows_sensitivities
-        run(*args, tables.derivatives, tables.E, table, dx)
+        run(*args, DesignDerivatives(tables.derivatives, tables.E), SensitivityRows(table, dx))
     else:
         (solve_rows_serial if serial else solve_rows)(*args)
     return _Rows(row_design, row_state, out, status, found, n_iter, x, table, dx)

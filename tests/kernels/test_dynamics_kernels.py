@@ -21,6 +21,7 @@ from dpfexplore._kernels.integrators_rosenbrock import (
     RODAS4_GAMMA_SUM,
 )
 from dpfexplore._kernels.linalg import band_matvec_add
+from dpfexplore._kernels.records import MotionModel, MotionScratch
 from dpfexplore.model.design import Design
 from dpfexplore.solvers.dynamics.simulate import PressureProfile
 from dpfexplore.solvers.lattice import lattice_params
@@ -31,7 +32,7 @@ DESIGNS = {1: Design(**PICKPLACE), 2: Design(**GRIPPER)}
 def _scratch(n_units):
     n = 4 * n_units - 2
     nodes = 2 * n_units + 2
-    return np.empty((nodes, 2)), np.empty((nodes, 2)), np.empty(n)
+    return MotionScratch(np.empty((nodes, 2)), np.empty((nodes, 2)), np.empty(n))
 
 
 def _phys(n_units, eta=kd.ETA_INTERNAL, eta_iso=kd.ETA_ISO):
@@ -58,14 +59,8 @@ def test_rhs_matches_seed_implementation():
             x,
             v,
             float(row.t),
-            params.unit_params,
-            params.h,
-            knot_t,
-            knot_p,
-            _phys(n_units),
-            pos,
-            vel,
-            work,
+            MotionModel(params.unit_params, params.h, knot_t, knot_p, _phys(n_units)),
+            MotionScratch(pos, vel, work),
             acc,
         )
         checked.add(round(pressure / row.P0, 6))
@@ -105,14 +100,8 @@ def test_full_jacobian_against_central_differences(t):
         x,
         v,
         t,
-        params.unit_params,
-        params.h,
-        knot_t,
-        knot_p,
-        phys,
-        pos,
-        vel,
-        work,
+        MotionModel(params.unit_params, params.h, knot_t, knot_p, phys),
+        MotionScratch(pos, vel, work),
         np.empty((n, n)),
         jac,
     )
@@ -120,7 +109,12 @@ def test_full_jacobian_against_central_differences(t):
     def f(y):
         acc = np.empty(n)
         kd.acceleration(
-            y[:n], y[n:], t, params.unit_params, params.h, knot_t, knot_p, phys, pos, vel, work, acc
+            y[:n],
+            y[n:],
+            t,
+            MotionModel(params.unit_params, params.h, knot_t, knot_p, phys),
+            MotionScratch(pos, vel, work),
+            acc,
         )
         return np.concatenate([y[n:], acc])
 
@@ -140,12 +134,12 @@ def test_fused_residual_and_jacobian_equal_the_separate_kernels(t):
     design = DESIGNS[1]
     params, x, v, knot_t, knot_p, phys = _pulse_case(design, t)
     n = x.size
-    args = (params.unit_params, params.h, knot_t, knot_p, phys)
+    model = MotionModel(params.unit_params, params.h, knot_t, knot_p, phys)
     res, jac = np.empty(n), np.empty((n, n))
-    p_fused = kd.residual_and_jacobian(x, v, t, *args, *_scratch(design.n_units), res, jac)
+    p_fused = kd.residual_and_jacobian(x, v, t, model, _scratch(design.n_units), res, jac)
     res_alone, jac_alone = np.empty(n), np.empty((n, n))
-    p_alone = kd.force_residual(x, v, t, *args, *_scratch(design.n_units), res_alone)
-    kd.stiffness_jacobian(x, v, t, *args, *_scratch(design.n_units), jac_alone)
+    p_alone = kd.force_residual(x, v, t, model, _scratch(design.n_units), res_alone)
+    kd.stiffness_jacobian(x, v, t, model, _scratch(design.n_units), jac_alone)
     assert p_fused == p_alone == kd.pressure_at(t, knot_t, knot_p)
     np.testing.assert_array_equal(res, res_alone)
     np.testing.assert_array_equal(jac, jac_alone)
@@ -326,14 +320,8 @@ def test_stage_matrix_is_within_the_lattice_band():
         x,
         v,
         0.0,
-        params.unit_params,
-        params.h,
-        knot,
-        np.array([0.7]),
-        _phys(12),
-        pos,
-        vel,
-        work,
+        MotionModel(params.unit_params, params.h, knot, np.array([0.7]), _phys(12)),
+        MotionScratch(pos, vel, work),
         stiff,
     )
     cmat = np.empty((n, n))

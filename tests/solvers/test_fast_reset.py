@@ -29,6 +29,7 @@ from dpfexplore._kernels.loaded_state import (
     newton_scratch,
 )
 from dpfexplore._kernels.newton import workspace
+from dpfexplore._kernels.records import MotionModel, MotionScratch
 from dpfexplore._kernels.release import release_rodas3, release_workspace
 from dpfexplore.model import status as st
 from dpfexplore.model.design import Design, DesignBatch
@@ -58,14 +59,10 @@ def _residual(x, params, pressure):
         x,
         np.zeros(n),
         0.0,
-        params.unit_params,
-        params.h,
-        np.zeros(1),
-        np.full(1, pressure),
-        np.zeros(kd.N_PHYS),
-        np.empty((nodes, 2)),
-        np.empty((nodes, 2)),
-        np.empty(n),
+        MotionModel(
+            params.unit_params, params.h, np.zeros(1), np.full(1, pressure), np.zeros(kd.N_PHYS)
+        ),
+        MotionScratch(np.empty((nodes, 2)), np.empty((nodes, 2)), np.empty(n)),
         out,
     )
     return out

@@ -13,6 +13,7 @@ from dpfexplore import Design, DesignBatch, Status, enumerate_states, find_state
 from dpfexplore._kernels import layout as lay
 from dpfexplore._kernels.lattice import lattice_hessian
 from dpfexplore._kernels.newton import minimize, workspace
+from dpfexplore._kernels.records import Lattice, NewtonControls
 from dpfexplore._kernels.states import (
     HOLD_AT_MINIMA,
     HOLD_PAST_BARRIER,
@@ -345,7 +346,14 @@ def test_stiff_posts_still_converge(factor):
     x = np.empty(46)
     out = np.empty(N_OUT)
     status, found, n_iter = solve_state(
-        p.unit_params, p.h, 0b11110, 1e-9, 1e-10, 100, 1.0, True, True, x, out, ws
+        Lattice(p.unit_params, p.h),
+        0b11110,
+        NewtonControls(1e-9, 1e-10, 100, 1.0),
+        True,
+        True,
+        x,
+        out,
+        ws,
     )
     assert status == 0 and found == 0b11110 and n_iter < 60
     assert np.isfinite(out).all() and out[8] > 0

@@ -51,6 +51,7 @@ from ..._kernels.fast_reset import (
     fast_reset_batch,
 )
 from ..._kernels.layout import COL_ALPHA
+from ..._kernels.records import FastResetRows, LatticeBatch, Physics, PressureKnots
 from ..._kernels.release import UD_EVENT_ERROR, UD_EVENT_STEP
 from ...model import status as st
 from ...model.design import DesignBatch
@@ -192,23 +193,21 @@ def fast_reset_core(
     previous = numba.set_parallel_chunksize(1)  # rows differ in cost by 10x or more
     try:
         fast_reset_batch(
-            unit_params,
-            h,
-            n_units,
+            LatticeBatch(unit_params, h, n_units),
             valid,
-            knot_t,
-            knot_p,
-            kdyn.ETA_INTERNAL,
-            kdyn.ETA_ISO,
+            PressureKnots(knot_t, knot_p),
+            Physics(kdyn.ETA_INTERNAL, kdyn.ETA_ISO, 0.0),
             ctrl,
             float(t_end),
-            codes,
-            out["final_state"],
-            out["reset_time"],
-            out["snap_back"],
-            out["unit_class"],
-            out["unit_diag"],
-            out["design_diag"],
+            FastResetRows(
+                codes,
+                out["final_state"],
+                out["reset_time"],
+                out["snap_back"],
+                out["unit_class"],
+                out["unit_diag"],
+                out["design_diag"],
+            ),
         )
     finally:
         numba.set_parallel_chunksize(previous)

@@ -23,6 +23,7 @@ from __future__ import annotations
 from numpy.typing import NDArray
 
 from ..._kernels import dynamics as kdyn
+from ..._kernels.records import LatticeBatch, Physics, PressureKnots, ResetRows
 from ..._kernels.reduced import release_batch
 from ...model.design import Design, DesignBatch
 from .common import METHODS, check_horizon, run_reset_batch
@@ -56,22 +57,20 @@ def release_reset_times_batch(
 
     def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
         release_batch(
-            unit_params,
-            h,
-            n_units,
+            LatticeBatch(unit_params, h, n_units),
             valid,
-            knot_t,
-            knot_p,
-            kdyn.ETA_INTERNAL,
-            kdyn.ETA_ISO,
+            PressureKnots(knot_t, knot_p),
+            Physics(kdyn.ETA_INTERNAL, kdyn.ETA_ISO, 0.0),
             ctrl,
             t_end,
-            codes,
-            out["final_state"],
-            out["reset_time"],
-            out["snap_through"],
-            out["snap_back"],
-            out["unit_class"],
+            ResetRows(
+                codes,
+                out["final_state"],
+                out["reset_time"],
+                out["snap_through"],
+                out["snap_back"],
+                out["unit_class"],
+            ),
         )
 
     return run_reset_batch(batch, profile, METHODS["release"], atol, None, launch)

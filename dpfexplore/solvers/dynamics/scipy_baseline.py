@@ -23,6 +23,7 @@ from scipy.linalg import lu_factor, lu_solve
 from ..._kernels import dynamics as kdyn
 from ..._kernels import events as kev
 from ..._kernels.dynamics_batch import rest_state
+from ..._kernels.records import MotionModel, MotionScratch
 from ...model import status as st
 from ...model.design import Design
 from ..lattice import lattice_params
@@ -51,6 +52,10 @@ class _Model:
         self.pos = np.empty((nodes, 2))
         self.vel = np.empty((nodes, 2))
         self.work = np.empty(self.n)
+        self.model = MotionModel(
+            self.params.unit_params, self.params.h, self.knot_t, self.knot_p, self.phys
+        )
+        self.scratch = MotionScratch(self.pos, self.vel, self.work)
         self.cmat = np.empty((self.n, self.n))
         self.margins = np.empty(self.n_units)
         self.nfev = 0
@@ -73,7 +78,6 @@ class _Model:
         self.nfev += 1
         if self.max_nfev and self.nfev > self.max_nfev:
             raise _EvaluationCap
-        p = self.params
         n = self.n
         if not self.overdamped:
             out = np.empty(2 * n)
@@ -82,14 +86,8 @@ class _Model:
                 y[:n],
                 np.ascontiguousarray(y[n:]),
                 t,
-                p.unit_params,
-                p.h,
-                self.knot_t,
-                self.knot_p,
-                self.phys,
-                self.pos,
-                self.vel,
-                self.work,
+                self.model,
+                self.scratch,
                 out[n:],
             )
             return out
@@ -98,21 +96,14 @@ class _Model:
             np.ascontiguousarray(y),
             np.zeros(n),
             t,
-            p.unit_params,
-            p.h,
-            self.knot_t,
-            self.knot_p,
-            self.phys,
-            self.pos,
-            self.vel,
-            self.work,
+            self.model,
+            self.scratch,
             force,
         )
         return lu_solve(lu_factor(self._damping(y)), force)
 
     def jac(self, t, y):
         self.njev += 1
-        p = self.params
         n = self.n
         if not self.overdamped:
             out = np.empty((2 * n, 2 * n))
@@ -120,14 +111,8 @@ class _Model:
                 np.ascontiguousarray(y[:n]),
                 np.ascontiguousarray(y[n:]),
                 t,
-                p.unit_params,
-                p.h,
-                self.knot_t,
-                self.knot_p,
-                self.phys,
-                self.pos,
-                self.vel,
-                self.work,
+                self.model,
+                self.scratch,
                 self.cmat,
                 out,
             )
@@ -138,14 +123,8 @@ class _Model:
             np.ascontiguousarray(y),
             xdot,
             t,
-            p.unit_params,
-            p.h,
-            self.knot_t,
-            self.knot_p,
-            self.phys,
-            self.pos,
-            self.vel,
-            self.work,
+            self.model,
+            self.scratch,
             stiff,
         )
         return lu_solve(lu_factor(self._damping(y)), stiff)

@@ -56,6 +56,14 @@ from numpy.typing import NDArray
 from ..._kernels import dynamics as kdyn
 from ..._kernels import events as kev
 from ..._kernels.dynamics_batch import integrate, reset_times_kernel, rest_state
+from ..._kernels.records import (
+    LatticeBatch,
+    MotionModel,
+    Physics,
+    PressureKnots,
+    ResetRows,
+    RunRecord,
+)
 from ...model import status as st
 from ...model.design import Design, DesignBatch
 from ...model.pressure import PressureProfile
@@ -238,17 +246,9 @@ def simulate(
         y,
         t_start,
         t_end,
-        params.unit_params,
-        params.h,
-        knot_t,
-        knot_p,
-        phys,
+        MotionModel(params.unit_params, params.h, knot_t, knot_p, phys),
         ctrl,
-        t_out,
-        x_out,
-        rec,
-        log,
-        stats,
+        RunRecord(t_out, x_out, rec, log, stats),
     )
     status = st.Status(code)
     if status != st.OK:
@@ -362,25 +362,23 @@ def reset_times_batch(
         raise ValueError(f"method = {method!r}: not available for batches; use a Numba method")
 
     def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
+        mass = 0.0 if info.model == "overdamped" else kdyn.MASS_PER_UNIT
         reset_times_kernel(
-            unit_params,
-            h,
-            n_units,
+            LatticeBatch(unit_params, h, n_units),
             valid,
-            knot_t,
-            knot_p,
-            kdyn.ETA_INTERNAL,
-            kdyn.ETA_ISO,
-            info.model == "overdamped",
+            PressureKnots(knot_t, knot_p),
+            Physics(kdyn.ETA_INTERNAL, kdyn.ETA_ISO, mass),
             info.integrator,
             ctrl,
             t_end,
-            codes,
-            out["final_state"],
-            out["reset_time"],
-            out["snap_through"],
-            out["snap_back"],
-            out["unit_class"],
+            ResetRows(
+                codes,
+                out["final_state"],
+                out["reset_time"],
+                out["snap_through"],
+                out["snap_back"],
+                out["unit_class"],
+            ),
         )
 
     return run_reset_batch(batch, profile, info, atol, max_steps, launch)

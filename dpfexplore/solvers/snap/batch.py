@@ -15,6 +15,8 @@ from numpy.typing import NDArray
 
 from ..._kernels import snap as ksnap
 from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, MASS_PER_UNIT
+from ..._kernels.records import LatticeBatch, Physics
+from ..._kernels.snap_records import BatchLanding, Ramp, SnapRows
 from ...model import status as st
 from ...model.design import DesignBatch
 from ...model.domain import MAX_UNITS
@@ -90,26 +92,13 @@ def snap_pressures_batch(
         # at a time as they free up rather than a fixed share each.
         previous = numba.set_parallel_chunksize(1)
         try:
+            mass = 0.0 if model == "rodas4-overdamped" else MASS_PER_UNIT
             ksnap.snap_batch(
-                unit_params,
-                h,
-                n_units,
+                LatticeBatch(unit_params, h, n_units),
                 valid,
-                P_max,
-                P_min,
-                bool(release),
-                ETA_INTERNAL,
-                ETA_ISO,
-                model == "rodas4-overdamped",
-                MASS_PER_UNIT,
-                ctrl,
-                float(kick),
-                status,
-                n_events,
-                events,
-                rel_status,
-                rel_state,
-                rel_p,
+                Ramp(P_max, P_min, bool(release)),
+                BatchLanding(Physics(ETA_INTERNAL, ETA_ISO, mass), ctrl, float(kick)),
+                SnapRows(status, n_events, events, rel_status, rel_state, rel_p),
             )
         finally:
             numba.set_parallel_chunksize(previous)

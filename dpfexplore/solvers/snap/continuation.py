@@ -72,6 +72,8 @@ from ..._kernels import snap as ksnap
 from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, damping_matrix, node_mass
 from ..._kernels.dynamics_batch import rest_state
 from ..._kernels.layout import n_free
+from ..._kernels.records import Lattice
+from ..._kernels.snap_records import Landing, Releases, RisingWalk, WalkOutputs
 from ...model import status as st
 from ...model.design import Design
 from ..compilation import announce
@@ -132,20 +134,13 @@ class _Walk:
         self.status = st.Status(
             int(
                 ksnap.follow(
-                    params.unit_params,
-                    params.h,
+                    Lattice(params.unit_params, params.h),
                     self.x_start,
                     self.p_start,
                     float(p_end),
                     sign,
-                    phys,
-                    ctrl,
-                    float(kick),
-                    self.ev,
-                    self.ev_x,
-                    self.path,
-                    self.counts,
-                    self.x_final,
+                    Landing(phys, ctrl, float(kick)),
+                    WalkOutputs(self.ev, self.ev_x, self.path, self.counts, self.x_final),
                 )
             )
         )
@@ -419,20 +414,11 @@ def _release(
     rel_state = np.full(m, -1, dtype=np.int64)
     rel_p = np.full(m, np.nan)
     ksnap.release_walks(
-        params.unit_params,
-        params.h,
-        walk.x_start,
-        walk.p_start,
-        walk.ev,
-        walk.ev_x,
-        m - 1,
+        Lattice(params.unit_params, params.h),
+        RisingWalk(walk.x_start, walk.p_start, walk.ev, walk.ev_x, m - 1),
         p_min,
-        phys,
-        ctrl,
-        float(kick),
-        rel_status,
-        rel_state,
-        rel_p,
+        Landing(phys, ctrl, float(kick)),
+        Releases(rel_status, rel_state, rel_p),
     )
     for j in range(m):
         v = visits[first + j]

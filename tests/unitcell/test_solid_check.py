@@ -89,17 +89,21 @@ def test_thick_pinned_plate_is_softer_by_the_shear_term():
 
 
 def test_shell_and_solid_agree_on_a_thick_dome():
-    # H = 3, t = 1 (t/R = 0.18): the solid's energy on the first half of the travel to the fold
-    # against the shell's. The full-branch figure (report) is 2.7 % for this dome; the solid
-    # mesh changes it by < 1 % (refinement in the report). Tolerance: a few percent, 4 %.
+    # H = 3, t = 1 (t/R = 0.18), rigid apex column a = t/2: the solid's energy against the
+    # shell's over 0.25 H <= delta <= the first fold. The bound is the "few percent",
+    # 4 %: the measured 2.7 % plus the solid's own mesh error (0.63 % under refinement) and the
+    # shell's (< 0.1 %). It holds for this load only: other apex loads move the solid's curve
+    # by -19 ... +44 % (docs/guide/unitcell-crosscheck.md).
     H, t = 3.0, 1.0
     shell = shell_first_branch(H, t, R_B, E, NU)
-    curve = solid_curve(H, t, R_B, E, NU, travel=0.5 * shell["fold"], n_steps=5, mesh=DEFAULT_MESH)
+    curve = solid_curve(H, t, R_B, E, NU, n_steps=30, mesh=DEFAULT_MESH)
     k = solid_stiffness(H, t, R_B, E, NU, mesh=DEFAULT_MESH)
     result = compare(curve, shell, k)
+    assert curve.status == "fold"
+    assert result["window_mm"][1] > 0.95 * shell["fold"]
     assert result["raw"]["max_abs"] < 0.04
-    # the small-deflection stiffness of the column-loaded solid and the point-loaded shell
-    assert abs(k / shell["stiffness"] - 1.0) < 0.04
+    # the first folds: 5.31 against 5.24 mm; the solid's step near the fold is 0.006 mm
+    assert abs(curve.fold / shell["fold"] - 1.0) < 0.04
 
 
 @pytest.mark.parametrize("n_ell", [10.0, 16.0])

@@ -81,7 +81,8 @@ __all__ = ["MeshSpec", "SolidCurve", "SolidDome", "dome_mesh", "solid_curve", "s
 
 _TWO_PI = 2.0 * math.pi
 #: 3×3 Gauss points per element: full integration of the 9-node quadrilateral (the mapping's
-#: default, 5×5, costs 2.8 times as much and changes the stiffness by < 1e-4; see the tests).
+#: default, 5×5, costs 2.8 times as much and changed the apex stiffness of the t = 0.1 plate and
+#: of the H = 3, t = 1 dome by less than 1e-8 relative).
 _INTORDER = 5
 
 
@@ -143,15 +144,15 @@ class SolidDome:
 
     def __init__(
         self,
-        H,
-        t,
-        r_b,
-        E,
-        nu,
+        H: float,
+        t: float,
+        r_b: float,
+        E: float,
+        nu: float,
         spec: MeshSpec,
-        disc_radius=None,
-        apex="column",
-        material="neo-hookean",
+        disc_radius: float | None = None,
+        apex: str = "column",
+        material: str = "neo-hookean",
     ):
         for name, value in (("H", H), ("t", t), ("r_b", r_b), ("E", E)):
             if not (math.isfinite(value) and (value > 0 or (name == "H" and value == 0))):

@@ -16,6 +16,7 @@ from dpfexplore.unitcell.checks import bending_length, plate_stiffness, shallow_
 from dpfexplore.unitcell.solid_check import (
     MeshSpec,
     SolidDome,
+    dome_mesh,
     solid_curve,
     solid_stiffness,
 )
@@ -130,3 +131,23 @@ def test_thick_dome_stiffness_bracketed_by_the_two_loads():
     k_mean = solid_stiffness(H, t, R_B, E, NU, mesh=DEFAULT_MESH, apex="mean")
     k_column = solid_stiffness(H, t, R_B, E, NU, mesh=DEFAULT_MESH, apex="column")
     assert k_mean < apex_stiffness(H, t, R_B, E, NU) < k_column
+
+
+@pytest.mark.parametrize("H", [0.0, 3.0, 5.0])
+def test_mesh_is_the_cap_between_its_surfaces(H):
+    # the mid-surface nodes lie on the sphere of MODEL.md §2 (a plane for H = 0) from the apex
+    # (0, H) to the edge (r_b, 0); the surfaces at ±t/2 along the normal
+    t = 0.8
+    mesh, param, s_b = dome_mesh(H, t, R_B, MeshSpec(), 0.4)
+    R_mid = (R_B**2 + H**2) / (2.0 * H) if H else math.inf
+    zeta = param.doflocs[1]
+    r, z = mesh.doflocs
+    if H:
+        distance = np.hypot(r, z - (H - R_mid))
+        np.testing.assert_allclose(distance, R_mid + zeta, atol=1e-12)
+    else:
+        np.testing.assert_allclose(z, zeta, atol=1e-12)
+    mid_edge = (np.abs(zeta) < 1e-12) & (np.abs(param.doflocs[0] - s_b) < 1e-12)
+    np.testing.assert_allclose(mesh.doflocs[:, mid_edge].ravel(), [R_B, 0.0], atol=1e-12)
+    apex = (np.abs(zeta) < 1e-12) & (param.doflocs[0] == 0.0)
+    np.testing.assert_allclose(mesh.doflocs[:, apex].ravel(), [0.0, H], atol=1e-12)

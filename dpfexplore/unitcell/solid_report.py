@@ -176,7 +176,13 @@ def _mindlin_plate_excess(E: float, nu: float, t: float, r_b: float, a: float) -
 def build_report(
     out: str | Path = "results/reports/unitcell-solid-check.json",
     *,
-    domes: tuple[tuple[float, float], ...] = ((3.0, 1.0), (4.0, 1.0), (3.0, 0.8), (5.0, 1.0)),
+    domes: tuple[tuple[float, float], ...] = (
+        (3.0, 1.0),
+        (4.0, 1.0),
+        (3.0, 0.8),
+        (5.0, 1.0),
+        (3.0, 0.5),
+    ),
     n_steps: int = 30,
 ) -> dict:
     """Run the cross-check and write its record (JSON) to ``out``; returns the record."""

@@ -50,6 +50,13 @@ def register(subparsers) -> None:
         "--max-rms", type=float, default=0.05, help="largest relative RMS residual of a fit"
     )
     fit.add_argument(
+        "--method",
+        choices=("least_squares", "features"),
+        default="least_squares",
+        help="per-curve fit: robust least squares over the curve (default), or the law matched "
+        "to its initial slope, inverted rest and that rest's energy (folded shell curves)",
+    )
+    fit.add_argument(
         "--allow-flagged", action="store_true", help="leave flagged curve fits out, not refuse"
     )
     fit.add_argument("--plot", action="store_true", help="also write selection.png")
@@ -99,7 +106,12 @@ def _fit(args: argparse.Namespace) -> int:
     if not 1 <= args.degree <= 5:
         raise UsageError(f"--degree {args.degree}: must be between 1 and 5")
     try:
-        curves = read_curves(args.table)
+        if args.method == "features":
+            from ..identification.features import read_feature_curves
+
+            curves = read_feature_curves(args.table)  # keeps each curve's first branch
+        else:
+            curves = read_curves(args.table)
         result = identify(
             curves,
             name=args.name or args.out.name,
@@ -107,6 +119,7 @@ def _fit(args: argparse.Namespace) -> int:
             selector=args.selector,
             max_relative_rms=args.max_rms,
             allow_flagged=args.allow_flagged,
+            method=args.method,
         )
         save_identification(result, args.out, plot=args.plot, force=args.force)
     except (CurveError, ConstantsSetError, ResultError) as exc:

@@ -1,6 +1,8 @@
 """From unit-cell curves to a constants set: per-curve fits, then closed forms (MODEL.md §11).
 
-:func:`identify` fits the spring law to every curve (:mod:`.spring_fit`), refuses to build a set
+:func:`identify` fits the spring law to every curve (``method="least_squares"``, the default:
+:mod:`.spring_fit`; ``method="features"``: the law matched to the curve's initial slope,
+inverted rest and its energy, :mod:`.features`), refuses to build a set
 from flagged fits unless ``allow_flagged``, checks that ``alpha`` does not depend on ``E`` across
 the curves of one geometry (a linear-elastic unit's ``alpha`` and shape cannot), selects the
 closed forms (:mod:`.closed_forms`) and returns the set with its domain (the data's ranges) and
@@ -22,7 +24,10 @@ from .closed_forms import Selection, select_closed_form
 from .curves import CurveError, UnitCellCurve
 from .spring_fit import CurveFit, fit_curve
 
-__all__ = ["Identification", "identify"]
+__all__ = ["METHODS", "Identification", "identify"]
+
+#: Per-curve fit methods: the robust least squares over the curve, or the law by features.
+METHODS = ("least_squares", "features")
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,7 @@ def identify(
     max_relative_rms: float = 0.05,
     allow_flagged: bool = False,
     seed: int = 0,
+    method: str = "least_squares",
 ) -> Identification:
     """Identify a constants set from unit-cell curves (module docstring).
 
@@ -85,7 +91,15 @@ def identify(
     ConstantsSetError
         When the selected closed forms are unphysical inside the data's own domain.
     """
-    fits = [fit_curve(c, max_relative_rms=max_relative_rms) for c in curves]
+    if method not in METHODS:
+        raise ValueError(f"method={method!r}: must be one of {', '.join(METHODS)}")
+    if method == "features":
+        from .features import fit_features
+
+        # the law claims the features, not the path: its relative RMS is reported, not a flag
+        fits = [fit_features(c) for c in curves]
+    else:
+        fits = [fit_curve(c, max_relative_rms=max_relative_rms) for c in curves]
     flagged = [(c, f) for c, f in zip(curves, fits, strict=True) if not f.ok]
     if flagged and not allow_flagged:
         curve, fit = flagged[0]
@@ -133,9 +147,15 @@ def identify(
         "nu": (float(min(c.nu for c, _ in used)), float(max(c.nu for c, _ in used))),
     }
     provenance: dict[str, Any] = {
-        "method": "per-curve robust spring-law fits; closed forms by grouped RFECV with ridge, "
-        "one-standard-error rule, OLS refit (dpfexplore.identification)",
+        "method": (
+            "per-curve spring law matched to features (initial slope, inverted rest, its energy)"
+            if method == "features"
+            else "per-curve robust spring-law fits"
+        )
+        + "; closed forms by grouped RFECV with ridge, one-standard-error rule, OLS refit "
+        "(dpfexplore.identification)",
         "settings": {
+            **({"fit": method} if method == "features" else {}),
             "degree": degree,
             "selector": selector,
             "n_splits": n_splits,

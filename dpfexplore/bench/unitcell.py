@@ -7,6 +7,11 @@ error against a reference mesh of 512 elements: the largest difference of the lo
 envelope (relative to its largest energy), of the first fold's travel and of ``tip_dis``. The
 goal: one curve of ~200 steps in at most 1 s at the converged mesh (128 elements). Compile time
 in a fresh process with an empty Numba cache, and the cache load, are measured apart.
+
+Side by side, the independent discretisation (:mod:`dpfexplore.unitcell.solid_check`: a 2-D
+axisymmetric solid with scikit-fem, neo-Hookean, rigid apex column of radius t/2) on two thick
+domes: its time per curve and the largest energy difference from the shell over the stable
+first branch (0.25 H to the first fold).
 """
 
 from __future__ import annotations
@@ -50,6 +55,9 @@ def register(subparsers) -> None:
         "--no-compile", action="store_true", help="skip the fresh-process compile measurement"
     )
     parser.add_argument("--repeats", type=int, default=3, help="timed repeats per curve")
+    parser.add_argument(
+        "--no-solid", action="store_true", help="skip the scikit-fem solid side by side"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -64,6 +72,37 @@ def _errors(run, reference) -> dict[str, float]:
         if run.tip_dis and reference.tip_dis
         else float("nan"),
     }
+
+
+SOLID_DOMES = ((3.0, 1.0), (4.0, 1.0))
+
+
+def _solid_side_by_side() -> list[dict]:
+    """The scikit-fem solid and the shell on thick domes: time and energy difference.
+
+    The comparison of the cross-check's report (:func:`dpfexplore.unitcell.solid_report.compare`:
+    raw relative energy difference over 0.25 H to the first fold of either model).
+    """
+    from ..unitcell.solid_check import solid_curve, solid_stiffness
+    from ..unitcell.solid_report import compare, shell_first_branch
+
+    rows = []
+    for H, t in SOLID_DOMES:
+        solid = solid_curve(H, t)
+        shell = shell_first_branch(H, t, 5.0, 26.0, 0.35)
+        found = compare(solid, shell, solid_stiffness(H, t))
+        rows.append(
+            {
+                "H": H,
+                "t": t,
+                "solid_cpu_s": float(solid.cpu),
+                "solid_dofs": int(solid.n_dofs),
+                "shell_s": float(shell["cpu"]),
+                "max_energy_difference": found["raw"]["max_abs"],
+                "window_mm": found["window_mm"],
+            }
+        )
+    return rows
 
 
 def run(args: argparse.Namespace) -> int:
@@ -97,8 +136,10 @@ def run(args: argparse.Namespace) -> int:
                 "max_tip_dis_error": float(np.nanmax([e["tip_dis"] for e in errors])),
             }
         )
+    solid = [] if args.no_solid else _solid_side_by_side()
     record = {
         "benchmark": "unitcell",
+        "solid_side_by_side": solid,
         "machine": machine_info(),
         "domes": [list(d) for d in DOMES],
         "reference_elements": REFERENCE_ELEMENTS,
@@ -122,6 +163,13 @@ def run(args: argparse.Namespace) -> int:
             f"{r['max_fold_error']:>9.2e} {r['max_tip_dis_error']:>9.2e}"
         )
     lines.append(f"goal: one curve <= {GOAL_S:g} s at 128 elements")
+    for r in solid:
+        lines.append(
+            f"solid cross-check H={r['H']:g} t={r['t']:g}: scikit-fem {r['solid_cpu_s']:.2f} s CPU "
+            f"({r['solid_dofs']} unknowns) vs shell {r['shell_s']:.3f} s "
+            f"CPU ({r['solid_cpu_s'] / r['shell_s']:.0f}x); energy difference "
+            f"{100 * r['max_energy_difference']:.2f} % over 0.25 H..first fold"
+        )
     save = REPORTS / "bench-unitcell.json" if args.save else None
     emit(record, as_json=args.json, text="\n".join(lines), save=save)
     return 0

@@ -11,6 +11,7 @@ from dpfexplore.cli import main
 def test_bench_record(monkeypatch, capsys):
     monkeypatch.setattr(bench, "DOMES", ((3.0, 1.0),))
     monkeypatch.setattr(bench, "REFERENCE_ELEMENTS", 256)
+    monkeypatch.setattr(bench, "SOLID_DOMES", ((3.0, 1.0),))
     code = main(["bench", "unitcell", "--no-compile", "--repeats", "1", "--json"])
     record = json.loads(capsys.readouterr().out)
     assert code == 0 and record["benchmark"] == "unitcell"
@@ -18,3 +19,8 @@ def test_bench_record(monkeypatch, capsys):
     assert rows[128]["max_energy_error"] < 1e-3
     assert rows[32]["max_energy_error"] > rows[128]["max_energy_error"]
     assert record["compile_s"] is None
+    # side by side with the scikit-fem solid: a few percent apart (tests/unitcell/
+    # test_solid_check.py holds the comparison itself), and slower than the shell
+    (solid,) = record["solid_side_by_side"]
+    assert solid["max_energy_difference"] < 0.05
+    assert solid["solid_cpu_s"] > solid["shell_s"]

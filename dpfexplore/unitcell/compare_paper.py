@@ -1,0 +1,310 @@
+"""The shell model's spring constants beside the paper's closed forms (issue 21 §3).
+
+Over a grid of the paper's box (``H ∈ [3, 5]``, ``t ∈ [0.5, 1]``, ``r_b = 5``, ``E = 26``,
+``ν = 0.35``) every dome's curve is traced (:func:`~dpfexplore.unitcell.unit_cell_curve`), its
+table read as ``identify fit --method features`` reads it
+(:func:`~dpfexplore.identification.features.feature_curves_from_frame`) and the spring law
+matched to its features (:func:`~dpfexplore.identification.features.fit_features`): ``k_b`` the
+initial slope, the law's second minimum at the inverted rest, with that rest's energy. The
+shell's ``tip_dis`` is its zero-force inverted apex travel (no contact). The paper's values are
+those of its closed forms (:data:`dpfexplore.model.constants_set.DEFAULT`); the class is
+bistable ``α < 1/9``, metastable ``α < 1/3``, else monostable (:mod:`dpfexplore.model.constants`).
+Neither side is tuned to the other.
+
+Reproduce the record and the figure::
+
+    python -m dpfexplore.unitcell.compare_paper  # 7 × 6 grid, 128 elements; see --help
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..identification.features import feature_curves_from_frame, fit_features
+from ..identification.spring_fit import fit_curve
+from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
+from ..model.constants_set import DEFAULT
+from .shell import DEFAULT_ELEMENTS, unit_cell_curve
+
+__all__ = ["PAPER_BOX", "classify", "compare_grid", "compare_unit", "plot_maps", "summarise"]
+
+log = logging.getLogger(__name__)
+
+#: The paper's box and material (MODEL.md §11): H and t ranges (mm), r_b (mm), E (MPa), ν.
+PAPER_BOX = {"H": (3.0, 5.0), "t": (0.5, 1.0), "r_b": 5.0, "E": 26.0, "nu": 0.35}
+
+
+def classify(alpha: float) -> str:
+    """``"bistable"`` (``α < 1/9``), ``"metastable"`` (``α < 1/3``), else ``"monostable"``."""
+    if not np.isfinite(alpha):
+        return "none"
+    if alpha < ALPHA_BISTABLE:
+        return "bistable"
+    return "metastable" if alpha < ALPHA_GHOST else "monostable"
+
+
+def compare_unit(
+    H: float,
+    t: float,
+    *,
+    r_b: float = PAPER_BOX["r_b"],
+    E: float = PAPER_BOX["E"],
+    nu: float = PAPER_BOX["nu"],
+    n_elements: int | None = None,
+) -> dict[str, float | str | bool | None]:
+    """One dome: the shell's identified constants beside the paper's (module docstring)."""
+    run = unit_cell_curve(H, t, r_b, E, nu, n_elements=n_elements)
+    frame = run.to_frame()
+    curve = feature_curves_from_frame(frame)[0]
+    fit = fit_features(curve)
+    least = fit_curve(curve)  # the default method on the same table, for contrast
+    paper = DEFAULT.evaluate(H, t, r_b, E)
+    k_p, a_p, tip_p = (float(paper[k]) for k in ("k_b", "alpha", "tip_dis"))
+    stable_rests = [z for z in run.zero_force_states if z.stable and z.displacement > H]
+    saddles = [z for z in run.zero_force_states if z.index == 1]
+    row: dict[str, float | str | bool | None] = {
+        "H": H,
+        "t": t,
+        "r_b": r_b,
+        "E": E,
+        "nu": nu,
+        "status": run.status,
+        "steps": run.n_steps,
+        "folds": int(run.folds.size),
+        "first_fold": float(run.folds[0]) if run.folds.size else None,
+        "shell_bistable": bool(run.bistable),
+        "shell_tip_dis": run.tip_dis,
+        "shell_rest_energy": stable_rests[-1].energy if stable_rests else None,
+        "shell_saddle_energy": min(z.energy for z in saddles) if saddles else None,
+        "shell_initial_stiffness": run.initial_stiffness,
+        "k_b": fit.k_b,
+        "alpha": fit.alpha,
+        "d_law": fit.d,
+        "class": classify(fit.alpha),
+        "flags": "; ".join(fit.flags),
+        "relative_rms": fit.relative_rms,
+        "far_kind": "rest" if "far_force" not in fit.features else "ghost",
+        "paper_k_b": k_p,
+        "paper_alpha": a_p,
+        "paper_tip_dis": tip_p,
+        "paper_class": classify(a_p),
+        "least_squares_k_b": least.k_b,
+        "least_squares_alpha": least.alpha,
+        "least_squares_d": least.d,
+        "least_squares_rms": least.relative_rms,
+        "least_squares_ok": least.ok,
+    }
+    for name, value in fit.features.items():
+        row[f"feature_{name}"] = value
+    for name, value in fit.residuals.items():
+        row[f"residual_{name}"] = value
+    row["k_b_ratio"] = fit.k_b / k_p
+    row["initial_stiffness_ratio"] = run.initial_stiffness / k_p
+    row["alpha_difference"] = fit.alpha - a_p
+    row["tip_dis_difference"] = (run.tip_dis - tip_p) if run.tip_dis is not None else None
+    row["tip_dis_relative"] = (run.tip_dis / tip_p - 1) if run.tip_dis is not None else None
+    row["class_agrees"] = row["class"] == row["paper_class"]
+    return row
+
+
+def compare_grid(
+    H_values: Sequence[float],
+    t_values: Sequence[float],
+    *,
+    n_elements: int | None = None,
+    **material: float,
+) -> pd.DataFrame:
+    """:func:`compare_unit` on the grid ``H_values × t_values``, one row per dome."""
+    rows = []
+    for H in H_values:
+        for t in t_values:
+            rows.append(compare_unit(float(H), float(t), n_elements=n_elements, **material))
+            log.info("H = %g, t = %g: done", H, t)
+    return pd.DataFrame(rows)
+
+
+def _span(values: pd.Series) -> dict[str, float]:
+    v = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return {}
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max())}
+
+
+def summarise(frame: pd.DataFrame) -> dict:
+    """Ratios, differences, class agreement and the features' residuals over the grid."""
+    confusion = (
+        frame.groupby(["paper_class", "class"]).size().rename("n").reset_index().to_dict("records")
+    )
+    disagree = frame.loc[~frame["class_agrees"], ["H", "t", "paper_alpha", "alpha"]]
+    return {
+        "units": len(frame),
+        "fits_flagged": int((frame["flags"] != "").sum()),
+        "k_b_ratio_shell_over_paper": _span(frame["k_b_ratio"]),
+        "initial_stiffness_over_paper_k_b": _span(frame["initial_stiffness_ratio"]),
+        "slope_feature_over_initial_stiffness": _span(
+            frame["feature_slope"] / frame["shell_initial_stiffness"]
+        ),
+        "alpha_shell": _span(frame["alpha"]),
+        "alpha_paper": _span(frame["paper_alpha"]),
+        "alpha_difference_shell_minus_paper": _span(frame["alpha_difference"]),
+        "tip_dis_difference_mm": _span(frame["tip_dis_difference"]),
+        "tip_dis_relative": _span(frame["tip_dis_relative"]),
+        "tip_dis_over_H_shell": _span(frame["shell_tip_dis"] / frame["H"]),
+        "d_law_over_H": _span(frame["d_law"] / frame["H"]),
+        "paper_reach_over_H": _span((frame["paper_tip_dis"] - frame["H"]) / frame["H"]),
+        "class_agreement": {
+            "agree": int(frame["class_agrees"].sum()),
+            "of": len(frame),
+            "confusion": confusion,
+            "disagree_at": disagree.to_dict("records"),
+        },
+        "unmatched_feature_residuals": {
+            name: _span(frame[f"residual_{name}"])
+            for name in ("barrier_energy", "peak_force")
+            if f"residual_{name}" in frame
+        },
+        "far_state_against_run": {
+            "displacement_relative": _span(
+                frame["feature_far_displacement"] / frame["shell_tip_dis"] - 1
+            ),
+            "energy_relative": _span(frame["feature_far_energy"] / frame["shell_rest_energy"] - 1),
+        },
+        "relative_rms_up_to_rest": _span(frame["relative_rms"]),
+        "least_squares_default": {
+            "trusted": int(frame["least_squares_ok"].sum()),
+            "alpha": _span(frame["least_squares_alpha"]),
+            "d_over_H": _span(frame["least_squares_d"] / frame["H"]),
+            "relative_rms": _span(frame["least_squares_rms"]),
+        },
+    }
+
+
+def plot_maps(frame: pd.DataFrame, *, fig=None):
+    """Stability maps against ``t`` and ``H``: the paper's ``α``, the shell's, ``k_b`` ratio.
+
+    Returns the figure (no file I/O).
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm
+
+    fig = fig or plt.figure(figsize=(13.5, 4.2), layout="constrained")
+    axes = fig.subplots(1, 3, sharey=True)
+    H_values = np.sort(frame["H"].unique())
+    t_values = np.sort(frame["t"].unique())
+    tt, hh = np.meshgrid(np.linspace(*PAPER_BOX["t"], 121), np.linspace(*PAPER_BOX["H"], 121))
+    r_b, E = frame["r_b"].iloc[0], frame["E"].iloc[0]
+    paper_fine = DEFAULT.evaluate(hh, tt, r_b, E)["alpha"]
+    levels = np.linspace(0.0, 0.18, 19)  # the paper's α reaches 0.173 in its box
+    norm = BoundaryNorm(levels, 256)
+    mark = {"bistable": "o", "metastable": "^", "monostable": "s", "none": "x"}
+
+    def grid(column):
+        return frame.pivot(index="H", columns="t", values=column).loc[H_values, t_values]
+
+    def classes(ax, column):
+        for kind, marker in mark.items():
+            on = frame[column] == kind
+            if on.any():
+                ax.scatter(
+                    frame.loc[on, "t"], frame.loc[on, "H"], marker=marker, s=22,
+                    facecolor="none", edgecolor="k", linewidth=0.8, label=kind,
+                )  # fmt: skip
+
+    image = axes[0].contourf(tt, hh, paper_fine, levels=levels, cmap="viridis", norm=norm)
+    axes[0].contour(tt, hh, paper_fine, levels=[ALPHA_BISTABLE], colors="w", linewidths=1.5)
+    classes(axes[0], "paper_class")
+    axes[0].set_title("paper's closed form: α (white: α = 1/9)")
+    shell_alpha = grid("alpha").to_numpy()
+    axes[1].contourf(t_values, H_values, shell_alpha, levels=levels, cmap="viridis", norm=norm)
+    if np.nanmin(shell_alpha) < ALPHA_BISTABLE < np.nanmax(shell_alpha):
+        axes[1].contour(
+            t_values, H_values, shell_alpha, levels=[ALPHA_BISTABLE], colors="w", linewidths=1.5
+        )
+    classes(axes[1], "class")
+    axes[1].set_title("shell, features fit: α (markers: class)")
+    fig.colorbar(image, ax=axes[:2], label="α", shrink=0.9)
+    ratio = grid("k_b_ratio").to_numpy()
+    rmap = axes[2].contourf(t_values, H_values, ratio, levels=12, cmap="magma")
+    fig.colorbar(rmap, ax=axes[2], label="k_b shell / k_b paper")
+    axes[2].set_title("k_b: shell initial slope / paper")
+    for ax in axes:
+        ax.set_xlabel("t (mm)")
+        ax.set_xlim(PAPER_BOX["t"][0] - 0.02, PAPER_BOX["t"][1] + 0.02)
+        ax.set_ylim(PAPER_BOX["H"][0] - 0.05, PAPER_BOX["H"][1] + 0.05)
+    axes[0].set_ylabel("H (mm)")
+    axes[0].legend(loc="upper right", fontsize=7)
+    return fig
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Trace the grid, write the record (JSON) and the figure; print the summary."""
+    parser = argparse.ArgumentParser(prog="python -m dpfexplore.unitcell.compare_paper")
+    parser.add_argument("--n-H", type=int, default=7, help="grid points in H over [3, 5] mm")
+    parser.add_argument("--n-t", type=int, default=6, help="grid points in t over [0.5, 1] mm")
+    parser.add_argument("--elements", type=int, default=DEFAULT_ELEMENTS)
+    parser.add_argument("--json", type=Path, default=Path("results/reports/unitcell-vs-paper.json"))
+    parser.add_argument("--plot", type=Path, default=Path("results/reports/unitcell-vs-paper.png"))
+    args = parser.parse_args(argv)
+    H_values = np.linspace(*PAPER_BOX["H"], args.n_H)
+    t_values = np.linspace(*PAPER_BOX["t"], args.n_t)
+    start = time.perf_counter()
+    frame = compare_grid(H_values, t_values, n_elements=args.elements)
+    elapsed = time.perf_counter() - start
+    summary = summarise(frame)
+    from importlib.metadata import version
+
+    record = {
+        "what": "shell model (dpfexplore.unitcell, features fit) against the paper's closed "
+        "forms (DEFAULT set) over the paper's box; neither tuned to the other",
+        "command": "python -m dpfexplore.unitcell.compare_paper "
+        f"--n-H {args.n_H} --n-t {args.n_t} --elements {args.elements} "
+        f"--json {args.json} --plot {args.plot}",
+        "settings": {
+            "H": [float(v) for v in H_values],
+            "t": [float(v) for v in t_values],
+            "r_b": PAPER_BOX["r_b"],
+            "E": PAPER_BOX["E"],
+            "nu": PAPER_BOX["nu"],
+            "n_elements": args.elements,
+            "constants": DEFAULT.name,
+        },
+        "elapsed_s": elapsed,
+        "versions": {name: version(name) for name in ("dpfexplore", "numpy", "scipy")},
+        "summary": summary,
+        "units": frame.to_dict("records"),
+    }
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.json.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(_jsonable(record), indent=1) + "\n")
+    tmp.replace(args.json)
+    fig = plot_maps(frame)
+    args.plot.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(args.plot, dpi=130)
+    print(json.dumps(_jsonable(summary), indent=1))
+    print(f"{len(frame)} units in {elapsed:.1f} s; wrote {args.json} and {args.plot}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

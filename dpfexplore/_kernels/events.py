@@ -144,8 +144,9 @@ def record_initial_samples(t0, x0, t_out, x_out, stats):
 
 
 @kernel
-def _locate(k, h, x0, xd0, x1, xd1, unit_params, g_lo, g_hi):
+def _locate(k, step, unit_params, g_lo, g_hi):
     """Crossing ``θ`` of unit ``k`` inside the step (Illinois method on the interpolant)."""
+    _, h, x0, xd0, x1, xd1 = step
     lo = 0.0
     hi = 1.0
     f_lo = g_lo
@@ -177,13 +178,15 @@ def _locate(k, h, x0, xd0, x1, xd1, unit_params, g_lo, g_hi):
 
 
 @kernel
-def process_step(
-    t0, h, x0, xd0, x1, xd1, g0, g1, unit_params, unit_rec, event_log, stats, t_out, x_out
-):
+def process_step(step, g0, g1, unit_params, record):
     """Outputs and events of one accepted step; ``g0`` must hold the margins at ``x0``.
 
-    On return ``g0`` holds the margins at ``x1`` (``g1`` is scratch).
+    ``step`` is the :class:`~.records.AcceptedStep`, ``record`` the run's
+    :class:`~.records.RunRecord` (samples, per-unit record, event log, counters). On return
+    ``g0`` holds the margins at ``x1`` (``g1`` is scratch).
     """
+    t0, h, x0, xd0, x1, xd1 = step
+    t_out, x_out, unit_rec, event_log, stats = record
     n = x0.shape[0]
     t1 = t0 + h
     n_out = t_out.shape[0]
@@ -202,7 +205,7 @@ def process_step(
         now = g1[k] > 0.0
         if was == now:
             continue
-        theta = _locate(k + 1, h, x0, xd0, x1, xd1, unit_params, g0[k], g1[k])
+        theta = _locate(k + 1, step, unit_params, g0[k], g1[k])
         t_cross = t0 + theta * h
         unit_rec[k, REC_CROSSINGS] += 1.0
         if now:

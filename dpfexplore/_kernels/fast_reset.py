@@ -22,12 +22,13 @@ from numba import prange
 
 from ..model import status as st
 from ._jit import batch_kernel, kernel
+from .dynamics import N_PHYS, PHYS_ETA, PHYS_ETA_ISO
 from .dynamics_batch import summarise_units
 from .events import N_REC, N_STATS, REC_CROSSINGS, STAT_REJECTED, STAT_STEPS, STAT_STOPPED_EARLY
 from .layout import n_free
 from .loaded_state import loaded_state
 from .newton import workspace
-from .records import FastResetUnits, Lattice
+from .records import FastResetUnits, Lattice, MotionModel, ReleaseRecord
 from .release import N_RELEASE_DIAG, release_rodas3, release_workspace
 
 # Per-design diagnostics (``design_diag`` columns).
@@ -74,8 +75,6 @@ def fast_reset_design(lattice, knots, physics, ctrl, t_end, out, newton_ws):
     unit_params, h = lattice
     knot_t, knot_p = knots
     reset, snap_back, unit_class, unit_diag, design_diag = out
-    eta = physics.eta
-    eta_iso = physics.eta_iso
     n_units = unit_params.shape[0]
     x = np.empty(n_free(n_units))
     margin = np.empty(n_units)
@@ -94,21 +93,16 @@ def fast_reset_design(lattice, knots, physics, ctrl, t_end, out, newton_ws):
     rec = np.empty((n_units, N_REC))
     stats = np.zeros(N_STATS, dtype=np.int64)
     counters = np.zeros(2, dtype=np.int64)
+    phys = np.zeros(N_PHYS)
+    phys[PHYS_ETA] = physics.eta
+    phys[PHYS_ETA_ISO] = physics.eta_iso
     code = release_rodas3(
         x,
-        unit_params,
-        h,
-        knot_t,
-        knot_p,
-        eta,
-        eta_iso,
+        MotionModel(unit_params, h, knot_t, knot_p, phys),
         ctrl,
         knot_t[2],
         t_end,
-        rec,
-        stats,
-        unit_diag[:, UD_RELEASE:],
-        counters,
+        ReleaseRecord(rec, stats, unit_diag[:, UD_RELEASE:], counters),
         release_workspace(n_units),
         newton_ws,
     )

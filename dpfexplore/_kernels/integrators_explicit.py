@@ -49,7 +49,7 @@ from .events import (
     settled_reset,
 )
 from .layout import n_free, n_nodes
-from .records import MotionScratch
+from .records import AcceptedStep, MotionScratch
 
 DP_C = np.array([0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0])
 DP_A = np.array(
@@ -122,7 +122,7 @@ def dopri5(y, t0, t_end, model, ctrl, record):
     (``phys[PHYS_MASS] == 0``) only ``x`` is integrated and ``v`` receives ``ẋ``.
     """
     unit_params, _, knot_t, _, phys = model
-    t_out, x_out, unit_rec, event_log, stats = record
+    t_out, x_out, unit_rec, _, stats = record
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     dim = 2 * n if phys[PHYS_MASS] > 0.0 else n
@@ -216,20 +216,11 @@ def dopri5(y, t0, t_end, model, ctrl, record):
                 for i in range(n):
                     y_new[n + i] = k[N_DP_STAGES - 1, i]
             process_step(
-                t,
-                step,
-                y[:n],
-                y[n:],
-                y_new[:n],
-                y_new[n:],
+                AcceptedStep(t, step, y[:n], y[n:], y_new[:n], y_new[n:]),
                 g0,
                 g1,
                 unit_params,
-                unit_rec,
-                event_log,
-                stats,
-                t_out,
-                x_out,
+                record,
             )
             t = t_stop if lands else t + step
             for i in range(2 * n):

@@ -92,7 +92,7 @@ from .events import (
 )
 from .layout import n_free, n_nodes
 from .linalg import band_matvec_add, cholesky, cholesky_solve
-from .records import MotionScratch, StepStart
+from .records import AcceptedStep, MotionScratch, StepStart
 
 # Rodas4 in the transformed form of Hairer & Wanner's RODAS code:
 #   (M/(hγ) - J) K_i = f(t + α_i h, y + Σ_j A_ij K_j) + M Σ_j C_ij K_j / h + γ_i h ∂f/∂t,
@@ -250,7 +250,7 @@ def rodas4(y, t0, t_end, model, ctrl, record):
         ``unit_rec``, ``event_log``, ``stats`` (:mod:`.events`).
     """
     unit_params, _, knot_t, knot_p, phys = model
-    t_out, x_out, unit_rec, event_log, stats = record
+    t_out, x_out, unit_rec, _, stats = record
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     mass = phys[PHYS_MASS]
@@ -405,22 +405,7 @@ def rodas4(y, t0, t_end, model, ctrl, record):
             continue
 
         if err <= 1.0:
-            process_step(
-                t,
-                step,
-                x,
-                v,
-                x_new,
-                v_new,
-                g0,
-                g1,
-                unit_params,
-                unit_rec,
-                event_log,
-                stats,
-                t_out,
-                x_out,
-            )
+            process_step(AcceptedStep(t, step, x, v, x_new, v_new), g0, g1, unit_params, record)
             t = t_stop if lands else t + step
             for i in range(n):
                 x[i] = x_new[i]

@@ -105,6 +105,17 @@ StepStart = namedtuple("StepStart", ["res", "jac", "cmat", "ft"])
 #: ``stats`` counters (int64, ``(N_STATS,)``) (:mod:`.events`).
 RunRecord = namedtuple("RunRecord", ["t_out", "x_out", "unit_rec", "event_log", "stats"])
 
+#: One accepted step, as the event location reads it: its start ``t0`` and length ``h`` (s),
+#: and the positions and velocities at both ends, ``x0``, ``xd0``, ``x1``, ``xd1`` (4N - 2,),
+#: which the cubic Hermite interpolant joins.
+AcceptedStep = namedtuple("AcceptedStep", ["t0", "h", "x0", "xd0", "x1", "xd1"])
+
+#: What the release integrator writes beside the state: the per-unit record ``unit_rec``
+#: ``(N, N_REC)``, the ``stats`` counters (:mod:`.events`), the per-unit event diagnostics
+#: ``unit_diag`` ``(N, N_RELEASE_DIAG)`` and the static-check ``counters`` (int64, ``(2,)``)
+#: (:mod:`.release`).
+ReleaseRecord = namedtuple("ReleaseRecord", ["unit_rec", "stats", "unit_diag", "counters"])
+
 #: What the reset-time batches write per design: the run's ``status`` and ``final_state``
 #: ``(n,)``, and per unit ``reset``, ``snap_through``, ``snap_back`` (s) and ``unit_class``
 #: ``(n, MAX_UNITS)``.

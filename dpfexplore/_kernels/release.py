@@ -45,7 +45,7 @@ from ..model import status as st
 from ._jit import kernel
 from .dense_lu import LATTICE_HALF_BANDWIDTH as BAND
 from .dense_lu import lu_factor, lu_solve
-from .dynamics import N_PHYS, PHYS_ETA, PHYS_ETA_ISO, force_residual, pressure_at
+from .dynamics import force_residual, pressure_at
 from .events import (
     CTRL_ATOL,
     CTRL_H_INIT,
@@ -78,7 +78,7 @@ from .integrators_rosenbrock import (
 from .layout import n_free, n_nodes
 from .linalg import band_matvec_add, cholesky, cholesky_solve
 from .newton import minimize
-from .records import MotionModel, MotionScratch, StepStart
+from .records import AcceptedStep, MotionScratch, RunRecord, StepStart
 from .states import inversion_state
 
 # Rodas3 in the transformed form (as RODAS4_* in .integrators_rosenbrock):
@@ -178,46 +178,26 @@ def settled_pattern(x, unit_params, h, newton_ws, check_x, check_u, counters):
 
 
 @kernel
-def release_rodas3(
-    x,
-    unit_params,
-    h,
-    knot_t,
-    knot_p,
-    eta,
-    eta_iso,
-    ctrl,
-    t0,
-    t_end,
-    unit_rec,
-    stats,
-    unit_diag,
-    counters,
-    ws,
-    newton_ws,
-):
+def release_rodas3(x, model, ctrl, t0, t_end, out, ws, newton_ws):
     """Integrate the overdamped lattice from rest at ``x`` (time ``t0``) until it may stop.
 
     Parameters
     ----------
     x : ndarray of shape (4N - 2,), mm
         Start (an equilibrium under ``P(t0)``); overwritten with the final positions.
-    unit_params, h
-        Lattice tables (:mod:`.layout`), penalties off.
-    knot_t, knot_p : ndarray
-        Pressure profile (s, MPa); reset times count from its last knot.
-    eta, eta_iso : float, N·s/mm
+    model : MotionModel
+        Lattice tables ``unit_params``, ``h`` (:mod:`.layout`, penalties off), the pressure
+        profile ``knot_t``, ``knot_p`` (s, MPa; reset times count from its last knot) and
+        ``phys`` ``(η, η_iso, 0)`` (N·s/mm; the model is overdamped) (:mod:`.records`).
     ctrl : ndarray of shape (N_CTRL,)
         :mod:`.events` controls: ``CTRL_ATOL`` / ``CTRL_RTOL`` on positions, first step, largest
         step, step cap, smallest step.
     t0, t_end : float, s
-    unit_rec, stats
-        Event record and counters (:mod:`.events`); ``stats[STAT_STOPPED_EARLY]`` receives the
-        ``STOP_*`` reason.
-    unit_diag : ndarray of shape (N, N_RELEASE_DIAG)
-        Per-unit event diagnostics (``UD_*``).
-    counters : ndarray of int64, shape (2,)
-        Static-check Newton iterations and checks.
+    out : ReleaseRecord
+        Event record ``unit_rec`` and counters ``stats`` (:mod:`.events`;
+        ``stats[STAT_STOPPED_EARLY]`` receives the ``STOP_*`` reason), per-unit event
+        diagnostics ``unit_diag`` (N, N_RELEASE_DIAG; ``UD_*``) and ``counters`` (int64, (2,)):
+        static-check Newton iterations and checks.
     ws, newton_ws : tuple
         :func:`release_workspace` and :func:`.newton.workspace`.
 
@@ -252,12 +232,10 @@ def release_rodas3(
         check_u,
         last_down,
     ) = ws
+    unit_params, h, knot_t, knot_p, _ = model
+    unit_rec, stats, unit_diag, counters = out
     n_units = unit_params.shape[0]
     n = n_free(n_units)
-    phys = np.zeros(N_PHYS)
-    phys[PHYS_ETA] = eta
-    phys[PHYS_ETA_ISO] = eta_iso
-    model = MotionModel(unit_params, h, knot_t, knot_p, phys)
     scratch = MotionScratch(pos, vel, work)
     start = StepStart(res0, jac, cmat, ft)
     rtol = ctrl[CTRL_RTOL]
@@ -277,6 +255,7 @@ def release_rodas3(
     t_out = np.empty(0)
     x_out = np.empty((0, n))
     log = np.empty((0, 3))
+    record = RunRecord(t_out, x_out, unit_rec, log, stats)
 
     t = t0
     step = min(ctrl[CTRL_H_INIT], h_max)
@@ -383,9 +362,7 @@ def release_rodas3(
         events = stats[STAT_EVENTS]
         for k in range(n_units):
             last_down[k] = unit_rec[k, REC_LAST_DOWN]
-        process_step(
-            t, step, x, v, x_new, v_new, g0, g1, unit_params, unit_rec, log, stats, t_out, x_out
-        )
+        process_step(AcceptedStep(t, step, x, v, x_new, v_new), g0, g1, unit_params, record)
         if stats[STAT_EVENTS] != events:
             check_due = True
             t_event = t + step

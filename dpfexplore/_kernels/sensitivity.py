@@ -470,27 +470,25 @@ def _node_total(node, dx, dp1, dh):
 
 
 @kernel
-def design_sensitivities(x, unit_params, h, dtab, E, stride, sens, dx_out, ws):
+def design_sensitivities(x, lattice, derivatives, stride, out, ws):
     """All sensitivities of the minimum ``x`` of one design (see the module docstring).
 
     Parameters
     ----------
     x : ndarray of shape (4N - 2,), mm
         A minimum (the state search's returned shape).
-    unit_params : ndarray of shape (N, N_COLS)
-        Physical table (no steering penalty).
-    h : float, mm
-    dtab : ndarray of shape (N, N_DCONST, N_DPARAM)
-        Derivative table of :func:`.tables.design_tables`.
-    E : float, MPa
-        Young's modulus (for the closed-form ``E`` column).
+    lattice : Lattice
+        Physical table ``unit_params`` (N, N_COLS; no steering penalty) and ``h`` (mm).
+    derivatives : DesignDerivatives
+        Derivative table ``dtab`` (N, N_DCONST, N_DPARAM) of :func:`.tables.design_tables` and
+        Young's modulus ``E`` (MPa; for the closed-form ``E`` column).
     stride : int
         Columns per per-unit kind in the outputs: ``N`` for one design's own table,
         ``MAX_UNITS`` for the padded batch columns (see :func:`parameter_column`).
-    sens : ndarray of shape (N_SENS, 3 stride + 3)
-        Receives ``d(output)/dθ`` (rows ``SENS_*``); NaN where undefined or past ``N``.
-    dx_out : ndarray of shape (4N - 2 or more, 3 stride + 3), or (0, 0)
-        Receives ``dx*/dθ`` when not empty.
+    out : SensitivityRows
+        ``sens`` (N_SENS, 3 stride + 3) receives ``d(output)/dθ`` (rows ``SENS_*``; NaN where
+        undefined or past ``N``); ``dxs`` (4N - 2 or more, 3 stride + 3), or (0, 0), receives
+        ``dx*/dθ`` when not empty.
     ws : tuple
         From :func:`workspace`.
 
@@ -500,6 +498,9 @@ def design_sensitivities(x, unit_params, h, dtab, E, stride, sens, dx_out, ws):
         False (and everything NaN) when the Hessian at ``x`` is not positive definite.
     """
     pos, grad, hess, low, r, w, dg, dx, split = ws
+    unit_params, h = lattice
+    dtab, E = derivatives
+    sens, dx_out = out
     n_units = unit_params.shape[0]
     nf = n_free(n_units)
     keep_dx = dx_out.shape[0] > 0

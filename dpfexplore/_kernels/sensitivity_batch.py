@@ -18,6 +18,7 @@ from ..model.domain import MAX_UNITS
 from ._jit import batch_kernel, kernel
 from .batch import BLOCK_ROWS, _solve_rows
 from .layout import n_free
+from .records import DesignDerivatives, Lattice, SensitivityRows
 from .sensitivity import N_SENS, design_sensitivities, n_parameters, workspace
 
 
@@ -44,13 +45,10 @@ def _sensitivity_rows(designs, rows, first, last, controls, outputs, derivatives
         dx_r = dxs[r] if keep_dx else no_dx
         design_sensitivities(
             shapes[r, : n_free(m)],
-            unit_params[i, :m],
-            h[i],
-            dtab[i, :m],
-            E[i],
+            Lattice(unit_params[i, :m], h[i]),
+            DesignDerivatives(dtab[i, :m], E[i]),
             MAX_UNITS,
-            sens[r],
-            dx_r,
+            SensitivityRows(sens[r], dx_r),
             ws,
         )
 
@@ -94,7 +92,14 @@ def sensitivities_repeatedly(x, unit_params, h, dtab, E, repeats):
     no_dx = np.empty((0, 0))
     ok = False
     for _ in range(repeats):
-        ok = design_sensitivities(x, unit_params, h, dtab, E, n_units, sens, no_dx, ws)
+        ok = design_sensitivities(
+            x,
+            Lattice(unit_params, h),
+            DesignDerivatives(dtab, E),
+            n_units,
+            SensitivityRows(sens, no_dx),
+            ws,
+        )
     return ok
 
 

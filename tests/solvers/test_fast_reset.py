@@ -29,7 +29,7 @@ from dpfexplore._kernels.loaded_state import (
     newton_scratch,
 )
 from dpfexplore._kernels.newton import workspace
-from dpfexplore._kernels.records import MotionModel, MotionScratch
+from dpfexplore._kernels.records import MotionModel, MotionScratch, ReleaseRecord
 from dpfexplore._kernels.release import release_rodas3, release_workspace
 from dpfexplore.model import status as st
 from dpfexplore.model.design import Design, DesignBatch
@@ -166,21 +166,14 @@ def test_release_matches_the_overdamped_full_model(pickplace):
         ctrl[CTRL_H_MAX] = 5.0
         rec = np.empty((n_units, N_REC))
         stats = np.zeros(N_STATS, dtype=np.int64)
+        phys = np.array([kd.ETA_INTERNAL, kd.ETA_ISO, 0.0])
         code = release_rodas3(
             x0.copy(),
-            params.unit_params,
-            params.h,
-            PULSE.knots()[0],
-            PULSE.knots()[1],
-            kd.ETA_INTERNAL,
-            kd.ETA_ISO,
+            MotionModel(params.unit_params, params.h, PULSE.knots()[0], PULSE.knots()[1], phys),
             ctrl,
             5.0,
             15.0,
-            rec,
-            stats,
-            np.empty((n_units, 2)),
-            np.zeros(2, dtype=np.int64),
+            ReleaseRecord(rec, stats, np.empty((n_units, 2)), np.zeros(2, dtype=np.int64)),
             release_workspace(n_units),
             workspace(),
         )

@@ -17,6 +17,7 @@ from model_helpers import FINGER, height_for_alpha, other_set
 from dpfexplore import Design, DesignBatch, SolverOptions, Status, find_state, solve_batch
 from dpfexplore._kernels import layout as lay
 from dpfexplore._kernels.lattice import HESSIAN, assemble, lattice_hessian
+from dpfexplore._kernels.records import DesignDerivatives, Lattice, SensitivityRows
 from dpfexplore._kernels.sensitivity import (
     N_SENS,
     design_sensitivities,
@@ -373,7 +374,14 @@ def test_no_sensitivities_where_the_hessian_is_not_positive_definite():
     assert np.linalg.eigvalsh(hess)[0] < 0
     sens = np.zeros((N_SENS, 12))
     dx = np.zeros((10, 12))
-    ok = design_sensitivities(x, up, h, tables.derivatives[0, :3], 26.0, 3, sens, dx, workspace())
+    ok = design_sensitivities(
+        x,
+        Lattice(up, h),
+        DesignDerivatives(tables.derivatives[0, :3], 26.0),
+        3,
+        SensitivityRows(sens, dx),
+        workspace(),
+    )
     assert not ok
     assert np.all(np.isnan(sens)) and np.all(np.isnan(dx))
 

@@ -29,8 +29,10 @@ fit range; it is what the lattice's second minimum stands for (``E_NL(d) = ½ k_
 shell's barrier (a free dome's saddle near ``1.75 H``) and its first-branch peak force (near the
 fold) lie far above what any quartic with the shell's initial slope and inverted travel can
 reach: with ``k_b`` and ``x_far`` fixed, the quartic's barrier energy is largest at
-``α = 1/9``, where barrier and rest merge at ``E_far = k_b x_far²/12``. They are therefore reported as residuals of the matched
-law (how much of the curve it does not describe), not matched.
+``α = 1/9``, where barrier and rest merge at ``E_far = k_b x_far²/12``. They are therefore
+reported as residuals of the matched law (how much of the curve it does not describe), not
+matched. A rest the quartic cannot carry (a force that only just touches zero: ``α ≈ 1/9``, or
+noise) is replaced by the ghost it is near.
 
 The fit is flagged when the curve has no far state, when the features give no snapping spring
 (``a2, a4 > 0 > a3`` fails) or when the matched law does not have the far state as its own
@@ -213,11 +215,11 @@ def _local_poly(x: NDArray, energy: NDArray, force: NDArray | None, centre: floa
     return np.polynomial.Polynomial(coef)
 
 
-def _far_state(x: NDArray, energy: NDArray, force: NDArray | None):
+def _far_state(x: NDArray, energy: NDArray, force: NDArray | None, ghost: bool = False):
     """Crude location and kind of the far state.
 
-    The first stable zero of the force beyond its peak and the barrier, else the force's least
-    value beyond its peak.
+    The first stable zero of the force beyond its peak and the barrier, else (or with
+    ``ghost``) the force's least value beyond its peak.
     """
     slope = force if force is not None else np.gradient(energy, x)
     width = max(1, x.size // 40)  # a running mean, so that noise makes no spurious zeros
@@ -230,7 +232,7 @@ def _far_state(x: NDArray, energy: NDArray, force: NDArray | None):
         return None, float("nan")
     peak = int(np.argmax(smooth[: falls[0]]))
     downs = np.nonzero((smooth[peak:-1] > 0) & (smooth[peak + 1 :] <= 0))[0] + peak
-    if downs.size:
+    if downs.size and not ghost:
         ups = np.nonzero((smooth[downs[0] : -1] < 0) & (smooth[downs[0] + 1 :] >= 0))[0]
         if ups.size:
             i = int(ups[0] + downs[0])
@@ -291,13 +293,13 @@ def _initial_slope(x, energy, force, x_far, windows):
 
 
 def curve_features(
-    curve: UnitCellCurve, *, windows: tuple[float, ...] = WINDOWS
+    curve: UnitCellCurve, *, windows: tuple[float, ...] = WINDOWS, ghost: bool = False
 ) -> CurveFeatures | None:
     """The features of one curve (module docstring); None when it has no far state."""
     x, energy, force = curve.displacement, curve.energy, curve.force
     if energy is None:  # force only: integrate it (trapezoid) from the first point
         energy = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(x))])
-    kind, crude = _far_state(x, energy, force)
+    kind, crude = _far_state(x, energy, force, ghost)
     if kind is None:
         return None
     p = _local_poly(x, energy, force, crude, LOCAL * crude)
@@ -385,6 +387,11 @@ def _law_features(k_b: float, alpha: float, d: float) -> dict[str, float]:
     return out
 
 
+def _solve(feats: CurveFeatures) -> tuple[float, float, float]:
+    far_value = feats.far_energy if feats.far_kind == "rest" else feats.far_force
+    return quartic_from_features(feats.slope, feats.far_kind, feats.far_displacement, far_value)
+
+
 def fit_features(curve: UnitCellCurve, *, windows: tuple[float, ...] = WINDOWS) -> FeatureFit:
     """Match the spring law to the features of one curve (module docstring)."""
     feats = curve_features(curve, windows=windows)
@@ -398,10 +405,14 @@ def fit_features(curve: UnitCellCurve, *, windows: tuple[float, ...] = WINDOWS) 
             relative_rms=float("nan"),
             flags=("no far state on the curve (no inverted rest and no least force)",),
         )
-    far_value = feats.far_energy if feats.far_kind == "rest" else feats.far_force
-    a2, a3, a4 = quartic_from_features(
-        feats.slope, feats.far_kind, feats.far_displacement, far_value
-    )
+    a2, a3, a4 = _solve(feats)
+    if feats.far_kind == "rest" and not (a2 > 0 and a4 > 0 and a3 < 0):
+        # a rest the quartic cannot carry is a force that only just touches zero (a unit at
+        # alpha ≈ 1/9, or noise): take the force's least value, the ghost it is near
+        ghost = curve_features(curve, windows=windows, ghost=True)
+        if ghost is not None and ghost.far_kind == "ghost":
+            feats = ghost
+            a2, a3, a4 = _solve(feats)
     flags = []
     if curve.folded and not (isinstance(curve, PathCurve) and curve.start_displacement is not None):
         flags.append(

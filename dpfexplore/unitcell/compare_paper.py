@@ -19,6 +19,7 @@ Reproduce the record and the figure::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import time
@@ -34,7 +35,15 @@ from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import DEFAULT
 from .shell import DEFAULT_ELEMENTS, unit_cell_curve
 
-__all__ = ["PAPER_BOX", "classify", "compare_grid", "compare_unit", "plot_maps", "summarise"]
+__all__ = [
+    "PAPER_BOX",
+    "classify",
+    "compare_grid",
+    "compare_unit",
+    "identify_sweep",
+    "plot_maps",
+    "summarise",
+]
 
 log = logging.getLogger(__name__)
 
@@ -245,6 +254,61 @@ def plot_maps(frame: pd.DataFrame, *, fig=None):
     return fig
 
 
+def identify_sweep(directory: str | Path, *, name: str):
+    """A constants set from a ``unitcell sweep`` directory, by the features fit.
+
+    ``k̂`` and ``α`` come from every trusted fit (monostable shells included: their ghost gives
+    a metastable ``α``); ``tip_dis`` exists only for the domes with a stable inverted rest, so
+    its closed form is selected on those (the sweep's ``curves.parquet`` leaves the column out
+    when one dome lacks it), and the set's domain is theirs. Flagged fits are left out and
+    counted in the notes.
+
+    Returns
+    -------
+    Identification
+    """
+    from ..identification.identify import Identification, identify
+
+    directory = Path(directory)
+    table = pd.read_parquet(directory / "curves.parquet")
+    designs = pd.read_parquet(directory / "designs.parquet")
+    curves = feature_curves_from_frame(table)
+    main_fit = identify(curves, name=name, method="features", allow_flagged=True)
+    # the sweep names curve i "d{i:06d}" (dpfexplore.unitcell.sweep)
+    tips = {f"d{int(i):06d}": v for i, v in zip(designs["design"], designs["tip_dis"], strict=True)}
+    if not set(tips) >= set(table["curve"].astype(str)):
+        raise ValueError(f"{directory}: curves.parquet and designs.parquet do not match")
+    with_rest = table[table["curve"].astype(str).map(tips).notna()]
+    with_rest = with_rest.assign(tip_dis=with_rest["curve"].astype(str).map(tips))
+    tip_fit = identify(
+        feature_curves_from_frame(with_rest), name=name, method="features", allow_flagged=True
+    )
+    selections = {**main_fit.selections, "tip_ratio": tip_fit.selections["tip_ratio"]}
+    flagged = sum(not f.ok for f in main_fit.fits)
+    notes = [
+        f"k_hat, alpha: {len(curves) - flagged} of {len(curves)} curves (features fit; "
+        f"{flagged} flagged and left out)",
+        f"tip_ratio: the {with_rest['curve'].nunique()} curves with a stable inverted rest; the "
+        "domain is theirs (no inverted rest, no tip_dis: the monostable shells lie outside it)",
+    ]
+    provenance = {
+        **main_fit.constants.provenance,
+        "notes": notes,
+        "sweep": str(directory),
+        "tip_ratio_data_sha256": tip_fit.constants.provenance["data_sha256"],
+    }
+    # the domain: where the shell has an inverted rest (tip_dis exists only there)
+    constants = dataclasses.replace(
+        main_fit.constants,
+        tip_ratio=selections["tip_ratio"].form,
+        provenance=provenance,
+        domain={**main_fit.constants.domain, **tip_fit.constants.domain},
+        hull=tip_fit.constants.hull,
+    )
+    constants.check()
+    return Identification(constants, main_fit.fits, selections, main_fit.alpha_spread_over_E, notes)
+
+
 def _jsonable(value):
     if isinstance(value, dict):
         return {k: _jsonable(v) for k, v in value.items()}
@@ -265,7 +329,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--elements", type=int, default=DEFAULT_ELEMENTS)
     parser.add_argument("--json", type=Path, default=Path("results/reports/unitcell-vs-paper.json"))
     parser.add_argument("--plot", type=Path, default=Path("results/reports/unitcell-vs-paper.png"))
+    parser.add_argument(
+        "--extended",
+        type=Path,
+        default=None,
+        help="instead: identify a set from this unitcell sweep directory (features fit) and "
+        "save it under results/constants/NAME",
+    )
+    parser.add_argument("--name", default="shell-extended", help="name of the --extended set")
     args = parser.parse_args(argv)
+    if args.extended is not None:
+        from ..identification.report import _report, format_report, save_identification
+
+        result = identify_sweep(args.extended, name=args.name)
+        out = Path("results") / "constants" / args.name
+        save_identification(result, out, plot=True, force=True)
+        print(format_report(_report(result)))
+        print(f"saved to {out}")
+        return 0
     H_values = np.linspace(*PAPER_BOX["H"], args.n_H)
     t_values = np.linspace(*PAPER_BOX["t"], args.n_t)
     start = time.perf_counter()

@@ -60,3 +60,21 @@ def test_summary_and_maps(frame):
 )
 def test_classes(alpha, kind):
     assert classify(alpha) == kind
+
+
+def test_a_set_from_a_small_sweep(tmp_path):
+    from dpfexplore.unitcell.compare_paper import identify_sweep
+    from dpfexplore.unitcell.sweep import job_from_dict, run_unitcell_sweep
+
+    # H = 1.1, t = 1: a low thick dome with no inverted rest (its ghost gives alpha)
+    grid = {"H": [1.1, 2.5, 3.0, 3.5, 4.0, 5.0], "t": [0.6, 1.0], "r_b": [5.0]}
+    run_unitcell_sweep(job_from_dict({"grid": grid, "options": {"chunk": 12}}), tmp_path)
+    result = identify_sweep(tmp_path, name="small")
+    constants = result.constants
+    constants.check()
+    assert constants.provenance["settings"]["fit"] == "features"
+    # the domain is where the shell has an inverted rest: the monostable dome lies outside it
+    assert not constants.in_domain(1.1, 1.0, 5.0, 26.0)[()]
+    assert constants.in_domain(4.0, 0.8, 5.0, 26.0)[()]
+    tip = float(constants.evaluate(4.0, 1.0, 5.0, 26.0)["tip_dis"])
+    assert tip == pytest.approx(2.04 * 4.0, rel=0.01)  # the shell's inverted rest, ~2.04 H

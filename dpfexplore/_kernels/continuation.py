@@ -216,13 +216,19 @@ def event_value(which, y, t, unit_params, p_end_scaled, g):
 
 
 @kernel
-def locate(which, y0, t0, s_lo, g_lo, s_hi, g_hi, unit_params, h, p_end_scaled, ws, y, t):
+def locate(which, start, bracket, lattice, p_end_scaled, ws, out):
     """Arclength in ``(s_lo, s_hi)`` where event ``which`` changes sign (Illinois method).
 
-    ``g_lo``, ``g_hi`` are the event values at the bracket ends (opposite signs). On return
-    ``y``, ``t`` hold the branch point and tangent at the returned arclength. Returns
-    ``(status, s)``; status is a ``CORRECT_*`` code.
+    The step runs from the :class:`~.records.BranchPoint` ``start``; ``bracket`` is a
+    :class:`~.records.Bracket` (the event values at its ends have opposite signs); ``lattice``
+    a :class:`~.records.Lattice`. On return ``out`` (a :class:`~.records.BranchPoint`) holds the
+    branch point and tangent at the returned arclength. Returns ``(status, s)``; status is a
+    ``CORRECT_*`` code.
     """
+    y0, t0 = start
+    s_lo, g_lo, s_hi, g_hi = bracket
+    unit_params, h = lattice
+    y, t = out
     g = ws[8]
     if which == WHICH_FOLD:
         tol = FOLD_TOL

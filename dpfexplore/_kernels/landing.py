@@ -155,16 +155,20 @@ def certify_stable(x, pressure, unit_params, h, eta, eta_iso):
 
 
 @kernel
-def land(x_fold, direction, p_fold, sign, unit_params, h, phys, ctrl, kick, x_land, info):
+def land(x_fold, direction, p_fold, sign, lattice, landing, x_land, info):
     """Where the finger comes to rest after snapping at the fold ``(x_fold, p_fold)``.
 
     ``direction`` is the branch tangent's position part at the fold (the direction of travel).
-    ``phys`` selects the model (node mass 0: overdamped), ``kick`` (mm) the size of the first
-    displacement along ``direction`` (``<= 0``: :func:`default_kick`). On success ``x_land``
+    ``lattice`` is a :class:`~.records.Lattice`; of the :class:`~.snap_records.Landing`,
+    ``phys`` selects the model (node mass 0: overdamped), ``ctrl`` are the Rodas4 controls and
+    ``kick`` (mm) the size of the first displacement along ``direction`` (``<= 0``:
+    :func:`default_kick`). On success ``x_land``
     holds the equilibrium at ``p_fold`` and ``info`` (``N_LAND_INFO`` entries, read by the
     ``LAND_*`` indices: certificate, seconds simulated, Rodas4 steps, kick, pressure offset).
     Returns a status.
     """
+    unit_params, h = lattice
+    phys, ctrl, kick = landing
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     y = np.empty(2 * n)

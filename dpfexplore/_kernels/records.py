@@ -41,6 +41,21 @@ PressureKnots = namedtuple("PressureKnots", ["t", "p"])
 #: overdamped and read only the damping.
 Physics = namedtuple("Physics", ["eta", "eta_iso", "mass_per_unit"])
 
+#: A point of an equilibrium branch and its tangent: ``y`` = ``(x, p)`` and ``t``, both of shape
+#: (4N - 1,) (:mod:`.continuation`).
+BranchPoint = namedtuple("BranchPoint", ["y", "t"])
+
+#: A bracket of an event along a branch step: arclengths ``s_lo`` < ``s_hi`` and the event's
+#: values ``g_lo``, ``g_hi`` there (opposite signs) (:func:`.continuation.locate`).
+Bracket = namedtuple("Bracket", ["s_lo", "g_lo", "s_hi", "g_hi"])
+
+#: A fitted ensemble of regression trees as flat arrays (:mod:`.trees`): per node the
+#: ``feature`` tested (int64), its ``threshold``, the children ``left``, ``right`` (int64; -1 at
+#: a leaf) and the leaf ``value``; each tree's first node in ``roots`` (int64); the ``bias``.
+TreeArrays = namedtuple(
+    "TreeArrays", ["feature", "threshold", "left", "right", "value", "roots", "bias"]
+)
+
 # ---- statics -------------------------------------------------------------------------------
 
 #: The design arrays of a batch (those of :class:`dpfexplore.model.design.DesignBatch`):

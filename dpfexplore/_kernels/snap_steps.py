@@ -37,6 +37,7 @@ from .landing import (
     land,
 )
 from .layout import COL_D, COL_P, COL_U_INV, n_free
+from .records import Bracket, BranchPoint, Lattice
 from .snap_records import (
     CNT_EVENTS,
     CNT_LANDING_STEPS,
@@ -236,18 +237,12 @@ def step_stop(ds, sign, p_end_s, unit_params, h, s):
     if sign * t1[n] < 0.0:
         code, s_stop = locate(
             WHICH_FOLD,
-            y0,
-            t0,
-            0.0,
-            t0[n],
-            ds,
-            t1[n],
-            unit_params,
-            h,
+            BranchPoint(y0, t0),
+            Bracket(0.0, t0[n], ds, t1[n]),
+            Lattice(unit_params, h),
             p_end_s,
             ws,
-            yb,
-            tb,
+            BranchPoint(yb, tb),
         )
         failed = code != CORRECT_OK
         stop = STOP_FOLD
@@ -258,18 +253,12 @@ def step_stop(ds, sign, p_end_s, unit_params, h, s):
         g_end = p_last - p_end_s
         code, s_stop = locate(
             WHICH_END,
-            y0,
-            t0,
-            0.0,
-            y0[n] - p_end_s,
-            s_stop,
-            g_end,
-            unit_params,
-            h,
+            BranchPoint(y0, t0),
+            Bracket(0.0, y0[n] - p_end_s, s_stop, g_end),
+            Lattice(unit_params, h),
             p_end_s,
             ws,
-            yb,
-            tb,
+            BranchPoint(yb, tb),
         )
         failed = code != CORRECT_OK
         stop = STOP_END
@@ -306,7 +295,13 @@ def crossings(s_stop, p_end_s, unit_params, h, s):
         if (g0[k] > 0.0) == (gb[k] > 0.0):
             continue
         code, arc = locate(
-            k, y0, t0, 0.0, g0[k], s_stop, gb[k], unit_params, h, p_end_s, ws, yc, tc
+            k,
+            BranchPoint(y0, t0),
+            Bracket(0.0, g0[k], s_stop, gb[k]),
+            Lattice(unit_params, h),
+            p_end_s,
+            ws,
+            BranchPoint(yc, tc),
         )
         if code != CORRECT_OK:
             return True, n_cross
@@ -369,19 +364,7 @@ def snap(label, segment, sign, unit_params, h, landing, out, s):
     record_path(y1, segment, label, unit_params, h, gp, path, counts)
     p_fold = y1[n] / PRESSURE_SCALE
     x_fold = y1[:n]
-    code = land(
-        x_fold,
-        t1[:n],
-        p_fold,
-        sign,
-        unit_params,
-        h,
-        landing.phys,
-        landing.ctrl,
-        landing.kick,
-        x_land,
-        info,
-    )
+    code = land(x_fold, t1[:n], p_fold, sign, Lattice(unit_params, h), landing, x_land, info)
     counts[CNT_LANDING_STEPS] += int(info[LAND_STEPS])
     if code != st.OK:
         for i in range(n):

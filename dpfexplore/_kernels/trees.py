@@ -15,19 +15,18 @@ from ._jit import kernel
 
 
 @kernel
-def tree_ensemble_predict(x, feature, threshold, left, right, value, roots, bias, out):
+def tree_ensemble_predict(x, trees, out):
     """``out[r] = bias + Σ_trees value(leaf reached by row r)``.
 
     Parameters
     ----------
     x : ndarray of shape (n_rows, n_features)
-    feature : ndarray of int64, shape (n_nodes,)
-    threshold, value : ndarray of shape (n_nodes,)
-    left, right : ndarray of int64, shape (n_nodes,)
-    roots : ndarray of int64, shape (n_trees,)
-    bias : float
+    trees : TreeArrays
+        The ensemble (:mod:`.records`): ``feature``, ``left``, ``right`` (int64) and
+        ``threshold``, ``value`` of shape (n_nodes,), ``roots`` (int64, (n_trees,)), ``bias``.
     out : ndarray of shape (n_rows,)
     """
+    feature, threshold, left, right, value, roots, bias = trees
     for r in range(x.shape[0]):
         total = bias
         for t in range(roots.shape[0]):

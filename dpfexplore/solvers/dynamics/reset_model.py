@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..._kernels.records import TreeArrays
 from ..._kernels.trees import tree_ensemble_predict
 from ...model.constants_set import DEFAULT, ConstantsSet
 from ...model.files import atomic_write
@@ -95,17 +96,10 @@ class TreeEnsemble:
         """Sum over the trees for each row of ``x`` (shape ``(n_rows, n_features)``)."""
         x = np.ascontiguousarray(x, dtype=np.float64)
         out = np.empty(x.shape[0])
-        tree_ensemble_predict(
-            x,
-            self.feature,
-            self.threshold,
-            self.left,
-            self.right,
-            self.value,
-            self.roots,
-            self.bias,
-            out,
+        trees = TreeArrays(
+            self.feature, self.threshold, self.left, self.right, self.value, self.roots, self.bias
         )
+        tree_ensemble_predict(x, trees, out)
         return out
 
     @classmethod

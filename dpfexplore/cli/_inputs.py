@@ -17,8 +17,9 @@ __all__ = [
 ]
 
 CONSTANTS_HELP = (
-    "constants set file (JSON, from `dpfexplore identify fit`) for k_b, alpha and the reach; "
-    "default: the one the input names, else the paper's closed forms"
+    "constants set for k_b, alpha and the reach: a JSON file (from `dpfexplore identify fit`), "
+    "'paper' or a packaged set's name ('shell-extended'); default: the one the input names, "
+    "else the paper's closed forms"
 )
 
 
@@ -37,10 +38,10 @@ def constants_argument(text: str | None):
     """
     if text is None:
         return None
-    from ..model.constants_set import ConstantsSetError, load_constants_set
+    from ..model.constants_set import ConstantsSetError, find_constants_set
 
     try:
-        return load_constants_set(text)
+        return find_constants_set(text)
     except ConstantsSetError as exc:
         raise UsageError(f"--constants {exc}") from None
 

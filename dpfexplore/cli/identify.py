@@ -84,10 +84,18 @@ def register(subparsers) -> None:
 
 
 def _load(name: str):
-    from ..identification.report import read_identification
+    """A saved identification, a constants set file, ``paper`` or a packaged set.
 
+    Returns ``(set, report)``; the report is None for anything but a saved identification.
+    """
+    from ..identification.report import read_identification
+    from ..model.constants_set import find_constants_set
+
+    path = saved_path(name, CONSTANTS)
     try:
-        return read_identification(saved_path(name, CONSTANTS))
+        if path.is_dir():
+            return read_identification(path)
+        return find_constants_set(name), None
     except ValueError as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
 
@@ -138,7 +146,12 @@ def _fit(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from ..identification.report import format_report
 
-    _, report = _load(args.name)
+    constants, report = _load(args.name)
+    if report is None:
+        raise UsageError(
+            f"{args.name}: a constants set ({constants.label}), not a saved identification "
+            "(identify report reads the directory identify fit wrote)"
+        )
     print(json_text(report) if args.json else format_report(report))
     return EXIT_OK
 

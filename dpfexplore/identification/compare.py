@@ -47,7 +47,9 @@ def compare_fingers(
     states : DataFrame
         One row per sequential state: ``state`` and per set ``NAME:found``, ``NAME:tip_x``,
         ``NAME:tip_y`` (mm), ``NAME:stiffness`` (N/mm), ``NAME:energy`` (N·mm), and
-        ``tip_shift`` (mm): the distance between the first two sets' tips.
+        ``tip_shift`` (mm): the distance between the first two sets' tips. Each set's sequence
+        follows its own inversion thresholds, so a state one set visits and the other does not
+        has NaN in the other's columns and in ``tip_shift``.
     resets : DataFrame
         One row per unit: per set ``NAME:reset_time`` (s after the pulse; inf: stays
         inverted) and ``NAME:class``.
@@ -80,5 +82,10 @@ def compare_fingers(
         ]
     table = pd.DataFrame(list(states.values()))
     if len(sets) >= 2:
-        table["tip_shift"] = [float(np.hypot(*(tips[0][s] - tips[1][s]))) for s in table["state"]]
+        # each set's sequence inverts its units in the order of its own thresholds, so the two
+        # sequences may visit different states: a shift only where both solved the state
+        none = np.full(2, np.nan)
+        table["tip_shift"] = [
+            float(np.hypot(*(tips[0].get(s, none) - tips[1].get(s, none)))) for s in table["state"]
+        ]
     return table, resets

@@ -60,7 +60,9 @@ __all__ = [
     "ConstantsSet",
     "ConstantsSetError",
     "data_hull",
+    "find_constants_set",
     "load_constants_set",
+    "packaged_sets",
     "power_tables",
     "set_constant_partials",
     "set_constants_form",
@@ -688,6 +690,38 @@ def data_hull(h: ArrayLike, s: ArrayLike) -> tuple[tuple[float, float], ...] | N
 def _fingerprint(body: Mapping[str, Any]) -> str:
     canonical = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(canonical.encode()).hexdigest()
+
+
+#: Folder of the constants sets that ship with the package (``NAME.json``).
+PACKAGED_DIR = Path(__file__).resolve().parent.parent / "data" / "constants"
+
+
+def packaged_sets() -> list[str]:
+    """Names of the packaged constants sets (besides ``paper``, the built-in default)."""
+    return sorted(
+        p.stem for p in PACKAGED_DIR.glob("*.json") if not p.name.endswith(".report.json")
+    )
+
+
+def find_constants_set(text: str | Path) -> ConstantsSet:
+    """The constants set a user names: a file, ``paper`` or a packaged set's name.
+
+    A file of that name wins over a packaged set (as example designs do).
+
+    Raises
+    ------
+    ConstantsSetError
+        One line: no such file or set (listing the packaged ones), or the file's own problem.
+    """
+    path = Path(text)
+    if path.exists() or path.suffix == ".json" or len(path.parts) > 1:
+        return load_constants_set(path)
+    if str(text) == DEFAULT.name:
+        return DEFAULT
+    if str(text) in packaged_sets():
+        return load_constants_set(PACKAGED_DIR / f"{text}.json")
+    known = ", ".join([DEFAULT.name, *packaged_sets()])
+    raise ConstantsSetError(f"{text}: no such constants set file (packaged sets: {known})")
 
 
 def load_constants_set(path: str | Path) -> ConstantsSet:

@@ -45,6 +45,22 @@ from .scenes.gripper.windows import pressure_windows
 
 __all__ = ["gripper_report", "position_report", "write_report"]
 
+#: How the timing scenes (pick-and-place, walker) verify a reported design's reset times.
+TIMING_VERIFIED_BY = (
+    "simulated alone to the horizon (no early stop) by the full model (rodas4) at "
+    "atol = {atol:g} mm; the reported reset times and classes are this run's"
+)
+
+
+def json_times(values) -> list:
+    """Reset times for JSON: ``"inf"`` never reset, None never inverted or no contact."""
+    out = []
+    for v in values:
+        v = float(v)
+        out.append(None if math.isnan(v) else ("inf" if math.isinf(v) else round(v, 9)))
+    return out
+
+
 _VERIFIED_BY = (
     "re-solved alone by find_state (exact model, default solver options); the "
     "reported values are this re-solve's"

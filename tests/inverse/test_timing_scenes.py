@@ -17,13 +17,9 @@ import pytest
 
 from dpfexplore import Design, DesignBatch, PressureProfile, simulate
 from dpfexplore.cli import main
+from dpfexplore.inverse.engine.roots import grow_bracket, root_on_line
 from dpfexplore.inverse.kinds import load_scene
-from dpfexplore.inverse.scenes.pickplace.problem import (
-    ResetEval,
-    grow_bracket,
-    line_brackets,
-    root_on_line,
-)
+from dpfexplore.inverse.scenes.pickplace.problem import ResetEval, line_brackets
 from dpfexplore.inverse.scenes.timing_spec import with_target_reset
 from dpfexplore.inverse.scenes.walker.report import inverted_intervals
 from dpfexplore.inverse.scenes.walker.solve import violation

@@ -18,8 +18,9 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from ...engine.roots import finite_log, root_on_line
 from ...evaluation import SceneEvaluator
-from .problem import ResetProblem, finite_log, root_on_line
+from .problem import ResetProblem
 from .screen import Screen, check_design
 
 __all__ = ["FRONT_LINES", "solve_difference"]

@@ -18,7 +18,6 @@ Files (:func:`write_timing_report`; the walker's :func:`.walker_report.write_wal
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -30,23 +29,10 @@ from ....model.formatting import json_number
 from ....solvers.statics import find_state
 from ...engine.optimiser import TargetResult
 from ...evaluation import SceneEvaluator
-from ...report import write_summary
+from ...report import TIMING_VERIFIED_BY as VERIFIED_BY
+from ...report import json_times, write_summary
 
-__all__ = ["json_times", "pickplace_report", "write_timing_report"]
-
-VERIFIED_BY = (
-    "simulated alone to the horizon (no early stop) by the full model (rodas4) at "
-    "atol = {atol:g} mm; the reported reset times and classes are this run's"
-)
-
-
-def json_times(values) -> list:
-    """Reset times for JSON: ``"inf"`` never reset, None never inverted or no contact."""
-    out = []
-    for v in values:
-        v = float(v)
-        out.append(None if math.isnan(v) else ("inf" if math.isinf(v) else round(v, 9)))
-    return out
+__all__ = ["pickplace_report", "write_timing_report"]
 
 
 def design_flags(design: Design) -> dict[str, Any]:

@@ -45,15 +45,10 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq, minimize_scalar
 
 from ...engine.optimiser import TargetResult
+from ...engine.roots import grow_bracket, root_on_line
 from ...evaluation import SceneEvaluator
 from .front import solve_difference
-from .problem import (
-    Bracket,
-    ResetProblem,
-    grow_bracket,
-    line_brackets,
-    root_on_line,
-)
+from .problem import Bracket, ResetProblem, line_brackets
 from .screen import Screen, check_design, screen_pickplace, second_screen
 
 __all__ = ["SEARCH_FRACTION", "solve_pickplace"]
@@ -67,7 +62,7 @@ CANDIDATE_LINES = 6
 #: Search tolerance as a fraction of the scene's (a margin for the verification).
 SEARCH_FRACTION = 0.1
 #: ``|log(reset / target)|`` at or above this marks an end that diverged (bistable) or went
-#: negative (:data:`dpfexplore.inverse.scenes.pickplace.problem._LOG_INF` is 50).
+#: negative (:data:`dpfexplore.inverse.engine.roots.LOG_INF` is 50).
 _DIVERGED = 40.0
 
 

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ....model.design import Design
 from ....solvers.dynamics.common import CLASS_MONOSTABLE
-from ..pickplace.problem import finite_log, root_on_line
+from ...engine.roots import finite_log, root_on_line
 from .legs import requirement as _req
 from .search import SCAN as _SCAN
 from .search import SearchBase

@@ -12,9 +12,10 @@ Method
 ------
 Reset times diverge at each unit's bistable edge, and the timing requirements sit close to it;
 the map is smooth along a height but finite differences of the full model are noisy there, so
-heights are found by roots (Brent's method, :func:`~.reset_problem.root_on_line`) rather than a
-gradient step. Every full-model run here follows the whole horizon (no early stop: a unit may
-re-invert when its neighbour snaps back, and only the last crossing is its reset).
+heights are found by roots (Brent's method,
+:func:`~dpfexplore.inverse.engine.roots.root_on_line`) rather than a gradient step. Every
+full-model run here follows the whole horizon (no early stop: a unit may re-invert when its
+neighbour snaps back, and only the last crossing is its reset).
 
 * **Purple zone** (both units metastable, each reset time in the window ``purple_reset``; both
   invert below the walking pressure by the margin). Per value of ``t`` (``t_lines`` of them):

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ....solvers.dynamics.common import CLASS_METASTABLE, CLASS_MONOSTABLE
-from ..pickplace.problem import finite_log, grow_bracket, root_on_line
+from ...engine.roots import finite_log, grow_bracket, root_on_line
 from .legs import requirement as _req
 from .search import SCAN as _SCAN
 from .search import STEP as _STEP

@@ -148,7 +148,8 @@ def _fit(args: argparse.Namespace) -> int:
             seed=args.seed,
             params=args.params,
             timing=not args.no_timing,
-            progress=lambda line: print(f"surrogate fit: {line}", file=sys.stderr, flush=True),
+            # a bar on a terminal (surrogates.progress), one line per step otherwise
+            progress=None if sys.stderr.isatty() else _fit_line,
         )
     except StoreError as exc:
         raise UsageError(str(exc)) from None
@@ -163,6 +164,11 @@ def _fit(args: argparse.Namespace) -> int:
     print(format_report(surrogates.report))
     print(f"saved to {args.out}")
     return EXIT_OK
+
+
+def _fit_line(line: str) -> None:
+    """A fit's progress off a terminal: one line per step."""
+    print(f"surrogate fit: {line}", file=sys.stderr, flush=True)
 
 
 def _report(args: argparse.Namespace) -> int:

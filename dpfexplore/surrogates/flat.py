@@ -53,7 +53,7 @@ __all__ = [
     "KINDS",
     "DesignSurrogate",
     "StatusClassifier",
-    "design_columns",
+    "design_column_names",
 ]
 
 #: Regressor kinds, in the order reports list them.
@@ -69,7 +69,7 @@ GP_MAX_TRAIN = 500
 ArrayLike2D = NDArray | Sequence[Sequence[float]]
 
 
-def design_columns(n_units: int) -> list[str]:
+def design_column_names(n_units: int) -> list[str]:
     """Sweep-schema columns that describe a design of ``n_units`` units."""
     per_unit = [f"{name}_{k}" for name in PER_UNIT_FIELDS for k in range(1, n_units + 1)]
     return [*per_unit, *SHARED_FIELDS]
@@ -83,7 +83,7 @@ def _state_bits(requested: NDArray, n_units: int) -> NDArray:
 
 def _raw_features(frame: pd.DataFrame, n_units: int, use_state: bool) -> tuple[NDArray, list[str]]:
     """Design variables, isolated-dome features and (optionally) state bits of rows of one N."""
-    names = design_columns(n_units)
+    names = design_column_names(n_units)
     missing = [c for c in names if c not in frame.columns]
     if missing:
         raise ValueError(f"designs: missing column {missing[0]!r} (N = {n_units})")

@@ -31,7 +31,7 @@ __all__ = [
     "compute_chunk",
     "dataset_schema",
     "default_chunk_size",
-    "design_columns",
+    "design_column_values",
     "evaluate_chunk",
     "plan_chunks",
     "rows_per_design",
@@ -125,7 +125,7 @@ class SweepContext:
     root: str
 
 
-def design_columns(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
+def design_column_values(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
     """The design columns of a chunk's designs (one entry per design, not per row)."""
     n_units_list = spec.space.n_units
     offset = n_units_list.index(task.n_units) * spec.samples_per_n
@@ -155,7 +155,7 @@ def evaluate_chunk(
     if missing.size:  # the contract: every design keeps a row
         raise RuntimeError(f"evaluator returned no row for designs {missing[:5].tolist()} ...")
     columns: dict[str, object] = {}
-    for name, values in design_columns(spec, batch, task).items():
+    for name, values in design_column_values(spec, batch, task).items():
         if isinstance(values, list):
             columns[name] = [values[i] for i in index]
         else:

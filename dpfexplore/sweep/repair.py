@@ -39,7 +39,7 @@ import pyarrow.parquet as pq
 
 from ..model.version import MODEL_VERSION, package_versions
 from . import store
-from .chunks import ChunkTask, dataset_schema, default_chunk_size, design_columns, plan_chunks
+from .chunks import ChunkTask, dataset_schema, default_chunk_size, design_column_values, plan_chunks
 from .evaluation import Evaluator, StaticsEvaluator
 from .lock import sweep_lock
 from .sampling import sample_designs
@@ -154,7 +154,7 @@ def _matches_plan(spec: JobSpec, candidate: _Candidate, size: int) -> str | None
         return "does not hold one row or more for every design of its range"
     task = ChunkTask(ident["n_units"], index, start, stop)
     batch = sample_designs(spec, task.n_units, start, stop)
-    expected = design_columns(spec, batch, task)
+    expected = design_column_values(spec, batch, task)
     row = sample - start
     for name, values in expected.items():
         if isinstance(values, list):

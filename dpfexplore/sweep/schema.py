@@ -116,8 +116,7 @@ def design_fields(max_units: int) -> list[pa.Field]:
 
 
 def dataset_metadata(spec: JobSpec) -> dict[str, Any]:
-    """The dataset-level metadata: job spec, seed, fingerprint, constants set, model and package
-    versions."""
+    """The dataset-level metadata: job, seed, fingerprint, constants set, versions."""
     return {
         "format": FORMAT,
         "job": spec.to_dict(),

@@ -19,8 +19,14 @@ checks
 plotting
     Force and energy against apex travel by branch, deformed meridians.
 sweep
-    Many geometries (a grid or a Latin hypercube) on worker processes into the identification
-    table; resumable.
+    Many geometries (a grid or a Latin hypercube) on worker processes or a Dask cluster into
+    the identification table; resumable.
+compare_paper
+    The shell's spring constants (``identify``'s features fit) beside the paper's closed forms
+    over its box, and the extended constants set packaged as ``shell-extended``.
+solid_check, solid_mesh, solid_materials, solid_report
+    The independent cross-check: the dome as a 2-D axisymmetric solid with scikit-fem (the
+    ``crosscheck`` extra), its mesh, material laws and the comparison report.
 """
 
 from .path import ZeroForceState

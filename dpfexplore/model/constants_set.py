@@ -403,6 +403,22 @@ class ConstantsSet:
             "tip_dis": H * self.tip_ratio(pi1, pi3),
         }
 
+    def dome(self, E: float, H: float, t: float, r_b: float) -> tuple[float, float]:
+        """``(k_b, alpha)`` of one dome in plain Python floats (N/mm, --).
+
+        The arithmetic of the kernels (:func:`set_constants_form`) term by term, so the numbers
+        are theirs bit for bit; for checking one design without NumPy's per-call cost.
+        """
+        R = (H * H + r_b * r_b) / (2.0 * H)
+        pi1, pi3 = t / H, H / R
+        values = []
+        for form in (self.k_hat, self.alpha):
+            total = 0.0
+            for (p, q), c in zip(form.exponents, form.coefficients, strict=True):
+                total = total + _term(c, p, q, pi1, pi3)
+            values.append(total)
+        return E * (t * t) / R * values[0], values[1]
+
     def reach(
         self, H: ArrayLike, t: ArrayLike, r_b: ArrayLike, U_sep: ArrayLike, t_ch: ArrayLike
     ) -> NDArray:

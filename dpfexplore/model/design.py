@@ -32,8 +32,6 @@ from .constants_set import (
     DOMAIN_KEYS,
     ConstantsSet,
     load_constants_set,
-    power_tables,
-    set_constants_form,
 )
 from .domain import MAX_UNITS, active_units, fitted_range, outside_domain, unit_in_domain
 from .formatting import num as _num
@@ -191,23 +189,21 @@ def constants_status(k_b, alpha):
     return st.INVALID_CONSTANTS
 
 
-def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, forms):
+def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, constants: ConstantsSet):
     """Status code of one design under the rules of :func:`_problems` (without the message).
 
-    Scalar code shared with the kernel that packs batches (:func:`geometry_status` and
-    :func:`constants_status`, compiled there): :class:`Design` runs it at a few microseconds
-    per unit where the vectorised :func:`_problems` costs hundreds for any batch size; the
-    tests hold the two to the same codes. ``H``, ``U_L``, ``U_sep`` are sequences of at least
-    ``n_units`` values; ``forms`` is the constants set's
-    :meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`.
+    The rules of the kernel that packs batches (:func:`geometry_status` and
+    :func:`constants_status`, compiled there), run here in plain Python with the set's own
+    arithmetic (:meth:`~dpfexplore.model.constants_set.ConstantsSet.dome`):
+    :class:`Design` checks itself at tens of microseconds where the vectorised
+    :func:`_problems` costs hundreds for any batch size; the tests hold the two to the same
+    codes. ``H``, ``U_L``, ``U_sep`` are sequences of at least ``n_units`` values.
     """
     code = geometry_status(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch)
     if code != st.OK:
         return code
-    powers = power_tables()
     for k in range(n_units):
-        k_b, alpha, _ = set_constants_form(forms, E, H[k], t, r_b, powers)
-        code = constants_status(k_b, alpha)
+        code = constants_status(*constants.dome(float(E), float(H[k]), float(t), float(r_b)))
         if code != st.OK:
             return code
     return st.OK
@@ -339,8 +335,7 @@ class Design:
         for name in SHARED_FIELDS:
             object.__setattr__(self, name, _number(name, getattr(self, name)))
         shared = (getattr(self, name) for name in SHARED_FIELDS)
-        forms = self.constants.kernel_forms()
-        if status_code(n_units, self.H, self.U_L, self.U_sep, *shared, forms) != st.OK:
+        if status_code(n_units, self.H, self.U_L, self.U_sep, *shared, self.constants) != st.OK:
             _, message = DesignBatch.from_designs([self]).problems()
             raise ValueError(message[0])
 

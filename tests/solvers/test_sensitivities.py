@@ -241,7 +241,7 @@ def test_compiled_tables_and_status_equal_the_numpy_model_exactly(seed):
             batch.U_L[i],
             batch.U_sep[i],
             *(float(v[i]) for v in shared),
-            batch.constants.kernel_forms(),
+            batch.constants,
         )
         for i in range(len(batch))
     ]

@@ -1,7 +1,7 @@
 """Closed forms over many domes, two ways: the paper's compiled forms and a constants set.
 
 Used by ``dpfexplore bench identify`` to put the cost of evaluating a set's constants (the
-general path every kernel table takes, :func:`dpfexplore.model.constants_set.set_constants_form`)
+general path every kernel table takes, :func:`dpfexplore.model.closed_form.set_constants_form`)
 side by side with the paper's forms compiled as plain arithmetic
 (:mod:`dpfexplore.model.constants`), on the same domes, and to measure how far apart their
 numbers are.
@@ -9,8 +9,8 @@ numbers are.
 
 from __future__ import annotations
 
+from ..model.closed_form import power_tables, set_constants_form
 from ..model.constants import alpha_form, kb_form, radius_form, reach_raw_form
-from ..model.constants_set import power_tables, set_constants_form
 from ._jit import kernel
 
 

@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from ..model import status as st
+from ..model.closed_form import power_tables, set_constant_partials, set_constants_form
 from ..model.constants import (
     ALPHA_BISTABLE,
     NO_CONTACT_REACH,
@@ -33,7 +34,6 @@ from ..model.constants import (
     k_t_form,
     segment_height_form,
 )
-from ..model.constants_set import power_tables, set_constant_partials, set_constants_form
 from ..model.design import constants_status, geometry_status
 from ..model.domain import MAX_UNITS
 from ._jit import kernel

@@ -8,7 +8,12 @@ design
 domain
     Limits of the design domain shared with the kernels (``MAX_UNITS``).
 constants
-    Closed-form spring constants and isolated-dome analysis (MODEL.md §3-§4).
+    The paper's closed-form spring constants and isolated-dome analysis (MODEL.md §3-§4).
+closed_form, constants_set
+    Closed forms in ``π1 = t/H``, ``π3 = H/R`` as data, and the constants sets every
+    computation runs on (the paper's by default; their domain, fingerprint, files).
+materials, limits, files, formatting
+    Material presets; front-end limits; atomic files; number formatting for output.
 pressure
     Piecewise-linear pressure profiles (MODEL.md §8).
 gripper

@@ -54,7 +54,7 @@ from ..model.domain import MAX_UNITS
 from ..model.version import MODEL_VERSION
 from ..sweep.datasets import DatasetInfo, dataset_info
 from ..sweep.row_filter import parse_filter
-from ..sweep.space import parse_job
+from ..sweep.space import recorded_space
 from ..sweep.store import read_results, read_schema
 from .index import DEFAULT_COLUMNS, LookupIndex, StaleIndexError, mask_of
 from .polish import REFINABLE_COLUMNS, Refinement, variables_for
@@ -431,7 +431,7 @@ def _polish(
     source: _Source, designs, states, target, index: LookupIndex, polish: PolishOptions
 ) -> list[Refinement]:
     """Each candidate polished with the exact model inside the job's box and the constraints."""
-    space = parse_job(source.info.job).space
+    space = recorded_space(source.info.job)
     out = []
     for design, state in zip(designs, states, strict=True):
         variables = variables_for(space, design, polish.constraints)

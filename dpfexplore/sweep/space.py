@@ -83,6 +83,7 @@ __all__ = [
     "Variable",
     "load_job",
     "parse_job",
+    "recorded_space",
 ]
 
 #: Variables with one value per unit (MODEL.md §2).
@@ -483,6 +484,20 @@ def parse_job(
         constants=constants,
         constants_file=constants_file,
     )
+
+
+def recorded_space(job: Mapping[str, Any]) -> DesignSpace:
+    """The design space of a job recorded with a dataset (:meth:`JobSpec.to_dict`).
+
+    Only the space is read: the job's constants set file (which may have moved since) is not
+    needed to know where the designs were sampled.
+
+    Raises
+    ------
+    JobSpecError
+        When the recorded space does not validate (naming the key).
+    """
+    return _parse_space(_v.table(job, "space"))
 
 
 def _parse_space(space: Mapping[str, Any]) -> DesignSpace:

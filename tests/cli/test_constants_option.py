@@ -170,6 +170,17 @@ def test_a_sweep_records_its_set_and_refuses_another_on_resume(capsys, sets, tmp
         capsys, ["lookup", str(out), "--target", "40,30", "--json", "--write", str(written)]
     )
     assert code in (0, 1) and found["candidates"]
+    # the job's set file moved away: the dataset names it, and a --constants with the same set
+    # (checked by fingerprint) stands in for it
+    moved = sets["other"].rename(tmp_path / "elsewhere.json")
+    refused(capsys, ["lookup", str(out), "--target", "40,30"], "pass --constants FILE")
+    code, again = run_json(
+        capsys, ["lookup", str(out), "--target", "40,30", "--json", "--constants", str(moved)]
+    )
+    assert code in (0, 1) and again["candidates"] == found["candidates"]
+    from dpfexplore.sweep.space import recorded_space
+
+    assert recorded_space(dataset_info(out).job).n_units == (2,)
     # the written designs read back under the set they were verified with
     first = load_design(written / "candidate-01.toml")
     assert first.constants == other_set()

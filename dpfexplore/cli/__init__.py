@@ -15,7 +15,7 @@ What every command gets from :func:`main`:
   resume);
 * a reader that goes away (``dpfexplore query DIR --json | head``, ``design ... 2>&1 | head
   -1``) or a closed stream (``2>&-``) never changes what a command computes, writes or
-  returns: output that cannot be written is dropped (:class:`~._output.TolerantStream`).
+  returns: output that cannot be written is dropped (:class:`~.support.output.TolerantStream`).
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from ._help import ArgumentParser
-from ._output import (
+from .support.help import ArgumentParser
+from .support.output import (
     SafeStreamHandler,
     TolerantStream,
     UsageError,

@@ -19,8 +19,8 @@ import time
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import add_constants_option
-from ._output import json_text
+from .support.inputs import add_constants_option
+from .support.output import json_text
 
 
 def register(subparsers) -> None:
@@ -159,7 +159,7 @@ def _print_summary(spec, rows, outcome, out: Path) -> None:
     counts = ", ".join(f"{k} {v}" for k, v in outcome.evaluator.counts.items() if v)
     print(f"design {spec.name} ({spec.kind}): {len(rows)} result(s) in {out}")
     if spec.kind in ("pickplace", "walker_leg"):
-        from ._timing_output import print_timing_summary
+        from .support.timing_output import print_timing_summary
 
         print_timing_summary(spec, rows)
         print(

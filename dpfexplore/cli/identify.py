@@ -17,8 +17,8 @@ import dataclasses
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
-from ._inputs import design_argument, saved_path
-from ._output import announce_compilation, json_text
+from .support.inputs import design_argument, saved_path
+from .support.output import announce_compilation, json_text
 
 CONSTANTS = Path("results") / "constants"
 

@@ -12,8 +12,8 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import add_constants_option, constants_argument
-from ._output import FIGURE_SUFFIXES, json_text, output_path
+from .support.inputs import add_constants_option, constants_argument
+from .support.output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:

@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._output import announce_compilation
+from .support.output import announce_compilation
 
 
 def register(subparsers) -> None:

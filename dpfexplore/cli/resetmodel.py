@@ -9,7 +9,7 @@ from itertools import pairwise
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
-from ._output import announce_compilation, json_text, output_path
+from .support.output import announce_compilation, json_text, output_path
 
 
 def register(subparsers) -> None:

@@ -7,14 +7,14 @@ import math
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import (
+from .support.inputs import (
     add_constants_option,
     constants_argument,
     constants_line,
     constants_record,
     design_argument,
 )
-from ._output import (
+from .support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
     fitted_range_line,

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import add_constants_option, constants_argument, with_constants
-from ._output import FIGURE_SUFFIXES, json_text, output_path
+from .support.inputs import add_constants_option, constants_argument, with_constants
+from .support.output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:

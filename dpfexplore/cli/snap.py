@@ -7,14 +7,14 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._inputs import (
+from .support.inputs import (
     add_constants_option,
     constants_argument,
     constants_line,
     constants_record,
     design_argument,
 )
-from ._output import FIGURE_SUFFIXES, json_text, output_path
+from .support.output import FIGURE_SUFFIXES, json_text, output_path
 
 
 def register(subparsers) -> None:

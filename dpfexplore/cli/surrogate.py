@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
-from ._inputs import add_constants_option, constants_argument, saved_path
-from ._output import json_text
+from .support.inputs import add_constants_option, constants_argument, saved_path
+from .support.output import json_text
 
 #: Where ``surrogate report|predict NAME`` looks for a bare name.
 SURROGATES = Path("results") / "surrogates"

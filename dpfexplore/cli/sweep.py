@@ -23,8 +23,8 @@ from pathlib import Path
 
 from ..sweep.progress import LogProgress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
-from ._inputs import add_constants_option, constants_argument, constants_line, with_constants
-from ._output import FIGURE_SUFFIXES, output_path
+from .support.inputs import add_constants_option, constants_argument, constants_line, with_constants
+from .support.output import FIGURE_SUFFIXES, output_path
 
 
 def register(subparsers) -> None:

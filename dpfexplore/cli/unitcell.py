@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from ._output import FIGURE_SUFFIXES, json_text, output_path
+from .support.output import FIGURE_SUFFIXES, json_text, output_path
 
 _TABLE_SUFFIXES = (".csv", ".parquet")
 

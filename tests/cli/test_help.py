@@ -8,7 +8,7 @@ import re
 import pytest
 
 from dpfexplore.cli import build_parser
-from dpfexplore.cli._help import plain_text
+from dpfexplore.cli.support.help import plain_text
 
 
 def parsers(parser=None, path=("dpfexplore",)):

@@ -392,7 +392,7 @@ def test_bench_design_timing_rows(capsys, tmp_path, monkeypatch):
 
 
 def test_walker_table_names_units_that_never_invert(capsys):
-    from dpfexplore.cli._timing_output import _walker
+    from dpfexplore.cli.support.timing_output import _walker
 
     unit = {
         "section": "purple",
@@ -423,7 +423,7 @@ def test_walker_table_names_units_that_never_invert(capsys):
 
 
 def test_walker_turning_line_names_the_run_it_speaks_of(capsys):
-    from dpfexplore.cli._timing_output import _walker
+    from dpfexplore.cli.support.timing_output import _walker
 
     row = {
         "leg": "front",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._output import UsageError
+from .output import UsageError
 
 __all__ = [
     "add_constants_option",
@@ -38,7 +38,7 @@ def constants_argument(text: str | None):
     """
     if text is None:
         return None
-    from ..model.constants_set import ConstantsSetError, find_constants_set
+    from ...model.constants_set import ConstantsSetError, find_constants_set
 
     try:
         return find_constants_set(text)
@@ -58,7 +58,7 @@ def with_constants(current, given, what: str):
     UsageError
         When both name a set and the sets differ (naming both).
     """
-    from ..model.constants_set import DEFAULT
+    from ...model.constants_set import DEFAULT
 
     if given is None or given == current:
         return current
@@ -77,7 +77,7 @@ def constants_record(constants) -> dict:
 
 def constants_line(constants) -> str | None:
     """The text outputs' line naming a set other than the paper's (None for the paper's)."""
-    from ..model.constants_set import DEFAULT
+    from ...model.constants_set import DEFAULT
 
     return None if constants == DEFAULT else f"constants set {constants.label}"
 
@@ -95,8 +95,8 @@ def design_argument(text: str, constants=None):
         If it names neither, or the file is not a valid design (naming file and key), or the
         file and ``constants`` name different sets.
     """
-    from ..examples import NAMES, example_path
-    from ..model.design import load_design
+    from ...examples import NAMES, example_path
+    from ...model.design import load_design
 
     path = Path(text)
     if not path.exists() and text in NAMES:

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from ..model.formatting import json_text  # noqa: F401  (re-exported for the commands)
+from ...model.formatting import json_text  # noqa: F401  (re-exported for the commands)
 
 
 class UsageError(Exception):
@@ -103,6 +103,7 @@ class SafeStreamHandler(logging.StreamHandler):
     """Logging to stderr that drops records once stderr is closed (a broken pipe)."""
 
     def handleError(self, record: logging.LogRecord) -> None:
+        """Drop the record when stderr is gone; report anything else as logging does."""
         exc = sys.exc_info()[1]
         if isinstance(exc, (BrokenPipeError, OSError, ValueError)):
             discard("stderr")
@@ -157,7 +158,7 @@ def output_path(path: str | Path, option: str, *, suffixes: tuple[str, ...] = ()
 
 def announce_compilation(command: str, groups: list[str]) -> None:
     """Say in one line that ``command`` compiles kernels first (nothing when they are cached)."""
-    from ..solvers.compilation import compile_notice
+    from ...solvers.compilation import compile_notice
 
     notice = compile_notice(groups)
     if notice:

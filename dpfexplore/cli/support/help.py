@@ -90,6 +90,7 @@ class ArgumentParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
     def add_argument(self, *args, **kwargs):
+        """As argparse's, with the help text made plain (no reStructuredText markup)."""
         if isinstance(kwargs.get("help"), str):
             kwargs["help"] = plain_text(kwargs["help"])
         return super().add_argument(*args, **kwargs)

@@ -31,7 +31,11 @@ def run() -> None:
         sys.exit(130)
     finally:
         signal.signal(signal.SIGINT, previous)
-    sys.exit(main())
+    code = main()
+    # The command has finished and said what it had to: a Ctrl-C while the interpreter shuts
+    # down would otherwise end the process by SIGINT with nothing said, whatever the command did.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(code)
 
 
 if __name__ == "__main__":

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +14,34 @@ import pytest
 from dpfexplore.model.design import Design
 
 REFERENCE = Path(__file__).parent / "data" / "reference"
+
+#: The process compiling kernel groups ahead of the tests that need them (``compile_ahead.py``).
+_COMPILE_AHEAD: subprocess.Popen | None = None
+
+
+def pytest_sessionstart(session):
+    """On a cold Numba cache, compile the late groups in a second process (``compile_ahead.py``).
+
+    Off with ``DPFEXPLORE_NO_COMPILE_AHEAD=1``; a warm cache starts nothing.
+    """
+    global _COMPILE_AHEAD
+    if os.environ.get("DPFEXPLORE_NO_COMPILE_AHEAD"):
+        return
+    from dpfexplore.solvers.compilation import KERNEL_GROUPS, uncompiled
+
+    if uncompiled(KERNEL_GROUPS):
+        _COMPILE_AHEAD = subprocess.Popen(
+            [sys.executable, str(Path(__file__).with_name("compile_ahead.py"))],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if _COMPILE_AHEAD is not None and _COMPILE_AHEAD.poll() is None:
+        _COMPILE_AHEAD.kill()
+        _COMPILE_AHEAD.wait()
+
 
 GRIPPER = dict(
     H=[3.8187, 4.1549, 4.5246, 4.8239, 2.5], U_L=8.5773, U_sep=1.8232, t=0.8326, t_lim=1.056, E=26.0

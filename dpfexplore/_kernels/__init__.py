@@ -11,6 +11,11 @@ process through its importable class. The Python callers build them with scalars
 so one record type is one compiled signature; a kernel unpacks a record by name or position at
 its top, and the ``prange`` entry points and their serial twins take the same records.
 
+Integer and boolean constants passed from one kernel to another are ``np.int64`` values (module
+constants such as ``RISING``, ``MAX_ITER``), never Python literals: Numba types a literal argument
+as ``Literal[int](value)`` and compiles the callee once more for each literal value it meets, so
+``follow(..., 1, ...)`` and ``follow(..., -1, ...)`` would be two compilations of the same code.
+
 Modules
 -------
 _jit

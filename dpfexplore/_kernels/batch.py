@@ -94,7 +94,7 @@ def solve_rows_serial(designs, rows, controls, outputs):
     an idle machine to milliseconds on a loaded one: more than a few designs' solves. Same
     arguments and results as :func:`solve_rows`.
     """
-    _solve_rows(designs, rows, 0, rows.design.shape[0], controls, outputs)
+    _solve_rows(designs, rows, np.int64(0), rows.design.shape[0], controls, outputs)
 
 
 @kernel

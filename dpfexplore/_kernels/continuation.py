@@ -69,8 +69,8 @@ MARGIN_TOL = 1e-11
 END_TOL = 1e-10
 
 #: Event functions of :func:`locate` besides a unit's margin (unit index ``k >= 0``).
-WHICH_FOLD = -1
-WHICH_END = -2
+WHICH_FOLD = np.int64(-1)  # int64, not literals: see the package docstring
+WHICH_END = np.int64(-2)
 
 
 @kernel

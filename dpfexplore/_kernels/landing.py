@@ -59,7 +59,7 @@ JUMP_MIN = 0.1
 #: Newton polish: residual tolerance (N), iterations (near an equilibrium it converges in a
 #: few; mid-snap it should give up early), largest move per iteration (mm).
 POLISH_FTOL = 1e-9
-POLISH_ITER = 10
+POLISH_ITER = np.int64(10)  # int64, not a literal: see the package docstring
 POLISH_MOVE = 0.5
 #: Stability margin required of the eigenvalue certificate, relative to the largest rate.
 STABLE_RTOL = 1e-10

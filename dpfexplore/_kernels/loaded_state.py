@@ -62,7 +62,7 @@ HOLD_PENALTY = 10.0
 #: released equilibrium the dynamics start from, iteration cap per solve, largest move (mm).
 FTOL_ROUNDS = 1e-5
 FTOL = 1e-7
-MAX_ITER = 100
+MAX_ITER = np.int64(100)  # int64, not a literal: see the package docstring
 MAX_MOVE = 100.0
 #: Snapped-dome rounds before giving up (each round adds at least one dome: N + 1 suffice).
 MAX_ROUNDS = 13

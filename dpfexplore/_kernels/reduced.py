@@ -49,6 +49,9 @@ from .records import Lattice, MotionModel, RunRecord
 #: Position tolerance (mm) of the loading phase: loose, because only the inversion pattern and
 #: the snap-through times (to ~1e-3 s) are taken from it; the Newton solve fixes the state.
 LOADING_ATOL = 1e-2
+#: Newton iteration cap of the equilibrium at the end of the hold (int64, not a literal: see
+#: the package docstring).
+HOLD_MAX_ITER = np.int64(50)
 
 
 @kernel
@@ -96,7 +99,7 @@ def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
     steps = stats[STAT_STEPS]
     # The state at the end of a long hold: the loaded equilibrium, polished from where the
     # loose loading left the finger (so its inversion pattern is the dynamics').
-    code = loaded_equilibrium(y[:n], unit_params, h, knot_p[2], 1e-9, 50, 0.5)
+    code = loaded_equilibrium(y[:n], unit_params, h, knot_p[2], 1e-9, HOLD_MAX_ITER, 0.5)
     if code != st.OK:
         return code
     code = rodas4(y, tau3, t_end, model, ctrl, RunRecord(t_out, x_out, rec, log, stats))

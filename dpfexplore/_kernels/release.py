@@ -98,7 +98,7 @@ ERROR_ORDER = 3.0
 #: minimum matters, not its last digits.
 CHECK_GTOL = 1e-4
 CHECK_XTOL = 1e-4
-CHECK_MAX_ITER = 60
+CHECK_MAX_ITER = np.int64(60)  # int64, not a literal: see the package docstring
 CHECK_MAX_STEP = 0.5
 
 _FAC_MAX = 5.0

@@ -80,7 +80,7 @@ def solve_rows_sensitivities(designs, rows, controls, outputs, derivatives, sens
 def solve_rows_sensitivities_serial(designs, rows, controls, outputs, derivatives, sens_rows):
     """:func:`solve_rows_sensitivities` on the calling thread (small batches)."""
     n_rows = rows.design.shape[0]
-    _sensitivity_rows(designs, rows, 0, n_rows, controls, outputs, derivatives, sens_rows)
+    _sensitivity_rows(designs, rows, np.int64(0), n_rows, controls, outputs, derivatives, sens_rows)
 
 
 @kernel

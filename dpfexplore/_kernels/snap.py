@@ -97,6 +97,11 @@ from .snap_steps import (
     trial_step,
 )
 
+#: The ``sign`` of :func:`follow`: pressure rising or falling along the path (int64, not
+#: literals: see the package docstring).
+RISING = np.int64(1)
+FALLING = np.int64(-1)
+
 __all__ = [
     "CNT_EVENTS",
     "CNT_LANDING_STEPS",
@@ -189,7 +194,7 @@ def follow(lattice, x_start, p_start, p_end, sign, landing, out):
         return code
     margins(s.y0[:n], unit_params, s.g0)
     label = state_of(s.g0, n_units)
-    segment = 0
+    segment = np.int64(0)  # int64, not a literal: see the package docstring
     record_path(s.y0, segment, label, unit_params, h, s.gp, path, counts)
     if sign * (s.y0[n] - p_end_s) >= 0.0:
         for i in range(n):
@@ -318,7 +323,7 @@ def snap_batch(lattice, valid, ramp, landing, out):
             y[:nf],
             0.0,
             p_max,
-            1,
+            RISING,
             walk_landing,
             WalkOutputs(events[i], ev_x, path, counts, x_final),
         )
@@ -373,7 +378,7 @@ def release_walks(lattice, rising, p_min, landing, out):
             p_entry = ev[j - 1, EV_P]
             for i in range(nf):
                 x_entry[i] = ev_x[j - 1, 1, i]
-        code = follow(lattice, x_entry, p_entry, p_min, -1, landing, walk)
+        code = follow(lattice, x_entry, p_entry, p_min, FALLING, landing, walk)
         release_status[j] = code
         margins(x_final, unit_params, g)
         release_state[j] = state_of(g, n_units) if code == st.OK else -1

@@ -61,7 +61,7 @@ _EXPORTS = {
     "load_design": ".model.design",
     "load_job": ".sweep.space",
     "load_leg": ".solvers.legs.leg",
-    "read_results": ".sweep.store",
+    "read_results": ".sweep.storage.store",
     "reset_times_batch": ".solvers.dynamics.simulate",
     "run_sweep": ".sweep.driver",
     "sequential_states": ".solvers.statics",

@@ -405,7 +405,7 @@ def _ratio(a, b):
 
 
 def _designs_in(path: str) -> int:
-    from ..sweep.datasets import dataset_info
+    from ..sweep.storage.datasets import dataset_info
 
     return int(dataset_info(path).designs_committed)
 

@@ -284,8 +284,8 @@ def _refinement(args, index, spec, designs, tips) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and print (and optionally save) its record."""
-    from ..sweep.datasets import dataset_info
     from ..sweep.space import parse_job
+    from ..sweep.storage.datasets import dataset_info
 
     _ensure_dataset(args)
     info = dataset_info(args.dataset)

@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     from ..inverse.report import public
     from ..inverse.scenes.timing_spec import with_target_reset
     from ..inverse.spec import SceneSpecError, with_seeds
-    from ..sweep.result_dirs import ResultError, check_output_dir
+    from ..sweep.storage.result_dirs import ResultError, check_output_dir
 
     try:
         spec = load_scene(args.scene)

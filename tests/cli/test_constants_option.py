@@ -18,7 +18,7 @@ from dpfexplore.model.constants_set import DEFAULT
 from dpfexplore.model.design import DesignBatch, load_design
 from dpfexplore.solvers.dynamics.reset_model import load_reset_model
 from dpfexplore.surrogates.store import SurrogateLoadError, check_compatible
-from dpfexplore.sweep.datasets import dataset_info
+from dpfexplore.sweep.storage.datasets import dataset_info
 
 ROOT = Path(__file__).parents[2]
 GRIPPER = ROOT / "dpfexplore" / "examples" / "gripper.toml"

@@ -447,9 +447,9 @@ def test_reset_model_bad_input_exits_2(capsys, argv, message):
 def test_sweep_fast_option_stores_the_models_values(tmp_path):
     from sweep_helpers import make_job
 
-    from dpfexplore.sweep import store
     from dpfexplore.sweep.driver import run_sweep
     from dpfexplore.sweep.sampling import sample_designs
+    from dpfexplore.sweep.storage import store
 
     load = {
         "P0": 0.7,

@@ -59,7 +59,7 @@ _EXPORTS = {
     "find_state": ".solvers.statics",
     "inversion_pressure": ".solvers.snap.continuation",
     "load_design": ".model.design",
-    "load_job": ".sweep.space",
+    "load_job": ".sweep.job_file",
     "load_leg": ".solvers.legs.leg",
     "read_results": ".sweep.storage.store",
     "reset_times_batch": ".solvers.dynamics.simulate",

@@ -181,7 +181,7 @@ class _LineProgress(LogProgress):
 def _sweep(args: argparse.Namespace) -> int:
     from ..sweep.driver import SweepInterrupted, run_sweep
     from ..sweep.engines import make_engine
-    from ..sweep.space import JobSpecError, load_job
+    from ..sweep.job_file import JobSpecError, load_job
     from ..sweep.storage.store import StoreError
 
     try:

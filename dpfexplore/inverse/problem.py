@@ -15,7 +15,7 @@ activated state only. The base angle and length of the gripper do not change the
 they cost no solve: their derivatives are analytic (MODEL.md §7 transform).
 
 The interface (:class:`Problem`) is what :mod:`dpfexplore.inverse.engine.optimiser` uses, so a new
-scene kind adds a problem class here and a parser in :mod:`dpfexplore.inverse.spec`.
+scene kind adds a problem class here and a parser in :mod:`dpfexplore.inverse.scene_file`.
 """
 
 from __future__ import annotations

@@ -52,7 +52,7 @@ from ..model.constants_set import ConstantsSet
 from ..model.design import DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.version import MODEL_VERSION
-from ..sweep.space import recorded_space
+from ..sweep.job_file import recorded_space
 from ..sweep.storage.datasets import DatasetInfo, dataset_info
 from ..sweep.storage.row_filter import parse_filter
 from ..sweep.storage.store import read_results, read_schema

@@ -2,8 +2,11 @@
 
 Modules
 -------
-space, _jobfile
-    Job specs (TOML) and their validation.
+space
+    What a job is: the design space, what is computed, the validated :class:`~.space.JobSpec`.
+job_file, job_fields
+    Job files (TOML): the format, read and validated into a job spec; the field validators
+    (shared with scene files).
 sampling
     Latin-hypercube plans per ``N`` (scipy.stats.qmc), generated chunk by chunk.
 evaluation

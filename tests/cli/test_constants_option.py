@@ -178,7 +178,7 @@ def test_a_sweep_records_its_set_and_refuses_another_on_resume(capsys, sets, tmp
         capsys, ["lookup", str(out), "--target", "40,30", "--json", "--constants", str(moved)]
     )
     assert code in (0, 1) and again["candidates"] == found["candidates"]
-    from dpfexplore.sweep.space import recorded_space
+    from dpfexplore.sweep.job_file import recorded_space
 
     assert recorded_space(dataset_info(out).job).n_units == (2,)
     # the written designs read back under the set they were verified with

@@ -16,7 +16,7 @@ import pytest
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.space import load_job
+from dpfexplore.sweep.job_file import load_job
 from dpfexplore.sweep.storage import store
 
 # 3 x 8 chunks of 50 designs, sequential states: tens of milliseconds per chunk, a few seconds

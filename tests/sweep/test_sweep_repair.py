@@ -14,7 +14,7 @@ from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.space import load_job
+from dpfexplore.sweep.job_file import load_job
 from dpfexplore.sweep.storage import store
 
 KEY = ["design_id", "requested"]

@@ -35,6 +35,18 @@ from ...report import json_times, write_summary
 __all__ = ["pickplace_report", "write_timing_report"]
 
 
+#: The fields of a result row without a design: nothing was found to verify.
+UNREACHED = {
+    "reachable": False,
+    "design": None,
+    "reset_times": None,
+    "stiffness": None,
+    "objective": None,
+    "fitted_range": None,
+    "fitted_range_note": None,
+}
+
+
 def design_flags(design: Design) -> dict[str, Any]:
     """``design``, ``n_units``, ``fitted_range`` and its note."""
     return {
@@ -96,17 +108,9 @@ def pickplace_report(spec, result: TargetResult, evaluator: SceneEvaluator) -> d
         row["target_units"] = extra["units"]
     if best is None:
         row.update(
-            {
-                "reachable": False,
-                "design": None,
-                "reset_times": None,
-                "stiffness": None,
-                "objective": None,
-                "fitted_range": None,
-                "fitted_range_note": None,
-                "proof": "no admissible design of the screening grid brackets the target "
-                "and none is near it",
-            }
+            UNREACHED,
+            proof="no admissible design of the screening grid brackets the target and none is "
+            "near it",
         )
         return {**row, **common}
     design, check = best["design"], best["check"]
@@ -192,18 +196,7 @@ def _difference_row(spec, extra: dict, evaluator: SceneEvaluator) -> dict[str, A
         "max_reset": d.max_reset,
     }
     if best is None:
-        row.update(
-            {
-                "reachable": False,
-                "design": None,
-                "reset_times": None,
-                "stiffness": None,
-                "objective": None,
-                "fitted_range": None,
-                "fitted_range_note": None,
-                "front": [],
-            }
-        )
+        row.update(UNREACHED, front=[])
         return row
     main = entry(best)
     row.update(

@@ -82,6 +82,9 @@ class Problem:
     target_index: int
     #: Solves, records and remembers (best point seen, archives): a problem holds no run state.
     evaluator: SceneEvaluator
+    #: Whether the history records :attr:`Evaluation.objective`; False where the solves are
+    #: statics serving an objective computed elsewhere (recorded as NaN).
+    records_objective: bool = True
 
     @property
     def n_units(self) -> int:
@@ -119,7 +122,7 @@ class Problem:
             batch,
             target=self.target_index,
             purpose=purpose,
-            objective=ev.objective,
+            objective=ev.objective if self.records_objective else np.nan,
             stiffness=ev.stiffness,
             **columns,
         )

@@ -1,36 +1,42 @@
 """dpfexplore: a Numba-accelerated design-space explorer for multistable Dome Phalanx Fingers.
 
 The model is the spring lattice of Osorio et al., "Embodying Control in Soft Multistable Grippers
-from Morphofunctional Co-design", as specified in MODEL.md. The package reads like its pipeline,
-each stage importing only the ones before it:
+from Morphofunctional Co-design", as specified in MODEL.md. The packages form a pipeline, listed
+here in its order; each imports only the ones before it:
 
 numerics
-    NumPy building blocks with no model knowledge (the one central-difference routine).
+    NumPy building blocks with no model knowledge (the one central-difference routine, the one
+    local refiner).
 model
     Designs and their validation, closed-form spring constants and constants sets, pressure
     profiles, status codes.
 _kernels
-    Numba only: energy/gradient/Hessian, Newton, state search, batch entry points, dynamics.
+    Numba only: energy/gradient/Hessian, Newton, state search, batch entry points, dynamics,
+    snap continuation, the unit-cell shell.
 solvers
-    :func:`find_state`, :func:`solve_batch`, :func:`simulate`, :func:`reset_times_batch`: the
-    Python API over the kernels (MODEL.md §6-§8).
+    :func:`find_state`, :func:`solve_batch`, :func:`simulate`, :func:`reset_times_batch`,
+    :func:`snap_pressures`, legs: the Python API over the kernels (MODEL.md §6-§10).
 plotting
     ``plot_*(..., ax=None) -> Axes``; imports only model and solvers.
 sweep
     Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines;
-    what a dataset holds; design variables as a map of the unit box.
+    design variables as a map of the unit box; ``sweep.storage``, the on-disk side (schema,
+    commits, verified reads, locks, result directories).
 lookup
     Nearest designs of a dataset for target outputs, polished and verified by the exact model.
 surrogates
     Learned models of the exact model with their measured errors; the fast reset model's training.
-inverse
-    Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
-    scene kind.
 identification
     From unit-cell curves to spring constants: per-curve fits, closed forms selected by grouped
     RFECV, saved as constants sets.
-cli, bench
-    The ``dpfexplore`` command and its benchmarks.
+unitcell
+    One dome unit's curve from its geometry and material (the shell model), the data source of
+    identification.
+inverse
+    Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
+    scene kind.
+bench, cli
+    The benchmarks and the ``dpfexplore`` command, on top of everything.
 
 Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 """
@@ -59,9 +65,9 @@ _EXPORTS = {
     "find_state": ".solvers.statics",
     "inversion_pressure": ".solvers.snap.continuation",
     "load_design": ".model.design",
-    "load_job": ".sweep.space",
+    "load_job": ".sweep.job_file",
     "load_leg": ".solvers.legs.leg",
-    "read_results": ".sweep.store",
+    "read_results": ".sweep.storage.store",
     "reset_times_batch": ".solvers.dynamics.simulate",
     "run_sweep": ".sweep.driver",
     "sequential_states": ".solvers.statics",

@@ -20,8 +20,8 @@ import pyarrow as pa
 from dpfexplore._kernels import layout as lay
 from dpfexplore.model import status as st
 from dpfexplore.solvers.lattice import pack_batch
-from dpfexplore.sweep.space import parse_job
-from dpfexplore.sweep.store import STATUS_TYPE, column
+from dpfexplore.sweep.job_file import parse_job
+from dpfexplore.sweep.storage.store import STATUS_TYPE, column
 
 # Dask workers cannot import this module from the tests directory; ship it by value.
 cloudpickle.register_pickle_by_value(sys.modules[__name__])

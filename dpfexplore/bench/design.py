@@ -225,7 +225,7 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     mine = _summary(ours, paper, np.inf, np.inf)
     methods = {"ours": mine}
     if not args.no_seeded:
-        from ..inverse.spec import with_seeds
+        from ..inverse.scene_file import with_seeds
 
         seeded_spec = with_seeds(spec, seed_dataset(spec, args.seed_datasets))
         seeded = SceneEvaluator(max(spec.n_units))  # its clock starts here: after the one-off open
@@ -265,7 +265,7 @@ def seed_dataset(spec, made: dict[str, dict]) -> str:
         wall = None
         if not (out / "_manifest.json").is_file():
             from ..sweep.driver import run_sweep
-            from ..sweep.space import load_job
+            from ..sweep.job_file import load_job
 
             begin = time.perf_counter()
             run_sweep(load_job(job), out)
@@ -405,7 +405,7 @@ def _ratio(a, b):
 
 
 def _designs_in(path: str) -> int:
-    from ..sweep.datasets import dataset_info
+    from ..sweep.storage.datasets import dataset_info
 
     return int(dataset_info(path).designs_committed)
 

@@ -89,7 +89,7 @@ def register(subparsers) -> None:
 
 def _ensure_dataset(args) -> None:
     from ..sweep.driver import run_sweep
-    from ..sweep.space import load_job
+    from ..sweep.job_file import load_job
 
     if (args.dataset / "_manifest.json").exists():
         return
@@ -284,8 +284,8 @@ def _refinement(args, index, spec, designs, tips) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and print (and optionally save) its record."""
-    from ..sweep.datasets import dataset_info
-    from ..sweep.space import parse_job
+    from ..sweep.job_file import parse_job
+    from ..sweep.storage.datasets import dataset_info
 
     _ensure_dataset(args)
     info = dataset_info(args.dataset)

@@ -92,7 +92,7 @@ def _dataset(args: argparse.Namespace, tmp: Path) -> tuple[Path, dict[str, Any]]
     if args.dataset is not None:
         return args.dataset, {"source": str(args.dataset)}
     from ..sweep.driver import run_sweep
-    from ..sweep.space import load_job
+    from ..sweep.job_file import load_job
 
     spec = load_job(JOBS / "surrogate-training.toml")
     if args.samples_per_n is not None:

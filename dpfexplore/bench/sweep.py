@@ -171,8 +171,8 @@ def _max_difference(a, b) -> float:
 
 def _paper_job(args, tmp: Path) -> dict:
     from ..sweep.engines import LocalEngine
-    from ..sweep.space import load_job
-    from ..sweep.store import read_results
+    from ..sweep.job_file import load_job
+    from ..sweep.storage.store import read_results
 
     spec = load_job(args.jobs_dir / "paper-design-space.toml")
     walls, chunk_phase, rss = [], [], []
@@ -239,7 +239,7 @@ def _one_at_a_time(spec, frame, designs_per_n: int) -> dict:
 
 def _dask_job(args, spec, frame, tmp: Path) -> dict:
     from ..sweep.engines import DaskEngine
-    from ..sweep.store import read_results
+    from ..sweep.storage.store import read_results
 
     engine = DaskEngine(n_workers=args.workers)
     summary, peak = _run_job(spec, tmp / "dask", engine)
@@ -265,7 +265,7 @@ def _dask_job(args, spec, frame, tmp: Path) -> dict:
 
 def _overnight(args, tmp: Path) -> dict:
     from ..sweep.engines import LocalEngine
-    from ..sweep.space import load_job
+    from ..sweep.job_file import load_job
 
     full = load_job(args.jobs_dir / "overnight.toml")
     spec = dataclasses.replace(full, samples_per_n=args.overnight_designs, chunk_size=None)

@@ -1,6 +1,6 @@
 """``dpfexplore design SCENE.toml [--out DIR] [--json] [--plot]``: inverse design of a scene.
 
-Solves every target of a scene file (format in :mod:`dpfexplore.inverse.spec`), verifies
+Solves every target of a scene file (format in :mod:`dpfexplore.inverse.scene_file`), verifies
 each reported design by the exact model, prints a summary (or ``--json``) and writes the report
 to ``DIR`` (default ``results/<scene name>``): ``summary.json``, ``history.parquet``, one design
 TOML per target (``dpfexplore states`` reads it back) and, with ``--plot``, figures.
@@ -103,9 +103,10 @@ def run(args: argparse.Namespace) -> int:
     from ..inverse.design import run_design
     from ..inverse.kinds import load_scene, with_constants_file
     from ..inverse.report import public
+    from ..inverse.scene_file import with_seeds
     from ..inverse.scenes.timing_spec import with_target_reset
-    from ..inverse.spec import SceneSpecError, with_seeds
-    from ..sweep.result_dirs import ResultError, check_output_dir
+    from ..inverse.spec_fields import SceneSpecError
+    from ..sweep.storage.result_dirs import ResultError, check_output_dir
 
     try:
         spec = load_scene(args.scene)

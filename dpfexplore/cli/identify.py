@@ -105,7 +105,7 @@ def _fit(args: argparse.Namespace) -> int:
     from ..identification.identify import identify
     from ..identification.report import _report, save_identification
     from ..model.constants_set import ConstantsSetError
-    from ..sweep.result_dirs import ResultError, check_output_dir
+    from ..sweep.storage.result_dirs import ResultError, check_output_dir
 
     try:
         check_output_dir(args.out, force=args.force)

@@ -114,8 +114,8 @@ def run(args: argparse.Namespace) -> int:
     from ..lookup.index import StaleIndexError
     from ..lookup.polish import parse_constraints
     from ..lookup.query import lookup, parse_n_units
-    from ..sweep.result_dirs import ResultError, check_output_dir
-    from ..sweep.store import StoreError
+    from ..sweep.storage.result_dirs import ResultError, check_output_dir
+    from ..sweep.storage.store import StoreError
 
     try:  # output paths before the work
         if args.write:

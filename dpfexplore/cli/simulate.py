@@ -7,13 +7,7 @@ import math
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import (
-    add_constants_option,
-    constants_argument,
-    constants_line,
-    constants_record,
-    design_argument,
-)
+from .support.inputs import add_constants_option, design_of, model_record, print_constants_line
 from .support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
@@ -102,7 +96,7 @@ def run(args) -> int:
     if args.method != "fast" and (args.max_rel_halfwidth is not None or args.reset_model):
         raise UsageError("--max-rel-halfwidth and --reset-model need --method fast")
     try:
-        design = design_argument(args.design, constants_argument(args.constants))
+        design = design_of(args)
         profile = _profile(args)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -124,16 +118,12 @@ def run(args) -> int:
         result = simulate(design, profile, t_end=args.t_end, method=args.method, atol=args.atol)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    summary = result.to_dict()
+    summary = {**result.to_dict(), **model_record(design)}
     note = design.fitted_range_note
-    summary["fitted_range"] = note is None
-    summary["fitted_range_note"] = note
-    summary["constants"] = constants_record(design.constants)
     if args.json:
         print(json_text(summary))
     else:
-        if constants_line(design.constants):
-            print(constants_line(design.constants))
+        print_constants_line(design.constants)
         print(
             f"design {design.name or args.design}: {design.n_units} units, method "
             f"{result.method}, status {result.status.label}"

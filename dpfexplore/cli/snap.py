@@ -7,13 +7,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import (
-    add_constants_option,
-    constants_argument,
-    constants_line,
-    constants_record,
-    design_argument,
-)
+from .support.inputs import add_constants_option, constants_record, design_of, print_constants_line
 from .support.output import FIGURE_SUFFIXES, json_text, output_path
 
 
@@ -74,7 +68,7 @@ def run(args) -> int:
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
-        design = design_argument(args.design, constants_argument(args.constants))
+        design = design_of(args)
         seq = snap_pressures(
             design,
             P_max=args.P_max,
@@ -93,8 +87,7 @@ def run(args) -> int:
     if args.json:
         print(json_text({**seq.to_dict(), "constants": constants_record(design.constants)}))
     else:
-        if constants_line(design.constants):
-            print(constants_line(design.constants))
+        print_constants_line(design.constants)
         _print_table(seq, design, args.design)
     if plot is not None:
         _save_plot(seq, plot)

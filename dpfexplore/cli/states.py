@@ -7,13 +7,7 @@ import math
 import sys
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import (
-    add_constants_option,
-    constants_argument,
-    constants_line,
-    constants_record,
-    design_argument,
-)
+from .support.inputs import add_constants_option, design_of, model_record, print_constants_line
 from .support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
@@ -68,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from ..solvers.statics import enumerate_states
 
     try:
-        design = design_argument(args.design, constants_argument(args.constants))
+        design = design_of(args)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
@@ -92,19 +86,12 @@ def run(args: argparse.Namespace) -> int:
         rows.append(row)
     note = design.fitted_range_note
     if args.json:
-        document = {
-            "design": design.to_dict(),
-            "fitted_range": note is None,
-            "fitted_range_note": note,
-            "constants": constants_record(design.constants),
-            "states": rows,
-        }
+        document = {"design": design.to_dict(), **model_record(design), "states": rows}
         sys.stdout.write(json_text(document))
         print()
     else:
         _print_table(rows, design.n_units, bool(args.gripper))
-        if constants_line(design.constants):
-            print(constants_line(design.constants))
+        print_constants_line(design.constants)
         if note is not None:
             print(fitted_range_line(note))
     if plot is not None:

@@ -123,8 +123,8 @@ def _fit(args: argparse.Namespace) -> int:
     from ..surrogates.fit import fit_surrogates
     from ..surrogates.report import format_report, report_figures
     from ..surrogates.store import save_surrogates
-    from ..sweep.result_dirs import ResultError, check_output_dir
-    from ..sweep.store import StoreError
+    from ..sweep.storage.result_dirs import ResultError, check_output_dir
+    from ..sweep.storage.store import StoreError
 
     try:  # before the fit: refusing after minutes of work helps nobody
         check_output_dir(args.out, force=args.force)
@@ -186,7 +186,7 @@ def _report(args: argparse.Namespace) -> int:
 def _read_designs(path: Path):
     import pandas as pd
 
-    from ..sweep.store import StoreError, read_results
+    from ..sweep.storage.store import StoreError, read_results
 
     if (path / "_manifest.json").is_file():
         try:

@@ -5,7 +5,7 @@
   ``results/<job name>``), with a progress bar on a terminal and log lines otherwise. Rerun on
   a complete directory of the same job, it prints the summary and computes nothing.
 * ``query DIR --where "n_units == 5 and stiffness > 0.1" [--columns ...] [--csv FILE | --json]
-  [--no-verify]`` selects committed rows with a filter (:mod:`dpfexplore.sweep.row_filter`).
+  [--no-verify]`` selects committed rows with a filter (:mod:`dpfexplore.sweep.storage.row_filter`).
 * ``plot-space DIR [--out FILE]`` draws the paper's design-space maps (Fig. S design space).
 
 Exit codes: 0 done, 1 some chunks failed (``--resume`` retries them), 2 bad input or a
@@ -181,8 +181,8 @@ class _LineProgress(LogProgress):
 def _sweep(args: argparse.Namespace) -> int:
     from ..sweep.driver import SweepInterrupted, run_sweep
     from ..sweep.engines import make_engine
-    from ..sweep.space import JobSpecError, load_job
-    from ..sweep.store import StoreError
+    from ..sweep.job_file import JobSpecError, load_job
+    from ..sweep.storage.store import StoreError
 
     try:
         spec = load_job(args.job)
@@ -258,7 +258,7 @@ def _sweep(args: argparse.Namespace) -> int:
 
 def _repair(args: argparse.Namespace, spec, out: Path) -> None:
     from ..sweep.repair import repair_sweep
-    from ..sweep.store import StoreError
+    from ..sweep.storage.store import StoreError
 
     try:
         report = repair_sweep(spec, out, chunk_size=args.chunk_size)
@@ -280,7 +280,7 @@ def _repair(args: argparse.Namespace, spec, out: Path) -> None:
 
 
 def _query(args: argparse.Namespace) -> int:
-    from ..sweep.store import StoreError, read_results
+    from ..sweep.storage.store import StoreError, read_results
 
     columns = None
     if args.columns:
@@ -318,7 +318,7 @@ def _plot_space(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from ..plotting.space import SPACE_COLUMNS, plot_design_space
-    from ..sweep.store import StoreError, read_results, read_schema
+    from ..sweep.storage.store import StoreError, read_results, read_schema
 
     try:
         if not args.dir.is_dir():

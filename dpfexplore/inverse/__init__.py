@@ -3,8 +3,11 @@
 kinds
     :data:`~.kinds.SCENE_KINDS`: one record per scene kind (tables, parser, solver, report,
     writer), and :func:`load_scene` / :func:`parse_scene`.
-spec, spec_fields
-    Scene files (TOML): targets, variables, objective, budget; the field readers they share.
+spec
+    What a scene is: targets, variables, material, objective, budget, as records.
+scene_file, spec_fields
+    Scene files (TOML): the format of the shape kinds, read and validated into a scene spec; the
+    field readers every scene format shares.
     Design variables (:class:`~dpfexplore.sweep.variables.DesignVariables`) come from the sweep
     stage, which lookup shares.
 evaluation
@@ -24,7 +27,8 @@ design
 from ..sweep.variables import DesignVariables
 from .design import design_scene, run_design
 from .kinds import load_scene, parse_scene
-from .spec import SceneSpec, SceneSpecError
+from .spec import SceneSpec
+from .spec_fields import SceneSpecError
 
 __all__ = [
     "DesignVariables",

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
-from ..sweep.result_dirs import check_output_dir, result_directory
+from ..sweep.storage.result_dirs import check_output_dir, result_directory
 from .evaluation import SceneEvaluator
 from .kinds import SCENE_KINDS
 from .spec import SceneSpec
@@ -95,10 +95,11 @@ def run_design(
 ) -> DesignOutcome:
     """Solve a scene and write its report to the result directory ``out``.
 
-    ``out`` is checked before the solve (:func:`~dpfexplore.sweep.result_dirs.check_output_dir`:
-    a directory holding another result needs ``force``) and written complete or not at all
-    (:func:`~dpfexplore.sweep.result_dirs.result_directory`): files of an earlier run are never
-    mixed with this one's.
+    ``out`` is checked before the solve
+    (:func:`~dpfexplore.sweep.storage.result_dirs.check_output_dir`: a directory holding another
+    result needs ``force``) and written complete or not at all
+    (:func:`~dpfexplore.sweep.storage.result_dirs.result_directory`): files of an earlier run are
+    never mixed with this one's.
     """
     check_output_dir(out, force=force)
     outcome = design_scene(spec, progress=progress)

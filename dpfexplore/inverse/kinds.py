@@ -23,6 +23,7 @@ from ..model.design import resolve_constants
 from .engine.optimiser import TargetResult, solve_position_target
 from .evaluation import SceneEvaluator
 from .report import gripper_report, position_report, write_report
+from .scene_file import build_spec, parse_gripper, parse_position, read_scene_file
 from .scenes.gripper.solve import solve_gripper
 from .scenes.pickplace.report import pickplace_report, write_timing_report
 from .scenes.pickplace.solve import solve_pickplace
@@ -30,7 +31,7 @@ from .scenes.pickplace.spec import parse_pickplace
 from .scenes.walker.report import walker_report, write_walker_report
 from .scenes.walker.solve import solve_walker
 from .scenes.walker.spec import parse_walker
-from .spec import SceneSpec, build_spec, parse_gripper, parse_position, read_scene_file
+from .spec import SceneSpec
 from .spec_fields import SceneSpecError, _keys, _table
 
 __all__ = ["SCENE_KINDS", "SceneKind", "load_scene", "parse_scene"]

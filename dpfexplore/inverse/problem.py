@@ -15,7 +15,7 @@ activated state only. The base angle and length of the gripper do not change the
 they cost no solve: their derivatives are analytic (MODEL.md §7 transform).
 
 The interface (:class:`Problem`) is what :mod:`dpfexplore.inverse.engine.optimiser` uses, so a new
-scene kind adds a problem class here and a parser in :mod:`dpfexplore.inverse.spec`.
+scene kind adds a problem class here and a parser in :mod:`dpfexplore.inverse.scene_file`.
 """
 
 from __future__ import annotations
@@ -82,6 +82,9 @@ class Problem:
     target_index: int
     #: Solves, records and remembers (best point seen, archives): a problem holds no run state.
     evaluator: SceneEvaluator
+    #: Whether the history records :attr:`Evaluation.objective`; False where the solves are
+    #: statics serving an objective computed elsewhere (recorded as NaN).
+    records_objective: bool = True
 
     @property
     def n_units(self) -> int:
@@ -119,7 +122,7 @@ class Problem:
             batch,
             target=self.target_index,
             purpose=purpose,
-            objective=ev.objective,
+            objective=ev.objective if self.records_objective else np.nan,
             stiffness=ev.stiffness,
             **columns,
         )

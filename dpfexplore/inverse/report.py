@@ -20,7 +20,8 @@ Files (:func:`write_report`)
 
 The writers fill the directory they are given; ``dpfexplore design`` gives them a staging
 directory that replaces ``--out`` whole once everything is written
-(:func:`dpfexplore.sweep.result_dirs.result_directory`, manifest ``.dpfexplore-result.json``).
+(:func:`dpfexplore.sweep.storage.result_dirs.result_directory`, manifest
+``.dpfexplore-result.json``).
 """
 
 from __future__ import annotations
@@ -341,8 +342,8 @@ def write_report(
 
     Writes into ``out`` as it stands (a file of an earlier run there would stay):
     :func:`dpfexplore.inverse.design.run_design` passes the staging directory of
-    :func:`dpfexplore.sweep.result_dirs.result_directory`, so ``dpfexplore design --out DIR``
-    is complete or absent and holds only this run's files.
+    :func:`dpfexplore.sweep.storage.result_dirs.result_directory`, so ``dpfexplore design --out
+    DIR`` is complete or absent and holds only this run's files.
     """
     out = Path(out)
     history = evaluator.history()

@@ -1,6 +1,6 @@
 """Field parsers shared by the scene formats: one-line errors naming the key.
 
-:mod:`.spec` (position and gripper scenes) and :mod:`.scenes.timing_spec` (pick-and-place and
+:mod:`.scene_file` (position and gripper scenes) and :mod:`.scenes.timing_spec` (pick-and-place and
 walker scenes) read their tables with these; keeping them apart from both lets the scene-kind
 table (:mod:`.kinds`) import every format without an import cycle. The names keep their leading
 underscore: they are the scene readers' shared internals, not a public API.
@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..sweep._jobfile import JobSpecError, check_keys
+from ..sweep.job_fields import JobSpecError, check_keys
 
 __all__ = ["SceneSpecError"]
 

@@ -1,7 +1,7 @@
 """Lookup: from target outputs to verified designs of a sweep dataset.
 
 A stage of its own between the sweep and inverse design: it reads a dataset
-(:mod:`dpfexplore.sweep.datasets`), indexes its outputs, answers nearest-design queries and
+(:mod:`dpfexplore.sweep.storage.datasets`), indexes its outputs, answers nearest-design queries and
 polishes candidates with the exact model. The optimiser's seeded candidates come from here.
 
 Modules

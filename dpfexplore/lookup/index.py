@@ -40,8 +40,8 @@ from scipy.spatial import cKDTree
 
 from ..model import status as st
 from ..model.formatting import nums
-from ..sweep.datasets import DatasetInfo, dataset_info
-from ..sweep.store import read_schema
+from ..sweep.storage.datasets import DatasetInfo, dataset_info
+from ..sweep.storage.store import read_schema
 
 __all__ = [
     "DEFAULT_COLUMNS",

@@ -287,9 +287,7 @@ def _central_differences(
 ) -> tuple[NDArray, NDArray | None, int]:
     """:func:`_model_outputs` with derivatives by central differences of the solver.
 
-    Stiffness is always computed: it needs the Hessian factored at the returned shape, which
-    fails next to a fold; the verification of a reported design asks for it, so a design
-    accepted here passes there.
+    Stiffness is always computed, for the reason given there.
     """
     if not derivatives:
         cols = solve_batch(batch, [state], stiffness=True, min_eig=False)

@@ -52,10 +52,10 @@ from ..model.constants_set import ConstantsSet
 from ..model.design import DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.version import MODEL_VERSION
-from ..sweep.datasets import DatasetInfo, dataset_info
-from ..sweep.row_filter import parse_filter
-from ..sweep.space import recorded_space
-from ..sweep.store import read_results, read_schema
+from ..sweep.job_file import recorded_space
+from ..sweep.storage.datasets import DatasetInfo, dataset_info
+from ..sweep.storage.row_filter import parse_filter
+from ..sweep.storage.store import read_results, read_schema
 from .index import DEFAULT_COLUMNS, LookupIndex, StaleIndexError, mask_of
 from .polish import REFINABLE_COLUMNS, Refinement, variables_for
 from .polish import refine as refine_design
@@ -209,7 +209,8 @@ def lookup(
         manifest's SHA-256 (the default; ``False`` reads only the needed columns).
     constants : ConstantsSet, optional
         The constants set the candidates are re-solved under; it must be the dataset's
-        (:meth:`~dpfexplore.sweep.datasets.DatasetInfo.constants_set`), which is the default.
+        (:meth:`~dpfexplore.sweep.storage.datasets.DatasetInfo.constants_set`), which is the
+        default.
 
     Raises
     ------

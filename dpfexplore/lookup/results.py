@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from ..model.design import Design
 from ..model.formatting import json_number
 from ..solvers.statics import OUTPUT_COLUMNS
-from ..sweep.datasets import DatasetInfo
+from ..sweep.storage.datasets import DatasetInfo
 from .index import LookupIndex
 from .polish import Refinement
 from .store import IndexOrigin

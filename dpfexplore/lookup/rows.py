@@ -20,8 +20,8 @@ from ..model.constants_set import ConstantsSet
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..solvers.statics import solve_batch, state_string
-from ..sweep.datasets import DatasetInfo, dataset_info
-from ..sweep.store import read_schema
+from ..sweep.storage.datasets import DatasetInfo, dataset_info
+from ..sweep.storage.store import read_schema
 from .index import LookupIndex, StaleIndexError
 from .results import REREAD, REREAD_UNVERIFIED, RESOLVED, RESOLVED_COLUMNS, Candidate
 

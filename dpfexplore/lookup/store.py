@@ -12,7 +12,8 @@ What the file records (format :data:`INDEX_FORMAT`)
     * ``chunks``: for each chunk the rows were read from, its path (relative, inside the
       dataset) and its SHA-256 and size as the manifest listed them *when the chunk was read
       and checked against them*;
-    * the dataset checksum (:func:`~dpfexplore.sweep.datasets.dataset_checksum`) at build time.
+    * the dataset checksum (:func:`~dpfexplore.sweep.storage.datasets.dataset_checksum`) at build
+      time.
 
 Only an index built from verified reads is saved: one built with ``verify=False`` (``lookup
 --no-verify``) serves its run from memory and is never written, so a damaged chunk read
@@ -65,7 +66,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..model.domain import MAX_UNITS
 from ..model.files import atomic_writer
-from ..sweep.datasets import DatasetInfo, dataset_info
+from ..sweep.storage.datasets import DatasetInfo, dataset_info
 from .index import (
     DEFAULT_COLUMNS,
     ChunkSource,

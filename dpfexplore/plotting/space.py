@@ -7,7 +7,7 @@ Its figure file is not in the paper's source, so the panels here are our reading
 distribution of curvature and tip stiffness per N (violins with the points over them).
 
 Every function takes the rows of a sweep dataset (a :class:`pandas.DataFrame` from
-:func:`dpfexplore.sweep.store.read_results`), keeps the converged all-inverted rows
+:func:`dpfexplore.sweep.storage.store.read_results`), keeps the converged all-inverted rows
 (:func:`all_inverted_rows`), and draws on a given or new Axes; no file I/O, no ``plt.show()``.
 """
 

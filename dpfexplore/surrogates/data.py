@@ -25,8 +25,8 @@ from numpy.typing import NDArray
 from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import PER_UNIT_FIELDS, SHARED_FIELDS, DesignBatch
 from ..model.domain import MAX_UNITS
-from ..sweep.datasets import dataset_info
-from ..sweep.store import StoreError, read_manifest, read_results, read_schema
+from ..sweep.storage.datasets import dataset_info
+from ..sweep.storage.store import StoreError, read_manifest, read_results, read_schema
 
 __all__ = [
     "TrainingData",
@@ -79,7 +79,7 @@ def dataset_fingerprint(root: str | Path) -> dict[str, object]:
 
     Raises
     ------
-    dpfexplore.sweep.store.StoreError
+    dpfexplore.sweep.storage.store.StoreError
         If ``root`` is not a sweep directory.
     """
     manifest = read_manifest(root)
@@ -138,7 +138,7 @@ def load_training_data(
     """Read the design columns and ``outputs`` of a sweep dataset (only those columns).
 
     ``constants`` (a user's ``--constants``) must be the dataset's own set; the data carry that
-    set either way (:meth:`~dpfexplore.sweep.datasets.DatasetInfo.constants_set`).
+    set either way (:meth:`~dpfexplore.sweep.storage.datasets.DatasetInfo.constants_set`).
 
     Raises
     ------

@@ -192,21 +192,35 @@ def fit_surrogates(
 
     shown = fit_progress(progress)
     try:
+        kinds, classifier_kinds = _checked_kinds(kinds, classifier_kind)
+        options = _FitOptions(
+            kinds=kinds,
+            classifier_kinds=classifier_kinds,
+            per_n=per_n,
+            test_fraction=test_fraction,
+            max_train_designs=max_train_designs,
+            seed=seed,
+            params=dict(params or {}),
+            timing=timing,
+        )
         with threadpool_limits(limits=threads):
-            return _fit_surrogates(
-                data,
-                kinds,
-                classifier_kind,
-                per_n,
-                test_fraction,
-                max_train_designs,
-                seed,
-                params,
-                timing,
-                shown,
-            )
+            return _fit_surrogates(data, options, shown)
     finally:
         shown.close()
+
+
+@dataclass(frozen=True)
+class _FitOptions:
+    """The checked choices of one :func:`fit_surrogates` call (its parameters of those names)."""
+
+    kinds: list[str]
+    classifier_kinds: list[str]
+    per_n: bool
+    test_fraction: float
+    max_train_designs: int | None
+    seed: int
+    params: dict[str, Any]
+    timing: bool
 
 
 def _make_regressor(
@@ -390,36 +404,31 @@ def _speed(
     return speed
 
 
-def _fit_surrogates(
-    data,
-    kinds,
-    classifier_kind,
-    per_n,
-    test_fraction,
-    max_train_designs,
-    seed,
-    params,
-    timing,
-    progress: FitProgress,
-) -> SurrogateSet:
-    kinds, classifier_kinds = _checked_kinds(kinds, classifier_kind)
-    params = dict(params or {})
+def _fit_surrogates(data, options: _FitOptions, progress: FitProgress) -> SurrogateSet:
     frame, outputs = data.frame, list(data.outputs)
-    split = _split(data, test_fraction, seed, max_train_designs)
-    progress.start(len(classifier_kinds) + len(kinds) + 1 + int(bool(timing)))
+    split = _split(data, options.test_fraction, options.seed, options.max_train_designs)
+    progress.start(
+        len(options.classifier_kinds) + len(options.kinds) + 1 + int(bool(options.timing))
+    )
     progress.note(
         f"split by design: {split.n_designs['train']} training designs "
         f"({int(split.train.sum())} rows, {len(split.train_ok)} ok), "
         f"{split.n_designs['test']} held out ({int(split.test.sum())} rows)"
     )
     classifiers, classifier_records, classifier_seconds = _fit_classifiers(
-        frame, split, classifier_kinds, per_n, seed, params, progress
+        frame,
+        split,
+        options.classifier_kinds,
+        options.per_n,
+        options.seed,
+        options.params,
+        progress,
     )
     # Ties go to the first kind given.
-    best_classifier = max(classifier_kinds, key=lambda k: classifier_records[k]["accuracy"])
+    best_classifier = max(options.classifier_kinds, key=lambda k: classifier_records[k]["accuracy"])
     classifier = classifiers[best_classifier]
     regressors, fit_seconds, error_tables = _fit_regressors(
-        split, kinds, outputs, per_n, seed, params, progress
+        split, options.kinds, outputs, options.per_n, options.seed, options.params, progress
     )
 
     progress.begin("exact model on the held-out designs")
@@ -436,9 +445,9 @@ def _fit_surrogates(
     headline = _headline(outputs)
     pooled = errors[(errors["output"] == headline) & (errors["n_units"] == "all")]
     pooled = pooled.set_index("model")
-    best = min(kinds, key=lambda k: pooled.loc[k, "p95"])
+    best = min(options.kinds, key=lambda k: pooled.loc[k, "p95"])
     speed = []
-    if timing:
+    if options.timing:
         progress.begin("timing on one thread")
         speed = _speed(
             regressors,
@@ -464,23 +473,23 @@ def _fit_surrogates(
         },
         "split": {
             "by": "design_id",
-            "test_fraction": test_fraction,
-            "seed": seed,
-            "max_train_designs": max_train_designs,
+            "test_fraction": options.test_fraction,
+            "seed": options.seed,
+            "max_train_designs": options.max_train_designs,
             "train_designs": split.n_designs["train"],
             "test_designs": split.n_designs["test"],
             "train_rows_ok": len(split.train_ok),
             "test_rows_ok": len(split.test_ok),
         },
-        "per_n": per_n,
-        "kinds": kinds,
+        "per_n": options.per_n,
+        "kinds": options.kinds,
         "best": best,
         "errors": errors.to_dict(orient="records"),
         "classifier": {
             **classifier_records[best_classifier],
             "exact_model_agreement": exact_status_agreement,
         },
-        "classifiers": [classifier_records[k] for k in classifier_kinds],
+        "classifiers": [classifier_records[k] for k in options.classifier_kinds],
         "fit_seconds": {
             **fit_seconds,
             "classifier": classifier_seconds[best_classifier],

@@ -121,8 +121,8 @@ def save_surrogates(
 
     ``figures`` maps file names (``speed_error.png``) to matplotlib figures drawn by the caller
     (:func:`dpfexplore.surrogates.report.report_figures`): the store writes, it does not draw.
-    Written complete or not at all (:func:`~dpfexplore.sweep.result_dirs.result_directory`): a
-    kill or a full disk mid-save leaves the previous surrogate whole; a directory that holds
+    Written complete or not at all (:func:`~dpfexplore.sweep.storage.result_dirs.result_directory`):
+    a kill or a full disk mid-save leaves the previous surrogate whole; a directory that holds
     another result is replaced only with ``force``.
 
     Returns
@@ -130,7 +130,7 @@ def save_surrogates(
     Path
         The directory.
     """
-    from ..sweep.result_dirs import result_directory
+    from ..sweep.storage.result_dirs import result_directory
 
     final = Path(path)
     description = {"outputs": list(surrogates.outputs), "best": surrogates.best}
@@ -196,7 +196,7 @@ _META_TYPES: dict[str, type | tuple[type, ...]] = {
 
 
 def _read_meta(path: Path) -> dict[str, Any]:
-    from ..sweep.result_dirs import ResultError, read_result_marker, verify_result_dir
+    from ..sweep.storage.result_dirs import ResultError, read_result_marker, verify_result_dir
 
     if not path.is_dir():
         raise SurrogateLoadError(f"{path}: no saved surrogate (not a directory)")

@@ -2,14 +2,15 @@
 
 Modules
 -------
-space, _jobfile
-    Job specs (TOML) and their validation.
+space
+    What a job is: the design space, what is computed, the validated :class:`~.space.JobSpec`.
+job_file, job_fields
+    Job files (TOML): the format, read and validated into a job spec; the field validators
+    (shared with scene files).
 sampling
     Latin-hypercube plans per ``N`` (scipy.stats.qmc), generated chunk by chunk.
 evaluation
     What a job computes for a batch of designs (statics, reset times) as columns.
-store
-    Parquet schema, chunk files, the manifest and reads of committed chunks.
 chunks
     The plan of chunks and what a worker does with one.
 warmup
@@ -18,9 +19,14 @@ engines
     Where chunks run: this process or Dask workers.
 driver
     :func:`~.driver.run_sweep`: the whole job, resumable.
-datasets
-    What a sweep directory holds now: committed chunks, content checksum, verified reads.
+repair
+    Rebuilding a lost manifest from the chunks that verify.
+progress
+    The progress protocol and the log lines of a running sweep.
 variables
     :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
     box (shared by lookup's polish and inverse design).
+storage
+    The on-disk side: dataset schema, chunk files and manifest, row filters, locks, what a sweep
+    directory holds, result directories of the other commands.
 """

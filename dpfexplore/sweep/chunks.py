@@ -2,9 +2,10 @@
 
 A chunk is ``[start, stop)`` of the sample plan of one number of units ``N``
 (:class:`ChunkTask`). :func:`run_chunk` samples its designs, evaluates them through the batch
-kernels and writes one Parquet file, returning its :class:`~dpfexplore.sweep.store.ChunkRecord`;
-it never touches the manifest. The engines (:mod:`dpfexplore.sweep.engines`) run it here or on
-Dask workers, and the driver (:mod:`dpfexplore.sweep.driver`) commits what they return.
+kernels and writes one Parquet file, returning its
+:class:`~dpfexplore.sweep.storage.store.ChunkRecord`; it never touches the manifest. The engines
+(:mod:`dpfexplore.sweep.engines`) run it here or on Dask workers, and the driver
+(:mod:`dpfexplore.sweep.driver`) commits what they return.
 """
 
 from __future__ import annotations
@@ -18,11 +19,11 @@ import numpy as np
 import pyarrow as pa
 
 from ..model.design import DesignBatch
-from . import store
 from .evaluation import Evaluator
 from .sampling import sample_designs
 from .space import PER_UNIT_VARIABLES, SHARED_VARIABLES, ComputeSpec, JobSpec
-from .store import ChunkRecord
+from .storage import store
+from .storage.store import ChunkRecord
 
 __all__ = [
     "ChunkFailure",

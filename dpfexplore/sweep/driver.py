@@ -3,10 +3,10 @@
 :func:`run_sweep` is the whole job: it checks the output directory, rebuilds the plan of chunks
 from the job, hands the chunks that are not committed yet to an engine
 (:mod:`dpfexplore.sweep.engines`: this process, or Dask workers), and commits each finished chunk in
-the manifest (:mod:`dpfexplore.sweep.store`). A chunk is ``[start, stop)`` of the sample plan of one
-number of units ``N``; the chunk evaluates its designs through the batch kernels
+the manifest (:mod:`dpfexplore.sweep.storage.store`). A chunk is ``[start, stop)`` of the sample
+plan of one number of units ``N``; the chunk evaluates its designs through the batch kernels
 (:func:`run_chunk`), writes one Parquet file, and returns its
-:class:`~dpfexplore.sweep.store.ChunkRecord`.
+:class:`~dpfexplore.sweep.storage.store.ChunkRecord`.
 
 Invariants (tested in ``tests/sweep/test_sweep*.py``)
     * Every design of the plan has at least one row, whatever its fate: an invalid design keeps
@@ -21,7 +21,7 @@ Invariants (tested in ``tests/sweep/test_sweep*.py``)
     * Peak memory is bounded by the chunk size: a chunk's designs and rows live only while it is
       evaluated and written; the driver keeps only chunk records.
     * One sweep at a time per directory: the whole call holds the directory's lock
-      (:mod:`dpfexplore.sweep.lock`); a second sweep into it refuses, naming the holder.
+      (:mod:`dpfexplore.sweep.storage.lock`); a second sweep into it refuses, naming the holder.
     * A rerun of a complete directory of the same job (without ``resume``) computes nothing and
       returns its summary; an incomplete one needs ``resume=True``.
     * Ctrl-C (``KeyboardInterrupt``) leaves every committed chunk committed and raises
@@ -41,7 +41,6 @@ import pyarrow as pa
 
 from ..model.constants_set import DEFAULT
 from ..model.version import MODEL_VERSION, package_versions
-from . import store
 from .chunks import (
     ChunkFailure,
     ChunkTask,
@@ -52,11 +51,12 @@ from .chunks import (
 )
 from .engines import Engine, LocalEngine
 from .evaluation import Evaluator, StaticsEvaluator
-from .lock import LOCK_NAME, LockHeld, sweep_lock
 from .progress import LogProgress, Progress
 from .progress import note as _note
 from .space import JobSpec
-from .store import ChunkRecord, Manifest, StoreError
+from .storage import store
+from .storage.lock import LOCK_NAME, LockHeld, sweep_lock
+from .storage.store import ChunkRecord, Manifest, StoreError
 
 __all__ = [
     "LockHeld",
@@ -333,7 +333,7 @@ def run_sweep(
     ------
     StoreError
         If ``out`` cannot be used (see :func:`check_output`; nothing is written then), or
-        :class:`~dpfexplore.sweep.lock.LockHeld` if another sweep holds it.
+        :class:`~dpfexplore.sweep.storage.lock.LockHeld` if another sweep holds it.
     SweepInterrupted
         On Ctrl-C (a ``KeyboardInterrupt``), after the sweep has stopped; every chunk
         committed before stays committed.

@@ -4,7 +4,7 @@
 
 An engine takes the sweep's :class:`~dpfexplore.sweep.chunks.SweepContext` and the chunks still
 to do, runs :func:`~dpfexplore.sweep.chunks.run_chunk` on each, and yields a
-:class:`~dpfexplore.sweep.store.ChunkRecord` per finished chunk (in completion order) or a
+:class:`~dpfexplore.sweep.storage.store.ChunkRecord` per finished chunk (in completion order) or a
 :class:`~dpfexplore.sweep.chunks.ChunkFailure` for a chunk that failed every attempt. The driver
 (:func:`~dpfexplore.sweep.driver.run_sweep`) commits what it receives; engines never touch the
 manifest.
@@ -62,7 +62,7 @@ from .chunks import (
     run_chunk,
     write_chunk_file,
 )
-from .store import ChunkRecord
+from .storage.store import ChunkRecord
 
 __all__ = ["DaskEngine", "Engine", "LocalEngine", "make_engine"]
 

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from ..model.design import DesignBatch
 from .space import ComputeSpec, PressureLoad
-from .store import STATUS_TYPE, column
+from .storage.store import STATUS_TYPE, column
 
 __all__ = ["Evaluator", "StaticsEvaluator", "state_labels"]
 

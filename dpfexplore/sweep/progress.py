@@ -11,7 +11,7 @@ import time
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
-    from .store import ChunkRecord
+    from .storage.store import ChunkRecord
 
 __all__ = ["LogProgress", "Progress", "note"]
 

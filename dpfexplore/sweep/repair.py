@@ -1,6 +1,6 @@
 """Rebuild a sweep directory's lost manifest from the chunk files that are provably intact.
 
-``_manifest.json`` is a sweep directory's commit record (:mod:`dpfexplore.sweep.store`):
+``_manifest.json`` is a sweep directory's commit record (:mod:`dpfexplore.sweep.storage.store`):
 without it, readers and ``--resume`` refuse the directory, and every chunk file in it would be
 recomputed. :func:`repair_sweep` (``dpfexplore sweep JOB --out DIR --repair``) writes a new
 manifest that commits exactly the chunk files it can verify against the job, and nothing else;
@@ -9,7 +9,7 @@ manifest that commits exactly the chunk files it can verify against the job, and
 1. it is readable Parquet at a path of the job's layout (``NXX/part-XXXXXX.parquet`` with an
    ``N`` of the job), carrying the identity every chunk is written with (``N``, chunk index,
    designs ``[start, stop)``, rows, a SHA-256 of its decoded contents:
-   :func:`~dpfexplore.sweep.store.table_digest`) that agrees with its path;
+   :func:`~dpfexplore.sweep.storage.store.table_digest`) that agrees with its path;
 2. it was written by this job and model version (the dataset metadata in the file: job
    fingerprint and ``model_version``) with this job's schema (every column, its type);
 3. its contents hash to that SHA-256: a value changed in place, even in a valid file, fails
@@ -38,13 +38,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..model.version import MODEL_VERSION, package_versions
-from . import store
 from .chunks import ChunkTask, dataset_schema, default_chunk_size, design_column_values, plan_chunks
 from .evaluation import Evaluator, StaticsEvaluator
-from .lock import sweep_lock
 from .sampling import sample_designs
 from .space import JobSpec
-from .store import ChunkRecord, Manifest, StoreError
+from .storage import store
+from .storage.lock import sweep_lock
+from .storage.store import ChunkRecord, Manifest, StoreError
 
 __all__ = ["RepairReport", "repair_sweep"]
 

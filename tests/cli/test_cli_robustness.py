@@ -19,7 +19,7 @@ from sweep_helpers import job_dict, toml_text
 from dpfexplore.cli import main
 from dpfexplore.examples import example_path
 from dpfexplore.model.design import DesignBatch
-from dpfexplore.sweep import store
+from dpfexplore.sweep.storage import store
 
 SMALL = {"job.name": "cli", "job.samples_per_n": 24, "compute.states": "sequential"}
 # The real command with every chunk slowed down, so that a signal lands mid-sweep.

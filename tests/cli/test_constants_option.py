@@ -18,7 +18,7 @@ from dpfexplore.model.constants_set import DEFAULT
 from dpfexplore.model.design import DesignBatch, load_design
 from dpfexplore.solvers.dynamics.reset_model import load_reset_model
 from dpfexplore.surrogates.store import SurrogateLoadError, check_compatible
-from dpfexplore.sweep.datasets import dataset_info
+from dpfexplore.sweep.storage.datasets import dataset_info
 
 ROOT = Path(__file__).parents[2]
 GRIPPER = ROOT / "dpfexplore" / "examples" / "gripper.toml"
@@ -178,7 +178,7 @@ def test_a_sweep_records_its_set_and_refuses_another_on_resume(capsys, sets, tmp
         capsys, ["lookup", str(out), "--target", "40,30", "--json", "--constants", str(moved)]
     )
     assert code in (0, 1) and again["candidates"] == found["candidates"]
-    from dpfexplore.sweep.space import recorded_space
+    from dpfexplore.sweep.job_file import recorded_space
 
     assert recorded_space(dataset_info(out).job).n_units == (2,)
     # the written designs read back under the set they were verified with

@@ -13,8 +13,8 @@ import pytest
 from sweep_helpers import make_job
 
 from dpfexplore.cli import main
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
+from dpfexplore.sweep.storage import store
 
 matplotlib.use("Agg")
 

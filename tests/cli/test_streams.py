@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from sweep_helpers import job_dict, toml_text
 
-from dpfexplore.sweep import store
+from dpfexplore.sweep.storage import store
 
 GRIPPER = Path(__file__).parents[2] / "dpfexplore" / "examples" / "gripper.toml"
 CLI = [sys.executable, "-m", "dpfexplore"]

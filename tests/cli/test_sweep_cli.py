@@ -15,7 +15,7 @@ import pytest
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
-from dpfexplore.sweep import store
+from dpfexplore.sweep.storage import store
 
 matplotlib.use("Agg")
 

@@ -10,7 +10,7 @@ import pytest
 from dpfexplore.cli import main
 from dpfexplore.identification.synthetic import synthetic_curves
 from dpfexplore.model.constants_set import DEFAULT, load_constants_set
-from dpfexplore.sweep.result_dirs import verify_result_dir
+from dpfexplore.sweep.storage.result_dirs import verify_result_dir
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,7 @@ from dpfexplore.inverse.design import design_scene
 from dpfexplore.inverse.evaluation import SceneEvaluator
 from dpfexplore.inverse.kinds import load_scene, parse_scene
 from dpfexplore.inverse.problem import GripperProblem, PositionProblem
-from dpfexplore.inverse.spec import SceneSpecError
+from dpfexplore.inverse.spec_fields import SceneSpecError
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.model.gripper import gripper_aperture
 from dpfexplore.solvers.lattice import lattice_params, spring_constants

@@ -23,7 +23,7 @@ from dpfexplore.inverse.scenes.pickplace.problem import ResetEval, line_brackets
 from dpfexplore.inverse.scenes.timing_spec import with_target_reset
 from dpfexplore.inverse.scenes.walker.report import inverted_intervals
 from dpfexplore.inverse.scenes.walker.solve import violation
-from dpfexplore.inverse.spec import SceneSpecError
+from dpfexplore.inverse.spec_fields import SceneSpecError
 from dpfexplore.solvers.dynamics.ramp import inversion_pressures
 from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
 

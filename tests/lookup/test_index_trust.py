@@ -23,8 +23,8 @@ from dpfexplore.lookup.store import (
     load_index,
     open_index,
 )
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
+from dpfexplore.sweep.storage import store
 
 TARGET = (30.0, 20.0)
 TIP = ("tip_x", "tip_y")

@@ -17,9 +17,9 @@ from dpfexplore.lookup import index as lookup_index
 from dpfexplore.lookup.index import StaleIndexError, build_index, mask_of
 from dpfexplore.lookup.query import lookup, parse_n_units
 from dpfexplore.lookup.store import index_path, load_index, open_index
-from dpfexplore.sweep import store
-from dpfexplore.sweep.datasets import dataset_info
 from dpfexplore.sweep.driver import run_sweep
+from dpfexplore.sweep.storage import store
+from dpfexplore.sweep.storage.datasets import dataset_info
 
 RNG = np.random.default_rng(20261201)
 

@@ -205,8 +205,8 @@ def test_the_collapsed_row_invariant_is_exercised():
 def test_sweep_rows_carry_the_flag_and_the_domain_status(tmp_path):
     from sweep_helpers import make_job
 
-    from dpfexplore.sweep import store
     from dpfexplore.sweep.driver import run_sweep
+    from dpfexplore.sweep.storage import store
 
     spec = make_job(**{"space.variables.H": {"min": 2.0, "max": 5.4}, "job.samples_per_n": 40})
     assert spec.fitted_range_note() == "H 2-5.4 mm (fitted 3-5 mm)"  # the sweep summary's note

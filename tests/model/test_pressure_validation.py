@@ -7,7 +7,7 @@ from sweep_helpers import job_dict
 
 from dpfexplore.cli import main
 from dpfexplore.model.pressure import MAX_PRESSURE, PressureProfile
-from dpfexplore.sweep.space import JobSpecError, parse_job
+from dpfexplore.sweep.job_file import JobSpecError, parse_job
 
 PULSE = {"tau": [0.0, 1.0, 5.0, 5.1], "t_end": 9.0}
 

@@ -447,9 +447,9 @@ def test_reset_model_bad_input_exits_2(capsys, argv, message):
 def test_sweep_fast_option_stores_the_models_values(tmp_path):
     from sweep_helpers import make_job
 
-    from dpfexplore.sweep import store
     from dpfexplore.sweep.driver import run_sweep
     from dpfexplore.sweep.sampling import sample_designs
+    from dpfexplore.sweep.storage import store
 
     load = {
         "P0": 0.7,
@@ -489,7 +489,7 @@ def test_sweep_fast_option_stores_the_models_values(tmp_path):
 def test_job_refuses_a_width_without_the_fast_method():
     from sweep_helpers import make_job
 
-    from dpfexplore.sweep.space import JobSpecError
+    from dpfexplore.sweep.job_file import JobSpecError
 
     load = {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0, "max_rel_halfwidth": 0.1}
     with pytest.raises(JobSpecError, match="max_rel_halfwidth"):

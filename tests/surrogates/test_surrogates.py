@@ -21,7 +21,7 @@ from dpfexplore.surrogates.data import (
 from dpfexplore.surrogates.fit import fit_surrogates
 from dpfexplore.surrogates.flat import DesignSurrogate, StatusClassifier
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.result_dirs import RESULT_MARKER
+from dpfexplore.sweep.storage.result_dirs import RESULT_MARKER
 
 OUTPUTS = ("tip_x", "tip_y", "stiffness")
 SMALL = {"job.samples_per_n": 40, "compute.states": "sequential"}

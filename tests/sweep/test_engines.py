@@ -16,9 +16,9 @@ from distributed import Client, LocalCluster
 from model_helpers import other_set
 from sweep_helpers import CrashingEvaluator, UnitConstantsEvaluator, make_job
 
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
 from dpfexplore.sweep.engines import DaskEngine, LocalEngine, make_engine
+from dpfexplore.sweep.storage import store
 
 # A sequential-states job; its N = 6 chunks of 300 designs take about 0.2 s on one core, long
 # enough to kill a worker in the middle of one.

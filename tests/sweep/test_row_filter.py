@@ -22,9 +22,9 @@ from hypothesis import strategies as st
 from sweep_helpers import make_job
 
 from dpfexplore.cli import main
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.row_filter import FilterError, parse_filter
+from dpfexplore.sweep.storage import store
+from dpfexplore.sweep.storage.row_filter import FilterError, parse_filter
 
 RNG = np.random.default_rng(7)
 N_ROWS = 64

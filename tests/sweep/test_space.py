@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from sweep_helpers import DELETE, job_dict, make_job, toml_text
 
-from dpfexplore.sweep.space import JobSpecError, load_job, parse_job
+from dpfexplore.sweep.job_file import JobSpecError, load_job, parse_job
 
 JOBS = Path(__file__).parents[2] / "jobs"
 

@@ -12,9 +12,9 @@ import pytest
 from sweep_helpers import UnitConstantsEvaluator, make_job
 
 from dpfexplore.model.version import MODEL_VERSION
-from dpfexplore.sweep import store
 from dpfexplore.sweep.chunks import ChunkTask, dataset_schema, evaluate_chunk
-from dpfexplore.sweep.store import ChunkRecord, Manifest
+from dpfexplore.sweep.storage import store
+from dpfexplore.sweep.storage.store import ChunkRecord, Manifest
 
 
 @pytest.fixture

@@ -21,7 +21,7 @@ from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
 from dpfexplore.model import files
-from dpfexplore.sweep import store
+from dpfexplore.sweep.storage import store
 
 
 class FullDisk:
@@ -107,7 +107,7 @@ def test_verified_reads_hand_arrow_no_python_memory(job, tmp_path):
     assert isinstance(store.chunk_bytes(out, record), pa.Buffer)
     script = (
         "import sys\n"
-        "from dpfexplore.sweep.store import read_results\n"
+        "from dpfexplore.sweep.storage.store import read_results\n"
         f"read_results({str(out)!r}, where='n_units == 3')\n"
         "sys.exit(2)\n"
     )

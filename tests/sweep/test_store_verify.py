@@ -9,8 +9,8 @@ import pytest
 from sweep_helpers import UnitConstantsEvaluator, make_job
 
 from dpfexplore.cli import main
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
+from dpfexplore.sweep.storage import store
 
 
 @pytest.fixture

@@ -10,13 +10,14 @@ from sweep_helpers import UnitConstantsEvaluator, make_job
 from dpfexplore.model import status as st
 from dpfexplore.model.design import DesignBatch
 from dpfexplore.solvers.statics import solve_batch
-from dpfexplore.sweep import chunks, store
+from dpfexplore.sweep import chunks
 from dpfexplore.sweep import driver as sweep
 from dpfexplore.sweep.chunks import default_chunk_size, plan_chunks
 from dpfexplore.sweep.driver import check_output, run_sweep
 from dpfexplore.sweep.evaluation import StaticsEvaluator
 from dpfexplore.sweep.sampling import sample_designs
-from dpfexplore.sweep.store import StoreError
+from dpfexplore.sweep.storage import store
+from dpfexplore.sweep.storage.store import StoreError
 
 SORT = ["design_id", "unit"]
 

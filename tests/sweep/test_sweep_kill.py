@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 from sweep_helpers import job_dict, toml_text
 
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.space import load_job
+from dpfexplore.sweep.job_file import load_job
+from dpfexplore.sweep.storage import store
 
 # 3 x 8 chunks of 50 designs, sequential states: tens of milliseconds per chunk, a few seconds
 # in all, so that kills land while chunks are being computed and committed.

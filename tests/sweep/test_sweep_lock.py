@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 from sweep_helpers import UnitConstantsEvaluator, job_dict, toml_text
 
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.lock import LOCK_NAME, LockHeld, read_lock, sweep_lock
-from dpfexplore.sweep.space import load_job
+from dpfexplore.sweep.job_file import load_job
+from dpfexplore.sweep.storage import store
+from dpfexplore.sweep.storage.lock import LOCK_NAME, LockHeld, read_lock, sweep_lock
 
 TESTS = Path(__file__).parents[1]
 # Process A: a real sweep (8 chunks) whose chunks after the second wait until the test creates
@@ -29,7 +29,7 @@ import os, sys, time
 sys.path.insert(0, {tests!r})
 from sweep_helpers import UnitConstantsEvaluator
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.space import load_job
+from dpfexplore.sweep.job_file import load_job
 
 class Waiting(UnitConstantsEvaluator):
     calls = 0

@@ -13,9 +13,9 @@ import pyarrow.parquet as pq
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
-from dpfexplore.sweep import store
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.space import load_job
+from dpfexplore.sweep.job_file import load_job
+from dpfexplore.sweep.storage import store
 
 KEY = ["design_id", "requested"]
 

@@ -12,6 +12,9 @@ __all__ = [
     "constants_line",
     "constants_record",
     "design_argument",
+    "design_of",
+    "model_record",
+    "print_constants_line",
     "saved_path",
     "with_constants",
 ]
@@ -82,6 +85,23 @@ def constants_line(constants) -> str | None:
     return None if constants == DEFAULT else f"constants set {constants.label}"
 
 
+def print_constants_line(constants) -> None:
+    """Print :func:`constants_line`, if there is one (the paper's set goes unmentioned)."""
+    line = constants_line(constants)
+    if line:
+        print(line)
+
+
+def model_record(design) -> dict:
+    """What JSON output says of the model a design ran on: fitted range and constants set."""
+    note = design.fitted_range_note
+    return {
+        "fitted_range": note is None,
+        "fitted_range_note": note,
+        "constants": constants_record(design.constants),
+    }
+
+
 def design_argument(text: str, constants=None):
     """The design a ``DESIGN`` argument names: a TOML file, or a packaged example's name.
 
@@ -109,6 +129,17 @@ def design_argument(text: str, constants=None):
         raise UsageError(str(exc)) from None
     chosen = with_constants(design.constants, constants, str(path))
     return design if chosen is design.constants else design.replace(constants=chosen)
+
+
+def design_of(args):
+    """The design a command's ``DESIGN`` argument names, under its ``--constants`` set.
+
+    Raises
+    ------
+    UsageError
+        As :func:`design_argument` and :func:`constants_argument`.
+    """
+    return design_argument(args.design, constants_argument(args.constants))
 
 
 def saved_path(name: str, folder: Path) -> Path:

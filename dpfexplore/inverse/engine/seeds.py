@@ -28,7 +28,7 @@ from ...lookup.query import designs_of
 from ...lookup.store import open_index
 from ...model.design import DesignBatch
 from ...model.version import MODEL_VERSION
-from ...sweep.datasets import dataset_info
+from ...sweep.storage.datasets import dataset_info
 from ..evaluation import SceneEvaluator
 from ..problem import Evaluation, PositionProblem
 

@@ -3,7 +3,7 @@
 The parsers and records live with their scenes (:mod:`.pickplace.spec`,
 :mod:`.walker.spec`) and are named here too; this module is the file format (the
 common tables ``[scene]``, ``[variables]``, ``[optimiser]`` are those of
-:mod:`dpfexplore.inverse.spec`). As there, every problem is one :class:`SceneSpecError`
+:mod:`dpfexplore.inverse.scene_file`). As there, every problem is one :class:`SceneSpecError`
 whose one-line message starts with the dotted key. Times in s, pressures in MPa, lengths in mm.
 
 Pick-and-place (MODEL.md §9, paper eq. opti_pick_and_place)::

@@ -159,6 +159,9 @@ class ResetProblem(Problem):
     """
 
     n_residuals = 1
+    #: Its solves through :meth:`evaluate` are grasp-stiffness statics; the reset objective is
+    #: recorded by the reset runs.
+    records_objective = False
 
     def __init__(self, spec, evaluator: SceneEvaluator, target_index: int = 0) -> None:
         self.spec = spec
@@ -200,18 +203,6 @@ class ResetProblem(Problem):
         }
         return Evaluation(
             z=z, ok=ok, residual=np.full((len(z), 1), np.nan), stiffness=k, columns=columns
-        )
-
-    def record(self, batch: DesignBatch, ev: Evaluation, purpose: str) -> None:
-        """History rows of grasp-stiffness solves (no reset objective: they are statics)."""
-        columns = {k: v for k, v in ev.columns.items() if not k.startswith("_")}
-        self.evaluator.record(
-            batch,
-            target=self.target_index,
-            purpose=purpose,
-            objective=np.nan,
-            stiffness=ev.stiffness,
-            **columns,
         )
 
     def grasp_stiffness(self, z: NDArray, *, purpose: str) -> NDArray:

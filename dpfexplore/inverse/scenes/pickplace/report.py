@@ -35,6 +35,18 @@ from ...report import json_times, write_summary
 __all__ = ["pickplace_report", "write_timing_report"]
 
 
+#: The fields of a result row without a design: nothing was found to verify.
+UNREACHED = {
+    "reachable": False,
+    "design": None,
+    "reset_times": None,
+    "stiffness": None,
+    "objective": None,
+    "fitted_range": None,
+    "fitted_range_note": None,
+}
+
+
 def design_flags(design: Design) -> dict[str, Any]:
     """``design``, ``n_units``, ``fitted_range`` and its note."""
     return {
@@ -96,17 +108,9 @@ def pickplace_report(spec, result: TargetResult, evaluator: SceneEvaluator) -> d
         row["target_units"] = extra["units"]
     if best is None:
         row.update(
-            {
-                "reachable": False,
-                "design": None,
-                "reset_times": None,
-                "stiffness": None,
-                "objective": None,
-                "fitted_range": None,
-                "fitted_range_note": None,
-                "proof": "no admissible design of the screening grid brackets the target "
-                "and none is near it",
-            }
+            UNREACHED,
+            proof="no admissible design of the screening grid brackets the target and none is "
+            "near it",
         )
         return {**row, **common}
     design, check = best["design"], best["check"]
@@ -192,18 +196,7 @@ def _difference_row(spec, extra: dict, evaluator: SceneEvaluator) -> dict[str, A
         "max_reset": d.max_reset,
     }
     if best is None:
-        row.update(
-            {
-                "reachable": False,
-                "design": None,
-                "reset_times": None,
-                "stiffness": None,
-                "objective": None,
-                "fitted_range": None,
-                "fitted_range_note": None,
-                "front": [],
-            }
-        )
+        row.update(UNREACHED, front=[])
         return row
     main = entry(best)
     row.update(
@@ -276,8 +269,8 @@ def write_timing_report(
     """Pick-and-place: summary, history, result TOMLs and (optionally) figures; the paths.
 
     Writes into ``out`` as it stands: :func:`dpfexplore.inverse.design.run_design` passes the
-    staging directory of :func:`dpfexplore.sweep.result_dirs.result_directory`, so the report
-    appears complete or not at all.
+    staging directory of :func:`dpfexplore.sweep.storage.result_dirs.result_directory`, so the
+    report appears complete or not at all.
     """
     out = Path(out)
     written = write_summary(spec, rows, evaluator, out, wall_s=wall_s)

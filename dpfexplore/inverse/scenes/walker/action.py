@@ -34,28 +34,18 @@ class ActionSearch(SearchBase):
 
     def front_action(self) -> dict:
         """The front leg's action unit (module docstring)."""
-        if "front" in self.sections:
-            return self.sections["front"]
-        req, w = self.req, self.w
-        lo, hi = self.heights("action")
-        aim = req.front_action_aim
-        after = self.action_after("front")
-        ts = self.t_values("action")
-        grid = np.linspace(lo, hi, _SCAN)
-        scan = self.scan(
-            [self.section("action", h, t) for t in ts for h in grid],
-            self.turn2,
-            after,
-            role="action",
-        )
-        candidates = []
-        for j, t in enumerate(ts):
-            cls = scan["classes"][j * _SCAN : (j + 1) * _SCAN, 0]
-            reset = scan["reset"][j * _SCAN : (j + 1) * _SCAN, 0]
+        aim = self.req.front_action_aim
+
+        def reset_error(cls: str, reset: float) -> float:
+            ok = cls in ("metastable", "monostable", "bistable")
+            return finite_log(reset, aim) if ok else math.nan
+
+        def locate(grid, classes, resets, func) -> float | None:
+            # the scan's classes are codes: 0, 1, 2 are the three named in reset_error
             f = np.array(
                 [
                     finite_log(float(r), aim) if c in (0, 1, 2) else math.nan
-                    for r, c in zip(reset, cls, strict=True)
+                    for r, c in zip(resets, classes, strict=True)
                 ]
             )
             brackets = [
@@ -64,79 +54,78 @@ class ActionSearch(SearchBase):
                 if np.isfinite(f[i]) and np.isfinite(f[i + 1]) and f[i] < 0 <= f[i + 1]
             ]
             if not brackets:
-                continue
+                return None
             i = brackets[-1]
-
-            def func(h: float, t: float = float(t)) -> float:
-                r = self.run(
-                    self.section("action", h, t),
-                    self.turn2,
-                    after,
-                    atol=w.atol,
-                    purpose="root",
-                    role="action",
-                )
-                ok = r["classes"][0] in ("metastable", "monostable", "bistable")
-                return finite_log(float(r["reset"][0]), aim) if ok else math.nan
-
             h, _ = root_on_line(func, grid[i], grid[i + 1], f[i], f[i + 1], ftol=1e-3, xtol=1e-9)
-            candidates.append(self.section("action", h, t))
-        checked = self._action_checks(candidates, "front", after)
-        out = self._pick_action(checked, "front")
-        self.sections["front"] = out
-        return out
+            return h
+
+        return self._action_unit("front", self.turn2, reset_error, locate)
 
     def middle_action(self) -> dict:
         """The middle leg's action unit (module docstring)."""
-        if "middle" in self.sections:
-            return self.sections["middle"]
-        req, w = self.req, self.w
+        aim = _MIDDLE_AIM * self.req.middle_action_max_reset
+
+        def reset_error(cls: str, reset: float) -> float:
+            if cls == "monostable":
+                return reset - aim
+            return 1.0 if cls in ("metastable", "bistable") else math.nan
+
+        def locate(grid, classes, resets, func) -> float | None:
+            below = np.flatnonzero((classes == CLASS_MONOSTABLE) & (resets < aim))
+            if not below.size:
+                return None
+            i = int(below[-1])
+            if i + 1 >= _SCAN:
+                return grid[i]
+            fa, fb = func(grid[i]), func(grid[i + 1])
+            if np.isfinite(fa) and np.isfinite(fb) and fa < 0 <= fb:
+                h, _ = root_on_line(func, grid[i], grid[i + 1], fa, fb, ftol=1e-4, xtol=1e-9)
+                return h
+            return grid[i]
+
+        return self._action_unit("middle", self.walk2, reset_error, locate)
+
+    def _action_unit(self, kind: str, phases, reset_error, locate) -> dict:
+        """The action unit of the ``kind`` leg under ``phases``, cached in ``self.sections``.
+
+        Per value of ``t``, one batch scan of heights; ``locate(grid, classes, resets, func)``
+        returns the height it settles on (None: none for this ``t``), where ``func(h)`` is
+        ``reset_error(class, reset)`` of a single run at height ``h``, the function whose root
+        is refined. The candidates are then checked and one is picked.
+        """
+        if kind in self.sections:
+            return self.sections[kind]
         lo, hi = self.heights("action")
-        cap = req.middle_action_max_reset
-        after = self.action_after("middle")
+        after = self.action_after(kind)
         ts = self.t_values("action")
         grid = np.linspace(lo, hi, _SCAN)
         scan = self.scan(
             [self.section("action", h, t) for t in ts for h in grid],
-            self.walk2,
+            phases,
             after,
             role="action",
         )
-        aim = _MIDDLE_AIM * cap
         candidates = []
         for j, t in enumerate(ts):
-            cls = scan["classes"][j * _SCAN : (j + 1) * _SCAN, 0]
-            reset = scan["reset"][j * _SCAN : (j + 1) * _SCAN, 0]
-            below = np.flatnonzero((cls == CLASS_MONOSTABLE) & (reset < aim))
-            if not below.size:
-                continue
-            i = int(below[-1])
-            if i + 1 >= _SCAN:
-                candidates.append(self.section("action", grid[i], t))
-                continue
+            rows = slice(j * _SCAN, (j + 1) * _SCAN)
 
             def func(h: float, t: float = float(t)) -> float:
                 r = self.run(
                     self.section("action", h, t),
-                    self.walk2,
+                    phases,
                     after,
-                    atol=w.atol,
+                    atol=self.w.atol,
                     purpose="root",
                     role="action",
                 )
-                c = r["classes"][0]
-                if c == "monostable":
-                    return float(r["reset"][0]) - aim
-                return 1.0 if c in ("metastable", "bistable") else math.nan
+                return reset_error(r["classes"][0], float(r["reset"][0]))
 
-            fa, fb = func(grid[i]), func(grid[i + 1])
-            h = grid[i]
-            if np.isfinite(fa) and np.isfinite(fb) and fa < 0 <= fb:
-                h, _ = root_on_line(func, grid[i], grid[i + 1], fa, fb, ftol=1e-4, xtol=1e-9)
-            candidates.append(self.section("action", h, t))
-        checked = self._action_checks(candidates, "middle", after)
-        out = self._pick_action(checked, "middle")
-        self.sections["middle"] = out
+            h = locate(grid, scan["classes"][rows, 0], scan["reset"][rows, 0], func)
+            if h is not None:
+                candidates.append(self.section("action", h, t))
+        checked = self._action_checks(candidates, kind, after)
+        out = self._pick_action(checked, kind)
+        self.sections[kind] = out
         return out
 
     def _action_checks(self, designs: list[Design], kind: str, after: float) -> list[dict]:
@@ -216,8 +205,15 @@ class ActionSearch(SearchBase):
         out += self.green_requirements(checks[1], p_inv[1][:1])
         out += self.action_requirements(checks[2], p_inv[2], kind, float(np.nanmax(p_inv[0][:2])))
         walk = self.leg(purple, green, action, self.walk_phases())
-        mono = self.monostable()
-        ratio = walk.stride / mono.stride if mono.stride > 0 else math.inf
+        return out + self.walking_requirements(walk, self.monostable(), kind)
+
+    def walking_requirements(self, walk, mono, kind: str) -> list[dict]:
+        """Requirements of the whole leg ``walk`` at the walking gait.
+
+        Its stride against the monostable leg's ``mono`` and, for a front leg, its action unit
+        flat while walking.
+        """
+        out = []
         if kind == "front":
             flat = walk.sections[2].result.unit_class[0] is None
             out.append(
@@ -233,12 +229,17 @@ class ActionSearch(SearchBase):
             _req(
                 "leg",
                 f"stride >= {self.req.min_stride_ratio:g} x the monostable leg's at the same gait",
-                ratio,
+                self.stride_ratio(walk, mono),
                 self.req.min_stride_ratio,
-                ratio >= self.req.min_stride_ratio,
+                self.stride_ratio(walk, mono) >= self.req.min_stride_ratio,
             )
         )
         return out
+
+    @staticmethod
+    def stride_ratio(walk, mono) -> float:
+        """The leg's stride over the monostable leg's (inf when that one does not step)."""
+        return walk.stride / mono.stride if mono.stride > 0 else math.inf
 
     def _pick_action(self, checked: list[dict], kind: str) -> dict:
         ok = [c for c in checked if all(r["met"] for r in c["requirements"])]

@@ -251,8 +251,8 @@ def write_walker_report(
     """Summary, history, leg TOMLs and, with ``plot``, tip paths and timing diagrams (paths).
 
     Writes into ``out`` as it stands: :func:`dpfexplore.inverse.design.run_design` passes the
-    staging directory of :func:`dpfexplore.sweep.result_dirs.result_directory`, so the report
-    appears complete or not at all.
+    staging directory of :func:`dpfexplore.sweep.storage.result_dirs.result_directory`, so the
+    report appears complete or not at all.
     """
     out = Path(out)
     written = write_summary(spec, rows, evaluator, out, wall_s=wall_s)

@@ -43,13 +43,10 @@ simulated and composed, and the monostable leg at the same gait gives the stride
 
 from __future__ import annotations
 
-import math
-
 from ....model.design import DesignBatch
 from ...engine.optimiser import TargetResult
 from ...evaluation import SceneEvaluator
 from .action import ActionSearch
-from .legs import requirement as _req
 from .legs import violation
 from .zones import ZoneSearch
 
@@ -93,34 +90,15 @@ def solve_walker(spec, target_index: int, evaluator: SceneEvaluator) -> TargetRe
         walk = search.leg(*designs, search.walk_phases())
         mono = search.monostable()
         extra["walk"], extra["monostable"] = walk, mono
-        ratio = walk.stride / mono.stride if mono.stride > 0 else math.inf
-        requirements = (
-            purple["best"]["requirements"] + green["requirements"] + action["best"]["requirements"]
-        )
         if kind == "front":
-            flat = walk.sections[2].result.unit_class[0] is None
-            requirements.append(
-                _req(
-                    "action",
-                    "action unit flat while walking (leg run at the walking gait)",
-                    flat,
-                    True,
-                    flat,
-                )
-            )
             extra["turn"] = search.leg(*designs, search.turn_phases())
-        requirements.append(
-            _req(
-                "leg",
-                f"stride >= {search.req.min_stride_ratio:g} x the "
-                "monostable leg's at the same gait",
-                ratio,
-                search.req.min_stride_ratio,
-                ratio >= search.req.min_stride_ratio,
-            )
+        extra["requirements"] = (
+            purple["best"]["requirements"]
+            + green["requirements"]
+            + action["best"]["requirements"]
+            + search.walking_requirements(walk, mono, kind)
         )
-        extra["requirements"] = requirements
-        extra["stride_ratio"] = ratio
+        extra["stride_ratio"] = search.stride_ratio(walk, mono)
         cycles = search.gait.cycles
         t_diag = search.gait.period * cycles + 2.0
         extra["timing"] = {"walk": search.leg(*designs, search.walk_phases(cycles), t_end=t_diag)}

@@ -1,13 +1,13 @@
 """What a sweep directory holds right now: its committed chunks and their checksum.
 
-A sweep directory's ``_manifest.json`` is its commit record (:mod:`dpfexplore.sweep.store`): a
-chunk exists for readers once the manifest lists it. :func:`dataset_info` reads it into a
-:class:`DatasetInfo`, whose :attr:`~DatasetInfo.checksum` identifies the data: SHA-256 over the
-job fingerprint, the model version and the committed chunk records (each with its file's
-SHA-256). Any committed change to the data - a sweep that went on, a chunk recomputed by
-``--resume`` - changes it; a rewrite of the manifest that changes no data (a ``--resume`` with
-nothing to do rewrites the timestamps) does not. Anything derived from a dataset (the lookup
-index) records this checksum and is refused when it no longer matches.
+A sweep directory's ``_manifest.json`` is its commit record (:mod:`dpfexplore.sweep.storage.store`):
+a chunk exists for readers once the manifest lists it. :func:`dataset_info` reads it into a
+:class:`DatasetInfo`, whose :attr:`~DatasetInfo.checksum` identifies the data: SHA-256 over the job
+fingerprint, the model version and the committed chunk records (each with its file's SHA-256). Any
+committed change to the data - a sweep that went on, a chunk recomputed by ``--resume`` - changes
+it; a rewrite of the manifest that changes no data (a ``--resume`` with nothing to do rewrites the
+timestamps) does not. Anything derived from a dataset (the lookup index) records this checksum and
+is refused when it no longer matches.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pyarrow as pa
 
-from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, load_constants_set
+from ...model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, load_constants_set
 from .store import ChunkRecord, Manifest, StoreError, chunk_bytes, read_manifest
 
 __all__ = ["DatasetInfo", "dataset_checksum", "dataset_info"]
@@ -126,8 +126,8 @@ class DatasetInfo:
         """A committed chunk file for :func:`pyarrow.parquet.read_table`.
 
         With ``verify``, the file's bytes checked against the manifest's size and SHA-256
-        (:func:`~dpfexplore.sweep.store.chunk_bytes`: a chunk changed after it was committed is
-        a StoreError naming it), so that what is decoded is what was checked.
+        (:func:`~dpfexplore.sweep.storage.store.chunk_bytes`: a chunk changed after it was committed
+        is a StoreError naming it), so that what is decoded is what was checked.
         """
         if not verify:
             return self.root / path

@@ -3,7 +3,7 @@
 Every field carries its physical unit and a description in its Arrow field metadata (``unit``,
 ``description``; ``per_unit`` for the columns of unit ``k``), and the schema metadata key
 ``dpfexplore`` holds the job spec, seed, fingerprint, model version and package versions
-(:func:`dataset_metadata`). :mod:`dpfexplore.sweep.store` re-exports everything here.
+(:func:`dataset_metadata`). :mod:`dpfexplore.sweep.storage.store` re-exports everything here.
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ import pandas as pd
 import pyarrow as pa
 from numpy.typing import NDArray
 
-from ..model import status as st
-from ..model.version import MODEL_VERSION, package_versions
-from .space import JobSpec
+from ...model import status as st
+from ...model.version import MODEL_VERSION, package_versions
+from ..space import JobSpec
 
 __all__ = [
     "METADATA_KEY",

@@ -1,6 +1,6 @@
 """Parquet storage of sweep results: atomic chunk commits, manifest, verified readers.
 
-The dataset schema (columns, units, metadata) lives in :mod:`dpfexplore.sweep.schema` and is
+The dataset schema (columns, units, metadata) lives in :mod:`dpfexplore.sweep.storage.schema` and is
 re-exported here.
 
 Layout of a sweep directory::
@@ -63,7 +63,7 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
-from ..model.files import TEMP_SUFFIX, atomic_write, file_sha256
+from ...model.files import TEMP_SUFFIX, atomic_write, file_sha256
 from .row_filter import parse_filter
 from .schema import (  # the schema lives in schema.py; importable from here as before
     FORMAT,
@@ -500,8 +500,8 @@ def iter_results(
     """Committed rows chunk by chunk, those for which the filter ``where`` is true.
 
     ``where`` is a condition over the columns (``"n_units == 5 and stiffness > 0.05"``), parsed
-    and checked by :func:`~dpfexplore.sweep.row_filter.parse_filter` before any row is read and
-    evaluated by Arrow on the columns: it is never run as Python code.
+    and checked by :func:`~dpfexplore.sweep.storage.row_filter.parse_filter` before any row is read
+    and evaluated by Arrow on the columns: it is never run as Python code.
 
     Memory stays bounded by one chunk (plus what the caller keeps). With ``verify`` (the
     default) each chunk's bytes are checked against the manifest's size and SHA-256 before

@@ -1,9 +1,8 @@
-"""Validators of the TOML-shaped mappings of job files.
+"""Validators of the TOML-shaped mappings of job files (and of scene files, which reuse them).
 
-Each failure is a :class:`JobSpecError` whose one-line message starts with the dotted key.
-
-Kept apart from :mod:`dpfexplore.sweep.space`, which holds what a job *is*; these only say what a
-well-formed value looks like.
+Each failure is a :class:`JobSpecError` whose one-line message starts with the dotted key. These
+say what a well-formed value looks like; :mod:`dpfexplore.sweep.job_file` says which values a
+job takes, :mod:`dpfexplore.sweep.space` what a job is.
 """
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ class JobSpecError(ValueError):
 def check_keys(
     table: Mapping[str, Any], where: str, *, required: tuple[str, ...], optional: tuple[str, ...]
 ) -> None:
+    """Refuse a key of ``table`` that is neither required nor optional, and a missing one."""
     known = (*required, *optional)
     for key in table:
         if key not in known:
@@ -34,6 +34,7 @@ def check_keys(
 
 
 def table(data: Mapping[str, Any], *path: str) -> Mapping[str, Any]:
+    """The sub-table at the dotted ``path`` (its last key under ``data``)."""
     value = data[path[-1]]
     if not isinstance(value, Mapping):
         key = ".".join(path)
@@ -42,6 +43,7 @@ def table(data: Mapping[str, Any], *path: str) -> Mapping[str, Any]:
 
 
 def integer(table: Mapping[str, Any], where: str, key: str, *, low: int, high: int) -> int:
+    """An integer in ``[low, high]`` (a bool is not an integer here)."""
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, int):
         raise JobSpecError(f"{where}.{key} = {value!r}: must be an integer")
@@ -51,6 +53,7 @@ def integer(table: Mapping[str, Any], where: str, key: str, *, low: int, high: i
 
 
 def positive(table: Mapping[str, Any], where: str, key: str, unit: str) -> float:
+    """A finite number > 0 in ``unit`` (named in the message)."""
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise JobSpecError(f"{where}.{key} = {value!r}: must be a number ({unit})")
@@ -60,6 +63,7 @@ def positive(table: Mapping[str, Any], where: str, key: str, unit: str) -> float
 
 
 def boolean(table: Mapping[str, Any], where: str, key: str, *, default: bool) -> bool:
+    """``true`` or ``false``; ``default`` when the key is absent."""
     value = table.get(key, default)
     if not isinstance(value, bool):
         raise JobSpecError(f"{where}.{key} = {value!r}: must be true or false")
@@ -67,6 +71,7 @@ def boolean(table: Mapping[str, Any], where: str, key: str, *, default: bool) ->
 
 
 def string(table: Mapping[str, Any], where: str, key: str, *, default: str | None = None) -> str:
+    """A string; ``default`` when the key is absent."""
     value = table.get(key, default)
     if not isinstance(value, str):
         raise JobSpecError(f"{where}.{key} = {value!r}: must be a string")
@@ -81,6 +86,7 @@ def choice(
     *,
     default: str | None = None,
 ) -> str:
+    """One of ``choices``; ``default`` when the key is absent (and a default is given)."""
     if key not in table and default is not None:
         return default
     value = table[key]

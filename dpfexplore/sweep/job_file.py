@@ -78,12 +78,12 @@ from .space import (
     PressureLoad,
     Variable,
 )
+from .variables import HEIGHT_ORDERS
 
 __all__ = ["JobSpecError", "load_job", "parse_job", "recorded_space"]
 
 #: Variables a job must give; the others default (material preset or MODEL.md §2).
 REQUIRED_VARIABLES = ("H", "U_L", "U_sep", "t", "t_lim")
-HEIGHT_ORDERS = ("free", "ascending", "descending")
 SAMPLERS = ("lhs", "sobol")
 logger = logging.getLogger(__name__)
 

@@ -65,7 +65,7 @@ import pyarrow.parquet as pq
 
 from ...model.files import TEMP_SUFFIX, atomic_write, file_sha256
 from .row_filter import parse_filter
-from .schema import (  # the schema lives in schema.py; importable from here as before
+from .schema import (  # the store's public names include the schema's
     FORMAT,
     METADATA_KEY,
     STATUS_LABELS,

@@ -10,10 +10,12 @@ by the same arithmetic as its NumPy methods (bit-identical); the beam constants 
 ``k_t``) are those of :mod:`dpfexplore.model.constants`, compiled inline from the same source.
 
 The status codes are those of :meth:`DesignBatch.status` (``OK``, ``INVALID_INPUT``,
-``INVALID_CONSTANTS``), by :func:`dpfexplore.model.design.status_code` compiled inline; only the
-one-line descriptions of the problems stay with the NumPy validation of the model layer. This
-makes a batch's validation and packing one compiled pass, about a microsecond per design, where
-the NumPy path costs a few hundred microseconds of call overhead for any batch size.
+``INVALID_CONSTANTS``), by the rules of :func:`dpfexplore.model.validation.status_code` compiled
+inline; only the one-line descriptions of the problems stay with the NumPy validation of the
+model layer. The domes' constants are evaluated a block of designs at a time, then each design's
+rows filled. This makes a batch's validation and packing one compiled pass, well under a
+microsecond per design, where the NumPy path costs a few hundred microseconds of call overhead
+for any batch size.
 """
 
 from __future__ import annotations

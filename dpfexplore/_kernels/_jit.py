@@ -33,9 +33,16 @@ def _kernel_sources_digest() -> str:
     digest = hashlib.sha256()
     # The kernels also read the status codes and the domain limits as compile-time constants,
     # and compile inline the closed forms of constants.py, a constants set's evaluation
-    # (closed_form.py) and the status rules of design.py.
+    # (closed_form.py) and the status rules of validation.py.
     model = _KERNELS_DIR.parent / "model"
-    names = ("status.py", "limits.py", "domain.py", "constants.py", "closed_form.py", "design.py")
+    names = (
+        "status.py",
+        "limits.py",
+        "domain.py",
+        "constants.py",
+        "closed_form.py",
+        "validation.py",
+    )
     extra = [model / name for name in names]
     for path in [*sorted(_KERNELS_DIR.glob("*.py")), *extra]:
         digest.update(path.name.encode())

@@ -214,9 +214,8 @@ def damping_matrix(pos, unit_params, h, eta, eta_iso, scratch, cmat):
             dx = pos[a, 0] - pos[b, 0]
             dy = pos[a, 1] - pos[b, 1]
             ell = math.sqrt(dx * dx + dy * dy)
-            _scatter_pair(
-                a, b, dx / ell, dy / ell, ell, eta * (ell - rest), eta, HESSIAN, scratch, cmat
-            )
+            slopes = (eta * (ell - rest), eta)
+            _scatter_pair(a, b, (dx / ell, dy / ell), ell, slopes, HESSIAN, scratch, cmat)
     for i in range(nf):
         cmat[i, i] += eta_iso
 

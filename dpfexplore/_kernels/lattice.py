@@ -186,8 +186,13 @@ def _add_vector(grad, fi, vx, vy):
 
 
 @kernel(inline="always")
-def _scatter_pair(a, b, ex, ey, ell, f1, f2, mode, grad, hess):
-    """Add gradient/Hessian of a two-node spring with energy ``f(ℓ)``, ``e = (x_a - x_b)/ℓ``."""
+def _scatter_pair(a, b, e, ell, slopes, mode, grad, hess):
+    """Add gradient/Hessian of a two-node spring with energy ``f(ℓ)``.
+
+    ``e = (x_a - x_b)/ℓ`` as ``(ex, ey)``; ``slopes``: ``(f', f'')`` at ``ℓ`` (N, N/mm).
+    """
+    ex, ey = e
+    f1, f2 = slopes
     fa = free_node(a)
     fb = free_node(b)
     _add_vector(grad, fa, f1 * ex, f1 * ey)
@@ -251,28 +256,40 @@ def _torsion(pos, a, c, b, kt, mode, grad, hess):
     k = kt
     if mode == HESSIAN_CONVEX:  # Gauss-Newton: keep k ∇δ ∇δᵀ, drop the indefinite k δ ∇²δ
         s = 0.0
-    _pair_block(hess, fa, k, g0x, g0y, s, -ha00, -ha01)
-    _pair_block(hess, fc, k, g1x, g1y, s, hb00 - ha00, hb01 - ha01)
-    _pair_block(hess, fb, k, g2x, g2y, s, hb00, hb01)
-    _pair_block_sym(hess, fa, fc, k, g0x, g0y, g1x, g1y, s, ha00, ha01)
-    _pair_block_sym(hess, fc, fb, k, g1x, g1y, g2x, g2y, s, -hb00, -hb01)
-    _pair_block_sym(hess, fa, fb, k, g0x, g0y, g2x, g2y, s, 0.0, 0.0)
+    g0 = (g0x, g0y)
+    g1 = (g1x, g1y)
+    g2 = (g2x, g2y)
+    _pair_block(hess, fa, k, g0, s, (-ha00, -ha01))
+    _pair_block(hess, fc, k, g1, s, (hb00 - ha00, hb01 - ha01))
+    _pair_block(hess, fb, k, g2, s, (hb00, hb01))
+    _pair_block_sym(hess, fa, fc, k, g0, g1, s, (ha00, ha01))
+    _pair_block_sym(hess, fc, fb, k, g1, g2, s, (-hb00, -hb01))
+    _pair_block_sym(hess, fa, fb, k, g0, g2, s, (0.0, 0.0))
     return energy
 
 
 @kernel(inline="always")
-def _pair_block(hess, fi, k, gx, gy, s, h00, h01):
+def _pair_block(hess, fi, k, g, s, b):
     """Add the diagonal block ``k g gᵀ + s B``, ``B = [[h00, h01], [h01, -h00]]``.
 
-    The off-diagonal entry is computed once so that the Hessian is exactly symmetric.
+    ``g = (gx, gy)``, ``b = (h00, h01)``. The off-diagonal entry is computed once so that the
+    Hessian is exactly symmetric.
     """
+    gx, gy = g
+    h00, h01 = b
     m01 = k * gx * gy + s * h01
     _add_block(hess, fi, fi, k * gx * gx + s * h00, m01, m01, k * gy * gy - s * h00)
 
 
 @kernel(inline="always")
-def _pair_block_sym(hess, fi, fj, k, gix, giy, gjx, gjy, s, h00, h01):
-    """Add the ``(i, j)`` block of :func:`_pair_block` and its transpose at ``(j, i)``."""
+def _pair_block_sym(hess, fi, fj, k, gi, gj, s, b):
+    """Add the ``(i, j)`` block of :func:`_pair_block` and its transpose at ``(j, i)``.
+
+    ``gi = (gix, giy)``, ``gj = (gjx, gjy)``, ``b = (h00, h01)``.
+    """
+    gix, giy = gi
+    gjx, gjy = gj
+    h00, h01 = b
     m00 = k * gix * gjx + s * h00
     m01 = k * gix * gjy + s * h01
     m10 = k * giy * gjx + s * h01
@@ -350,7 +367,7 @@ def assemble(x, unit_params, h, pos, grad, hess, mode, split):
                 f2 = stiff
                 e_linear += 0.5 * stiff * stretch * stretch
             if mode >= GRADIENT:
-                _scatter_pair(a, b, dx / ell, dy / ell, ell, f1, f2, mode, grad, hess)
+                _scatter_pair(a, b, (dx / ell, dy / ell), ell, (f1, f2), mode, grad, hess)
         # Torsion at L_k: angle L_{k-1}-L_k-D_k, and D_k-L_k-L_{k+1} except at the tip.
         kt = row[COL_KT]
         e_torsion += _torsion(pos, 2 * k - 1, 2 * k + 1, 2 * k, kt, mode, grad, hess)

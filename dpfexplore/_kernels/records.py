@@ -98,6 +98,22 @@ DesignDerivatives = namedtuple("DesignDerivatives", ["dtab", "E"])
 #: or ``(0, 0, 0)`` (skipped).
 SensitivityRows = namedtuple("SensitivityRows", ["sens", "dxs"])
 
+#: The nodes ``a``, ``c``, ``b`` (int) of a torsional spring on the angle ``a-c-b`` (arms
+#: ``c→a`` and ``c→b``; :mod:`.sensitivity`).
+Angle = namedtuple("Angle", ["a", "c", "b"])
+
+#: A torsional spring's arms at a point (:mod:`.sensitivity`): the arm vectors ``vax, vay``
+#: (``c→a``) and ``vbx, vby`` (``c→b``) in mm, the deviation ``delta`` (rad) and the gradients
+#: ``∇φ`` of both arms, ``gax, gay`` and ``gbx, gby`` (1/mm).
+TorsionArms = namedtuple(
+    "TorsionArms", ["vax", "vay", "vbx", "vby", "delta", "gax", "gay", "gbx", "gby"]
+)
+
+#: The design parameter of a tangent (:func:`.sensitivity.tangent`): its ``kind`` (column
+#: ``DP_*`` of the derivative table), its ``unit`` (1-based, or -1 for the shared ``t`` and
+#: ``t_lim``) and the units ``k_lo .. k_hi`` whose springs it touches (1-based, inclusive).
+TangentParameter = namedtuple("TangentParameter", ["kind", "unit", "k_lo", "k_hi"])
+
 # ---- dynamics ------------------------------------------------------------------------------
 
 #: What the equations of motion of one design read: its lattice ``unit_params``, ``h``, the

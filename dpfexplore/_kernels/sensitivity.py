@@ -76,6 +76,7 @@ from .layout import (
     n_nodes,
 )
 from .linalg import cholesky, cholesky_solve
+from .records import Angle, Lattice, TangentParameter, TorsionArms
 from .states import layer_bend, tip_stiffness
 from .tables import DC_H, DP_T, N_DPARAM
 
@@ -229,8 +230,12 @@ def _curvature_form(vx, vy, rx, ry):
 
 
 @kernel(inline="always")
-def _torsion_geometry(pos, a, c, b):
-    """Arms, deviation ``δ`` and ``∇φ`` of both arms of the angle ``a-c-b`` (see lattice)."""
+def _torsion_geometry(pos, angle):
+    """Arms, deviation ``δ`` and ``∇φ`` of both arms of an :data:`~.records.Angle` (see lattice).
+
+    Returns a :data:`~.records.TorsionArms`.
+    """
+    a, c, b = angle
     vax = pos[a, 0] - pos[c, 0]
     vay = pos[a, 1] - pos[c, 1]
     vbx = pos[b, 0] - pos[c, 0]
@@ -238,17 +243,21 @@ def _torsion_geometry(pos, a, c, b):
     delta = math.atan2(-(vax * vbx + vay * vby), vax * vby - vay * vbx)
     ra2 = vax * vax + vay * vay
     rb2 = vbx * vbx + vby * vby
-    return vax, vay, vbx, vby, delta, -vay / ra2, vax / ra2, -vby / rb2, vbx / rb2
+    return TorsionArms(vax, vay, vbx, vby, delta, -vay / ra2, vax / ra2, -vby / rb2, vbx / rb2)
 
 
 @kernel(inline="always")
-def _torsion_curvature_terms(vax, vay, vbx, vby, gax, gay, gbx, gby, r, a, c, b):
+def _torsion_curvature_terms(arms, r, angle):
     """Pieces of ``rᵀ∇²E r = k_t G² + k_t δ S`` of one torsional spring at fixed ``r``.
+
+    ``arms``: the spring's :data:`~.records.TorsionArms` at the point; ``angle``: its nodes.
 
     Returns ``(ρ_a, ρ_b, G, ∇_{v_a} ρ_aᵀHφ(v_a)ρ_a, ∇_{v_b} ρ_bᵀHφ(v_b)ρ_b, S)``, vectors as
     two numbers: ``ρ_a = r_a - r_c``, ``ρ_b = r_b - r_c``, ``G = ∇δ·r`` and
     ``S = ρ_bᵀHφ(v_b)ρ_b - ρ_aᵀHφ(v_a)ρ_a``.
     """
+    vax, vay, vbx, vby, _, gax, gay, gbx, gby = arms
+    a, c, b = angle
     rax, ray = _node_vector(r, a)
     rbx, rby = _node_vector(r, b)
     rcx, rcy = _node_vector(r, c)
@@ -302,17 +311,17 @@ def third_derivative_contraction(pos, unit_params, h, r, w):
             _add(w, a, gx, gy)
             _add(w, b, -gx, -gy)
         kt = row[COL_KT]
-        _torsion_contraction(pos, 2 * k - 1, 2 * k + 1, 2 * k, kt, r, w)
+        _torsion_contraction(pos, Angle(2 * k - 1, 2 * k + 1, 2 * k), kt, r, w)
         if k < n_units:
-            _torsion_contraction(pos, 2 * k, 2 * k + 1, 2 * k + 3, kt, r, w)
+            _torsion_contraction(pos, Angle(2 * k, 2 * k + 1, 2 * k + 3), kt, r, w)
 
 
 @kernel(inline="always")
-def _torsion_contraction(pos, a, c, b, kt, r, w):
-    vax, vay, vbx, vby, delta, gax, gay, gbx, gby = _torsion_geometry(pos, a, c, b)
-    pax, pay, pbx, pby, G, qax, qay, qbx, qby, S = _torsion_curvature_terms(
-        vax, vay, vbx, vby, gax, gay, gbx, gby, r, a, c, b
-    )
+def _torsion_contraction(pos, angle, kt, r, w):
+    arms = _torsion_geometry(pos, angle)
+    vax, vay, vbx, vby, delta, gax, gay, gbx, gby = arms
+    a, c, b = angle
+    pax, pay, pbx, pby, G, qax, qay, qbx, qby, S = _torsion_curvature_terms(arms, r, angle)
     ha00, ha01 = _phi_hessian(vax, vay)
     hb00, hb01 = _phi_hessian(vbx, vby)
     # ∂/∂v_a = -2 k_t G Hφ(v_a)ρ_a - k_t S ∇φ(v_a) - k_t δ ∇(ρ_aᵀHφρ_a), and for v_b with +.
@@ -327,9 +336,11 @@ def _torsion_contraction(pos, a, c, b, kt, r, w):
 
 
 @kernel(inline="always")
-def _torsion_tangent(pos, a, c, b, kt, dkt, dp1, dh, r, dg):
+def _torsion_tangent(pos, angle, kt, dkt, dp1, dh, r, dg):
     """Tangent of one torsional spring; returns ``(δE, δ(rᵀ∇²E r))`` and adds ``δg`` to dg."""
-    vax, vay, vbx, vby, delta, gax, gay, gbx, gby = _torsion_geometry(pos, a, c, b)
+    arms = _torsion_geometry(pos, angle)
+    vax, vay, vbx, vby, delta, gax, gay, gbx, gby = arms
+    a, c, b = angle
     max_, may = _clamp_motion(a, dp1, dh)
     mbx, mby = _clamp_motion(b, dp1, dh)
     mcx, mcy = _clamp_motion(c, dp1, dh)
@@ -355,9 +366,7 @@ def _torsion_tangent(pos, a, c, b, kt, dkt, dp1, dh, r, dg):
     _add(dg, c, -ax - bx, -ay - by)
     d_energy = 0.5 * dkt * delta * delta + kt * delta * ddelta
     # rᵀ∇²E r = k_t G² + k_t δ S at fixed r.
-    pax, pay, pbx, pby, G, qax, qay, qbx, qby, S = _torsion_curvature_terms(
-        vax, vay, vbx, vby, gax, gay, gbx, gby, r, a, c, b
-    )
+    pax, pay, pbx, pby, G, qax, qay, qbx, qby, S = _torsion_curvature_terms(arms, r, angle)
     dG = dgbx * pbx + dgby * pby - dgax * pax - dgay * pay
     dS = qbx * dvbx + qby * dvby - qax * dvax - qay * dvay
     d_phi = dkt * (G * G + delta * S) + kt * (2.0 * G * dG + ddelta * S + delta * dS)
@@ -365,23 +374,21 @@ def _torsion_tangent(pos, a, c, b, kt, dkt, dp1, dh, r, dg):
 
 
 @kernel
-def tangent(pos, unit_params, h, dtab, kind, unit, k_lo, k_hi, r, dg):
+def tangent(pos, lattice, dtab, parameter, r, dg):
     """Forward-mode derivative of gradient, energy and ``rᵀHr`` in one design parameter.
 
     Parameters
     ----------
     pos : ndarray of shape (2N + 2, 2), mm
         Node positions at the point (free coordinates held fixed).
-    unit_params : ndarray of shape (N, N_COLS)
-    h : float, mm
+    lattice : Lattice
+        The design's ``unit_params`` (N, N_COLS) and ``h`` (mm) (:mod:`.records`).
     dtab : ndarray of shape (N, N_DCONST, N_DPARAM)
         Derivatives of every unit's constants (:func:`.tables.design_tables`).
-    kind : int
-        Parameter kind ``DP_*`` (column of ``dtab``).
-    unit : int
-        Its unit (1-based) for per-unit kinds, or -1 for the shared ``t`` and ``t_lim``.
-    k_lo, k_hi : int
-        Units whose springs the parameter touches (1-based, inclusive).
+    parameter : TangentParameter
+        The parameter's ``kind`` (``DP_*``, column of ``dtab``), its ``unit`` (1-based, or -1
+        for the shared ``t`` and ``t_lim``) and the units ``k_lo .. k_hi`` whose springs it
+        touches (:mod:`.records`).
     r : ndarray of shape (4N - 2,)
         Fixed vector of the ``rᵀHr`` tangent (zeros when not wanted).
     dg : ndarray of shape (4N - 2,)
@@ -394,6 +401,8 @@ def tangent(pos, unit_params, h, dtab, kind, unit, k_lo, k_hi, r, dg):
     d_phi : float
         ``∂(rᵀ H r)/∂θ`` at fixed ``x`` and ``r``.
     """
+    unit_params, h = lattice
+    kind, unit, k_lo, k_hi = parameter
     n_units = unit_params.shape[0]
     for i in range(n_free(n_units)):
         dg[i] = 0.0
@@ -451,11 +460,12 @@ def tangent(pos, unit_params, h, dtab, kind, unit, k_lo, k_hi, r, dg):
             )
         kt = row[COL_KT]
         dkt = own * dcol[COL_KT]
-        de, dp = _torsion_tangent(pos, 2 * k - 1, 2 * k + 1, 2 * k, kt, dkt, dp1, dh, r, dg)
+        de, dp = _torsion_tangent(pos, Angle(2 * k - 1, 2 * k + 1, 2 * k), kt, dkt, dp1, dh, r, dg)
         d_energy += de
         d_phi += dp
         if k < n_units:
-            de, dp = _torsion_tangent(pos, 2 * k, 2 * k + 1, 2 * k + 3, kt, dkt, dp1, dh, r, dg)
+            angle = Angle(2 * k, 2 * k + 1, 2 * k + 3)
+            de, dp = _torsion_tangent(pos, angle, kt, dkt, dp1, dh, r, dg)
             d_energy += de
             d_phi += dp
     return d_energy, d_phi
@@ -539,7 +549,8 @@ def design_sensitivities(x, lattice, derivatives, stride, out, ws):
             else:
                 k_lo = 1
                 k_hi = n_units
-            d_energy, d_phi = tangent(pos, unit_params, h, dtab, kind, unit, k_lo, k_hi, r, dg)
+            parameter = TangentParameter(kind, unit, k_lo, k_hi)
+            d_energy, d_phi = tangent(pos, Lattice(unit_params, h), dtab, parameter, r, dg)
             cholesky_solve(low, dg, dx, nf)
             for i in range(nf):
                 dx[i] = -dx[i]

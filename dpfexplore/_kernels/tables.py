@@ -10,10 +10,12 @@ by the same arithmetic as its NumPy methods (bit-identical); the beam constants 
 ``k_t``) are those of :mod:`dpfexplore.model.constants`, compiled inline from the same source.
 
 The status codes are those of :meth:`DesignBatch.status` (``OK``, ``INVALID_INPUT``,
-``INVALID_CONSTANTS``), by :func:`dpfexplore.model.design.status_code` compiled inline; only the
-one-line descriptions of the problems stay with the NumPy validation of the model layer. This
-makes a batch's validation and packing one compiled pass, about a microsecond per design, where
-the NumPy path costs a few hundred microseconds of call overhead for any batch size.
+``INVALID_CONSTANTS``), by the rules of :func:`dpfexplore.model.validation.status_code` compiled
+inline; only the one-line descriptions of the problems stay with the NumPy validation of the
+model layer. The domes' constants are evaluated a block of designs at a time, then each design's
+rows filled. This makes a batch's validation and packing one compiled pass, well under a
+microsecond per design, where the NumPy path costs a few hundred microseconds of call overhead
+for any batch size.
 """
 
 from __future__ import annotations
@@ -23,7 +25,15 @@ import math
 import numpy as np
 
 from ..model import status as st
-from ..model.closed_form import power_tables, set_constant_partials, set_constants_form
+from ..model.closed_form import (
+    DOME_BLOCK,
+    FORM_ALPHA,
+    FORM_K_HAT,
+    FORM_TIP_RATIO,
+    dome_block,
+    set_constants_block,
+    set_terms,
+)
 from ..model.constants import (
     ALPHA_BISTABLE,
     NO_CONTACT_REACH,
@@ -34,8 +44,8 @@ from ..model.constants import (
     k_t_form,
     segment_height_form,
 )
-from ..model.design import constants_status, geometry_status
 from ..model.domain import MAX_UNITS
+from ..model.validation import constants_status, geometry_status
 from ._jit import kernel
 from .layout import (
     COL_ALPHA,
@@ -69,14 +79,14 @@ N_DPARAM = 5
 
 
 @kernel
-def _unit_row(H, U_L, U_sep, shared, forms, powers, row):
+def _unit_row(H, U_L, U_sep, shared, k_b, alpha, tip, row):
     """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact).
 
     ``H``, ``U_L``, ``U_sep``: the unit's (mm); ``shared``: the design's
-    :class:`~.records.SharedParams`.
+    :class:`~.records.SharedParams`; ``k_b`` (N/mm), ``alpha``, ``tip`` (``tip_dis``, mm): the
+    dome's constants under the batch's set.
     """
     t, t_lim, E, nu, r_b, t_ch = shared
-    k_b, alpha, tip = set_constants_form(forms, E, H, t, r_b, powers)
     # the reach of MODEL.md §3, in ConstantsSet.reach's order of operations
     raw = tip - H - U_sep - t_ch / 2.0 - t / 2.0
     no_contact = raw <= 0.0
@@ -109,19 +119,20 @@ def _unit_row(H, U_L, U_sep, shared, forms, powers, row):
 
 
 @kernel
-def _derivative_rows(H, U_L, U_sep, shared, forms, powers, contact, dtab):
+def _derivative_rows(H, U_L, U_sep, shared, partials, contact, dtab):
     """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule).
 
-    ``k_b``, ``alpha`` and the reach through the constants set's own derivatives; ``contact``
-    is 0 where the reach is clamped (a constant there, so its derivatives vanish). Arguments as
-    :func:`_unit_row`.
+    ``k_b``, ``alpha`` and the reach through the constants set's own derivatives, ``partials``
+    (the unit's column of :attr:`~dpfexplore.model.closed_form.DomeBlock.partials`);
+    ``contact`` is 0 where the reach is clamped (a constant there, so its derivatives vanish).
+    Other arguments as :func:`_unit_row`.
     """
-    t, t_lim, E, nu, r_b, t_ch = shared
-    dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt = set_constant_partials(
-        forms, E, H, t, r_b, powers
-    )
-    dd_dH = (dtip_dH - 1.0) * contact
-    dd_dt = (dtip_dt - 0.5) * contact
+    dkb_dH = partials[0]
+    dkb_dt = partials[1]
+    dalpha_dH = partials[2]
+    dalpha_dt = partials[3]
+    dd_dH = (partials[4] - 1.0) * contact
+    dd_dt = (partials[5] - 0.5) * contact
     dd_dUsep = -1.0 * contact
     (
         _,
@@ -138,7 +149,7 @@ def _derivative_rows(H, U_L, U_sep, shared, forms, powers, contact, dtab):
         dkt_dUsep,
         dkt_dt,
         dkt_dtlim,
-    ) = constant_derivatives_form(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch)
+    ) = constant_derivatives_form(H, U_L, U_sep, shared)
     for c in range(N_DCONST):
         for j in range(N_DPARAM):
             dtab[c, j] = 0.0
@@ -166,8 +177,83 @@ def _derivative_rows(H, U_L, U_sep, shared, forms, powers, contact, dtab):
 
 
 @kernel
+def gather_domes(designs, first, block):
+    """Put the units of designs ``first, first + 1, ...`` into ``block`` while they fit.
+
+    Returns ``(end, count)``: the designs ``first .. end - 1`` are in, with ``count`` domes.
+    """
+    n_units, H, t, E, r_b = designs.n_units, designs.H, designs.t, designs.E, designs.r_b
+    count = 0
+    end = first
+    while end < n_units.shape[0]:
+        active = min(max(n_units[end], 0), MAX_UNITS)
+        if count + active > DOME_BLOCK:
+            break
+        for k in range(active):
+            block.H[count] = H[end, k]
+            block.t[count] = t[end]
+            block.r_b[count] = r_b[end]
+            block.E[count] = E[end]
+            count += 1
+        end += 1
+    return end, count
+
+
+@kernel
+def fill_designs(designs, first, end, block, out):
+    """Status and tables of designs ``first .. end - 1`` from their domes' constants in ``block``.
+
+    ``block.values`` holds ``k_b``, ``alpha`` and ``tip_dis`` of the designs' units in order
+    (those :func:`gather_domes` put in), ``block.partials`` their derivatives when ``out``
+    asks for the derivative tables. Arguments as :func:`design_tables`.
+    """
+    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch = designs
+    status, table, h, no_contact, dtab = out
+    want_derivatives = dtab.shape[0] > 0
+    values = block.values
+    dome = 0
+    for i in range(first, end):
+        # the status of validation.status_code: geometry first, then the constants, checked on
+        # the rows computed below (each closed form evaluated once)
+        shared = SharedParams(t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i])
+        status[i] = geometry_status(n_units[i], H[i], U_L[i], U_sep[i], shared)
+        h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
+        active = min(max(n_units[i], 0), MAX_UNITS)
+        for k in range(MAX_UNITS):
+            if k >= active:
+                table[i, k, :] = np.nan
+                no_contact[i, k] = False
+                if want_derivatives:
+                    dtab[i, k] = np.nan
+                continue
+            k_b = values[FORM_K_HAT, dome]
+            alpha = values[FORM_ALPHA, dome]
+            tip = values[FORM_TIP_RATIO, dome]
+            clamped = _unit_row(
+                H[i, k], U_L[i, k], U_sep[i, k], shared, k_b, alpha, tip, table[i, k]
+            )
+            no_contact[i, k] = clamped
+            if status[i] == st.OK:
+                status[i] = constants_status(k_b, alpha)
+            if want_derivatives:
+                _derivative_rows(
+                    H[i, k],
+                    U_L[i, k],
+                    U_sep[i, k],
+                    shared,
+                    block.partials[:, dome],
+                    0.0 if clamped else 1.0,
+                    dtab[i, k],
+                )
+            dome += 1
+
+
+@kernel
 def design_tables(designs, forms, out):
     """Status, kernel table and (on request) derivative table of every design of a batch.
+
+    The domes' constants are evaluated a block of designs at a time
+    (:func:`~dpfexplore.model.closed_form.set_constants_block`), then each design's rows filled.
 
     Parameters
     ----------
@@ -184,37 +270,14 @@ def design_tables(designs, forms, out):
         ``dtab`` (n, MAX_UNITS, N_DCONST, N_DPARAM), ``∂(constant)/∂(parameter)`` per unit
         (rows :data:`DC_H` and ``COL_P..COL_KT``, columns ``DP_*``), skipped when empty.
     """
-    n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch = designs
-    status, table, h, no_contact, dtab = out
-    want_derivatives = dtab.shape[0] > 0
-    powers = power_tables()
-    for i in range(n_units.shape[0]):
-        # the status of design.status_code: geometry first, then the constants, checked on the
-        # rows computed below (each closed form evaluated once)
-        status[i] = geometry_status(
-            n_units[i], H[i], U_L[i], U_sep[i], t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i]
-        )
-        h[i] = segment_height_form(r_b[i], t_lim[i], t[i])
-        shared = SharedParams(t[i], t_lim[i], E[i], nu[i], r_b[i], t_ch[i])
-        active = min(max(n_units[i], 0), MAX_UNITS)
-        for k in range(MAX_UNITS):
-            if k >= active:
-                table[i, k, :] = np.nan
-                no_contact[i, k] = False
-                if want_derivatives:
-                    dtab[i, k] = np.nan
-                continue
-            Hk = H[i, k]
-            U_Lk = U_L[i, k]
-            U_sepk = U_sep[i, k]
-            clamped = _unit_row(Hk, U_Lk, U_sepk, shared, forms, powers, table[i, k])
-            no_contact[i, k] = clamped
-            if status[i] == st.OK:
-                status[i] = constants_status(table[i, k, COL_KB], table[i, k, COL_ALPHA])
-            if want_derivatives:
-                _derivative_rows(
-                    Hk, U_Lk, U_sepk, shared, forms, powers, 0.0 if clamped else 1.0, dtab[i, k]
-                )
+    terms = set_terms(forms, out.dtab.shape[0] > 0)
+    block = dome_block(terms)
+    first = 0
+    while first < designs.n_units.shape[0]:
+        end, count = gather_domes(designs, first, block)
+        set_constants_block(terms, block, count)
+        fill_designs(designs, first, end, block, out)
+        first = end
 
 
 def empty_derivative_table():
@@ -234,4 +297,6 @@ __all__ = [
     "N_DPARAM",
     "design_tables",
     "empty_derivative_table",
+    "fill_designs",
+    "gather_domes",
 ]

@@ -11,9 +11,10 @@ the grid points (median, max). The goal: 1,000 curves fitted and selected in at 
 
 Second part, the cost of running on a constants set: ``k_b``, ``alpha`` and the reach of a
 million domes evaluated by the general path of every kernel table (the paper's set read as
-data, :func:`~dpfexplore.model.closed_form.set_constants_form`) against the paper's forms
+data, :func:`~dpfexplore.model.closed_form.set_constants_block`) against the paper's forms
 compiled as plain arithmetic, side by side (medians of interleaved runs, compile apart), with
-their largest difference; and the whole table build of a batch for scale.
+their largest difference; then the whole kernel-table build of a batch, the set's against the
+same build with the compiled paper forms, and ``kernel_tables`` as users call it.
 """
 
 from __future__ import annotations
@@ -110,7 +111,10 @@ def _baseline(curves) -> tuple[float, np.ndarray, np.ndarray]:
 
 def _table_build(n: int, repeats: int, seed: int) -> dict:
     """The constants of ``n`` domes: a set's general path against the compiled paper forms."""
-    from .._kernels.closed_form_loops import paper_forms, set_forms
+    from .._kernels.closed_form_loops import paper_forms, paper_tables, set_forms
+    from .._kernels.layout import COL_KB, N_COLS
+    from .._kernels.records import DesignArrays, TableOutputs
+    from .._kernels.tables import design_tables, empty_derivative_table
     from ..model.constants_set import DEFAULT
     from ..model.design import DesignBatch
     from ..model.domain import MAX_UNITS
@@ -137,7 +141,8 @@ def _table_build(n: int, repeats: int, seed: int) -> dict:
         paper_forms(H, t, r_b, E, U_sep, t_ch, paper)
         times["paper"].append(time.perf_counter() - start)
     rel = np.abs(ours[:, :2] - paper[:, :2]) / np.abs(paper[:, :2])
-    # a whole table build for scale: designs of 6 units under the paper's set
+    # the whole table build: designs of 6 units under the paper's set, its compiled kernel
+    # against the same build with the compiled paper forms, and the call users make
     m = max(1, n // 6)
     per_unit = np.full((3, m, MAX_UNITS), np.nan)
     per_unit[0, :, :6] = H[: 6 * m].reshape(m, 6)
@@ -155,12 +160,32 @@ def _table_build(n: int, repeats: int, seed: int) -> dict:
         r_b=5.0,
         t_ch=1.0,
     )
-    kernel_tables(batch.take(np.arange(2)))
-    table_s = []
-    for _ in range(max(1, repeats // 2)):
-        start = time.perf_counter()
-        kernel_tables(batch)
-        table_s.append(time.perf_counter() - start)
+    designs = DesignArrays(*(getattr(batch, name) for name in DesignBatch.ARRAY_FIELDS))
+    outputs = {
+        name: TableOutputs(
+            np.empty(m, dtype=np.int8),
+            np.empty((m, MAX_UNITS, N_COLS)),
+            np.empty(m),
+            np.empty((m, MAX_UNITS), dtype=np.bool_),
+            empty_derivative_table(),
+        )
+        for name in ("set", "paper")
+    }
+    builds = {
+        "set": lambda: design_tables(designs, forms, outputs["set"]),
+        "paper": lambda: paper_tables(designs, forms, outputs["paper"]),
+        "whole": lambda: kernel_tables(batch),
+    }
+    for build in builds.values():
+        build()
+    table_times: dict[str, list[float]] = {name: [] for name in builds}
+    for _ in range(repeats):
+        for name, build in builds.items():
+            start = time.perf_counter()
+            build()
+            table_times[name].append(time.perf_counter() - start)
+    table_set, table_paper = (float(np.median(table_times[k])) for k in ("set", "paper"))
+    kb_set, kb_paper = (outputs[k].table[:, :6, COL_KB] for k in ("set", "paper"))
     set_s, paper_s = float(np.median(times["set"])), float(np.median(times["paper"]))
     return {
         "domes": n,
@@ -176,7 +201,11 @@ def _table_build(n: int, repeats: int, seed: int) -> dict:
         "max_rel_difference_alpha": float(rel[:, 1].max()),
         "max_abs_difference_reach_mm": float(np.abs(ours[:, 2] - paper[:, 2]).max()),
         "table_build_designs": m,
-        "table_build_median_s": float(np.median(table_s)),
+        "table_build_median_s": float(np.median(table_times["whole"])),
+        "tables_set_median_s": table_set,
+        "tables_paper_median_s": table_paper,
+        "ratio_tables_set_over_paper": table_set / table_paper,
+        "tables_max_rel_difference_k_b": float(np.max(np.abs(kb_set / kb_paper - 1.0))),
     }
 
 
@@ -289,6 +318,9 @@ def _tables_text(t: dict) -> str:
         f"{t['compile_paper_s']:.2f} s; largest difference k_b "
         f"{t['max_rel_difference_k_b']:.1e}, alpha {t['max_rel_difference_alpha']:.1e} "
         f"(relative), reach {t['max_abs_difference_reach_mm']:.1e} mm\n"
-        f"whole kernel-table build, {t['table_build_designs']:,} designs of 6 units: "
-        f"{1e3 * t['table_build_median_s']:.1f} ms"
+        f"kernel-table build, {t['table_build_designs']:,} designs of 6 units: set "
+        f"{1e3 * t['tables_set_median_s']:.1f} ms, paper forms compiled "
+        f"{1e3 * t['tables_paper_median_s']:.1f} ms: ratio {t['ratio_tables_set_over_paper']:.2f} "
+        f"(k_b apart by {t['tables_max_rel_difference_k_b']:.1e}); kernel_tables() with its "
+        f"allocations {1e3 * t['table_build_median_s']:.1f} ms"
     )

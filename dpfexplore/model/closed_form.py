@@ -2,14 +2,18 @@
 
 A :class:`ClosedForm` is a sum of monomials ``c · π1^p · π3^q``. A constants set
 (:mod:`dpfexplore.model.constants_set`) holds three of them; the kernels that build the lattice
-tables read a set as a record of two arrays (its terms' powers and coefficients) and evaluate
-it with :func:`set_constants_form` and :func:`set_constant_partials`. Both paths form the same
-products in the same order (powers by repeated multiplication, :func:`_ipow`), so they agree bit
-for bit.
+tables read a set as a record of two arrays (its terms' powers and coefficients), flatten it
+once per batch (:func:`set_terms`) and evaluate it a block of domes at a time
+(:func:`set_constants_block`): power tables per dome, then each term across the block. Both
+paths form the same products in the same order (powers by repeated multiplication,
+:func:`_ipow`; terms summed from zero in the form's order), so they agree bit for bit. Working
+across a block lets the compiler vectorise over domes, which makes a set's constants cost no
+more than the paper's forms compiled as plain arithmetic (``dpfexplore bench identify``).
 """
 
 from __future__ import annotations
 
+from collections import namedtuple
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -19,15 +23,18 @@ from numba.extending import register_jitable
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "DOME_BLOCK",
     "FORM_ALPHA",
     "FORM_K_HAT",
     "FORM_TIP_RATIO",
     "MAX_POWER",
     "ClosedForm",
     "ConstantsSetError",
-    "power_tables",
-    "set_constant_partials",
-    "set_constants_form",
+    "DomeBlock",
+    "FormTerms",
+    "dome_block",
+    "set_constants_block",
+    "set_terms",
 ]
 
 #: Largest power of ``π1`` or ``π3`` a closed form may hold (either sign): identification's
@@ -150,119 +157,218 @@ def _term(c, p, q, pi1, pi3):
     return c * _ipow(pi1, p) * _ipow(pi3, q)
 
 
-@register_jitable
-def _power_table(x, out):
-    """``out[k] = x**k`` for ``k = 0..MAX_POWER``, by the multiplications of :func:`_ipow`."""
-    power = 1.0
-    out[0] = power
-    for k in range(1, MAX_POWER + 1):
-        power = power * x
-        out[k] = power
+#: Row of the power ``π^0`` in a power table; a table holds the powers
+#: ``-(MAX_POWER + 1) .. MAX_POWER + 1`` (the partials of a term in ``π^-MAX_POWER`` reach one
+#: lower, and ``1 / π^k`` needs ``π^k``).
+POWER_OFFSET = MAX_POWER + 1
+POWER_TABLE_SIZE = 2 * MAX_POWER + 3
+#: Forms of :func:`set_terms`: the three closed forms (rows ``FORM_*``), then with ``partials``
+#: their derivatives in ``π1`` (rows ``N_FORMS + FORM_*``) and in ``π3`` (``2 N_FORMS + FORM_*``).
+N_FORMS = 3
+#: Rows of :attr:`DomeBlock.partials`: ``∂k_b/∂H, ∂k_b/∂t, ∂α/∂H, ∂α/∂t, ∂tip_dis/∂H,
+#: ∂tip_dis/∂t`` (units of the constant per mm).
+N_SET_PARTIALS = 6
+#: Domes a kernel evaluates together (at least ``MAX_UNITS``: one design's units share a block).
+DOME_BLOCK = 96
+
+#: A constants set's closed forms as one list of terms (:func:`set_terms`): per term its
+#: ``coefficients`` and the rows ``index1``, ``index3`` (int64) of its powers of ``π1`` and
+#: ``π3`` in a power table; ``ends`` (int64): where each form's terms end; ``range1``,
+#: ``range3`` (int64, ``(2,)``): the lowest and highest powers of ``π1`` and ``π3`` in use.
+FormTerms = namedtuple(
+    "FormTerms", ["coefficients", "index1", "index3", "ends", "range1", "range3"]
+)
+
+#: A block of domes (:func:`dome_block`): their ``H``, ``t``, ``r_b`` (mm) and ``E`` (MPa), each
+#: ``(DOME_BLOCK,)``, filled by the caller; the radii ``R`` (mm) and the power tables ``P1``,
+#: ``P3`` ``(POWER_TABLE_SIZE, DOME_BLOCK)`` as scratch; and what :func:`set_constants_block`
+#: writes: ``values`` ``(n_forms, DOME_BLOCK)`` (rows ``FORM_K_HAT``, ``FORM_ALPHA``,
+#: ``FORM_TIP_RATIO`` end as ``k_b`` (N/mm), ``alpha``, ``tip_dis`` (mm)) and ``partials``
+#: ``(N_SET_PARTIALS, DOME_BLOCK)``.
+DomeBlock = namedtuple("DomeBlock", ["H", "t", "r_b", "E", "R", "P1", "P3", "values", "partials"])
 
 
 @register_jitable
-def _form_value(forms, f, P1, P3):
-    """Closed form ``f`` of a :meth:`ConstantsSet.kernel_forms` record from power tables.
+def _used_terms(powers, coefficients, f):
+    """Terms of form ``f`` up to its last one that is not padding (``0 · π1⁰ · π3⁰``)."""
+    used = 0
+    for j in range(coefficients.shape[1]):
+        if coefficients[f, j] != 0.0 or powers[f, j, 0] != 0 or powers[f, j, 1] != 0:
+            used = j + 1
+    return used
 
-    ``P1``, ``P3``: :func:`_power_table` of ``π1`` and ``π3``; a negative power is
-    ``1 / x**|n|``, as :func:`_ipow` computes it. Each term is ``c · π1^p · π3^q`` with those
-    powers, so the sum equals the NumPy :meth:`ClosedForm.__call__` bit for bit (padding terms
-    ``0 · 1 · 1`` add zero); the tables only spare recomputing the powers per term. (The power
-    lookups stay inline expressions: as a helper function they made the loop 5x slower.)
+
+@register_jitable
+def set_terms(forms, partials):
+    """The terms a kernel evaluates for a set: :meth:`ConstantsSet.kernel_forms` flattened.
+
+    The three closed forms, and with ``partials`` (bool) their derivatives in ``π1`` and ``π3``
+    as closed forms of their own (``c p · π1^(p-1) π3^q`` per term with ``p != 0``, as
+    :meth:`ClosedForm.partials` forms them). Trailing padding is dropped: a term ``0 · 1 · 1``
+    adds ``+0`` to a sum that starts at ``+0``, which changes no sum. Built once per batch.
     """
     powers, coefficients = forms
-    total = 0.0
-    for j in range(coefficients.shape[1]):
-        p = powers[f, j, 0]
-        q = powers[f, j, 1]
-        a = P1[p] if p >= 0 else 1.0 / P1[-p]
-        b = P3[q] if q >= 0 else 1.0 / P3[-q]
-        total = total + coefficients[f, j] * a * b
-    return total
+    n_forms = 3 * N_FORMS if partials else N_FORMS
+    used = np.zeros(N_FORMS, dtype=np.int64)
+    for f in range(N_FORMS):
+        used[f] = _used_terms(powers, coefficients, f)
+    size = 3 * (used[0] + used[1] + used[2])
+    c = np.empty(size)
+    index1 = np.empty(size, dtype=np.int64)
+    index3 = np.empty(size, dtype=np.int64)
+    ends = np.empty(n_forms, dtype=np.int64)
+    range1 = np.zeros(2, dtype=np.int64)
+    range3 = np.zeros(2, dtype=np.int64)
+    s = 0
+    for form in range(n_forms):
+        f = form % N_FORMS
+        along = form // N_FORMS  # 0: the form, 1: its derivative in π1, 2: in π3
+        for j in range(used[f]):
+            coefficient = coefficients[f, j]
+            p = powers[f, j, 0]
+            q = powers[f, j, 1]
+            if along == 1:
+                if p == 0:
+                    continue
+                coefficient = coefficient * p
+                p = p - 1
+            elif along == 2:
+                if q == 0:
+                    continue
+                coefficient = coefficient * q
+                q = q - 1
+            c[s] = coefficient
+            index1[s] = p + POWER_OFFSET
+            index3[s] = q + POWER_OFFSET
+            range1[0] = min(range1[0], p)
+            range1[1] = max(range1[1], p)
+            range3[0] = min(range3[0], q)
+            range3[1] = max(range3[1], q)
+            s += 1
+        ends[form] = s
+    return FormTerms(c[:s], index1[:s], index3[:s], ends, range1, range3)
 
 
 @register_jitable
-def _form_partials(forms, f, P1, P3):
-    """Closed form ``f`` and its partials ``∂/∂π1``, ``∂/∂π3`` from power tables."""
-    powers, coefficients = forms
-    value = 0.0
-    d1 = 0.0
-    d3 = 0.0
-    for j in range(coefficients.shape[1]):
-        c = coefficients[f, j]
-        p = powers[f, j, 0]
-        q = powers[f, j, 1]
-        a = P1[p] if p >= 0 else 1.0 / P1[-p]
-        b = P3[q] if q >= 0 else 1.0 / P3[-q]
-        value = value + c * a * b
-        if p != 0:
-            a1 = P1[p - 1] if p >= 1 else 1.0 / P1[1 - p]
-            d1 = d1 + c * p * a1 * b
-        if q != 0:
-            b1 = P3[q - 1] if q >= 1 else 1.0 / P3[1 - q]
-            d3 = d3 + c * q * a * b1
-    return value, d1, d3
+def dome_block(terms):
+    """A :data:`DomeBlock` of :data:`DOME_BLOCK` domes for ``terms`` (allocated once per batch)."""
+    size = DOME_BLOCK
+    return DomeBlock(
+        np.empty(size),
+        np.empty(size),
+        np.empty(size),
+        np.empty(size),
+        np.empty(size),
+        np.empty((POWER_TABLE_SIZE, size)),
+        np.empty((POWER_TABLE_SIZE, size)),
+        np.empty((terms.ends.shape[0], size)),
+        np.empty((N_SET_PARTIALS, size)),
+    )
 
 
 @register_jitable
-def power_tables():
-    """Scratch of :func:`set_constants_form`: the powers of ``π1`` and ``π3``.
+def _power_rows(P, power_range, n):
+    """Fill rows ``π^lo .. π^hi`` of table ``P`` whose row ``π^1`` holds ``π`` (domes ``< n``).
 
-    Allocated once per batch by the kernels (an allocation per dome would cost more than the
-    closed forms themselves).
+    ``π^k`` by the repeated multiplications of :func:`_ipow` and ``π^-k = 1 / π^k`` by its
+    division, so each entry is the number the NumPy path forms.
     """
-    return np.empty(MAX_POWER + 1), np.empty(MAX_POWER + 1)
+    lo = power_range[0]
+    hi = power_range[1]
+    x = P[POWER_OFFSET + 1]
+    ones = P[POWER_OFFSET]
+    for d in range(n):
+        ones[d] = 1.0
+    previous = x
+    for k in range(2, max(hi, -lo) + 1):
+        row = P[POWER_OFFSET + k]
+        for d in range(n):
+            row[d] = previous[d] * x[d]
+        previous = row
+    for k in range(1, -lo + 1):
+        row = P[POWER_OFFSET - k]
+        positive = P[POWER_OFFSET + k]
+        for d in range(n):
+            row[d] = 1.0 / positive[d]
 
 
 @register_jitable
-def set_constants_form(forms, E, H, t, r_b, powers):
-    """``(k_b, alpha, tip_dis)`` of one dome under a set (N/mm, --, mm).
+def _evaluate_block(terms, block, n):
+    """Every form of ``terms`` at the first ``n`` domes of ``block`` into ``block.values``.
 
-    The arithmetic of :meth:`ConstantsSet.evaluate` on scalars, for the kernels that build the
-    lattice tables; ``forms`` is :meth:`ConstantsSet.kernel_forms`, ``powers`` a
-    :func:`power_tables` scratch.
+    Term by term across the domes: the loops over domes do the same operations in the same
+    order for every dome, so the compiler vectorises them without changing a result.
     """
-    R = (H * H + r_b * r_b) / (2.0 * H)
-    pi1 = t / H
-    pi3 = H / R
-    P1, P3 = powers
-    _power_table(pi1, P1)
-    _power_table(pi3, P3)
-    k_b = E * (t * t) / R * _form_value(forms, FORM_K_HAT, P1, P3)
-    alpha = _form_value(forms, FORM_ALPHA, P1, P3)
-    tip = H * _form_value(forms, FORM_TIP_RATIO, P1, P3)
-    return k_b, alpha, tip
+    coefficients, index1, index3, ends, range1, range3 = terms
+    H, t, r_b = block.H, block.t, block.r_b
+    R, P1, P3, values = block.R, block.P1, block.P3, block.values
+    pi1 = P1[POWER_OFFSET + 1]
+    pi3 = P3[POWER_OFFSET + 1]
+    for d in range(n):
+        Hd = H[d]
+        Rd = (Hd * Hd + r_b[d] * r_b[d]) / (2.0 * Hd)
+        R[d] = Rd
+        pi1[d] = t[d] / Hd
+        pi3[d] = Hd / Rd
+    _power_rows(P1, range1, n)
+    _power_rows(P3, range3, n)
+    start = 0
+    for f in range(ends.shape[0]):
+        total = values[f]
+        for d in range(n):
+            total[d] = 0.0
+        for j in range(start, ends[f]):
+            c = coefficients[j]
+            a = P1[index1[j]]
+            b = P3[index3[j]]
+            for d in range(n):
+                total[d] = total[d] + c * a[d] * b[d]
+        start = ends[f]
 
 
 @register_jitable
-def set_constant_partials(forms, E, H, t, r_b, powers):
-    """Derivatives of ``k_b``, ``alpha`` and ``tip_dis`` in ``H`` and ``t`` under a set.
+def set_constants_block(terms, block, n):
+    """``k_b``, ``alpha``, ``tip_dis`` (and their partials) of the first ``n`` domes of a block.
 
-    Returns ``(dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt)`` (units of the constant
-    per mm): the chain rule through ``π1 = t/H``, ``π3 = H/R`` and ``R = (H² + r_b²)/(2H)``
-    (MODEL.md §2-§3), exact for any set. ``powers``: a :func:`power_tables` scratch.
+    ``terms``: :func:`set_terms` of the set; ``block``: a :data:`DomeBlock` whose ``H``, ``t``,
+    ``r_b``, ``E`` hold the domes. Writes ``block.values`` rows ``FORM_K_HAT``, ``FORM_ALPHA``,
+    ``FORM_TIP_RATIO`` as ``k_b = E t²/R · k̂`` (N/mm), ``alpha`` and ``tip_dis = H · tip/H``
+    (mm): the arithmetic of :meth:`ConstantsSet.evaluate`, bit for bit. When ``terms`` holds
+    the partials, also ``block.partials``: the chain rule through ``π1 = t/H``, ``π3 = H/R``
+    and ``R = (H² + r_b²)/(2H)`` (MODEL.md §2-§3), exact for any set.
     """
-    R = (H * H + r_b * r_b) / (2.0 * H)
-    dR_dH = 0.5 - r_b * r_b / (2.0 * H * H)
-    pi1 = t / H
-    pi3 = H / R
-    dpi1_dH = -t / (H * H)
-    dpi1_dt = 1.0 / H
-    dpi3_dH = (R - H * dR_dH) / (R * R)
-    P1, P3 = powers
-    _power_table(pi1, P1)
-    _power_table(pi3, P3)
-    k, k1, k3 = _form_partials(forms, FORM_K_HAT, P1, P3)
-    _, a1, a3 = _form_partials(forms, FORM_ALPHA, P1, P3)
-    g, g1, g3 = _form_partials(forms, FORM_TIP_RATIO, P1, P3)
-    scale = E * (t * t) / R
-    dkb_dH = scale * (k1 * dpi1_dH + k3 * dpi3_dH) - scale * k * dR_dH / R
-    dkb_dt = 2.0 * E * t / R * k + scale * k1 * dpi1_dt
-    dalpha_dH = a1 * dpi1_dH + a3 * dpi3_dH
-    dalpha_dt = a1 * dpi1_dt
-    dtip_dH = g + H * (g1 * dpi1_dH + g3 * dpi3_dH)
-    dtip_dt = H * g1 * dpi1_dt
-    return dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dtip_dH, dtip_dt
+    _evaluate_block(terms, block, n)
+    H, t, r_b, E, R, values = block.H, block.t, block.r_b, block.E, block.R, block.values
+    if terms.ends.shape[0] > N_FORMS:
+        dk = block.partials
+        for d in range(n):
+            Hd = H[d]
+            td = t[d]
+            Rd = R[d]
+            dR_dH = 0.5 - r_b[d] * r_b[d] / (2.0 * Hd * Hd)
+            dpi1_dH = -td / (Hd * Hd)
+            dpi1_dt = 1.0 / Hd
+            dpi3_dH = (Rd - Hd * dR_dH) / (Rd * Rd)
+            k = values[FORM_K_HAT, d]
+            k1 = values[N_FORMS + FORM_K_HAT, d]
+            k3 = values[2 * N_FORMS + FORM_K_HAT, d]
+            a1 = values[N_FORMS + FORM_ALPHA, d]
+            a3 = values[2 * N_FORMS + FORM_ALPHA, d]
+            g = values[FORM_TIP_RATIO, d]
+            g1 = values[N_FORMS + FORM_TIP_RATIO, d]
+            g3 = values[2 * N_FORMS + FORM_TIP_RATIO, d]
+            scale = E[d] * (td * td) / Rd
+            dk[0, d] = scale * (k1 * dpi1_dH + k3 * dpi3_dH) - scale * k * dR_dH / Rd
+            dk[1, d] = 2.0 * E[d] * td / Rd * k + scale * k1 * dpi1_dt
+            dk[2, d] = a1 * dpi1_dH + a3 * dpi3_dH
+            dk[3, d] = a1 * dpi1_dt
+            dk[4, d] = g + Hd * (g1 * dpi1_dH + g3 * dpi3_dH)
+            dk[5, d] = Hd * g1 * dpi1_dt
+    k_b = values[FORM_K_HAT]
+    tip = values[FORM_TIP_RATIO]
+    for d in range(n):
+        k_b[d] = E[d] * (t[d] * t[d]) / R[d] * k_b[d]
+        tip[d] = H[d] * tip[d]
 
 
 def _superscript(n: int) -> str:

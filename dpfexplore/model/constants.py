@@ -277,8 +277,11 @@ def _monomial_partials(terms, H, t, R):
 
 
 @register_jitable
-def constant_derivatives_form(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
+def constant_derivatives_form(H, U_L, U_sep, shared):
     """Derivatives of a unit's constants in its design parameters (the chain of MODEL.md §3).
+
+    ``H``, ``U_L``, ``U_sep``: the unit's (mm); ``shared``: the design's ``(t, t_lim, E, nu,
+    r_b, t_ch)`` (mm, MPa), a tuple (``SharedParams`` in the kernels).
 
     Returns the tuple ``(dR_dH, dkb_dH, dkb_dt, dalpha_dH, dalpha_dt, dd_dH, dd_dt, dd_dUsep,
     dklim_dUL, dklim_dt, dklim_dtlim, dkt_dUsep, dkt_dt, dkt_dtlim)``; every other derivative
@@ -286,6 +289,7 @@ def constant_derivatives_form(H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
     dp/dU_sep = 1``) and every stiffness is proportional to ``E``. Where ``d`` is clamped
     (``no_contact``) it is the constant ``NO_CONTACT_REACH``, so its derivatives are 0 there.
     """
+    t, t_lim, E, nu, r_b, t_ch = shared
     R = radius_form(H, r_b)
     dR_dH = 0.5 - r_b * r_b / (2.0 * H * H)
     scale = E / (R * R)
@@ -376,7 +380,7 @@ def constant_derivatives(
             dkt_dUsep,
             dkt_dt,
             dkt_dtlim,
-        ) = constant_derivatives_form(*args)
+        ) = constant_derivatives_form(*args[:3], tuple(args[3:]))
     zero = np.zeros(args[0].shape)
     one = np.ones(args[0].shape)
     table = {

@@ -151,7 +151,7 @@ class ConstantsSet:
         """``k_b`` (N/mm), ``alpha`` and ``tip_dis`` (mm) of domes ``H, t, r_b`` (mm), ``E``.
 
         ``E`` in MPa; all arguments broadcast. The arithmetic of the kernels
-        (:func:`.closed_form.set_constants_form`).
+        (:func:`.closed_form.set_constants_block`).
         """
         H, t, r_b, E = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (H, t, r_b, E)))
         R = (H * H + r_b * r_b) / (2.0 * H)
@@ -165,7 +165,7 @@ class ConstantsSet:
     def dome(self, E: float, H: float, t: float, r_b: float) -> tuple[float, float]:
         """``(k_b, alpha)`` of one dome in plain Python floats (N/mm, --).
 
-        The arithmetic of the kernels (:func:`.closed_form.set_constants_form`) term by term, so
+        The arithmetic of the kernels (:func:`.closed_form.set_constants_block`) term by term, so
         the numbers are theirs bit for bit; for checking one design without NumPy's per-call
         cost.
         """

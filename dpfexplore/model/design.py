@@ -10,11 +10,11 @@ Lengths in mm, ``E`` in MPa.
 Every design and batch carries the constants set its domes' closed forms come from
 (:mod:`dpfexplore.model.constants_set`; the paper's, :data:`DEFAULT`, unless given): the
 validation, the kernel tables and the fitted-range flag all read it. A batch holds one set.
+The rules of the validation and their messages live in :mod:`dpfexplore.model.validation`.
 """
 
 from __future__ import annotations
 
-import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -22,21 +22,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba.extending import register_jitable
 from numpy.typing import NDArray
 
 from . import status as st
-from .constants import constants_are_valid
 from .constants_set import (
     DEFAULT,
     DOMAIN_KEYS,
     ConstantsSet,
     load_constants_set,
 )
-from .domain import MAX_UNITS, active_units, fitted_range, outside_domain, unit_in_domain
-from .formatting import num as _num
+from .domain import MAX_UNITS, active_units, fitted_range
 from .formatting import nums as _nums
 from .materials import MATERIALS, Material, material
+from .validation import PER_UNIT_FIELDS, SHARED_FIELDS, problems, status_code
 
 __all__ = [
     "MATERIALS",
@@ -49,164 +47,7 @@ __all__ = [
 ]
 
 
-PER_UNIT_FIELDS = ("H", "U_L", "U_sep")
-SHARED_FIELDS = ("t", "t_lim", "E", "nu", "r_b", "t_ch")
 DEFAULTS = {"E": 26.0, "nu": 0.35, "r_b": 5.0, "t_ch": 1.0}
-
-
-def _problems(
-    n_units: NDArray,
-    per_unit: Mapping[str, NDArray],
-    shared: Mapping[str, NDArray],
-    constants: ConstantsSet,
-) -> tuple[NDArray, list[str | None]]:
-    """Vectorised validation of padded design arrays.
-
-    Returns each design's status code (``OK``, ``INVALID_INPUT``, ``OUTSIDE_DOMAIN`` or
-    ``INVALID_CONSTANTS``) and a one-line description of its first problem (None when valid).
-    """
-    n = n_units.shape[0]
-    code = np.full(n, st.OK, dtype=np.int8)
-    message: list[str | None] = [None] * n
-
-    def flag(mask: NDArray, status: int, describe) -> None:
-        for i in np.flatnonzero(mask & (code == st.OK)):
-            code[i] = status
-            message[i] = describe(i)
-
-    n_ok = (n_units >= 1) & (n_units <= MAX_UNITS)
-    flag(
-        ~n_ok,
-        st.INVALID_INPUT,
-        lambda i: f"N = {_num(n_units[i])}: must be between 1 and {MAX_UNITS}",
-    )
-    active = active_units(n_units)
-    for name in PER_UNIT_FIELDS:
-        values = per_unit[name]
-        bad = active & ~(np.isfinite(values) & (values > 0.0))
-
-        def describe(i, name=name, values=values, bad=bad):
-            k = int(np.flatnonzero(bad[i])[0])
-            return f"{name}[unit {k + 1}] = {_num(values[i, k])}: must be a finite length > 0 mm"
-
-        flag(bad.any(axis=1), st.INVALID_INPUT, describe)
-    for name in SHARED_FIELDS:
-        values = shared[name]
-        if name == "nu":
-            bad = ~(np.isfinite(values) & (values >= 0.0) & (values < 0.5))
-            rule = "must be finite, 0 <= nu < 0.5"
-        else:
-            bad = ~(np.isfinite(values) & (values > 0.0))
-            rule = "must be finite and > 0" + (" MPa" if name == "E" else " mm")
-        flag(
-            bad,
-            st.INVALID_INPUT,
-            lambda i, name=name, v=values, r=rule: f"{name} = {_num(v[i])}: {r}",
-        )
-    # The physical domain (model/domain.py): geometries that are not a finger of caps in units.
-    taller_than_base, taller_than_unit = outside_domain(
-        per_unit["H"], per_unit["U_L"], shared["r_b"], active
-    )
-
-    def describe_base(i):
-        k = int(np.flatnonzero(taller_than_base[i])[0])
-        return (
-            f"H[unit {k + 1}] = {_num(per_unit['H'][i, k])} mm: taller than the dome base radius "
-            f"r_b = {_num(shared['r_b'][i])} mm (more than a hemisphere; outside the model's "
-            "domain, see dpfexplore.model.domain)"
-        )
-
-    def describe_unit(i):
-        k = int(np.flatnonzero(taller_than_unit[i])[0])
-        return (
-            f"H[unit {k + 1}] = {_num(per_unit['H'][i, k])} mm: not shorter than its unit, "
-            f"U_L[unit {k + 1}] = {_num(per_unit['U_L'][i, k])} mm (the dome leaves no room; "
-            "outside the model's domain, see dpfexplore.model.domain)"
-        )
-
-    flag(taller_than_base.any(axis=1), st.OUTSIDE_DOMAIN, describe_base)
-    flag(taller_than_unit.any(axis=1), st.OUTSIDE_DOMAIN, describe_unit)
-    # The closed forms of MODEL.md §3 leave their fitted domain silently; catch the nonsense.
-    with np.errstate(all="ignore"):
-        H = np.where(active, per_unit["H"], 1.0)
-        values = constants.evaluate(
-            H, shared["t"][:, None], shared["r_b"][:, None], shared["E"][:, None]
-        )
-        k_b, alpha = values["k_b"], values["alpha"]
-    bad_const = active & ~constants_are_valid(k_b, alpha)
-    which = "closed forms"
-    if constants != DEFAULT:
-        which += f" of constants set {constants.label}"
-
-    def describe_const(i):
-        k = int(np.flatnonzero(bad_const[i])[0])
-        return (
-            f"H[unit {k + 1}] = {_num(H[i, k])} with t = {_num(shared['t'][i])}: the {which} "
-            "give "
-            f"k_b = {k_b[i, k]:.4g} N/mm, alpha = {alpha[i, k]:.4g} "
-            "(need k_b > 0 and 0 < alpha < 1; outside the fitted domain)"
-        )
-
-    flag(bad_const.any(axis=1), st.INVALID_CONSTANTS, describe_const)
-    return code, message
-
-
-@register_jitable
-def _positive(v):
-    return math.isfinite(v) and v > 0.0
-
-
-@register_jitable
-def geometry_status(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch):
-    """Status code of one design's inputs and geometry (all of :func:`status_code` but constants).
-
-    ``OK``, ``INVALID_INPUT`` or ``OUTSIDE_DOMAIN``. The kernel that packs batches
-    (:mod:`dpfexplore._kernels.tables`) runs this and checks the
-    constants on the table rows it computes anyway, evaluating each closed form once.
-    """
-    if not 1 <= n_units <= MAX_UNITS:
-        return st.INVALID_INPUT
-    for k in range(n_units):
-        if not (_positive(H[k]) and _positive(U_L[k]) and _positive(U_sep[k])):
-            return st.INVALID_INPUT
-    if not (_positive(t) and _positive(t_lim) and _positive(E)):
-        return st.INVALID_INPUT
-    if not (math.isfinite(nu) and 0.0 <= nu < 0.5):
-        return st.INVALID_INPUT
-    if not (_positive(r_b) and _positive(t_ch)):
-        return st.INVALID_INPUT
-    for k in range(n_units):
-        if not unit_in_domain(H[k], U_L[k], r_b):
-            return st.OUTSIDE_DOMAIN
-    return st.OK
-
-
-@register_jitable
-def constants_status(k_b, alpha):
-    """``OK`` where a unit's ``k_b`` and ``alpha`` make sense, else ``INVALID_CONSTANTS``."""
-    if math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0:
-        return st.OK
-    return st.INVALID_CONSTANTS
-
-
-def status_code(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch, constants: ConstantsSet):
-    """Status code of one design under the rules of :func:`_problems` (without the message).
-
-    The rules of the kernel that packs batches (:func:`geometry_status` and
-    :func:`constants_status`, compiled there), run here in plain Python with the set's own
-    arithmetic (:meth:`~dpfexplore.model.constants_set.ConstantsSet.dome`):
-    :class:`Design` checks itself at tens of microseconds where the vectorised
-    :func:`_problems` costs hundreds for any batch size; the tests hold the two to the same
-    codes. ``H``, ``U_L``, ``U_sep`` are sequences of at least ``n_units`` values.
-    """
-    code = geometry_status(n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch)
-    if code != st.OK:
-        return code
-    for k in range(n_units):
-        code = constants_status(*constants.dome(float(E), float(H[k]), float(t), float(r_b)))
-        if code != st.OK:
-            return code
-    return st.OK
 
 
 def _per_unit(name: str, value: Any, n_units: int) -> tuple[float, ...]:
@@ -334,8 +175,8 @@ class Design:
             object.__setattr__(self, name, _per_unit(name, getattr(self, name), n_units))
         for name in SHARED_FIELDS:
             object.__setattr__(self, name, _number(name, getattr(self, name)))
-        shared = (getattr(self, name) for name in SHARED_FIELDS)
-        if status_code(n_units, self.H, self.U_L, self.U_sep, *shared, self.constants) != st.OK:
+        shared = tuple(getattr(self, name) for name in SHARED_FIELDS)
+        if status_code(n_units, self.H, self.U_L, self.U_sep, shared, self.constants) != st.OK:
             _, message = DesignBatch.from_designs([self]).problems()
             raise ValueError(message[0])
 
@@ -560,7 +401,7 @@ class DesignBatch:
         """Status code per design and a description of its first problem (None if valid)."""
         per_unit = {name: getattr(self, name) for name in PER_UNIT_FIELDS}
         shared = {name: getattr(self, name) for name in SHARED_FIELDS}
-        return _problems(self.n_units, per_unit, shared, self.constants)
+        return problems(self.n_units, per_unit, shared, self.constants)
 
     def status(self) -> NDArray[np.int8]:
         """Status code per design (``OK``, ``INVALID_INPUT``, ``OUTSIDE_DOMAIN``, ...)."""

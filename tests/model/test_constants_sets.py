@@ -186,3 +186,49 @@ def test_a_hull_narrows_the_domain_to_where_the_data_were(tmp_path):
     assert again.fingerprint != dataclasses.replace(triangle, hull=None).fingerprint
     # collinear data have no hull (the ranges say all there is)
     assert data_hull([0.6, 0.8, 1.0], [0.1, 0.15, 0.2]) is None
+
+
+def test_negative_powers_down_to_the_limit_in_the_kernels():
+    """Powers down to -MAX_POWER: the tables bit for bit, the derivatives (which reach one
+    power lower) against central differences of the set's NumPy evaluation."""
+    from dpfexplore.model.closed_form import MAX_POWER
+
+    low = -MAX_POWER
+    steep = ConstantsSet(
+        name="negative",
+        k_hat=ClosedForm(((0, 0), (low, 1), (2, low), (-1, -1)), (0.5, 1e-6, 1e-3, 0.01)),
+        alpha=ClosedForm(((0, 0), (1, low), (low, 2), (3, 0)), (0.05, 1e-3, 1e-7, -0.2)),
+        tip_ratio=ClosedForm(((0, 0), (1, -1)), (2.0, 0.1)),
+        domain=dict(DEFAULT.domain),
+    )
+    rng = np.random.default_rng(11)
+    n = 50
+    H, t, U_sep = rng.uniform(3.0, 5.0, n), rng.uniform(0.5, 1.0, n), rng.uniform(1.0, 2.0, n)
+    per_unit = np.full((3, n, 12), np.nan)
+    per_unit[:, :, 0] = H, np.full(n, 8.0), U_sep
+    batch = DesignBatch(
+        n_units=np.ones(n, dtype=np.int64),
+        H=per_unit[0],
+        U_L=per_unit[1],
+        U_sep=per_unit[2],
+        t=t,
+        t_lim=1.5,
+        E=26.0,
+        nu=0.35,
+        r_b=5.0,
+        t_ch=1.0,
+        constants=steep,
+    )
+    tables = kernel_tables(batch, derivatives=True)
+    want = steep.evaluate(H, t, 5.0, 26.0)
+    np.testing.assert_array_equal(tables.unit_params[:, 0, lay.COL_KB], want["k_b"])
+    np.testing.assert_array_equal(tables.unit_params[:, 0, lay.COL_ALPHA], want["alpha"])
+    step = 1e-5
+    for j, (dH, dt) in ((0, (step, 0.0)), (3, (0.0, step))):  # DP_H, DP_T
+        hi = steep.evaluate(H + dH, t + dt, 5.0, 26.0)
+        lo = steep.evaluate(H - dH, t - dt, 5.0, 26.0)
+        for name, row in (("k_b", lay.COL_KB), ("alpha", lay.COL_ALPHA)):
+            fd = (hi[name] - lo[name]) / (2 * step)
+            np.testing.assert_allclose(
+                tables.derivatives[:, 0, row, j], fd, rtol=1e-7, atol=1e-9, err_msg=name
+            )

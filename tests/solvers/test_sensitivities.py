@@ -17,7 +17,12 @@ from model_helpers import FINGER, height_for_alpha, other_set
 from dpfexplore import Design, DesignBatch, SolverOptions, Status, find_state, solve_batch
 from dpfexplore._kernels import layout as lay
 from dpfexplore._kernels.lattice import HESSIAN, assemble, lattice_hessian
-from dpfexplore._kernels.records import DesignDerivatives, Lattice, SensitivityRows
+from dpfexplore._kernels.records import (
+    DesignDerivatives,
+    Lattice,
+    SensitivityRows,
+    TangentParameter,
+)
 from dpfexplore._kernels.sensitivity import (
     N_SENS,
     design_sensitivities,
@@ -34,8 +39,8 @@ from dpfexplore.model.constants import (
     inversion_threshold,
 )
 from dpfexplore.model.constants_set import DEFAULT
-from dpfexplore.model.design import status_code
 from dpfexplore.model.domain import MAX_UNITS
+from dpfexplore.model.validation import status_code
 from dpfexplore.solvers import statics
 from dpfexplore.solvers.lattice import (
     _unit_constants,
@@ -240,7 +245,7 @@ def test_compiled_tables_and_status_equal_the_numpy_model_exactly(seed):
             batch.H[i],
             batch.U_L[i],
             batch.U_sep[i],
-            *(float(v[i]) for v in shared),
+            tuple(float(v[i]) for v in shared),
             batch.constants,
         )
         for i in range(len(batch))
@@ -347,7 +352,9 @@ def test_tangent_assembly_equals_differences_at_a_fixed_shape(n_units, seed):
     for name in parameter_names(n_units)[:-1]:  # E is closed form
         kind, unit = kind_and_unit(name, n_units)
         dg = np.empty(x.size)
-        d_energy, d_phi = tangent(ws[0], up, h, dtab, kind, unit, 1, n_units, r, dg)
+        d_energy, d_phi = tangent(
+            ws[0], Lattice(up, h), dtab, TangentParameter(kind, unit, 1, n_units), r, dg
+        )
         # small: a dome of tiny reach (unit 1 of seed 7, d = 0.015 mm) is very nonlinear in d
         step = 1e-5
         at = {m: energy_gradient_phi(perturbed(design, name, m * step)) for m in (-2, -1, 1, 2)}
@@ -358,7 +365,8 @@ def test_tangent_assembly_equals_differences_at_a_fixed_shape(n_units, seed):
             touches_l1 = unit == 1 and kind != 0
             hi = min(unit + 1, n_units) if touches_l1 else unit
             dg_local = np.empty(x.size)
-            local = tangent(ws[0], up, h, dtab, kind, unit, unit, hi, r, dg_local)
+            parameter = TangentParameter(kind, unit, unit, hi)
+            local = tangent(ws[0], Lattice(up, h), dtab, parameter, r, dg_local)
             np.testing.assert_allclose(local, (d_energy, d_phi), rtol=1e-13, atol=1e-15)
             np.testing.assert_allclose(dg_local, dg, rtol=1e-13, atol=1e-15)
 

@@ -16,6 +16,11 @@ constants such as ``RISING``, ``MAX_ITER``), never Python literals: Numba types 
 as ``Literal[int](value)`` and compiles the callee once more for each literal value it meets, so
 ``follow(..., 1, ...)`` and ``follow(..., -1, ...)`` would be two compilations of the same code.
 
+The package stays one flat folder of modules although it holds more than the ~15 modules
+the other packages keep to: :mod:`._jit` keys the whole on-disk Numba cache to one digest of
+this folder's sources (a kernel inlines its callees, so an edit anywhere may change any
+compiled kernel), and sub-packages would only hide that they are one compilation unit.
+
 Modules
 -------
 _jit

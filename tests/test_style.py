@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -37,3 +38,69 @@ def test_few_fmt_skip_markers():
         for path in (ROOT / target).rglob("*.py")
     )
     assert markers <= 5
+
+
+# Issue 18's layout rules, kept by the suite rather than by a one-off read.
+PACKAGE = ROOT / "dpfexplore"
+#: Decorators that make a Numba function: the project's policy (``kernel``, ``batch_kernel``)
+#: and Numba's own names, in case a module bypasses the policy.
+JIT_DECORATORS = {"kernel", "batch_kernel", "njit", "jit", "register_jitable"}
+MAX_KERNEL_PARAMETERS = 8
+MAX_MODULE_LINES = 600
+MAX_FLAT_MODULES = 15
+#: ``_kernels`` is one compilation unit for the cache digest (its package docstring says why).
+WIDE_PACKAGES = {"_kernels"}
+
+
+def _decorator_name(node: ast.expr) -> str | None:
+    if isinstance(node, ast.Call):
+        node = node.func
+    if isinstance(node, ast.Attribute):
+        return node.attr
+    return node.id if isinstance(node, ast.Name) else None
+
+
+def _jitted_functions() -> dict[str, int]:
+    """``module:function`` -> number of parameters, for every JIT-decorated function."""
+    found = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.FunctionDef) and any(
+                _decorator_name(d) in JIT_DECORATORS for d in node.decorator_list
+            ):
+                arguments = node.args
+                count = len(arguments.posonlyargs) + len(arguments.args)
+                found[f"{path.relative_to(PACKAGE)}:{node.name}"] = count + len(
+                    arguments.kwonlyargs
+                )
+    return found
+
+
+def test_the_kernel_finder_sees_the_kernels():
+    # Guards the rule below against a finder that silently finds nothing.
+    names = {key.split(":")[1] for key in _jitted_functions()}
+    assert {"minimize", "follow", "set_constants_block"} <= names
+    assert len(names) > 100
+
+
+def test_no_jitted_function_has_more_than_eight_parameters():
+    wide = {k: n for k, n in _jitted_functions().items() if n > MAX_KERNEL_PARAMETERS}
+    assert not wide, f"pass named records (dpfexplore/_kernels/records.py): {wide}"
+
+
+def test_no_module_is_longer_than_600_lines():
+    long = {
+        str(path.relative_to(ROOT)): n
+        for path in PACKAGE.rglob("*.py")
+        if (n := len(path.read_text().splitlines())) > MAX_MODULE_LINES
+    }
+    assert not long, long
+
+
+def test_no_package_holds_more_than_15_flat_modules():
+    wide = {}
+    for package in PACKAGE.rglob("__init__.py"):
+        modules = [p for p in package.parent.glob("*.py") if p.name != "__init__.py"]
+        if len(modules) > MAX_FLAT_MODULES and package.parent.name not in WIDE_PACKAGES:
+            wide[str(package.parent.relative_to(ROOT))] = len(modules)
+    assert not wide, wide

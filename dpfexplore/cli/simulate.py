@@ -196,8 +196,7 @@ def _run_fast(args, design, profile) -> int:
                     "fallback_reasons": reasons,
                     "horizon": args.t_end - profile.t_release,
                     "t_release": profile.t_release,
-                    "fitted_range": design.fitted_range_note is None,
-                    "fitted_range_note": design.fitted_range_note,
+                    **model_record(design),
                 },
                 indent=2,
             )

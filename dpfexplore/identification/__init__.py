@@ -6,6 +6,8 @@ curves
     The input table of unit-cell curves (CSV or Parquet), read and checked; folded paths.
 spring_fit
     The dome spring law fitted to one curve: linear start, robust refinement, flags.
+features
+    The spring law matched to a folded curve's features (initial slope, far state, barrier).
 closed_forms
     Closed forms in ``π1 = t/H``, ``π3 = H/R`` selected by grouped RFECV with ridge (and a lasso
     alternative scored on held-out geometries).

@@ -387,6 +387,11 @@ def test_simulate_fast_json_gives_the_models_values(capsys, pickplace):
         <= out["reset_time_interval"][1][4]
     )
     assert out["final_state"] == "111100" and out["classes"][4] == "metastable"
+    # like every command's JSON: the set it ran on and the fitted-range verdict
+    from dpfexplore.model.constants_set import DEFAULT
+
+    assert out["constants"]["fingerprint"] == DEFAULT.fingerprint
+    assert out["fitted_range"] is True and out["fitted_range_note"] is None
 
 
 def test_simulate_fast_text(capsys):

@@ -8,6 +8,12 @@ envelope (relative to its largest energy), of the first fold's travel and of ``t
 goal: one curve of ~200 steps in at most 1 s at the converged mesh (128 elements). Compile time
 in a fresh process with an empty Numba cache, and the cache load, are measured apart.
 
+With ``--grid N``, the issue's grid goal: about ``N`` geometries of the box (an ``H`` x ``t``
+grid, ``r_b`` 5 mm, ``E`` 26 MPa) traced by the unit-cell sweep
+(:func:`~dpfexplore.unitcell.sweep.run_unitcell_sweep`, ``--workers`` processes, Parquet
+included) into a temporary directory: wall time from start to manifest, and the statuses. The
+goal: 1,000 curves in at most 10 minutes on 2 cores.
+
 Side by side, the independent discretisation (:mod:`dpfexplore.unitcell.solid_check`: a 2-D
 axisymmetric solid with scikit-fem, neo-Hookean, rigid apex column of radius t/2) on two thick
 domes: its time per curve and the largest energy difference from the shell over the stable
@@ -24,6 +30,8 @@ from ._common import NOT_MEASURED, REPORTS, compile_line, emit, fresh_process_ti
 
 #: Seconds one curve may take at the default mesh (issue 21).
 GOAL_S = 1.0
+#: Seconds a 1,000-curve grid may take on 2 cores (issue 21).
+GRID_GOAL_S = 600.0
 #: The box's corners and centre.
 DOMES = ((3.0, 0.5), (3.0, 1.0), (5.0, 0.5), (5.0, 1.0), (4.0, 0.75))
 REFERENCE_ELEMENTS = 512
@@ -57,6 +65,16 @@ def register(subparsers) -> None:
     parser.add_argument("--repeats", type=int, default=3, help="timed repeats per curve")
     parser.add_argument(
         "--no-solid", action="store_true", help="skip the scikit-fem solid side by side"
+    )
+    parser.add_argument(
+        "--grid",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also trace a grid of about N geometries of the box by the unit-cell sweep (0: skip)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=2, help="worker processes of the --grid sweep"
     )
     parser.set_defaults(handler=run)
 
@@ -105,8 +123,44 @@ def _solid_side_by_side() -> list[dict]:
     return rows
 
 
+def _grid_sweep(n: int, workers: int) -> dict:
+    """About ``n`` geometries of the box traced by the unit-cell sweep: wall time and statuses."""
+    import tempfile
+    import time
+
+    from ..unitcell.sweep import job_from_dict, run_unitcell_sweep
+
+    n_t = max(1, round(np.sqrt(n / 2.0)))
+    n_h = max(1, round(n / n_t))
+    grid = {
+        "H": np.linspace(3.0, 5.0, n_h).tolist(),
+        "t": np.linspace(0.5, 1.0, n_t).tolist(),
+        "r_b": [5.0],
+        "E": [26.0],
+        "nu": [0.35],
+    }
+    job = job_from_dict({"grid": grid})
+    with tempfile.TemporaryDirectory(prefix="dpfexplore-bench-unitcell-") as out:
+        start = time.perf_counter()
+        manifest = run_unitcell_sweep(job, out, workers=workers)
+        wall = time.perf_counter() - start
+    curves = len(job.geometries)
+    return {
+        "curves": curves,
+        "grid": [n_h, n_t],
+        "workers": workers,
+        "elements": job.options["n_elements"],
+        "wall_s": wall,
+        "per_curve_s": wall / curves,
+        "goal_s": GRID_GOAL_S * curves / 1000.0,
+        "statuses": manifest["status"],
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``bench unitcell``."""
+    if args.grid < 0 or args.workers < 1:
+        raise SystemExit("bench unitcell: --grid must be >= 0 and --workers >= 1")
     from ..unitcell import unit_cell_curve
     from ..unitcell.shell import _announce
 
@@ -137,6 +191,7 @@ def run(args: argparse.Namespace) -> int:
             }
         )
     solid = [] if args.no_solid else _solid_side_by_side()
+    grid = _grid_sweep(args.grid, args.workers) if args.grid else None
     record = {
         "benchmark": "unitcell",
         "solid_side_by_side": solid,
@@ -145,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
         "reference_elements": REFERENCE_ELEMENTS,
         "goal_s": GOAL_S,
         "rows": rows,
+        "grid_sweep": grid,
         **timings,
     }
     m = record["machine"]
@@ -169,6 +225,13 @@ def run(args: argparse.Namespace) -> int:
             f"({r['solid_dofs']} unknowns) vs shell {r['shell_s']:.3f} s "
             f"CPU ({r['solid_cpu_s'] / r['shell_s']:.0f}x); energy difference "
             f"{100 * r['max_energy_difference']:.2f} % over 0.25 H..first fold"
+        )
+    if grid is not None:
+        lines.append(
+            f"grid: {grid['curves']} curves ({grid['grid'][0]} H x {grid['grid'][1]} t, "
+            f"{grid['elements']} elements) by the unit-cell sweep on {grid['workers']} workers: "
+            f"{grid['wall_s']:.0f} s wall ({grid['per_curve_s']:.3f} s per curve; goal "
+            f"{grid['goal_s']:.0f} s); statuses {grid['statuses']}"
         )
     save = REPORTS / "bench-unitcell.json" if args.save else None
     emit(record, as_json=args.json, text="\n".join(lines), save=save)

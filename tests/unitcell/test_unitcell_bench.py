@@ -12,7 +12,10 @@ def test_bench_record(monkeypatch, capsys):
     monkeypatch.setattr(bench, "DOMES", ((3.0, 1.0),))
     monkeypatch.setattr(bench, "REFERENCE_ELEMENTS", 256)
     monkeypatch.setattr(bench, "SOLID_DOMES", ((3.0, 1.0),))
-    code = main(["bench", "unitcell", "--no-compile", "--repeats", "1", "--json"])
+    code = main(
+        ["bench", "unitcell", "--no-compile", "--repeats", "1", "--json", "--grid", "6"]
+        + ["--workers", "1"]
+    )
     record = json.loads(capsys.readouterr().out)
     assert code == 0 and record["benchmark"] == "unitcell"
     rows = {r["elements"]: r for r in record["rows"]}
@@ -24,3 +27,7 @@ def test_bench_record(monkeypatch, capsys):
     (solid,) = record["solid_side_by_side"]
     assert solid["max_energy_difference"] < 0.05
     assert solid["solid_cpu_s"] > solid["shell_s"]
+    # the grid goal's sweep: 3 H x 2 t geometries of the box, every one traced
+    grid = record["grid_sweep"]
+    assert grid["grid"] == [3, 2] and grid["curves"] == 6
+    assert sum(grid["statuses"].values()) == 6 and grid["wall_s"] > 0.0

@@ -12,10 +12,8 @@ def test_bench_record(monkeypatch, capsys):
     monkeypatch.setattr(bench, "DOMES", ((3.0, 1.0),))
     monkeypatch.setattr(bench, "REFERENCE_ELEMENTS", 256)
     monkeypatch.setattr(bench, "SOLID_DOMES", ((3.0, 1.0),))
-    code = main(
-        ["bench", "unitcell", "--no-compile", "--repeats", "1", "--json", "--grid", "6"]
-        + ["--workers", "1"]
-    )
+    grid = ["--grid", "6", "--workers", "1"]
+    code = main(["bench", "unitcell", "--no-compile", "--repeats", "1", "--json", *grid])
     record = json.loads(capsys.readouterr().out)
     assert code == 0 and record["benchmark"] == "unitcell"
     rows = {r["elements"]: r for r in record["rows"]}

@@ -45,7 +45,6 @@ from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, ClassifierMixin, RegressorMixin
 
 from ..model import status as st
-from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import PER_UNIT_FIELDS, SHARED_FIELDS, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..solvers.statics import solve_batch
@@ -58,7 +57,7 @@ from .chain_physics import (
     unit_kinematics,
 )
 from .data import designs_from_rows
-from .flat import RANGE_SLACK, DesignSurrogate, _fit_quietly
+from .flat import RANGE_SLACK, DesignSurrogate, _fit_quietly, constants_set_of
 
 __all__ = ["CHAIN", "ChainStatusClassifier", "ChainSurrogate", "feature_names", "unit_rows"]
 
@@ -125,8 +124,7 @@ def _designs(
         )
     else:
         requested = (np.int64(1) << np.clip(n_units, 0, MAX_UNITS)) - 1
-    chosen = DEFAULT if constants is None else ConstantsSet.from_dict(constants)
-    return designs_from_rows(X, chosen), state_bits(requested, n_units)
+    return designs_from_rows(X, constants_set_of(constants)), state_bits(requested, n_units)
 
 
 def unit_rows(rigid: RigidUnits) -> NDArray:
@@ -369,6 +367,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
                 kind=self.inner,
                 params=self.inner_params,
                 random_state=self.random_state,
+                constants=self.constants,
             ).fit(X, y[:, others])
             self.fit_notes_ += [f"inner: {note}" for note in self.inner_model_.fit_notes_]
         self.n_outputs_ = len(outputs)

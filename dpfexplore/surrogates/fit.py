@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..model.constants_set import DEFAULT
 from ..model.formatting import num
 from ..model.limits import MAX_UNITS
 from .chain import CHAIN, ChainStatusClassifier, ChainSurrogate
@@ -224,8 +225,14 @@ class _FitOptions:
 
 
 def _make_regressor(
-    kind: str, outputs: Sequence[str], per_n: bool, seed: int, params: Mapping[str, Any]
+    kind: str,
+    outputs: Sequence[str],
+    per_n: bool,
+    seed: int,
+    params: Mapping[str, Any],
+    constants: Mapping[str, Any] | None,
 ) -> DesignSurrogate | ChainSurrogate:
+    """A regressor of ``kind`` on rows of the constants set ``constants`` (its JSON form)."""
     params = dict(params)
     max_train = params.pop("max_train", None)
     if kind == CHAIN:
@@ -238,19 +245,36 @@ def _make_regressor(
             inner_params=inner_params,
             max_train=max_train,
             random_state=seed,
+            constants=constants,
         )
     return DesignSurrogate(
-        kind=kind, per_n=per_n, random_state=seed, max_train=max_train, params=params
+        kind=kind,
+        per_n=per_n,
+        random_state=seed,
+        max_train=max_train,
+        params=params,
+        constants=constants,
     )
 
 
-def _make_classifier(kind: str, per_n: bool, seed: int, params: Mapping[str, Any]):
+def _make_classifier(
+    kind: str,
+    per_n: bool,
+    seed: int,
+    params: Mapping[str, Any],
+    constants: Mapping[str, Any] | None,
+):
+    """A status classifier of ``kind`` on rows of the constants set ``constants``."""
     if kind == CHAIN:
         return ChainStatusClassifier(
-            random_state=seed, **dict(params.get("chain_classifier") or {})
+            random_state=seed, constants=constants, **dict(params.get("chain_classifier") or {})
         )
     return StatusClassifier(
-        kind=kind, per_n=per_n, random_state=seed, params=params.get("classifier")
+        kind=kind,
+        per_n=per_n,
+        random_state=seed,
+        params=params.get("classifier"),
+        constants=constants,
     )
 
 
@@ -318,7 +342,9 @@ def _split(data: TrainingData, test_fraction, seed, max_train_designs) -> _Split
     )
 
 
-def _fit_classifiers(frame, split: _Split, kinds, per_n, seed, params, progress: FitProgress):
+def _fit_classifiers(
+    frame, split: _Split, kinds, per_n, seed, params, constants, progress: FitProgress
+):
     """Fit each status classifier; its held-out accuracy, overall and per N."""
     truth_ok = split.ok[split.test]
     test_n = split.test_all["n_units"].to_numpy()
@@ -326,7 +352,7 @@ def _fit_classifiers(frame, split: _Split, kinds, per_n, seed, params, progress:
     for kind in kinds:
         progress.begin(f"fitting classifier ({kind})")
         start = time.perf_counter()
-        classifier = _make_classifier(kind, per_n, seed, params).fit(
+        classifier = _make_classifier(kind, per_n, seed, params, constants).fit(
             frame[split.train], split.ok[split.train]
         )
         seconds[kind] = time.perf_counter() - start
@@ -350,7 +376,9 @@ def _fit_classifiers(frame, split: _Split, kinds, per_n, seed, params, progress:
     return classifiers, records, seconds
 
 
-def _fit_regressors(split: _Split, kinds, outputs, per_n, seed, params, progress: FitProgress):
+def _fit_regressors(
+    split: _Split, kinds, outputs, per_n, seed, params, constants, progress: FitProgress
+):
     """Fit each regressor; its held-out errors per output and per N."""
     regressors, seconds, tables = {}, {}, []
     y_train = split.train_ok[outputs].to_numpy(dtype=float)
@@ -358,7 +386,7 @@ def _fit_regressors(split: _Split, kinds, outputs, per_n, seed, params, progress
     for kind in kinds:
         progress.begin(f"fitting {kind}")
         start = time.perf_counter()
-        model = _make_regressor(kind, outputs, per_n, seed, params.get(kind) or {}).fit(
+        model = _make_regressor(kind, outputs, per_n, seed, params.get(kind) or {}, constants).fit(
             split.train_ok, y_train
         )
         seconds[kind] = time.perf_counter() - start
@@ -406,6 +434,9 @@ def _speed(
 
 def _fit_surrogates(data, options: _FitOptions, progress: FitProgress) -> SurrogateSet:
     frame, outputs = data.frame, list(data.outputs)
+    # every estimator computes its physics features, and the exact model its rows, under the
+    # dataset's own set (None: the paper's, which estimators take as their default)
+    constants = None if data.constants == DEFAULT else data.constants.to_dict()
     split = _split(data, options.test_fraction, options.seed, options.max_train_designs)
     progress.start(
         len(options.classifier_kinds) + len(options.kinds) + 1 + int(bool(options.timing))
@@ -422,17 +453,25 @@ def _fit_surrogates(data, options: _FitOptions, progress: FitProgress) -> Surrog
         options.per_n,
         options.seed,
         options.params,
+        constants,
         progress,
     )
     # Ties go to the first kind given.
     best_classifier = max(options.classifier_kinds, key=lambda k: classifier_records[k]["accuracy"])
     classifier = classifiers[best_classifier]
     regressors, fit_seconds, error_tables = _fit_regressors(
-        split, options.kinds, outputs, options.per_n, options.seed, options.params, progress
+        split,
+        options.kinds,
+        outputs,
+        options.per_n,
+        options.seed,
+        options.params,
+        constants,
+        progress,
     )
 
     progress.begin("exact model on the held-out designs")
-    exact = exact_predict(outputs)
+    exact = exact_predict(outputs, data.constants)
     exact_out = exact(split.test_all)
     exact_pred = np.column_stack([exact_out[name] for name in outputs])[split.ok[split.test]]
     table = held_out_errors(split.test_ok, exact_pred, outputs)

@@ -45,7 +45,8 @@ from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, ClassifierMixin, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 
-from ..model.constants import dome_alpha, dome_extrema, dome_radius, dome_reach
+from ..model.constants import dome_extrema
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import PER_UNIT_FIELDS, SHARED_FIELDS
 
 __all__ = [
@@ -81,18 +82,28 @@ def _state_bits(requested: NDArray, n_units: int) -> NDArray:
     return ((np.asarray(requested, dtype=np.int64)[:, None] >> shifts) & 1).astype(float)
 
 
-def _raw_features(frame: pd.DataFrame, n_units: int, use_state: bool) -> tuple[NDArray, list[str]]:
-    """Design variables, isolated-dome features and (optionally) state bits of rows of one N."""
+def constants_set_of(constants: Mapping[str, Any] | None) -> ConstantsSet:
+    """An estimator's constants set from its JSON form (verified); None: the paper's."""
+    return DEFAULT if constants is None else ConstantsSet.from_dict(constants)
+
+
+def _raw_features(
+    frame: pd.DataFrame, n_units: int, use_state: bool, constants: ConstantsSet
+) -> tuple[NDArray, list[str]]:
+    """Design variables, isolated-dome features and (optionally) state bits of rows of one N.
+
+    The dome features come from ``constants``, the set the rows were computed under.
+    """
     names = design_column_names(n_units)
     missing = [c for c in names if c not in frame.columns]
     if missing:
         raise ValueError(f"designs: missing column {missing[0]!r} (N = {n_units})")
     values = frame[names].to_numpy(dtype=float)
     H, U_sep = values[:, :n_units], values[:, 2 * n_units : 3 * n_units]
-    t, r_b, t_ch = (frame[c].to_numpy(dtype=float)[:, None] for c in ("t", "r_b", "t_ch"))
+    t, r_b, E, t_ch = (frame[c].to_numpy(dtype=float)[:, None] for c in ("t", "r_b", "E", "t_ch"))
     with np.errstate(all="ignore"):
-        alpha = dome_alpha(H, t, dome_radius(H, r_b))
-        reach, _ = dome_reach(H, t, U_sep, t_ch)
+        springs = constants.springs(H, t, r_b, E, U_sep, t_ch)
+        alpha, reach = springs["alpha"], springs["d"]
         inverted = np.nan_to_num(dome_extrema(alpha)[1], nan=0.75) * reach
     names = [
         *names,
@@ -206,6 +217,7 @@ class _DesignModel(BaseEstimator):
     def _fit_features(self, X: pd.DataFrame) -> dict[int, NDArray]:
         """Choose features per N, record the training box; scaled features per N (row masks)."""
         X = _check_frame(X)
+        chosen = constants_set_of(self.constants)
         n_units = X["n_units"].to_numpy(dtype=np.int64)
         use_state = "requested" in X.columns and any(
             X.loc[n_units == n, "requested"].nunique() > 1 for n in np.unique(n_units)
@@ -221,7 +233,7 @@ class _DesignModel(BaseEstimator):
         scaled = {}
         for n in self.n_units_:
             rows = n_units == n
-            raw, names = _raw_features(X.loc[rows], n, self.use_state_)
+            raw, names = _raw_features(X.loc[rows], n, self.use_state_, chosen)
             if not np.all(np.isfinite(raw)):
                 raise ValueError(f"X: non-finite design values among the rows of N = {n}")
             lo, hi = raw.min(axis=0), raw.max(axis=0)
@@ -243,6 +255,7 @@ class _DesignModel(BaseEstimator):
     def _features(self, X: pd.DataFrame) -> tuple[NDArray, dict[int, NDArray], NDArray]:
         """Row N, scaled features per fitted N, and whether each row is inside the box."""
         X = _check_frame(X)
+        chosen = constants_set_of(self.constants)
         n_units = X["n_units"].to_numpy(dtype=np.int64)
         inside = np.zeros(len(X), dtype=bool)
         scaled = {}
@@ -251,7 +264,7 @@ class _DesignModel(BaseEstimator):
             if n not in self.lower_:
                 continue
             rows = n_units == n
-            raw, names = _raw_features(X.loc[rows], n, self.use_state_)
+            raw, names = _raw_features(X.loc[rows], n, self.use_state_, chosen)
             z = self._scale(raw, n)
             fixed = raw[:, ~self.varying_[n]]
             want = np.array(
@@ -310,6 +323,10 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
         ``gp``, all rows otherwise.
     random_state : int
         Seed of the subsample and of the estimators.
+    constants : dict, optional
+        The constants set of the rows (its JSON form,
+        :meth:`~dpfexplore.model.constants_set.ConstantsSet.to_dict`; verified when used): the
+        dome features are its ``alpha`` and reach. None: the paper's.
 
     Attributes
     ----------
@@ -334,12 +351,14 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
         params: Mapping[str, Any] | None = None,
         max_train: int | None = None,
         random_state: int = 0,
+        constants: Mapping[str, Any] | None = None,
     ) -> None:
         self.kind = kind
         self.per_n = per_n
         self.params = params
         self.max_train = max_train
         self.random_state = random_state
+        self.constants = constants
 
     def fit(self, X: pd.DataFrame, y: ArrayLike2D) -> DesignSurrogate:
         """Fit on design rows ``X`` and their outputs ``y`` (shape (n_rows, n_outputs)).
@@ -431,6 +450,8 @@ class StatusClassifier(ClassifierMixin, _DesignModel):
     params : dict, optional
         Keyword arguments for the scikit-learn estimator, over this module's defaults.
     random_state : int
+    constants : dict, optional
+        The rows' constants set, as in :class:`DesignSurrogate`.
 
     Attributes
     ----------
@@ -449,11 +470,13 @@ class StatusClassifier(ClassifierMixin, _DesignModel):
         per_n: bool = True,
         params: Mapping[str, Any] | None = None,
         random_state: int = 0,
+        constants: Mapping[str, Any] | None = None,
     ) -> None:
         self.kind = kind
         self.per_n = per_n
         self.params = params
         self.random_state = random_state
+        self.constants = constants
 
     def fit(self, X: pd.DataFrame, y: Sequence[bool]) -> StatusClassifier:
         """Fit on design rows and whether each row's requested state exists."""

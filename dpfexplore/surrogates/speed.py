@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..solvers.statics import solve_batch
 from .data import designs_from_rows
 
@@ -77,13 +78,15 @@ def time_per_row(
     return batched, statistics.median(single) * 1e6
 
 
-def exact_predict(outputs: Sequence[str]) -> Callable[[pd.DataFrame], dict[str, NDArray]]:
-    """The exact model as a predictor of sweep rows (their requested states)."""
+def exact_predict(
+    outputs: Sequence[str], constants: ConstantsSet = DEFAULT
+) -> Callable[[pd.DataFrame], dict[str, NDArray]]:
+    """The exact model as a predictor of sweep rows (their requested states) under ``constants``."""
     stiffness, min_eig = "stiffness" in outputs, "min_eig" in outputs
 
     def predict(rows: pd.DataFrame) -> dict[str, NDArray]:
         return solve_batch(
-            designs_from_rows(rows),
+            designs_from_rows(rows, constants),
             rows["requested"].to_numpy(dtype=np.int64),
             stiffness=stiffness,
             min_eig=min_eig,

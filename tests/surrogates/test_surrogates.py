@@ -366,3 +366,44 @@ def test_cli_bad_input_one_line_exit_2(dataset, saved, other_dataset, tmp_path, 
         capsys, ["surrogate", "predict", str(saved), str(dataset), "--kind", "svm"]
     )
     assert "kind = 'svm'" in err
+
+
+def test_a_dataset_of_another_set_is_fitted_and_checked_under_that_set(tmp_path):
+    # The set's own physics throughout: the flat and chain estimators' dome features and rigid
+    # units, and the exact model the report compares with (under the paper's set its tips
+    # would be millimetres off these rows).
+    from model_helpers import other_set
+
+    from dpfexplore.surrogates.chain import ChainSurrogate
+    from dpfexplore.surrogates.flat import _raw_features
+
+    other_set().save(tmp_path / "other.json")
+    root = tmp_path / "sweep"
+    job = make_job(**SMALL, **{"job.constants": str(tmp_path / "other.json")})
+    run_sweep(job, root)
+    data = load_training_data(root, OUTPUTS)
+    assert data.constants == other_set()
+    fitted = fit_surrogates(
+        data,
+        kinds=["knn", "chain"],
+        classifier_kind=["gbt", "chain"],
+        params=FAST,
+        test_fraction=0.25,
+        timing=False,
+    )
+    errors = pd.DataFrame(fitted.report["errors"])
+    exact = errors[(errors["model"] == "exact") & (errors["output"] == "tip")]
+    assert exact["max"].max() < 1e-9
+    assert fitted.report["classifier"]["exact_model_agreement"] == 1.0
+    record = other_set().to_dict()
+    knn, chain = fitted.regressors["knn"], fitted.regressors["chain"]
+    assert knn.constants == record and isinstance(chain, ChainSurrogate)
+    assert chain.constants == record and chain.inner_model_.constants == record
+    assert all(c.constants == record for c in fitted.classifiers.values())
+    rows = data.frame[data.frame["n_units"] == 2]
+    raw, names = _raw_features(rows, 2, False, other_set())
+    springs = other_set().springs(
+        *(rows[c].to_numpy()[:, None] for c in ("H_1", "t", "r_b", "E", "U_sep_1", "t_ch"))
+    )
+    np.testing.assert_array_equal(raw[:, names.index("alpha_1")], springs["alpha"][:, 0])
+    np.testing.assert_array_equal(raw[:, names.index("reach_1")], springs["d"][:, 0])

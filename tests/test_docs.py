@@ -79,3 +79,12 @@ def test_gallery_images_exist(site):
         image = site / "_images" / f"{script.stem}.png"
         assert image.exists() and image.stat().st_size > 10_000, image
         assert f"{script.stem}.png" in gallery
+
+
+@pytest.mark.slow
+def test_identification_page_shows_the_compare_figure(site):
+    # results/reports/shell-extended-compare.png (identify compare --plot), copied into the site
+    page = (site / "guide" / "identification.html").read_text(encoding="utf-8")
+    image = site / "_images" / "shell-extended-compare.png"
+    assert "shell-extended-compare.png" in page
+    assert image.exists() and image.stat().st_size > 50_000

@@ -5,9 +5,10 @@
   for ``k_b``, ``alpha`` and ``tip_dis`` (grouped RFECV with ridge), saved as a constants set.
 * ``identify report NAME`` prints a saved identification (``NAME``: a directory, or a name
   under results/constants).
-* ``identify compare NAME [OTHER] --design DESIGN [--design ...]`` sets side by side on each
-  design's units and on the whole finger (sequential states, tips, stiffness, reset times;
-  ``OTHER`` defaults to the paper's closed forms).
+* ``identify compare NAME [OTHER] --design DESIGN [--design ...] [--plot FILE.png]`` sets side
+  by side on each design's units and on the whole finger (sequential states, tips, stiffness,
+  reset times; ``OTHER`` defaults to the paper's closed forms); ``--plot`` draws the fingers'
+  tips, stiffness and reset times under both sets, one column per design.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 
 from . import EXIT_OK, UsageError
 from .support.inputs import design_argument, saved_path
-from .support.output import announce_compilation, json_text
+from .support.output import FIGURE_SUFFIXES, announce_compilation, json_text, output_path
 
 CONSTANTS = Path("results") / "constants"
 
@@ -70,7 +71,11 @@ def register(subparsers) -> None:
     compare = sub.add_parser(
         "compare", help="two constants sets on designs: units, states, tips, stiffness, resets"
     )
-    compare.add_argument("name", help="a saved identification (directory or name)")
+    compare.add_argument(
+        "name",
+        help="a saved identification (directory or name), a constants set file, 'paper' or a "
+        "packaged set's name ('shell-extended')",
+    )
     compare.add_argument("other", nargs="?", default=None, help="another (default: the paper's)")
     compare.add_argument(
         "--design",
@@ -80,6 +85,12 @@ def register(subparsers) -> None:
         "finger under both sets",
     )
     compare.add_argument("--json", action="store_true", help="print the rows as JSON")
+    compare.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        default=None,
+        help="draw each design's state tips, tip stiffness and reset times under both sets",
+    )
     compare.set_defaults(handler=_compare)
 
 
@@ -161,6 +172,7 @@ def _compare(args: argparse.Namespace) -> int:
     from ..identification.report import compare_sets
     from ..model.constants_set import DEFAULT
 
+    plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     first, _ = _load(args.name)
     second = _load(args.other)[0] if args.other else DEFAULT
     if first.name == second.name:
@@ -168,9 +180,11 @@ def _compare(args: argparse.Namespace) -> int:
     designs = [(text, design_argument(text)) for text in args.design]
     announce_compilation("identify compare", ["states", "dynamics"])
     document = []
+    drawn = []
     for text, design in designs:
         units = compare_sets([first, second], design.H, design.t, design.r_b, design.E)
         states, resets = compare_fingers([first, second], design)
+        drawn.append((design.name or text, states, resets))
         document.append(
             {
                 "design": design.name or text,
@@ -196,4 +210,9 @@ def _compare(args: argparse.Namespace) -> int:
         print()
     if args.json:
         print(json_text(document))
+    if plot is not None:
+        from ..plotting.compare import plot_set_comparison
+
+        figure = plot_set_comparison(drawn, [first.name, second.name])
+        figure.savefig(plot, dpi=130)
     return EXIT_OK

@@ -3,8 +3,9 @@
 One column per design, three panels each: the tips of the ``N+1`` sequential states under each
 set (in mm, connected in the order the set inverts its units, the undeformed tip marked), the
 tip stiffness of those states, and each unit's reset time after the paper's pulse, with the
-units that stay inverted (``inf``) and those without a reset (NaN: no contact, never inverted)
-on rows of their own above and below the finite times.
+units still inverted at the run's horizon (``inf``: they stay inverted, or reset later) and those
+without a reset (NaN: no contact, never inverted) on rows of their own above and below the
+finite times.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ __all__ = ["plot_set_comparison", "sequence_of"]
 #: Per set (in the order given): colour, marker, line style.
 _STYLES = (("C0", "o", "-"), ("C3", "s", "--"), ("C2", "^", ":"), ("C4", "D", "-."))
 #: Tick labels of the rows the reset panel keeps for units without a finite reset time.
-INF_LABEL = "inf: stays\ninverted"
+INF_LABEL = "inf: inverted\nat the horizon"
 NAN_LABEL = "NaN: no contact /\nnot inverted"
 
 

@@ -5,11 +5,12 @@ Arguments that travel together reach a kernel as one named record (STYLE.md §12
 pressure knots (``PressureKnots``), the model of motion (``Physics``, ``MotionModel``), and what a
 kernel writes (``StateRows``, ``ResetRows``, ``RunRecord``, ...). Records are
 ``collections.namedtuple`` classes of arrays and scalars defined at module level in
-:mod:`.records` (or beside the one family that uses them, :mod:`.snap_records`): Numba compiles
-them as structs at no run-time cost, and ``cache=True`` finds a record's type again in a later
-process through its importable class. The Python callers build them with scalars of a fixed type,
-so one record type is one compiled signature; a kernel unpacks a record by name or position at
-its top, and the ``prange`` entry points and their serial twins take the same records.
+:mod:`.records` (or beside the one family that uses them: :mod:`.snap_records`,
+:mod:`.shell_records`): Numba compiles them as structs at no run-time cost, and ``cache=True``
+finds a record's type again in a later process through its importable class. The Python callers
+build them with scalars of a fixed type, so one record type is one compiled signature; a kernel
+unpacks a record by name or position at its top, and the ``prange`` entry points and their
+serial twins take the same records.
 
 Integer and boolean constants passed from one kernel to another are ``np.int64`` values (module
 constants such as ``RISING``, ``MAX_ITER``), never Python literals: Numba types a literal argument
@@ -63,10 +64,11 @@ bordered_lu, continuation, landing, snap, snap_steps, snap_records
     continuation, folds, crossings), landings after a snap by the equations of motion, and
     the snap pressures of one design or many (``prange``): the walk, its step's stages, and
     its output layout and records.
-shell, shell_linalg, shell_path
+shell, shell_linalg, shell_path, shell_records
     The unit-cell shell model of one dome (:mod:`dpfexplore.unitcell`): energy, gradient and
-    exact Hessian of the discretised meridian, banded LU with an inertia count, and the
-    continuation of its equilibrium path under apex displacement control.
+    exact Hessian of the discretised meridian, banded LU with an inertia count, the
+    continuation of its equilibrium path under apex displacement control, and the records they
+    pass (the shell's geometry, the path's controls, scratch and points).
 closed_form_loops
     The closed forms of many domes, by a constants set and by the paper's compiled forms
     (``bench identify``).

@@ -9,7 +9,7 @@ scalars of a fixed type (``float`` tolerances, ``int`` counts), so one record ty
 compiled signature.
 
 Records shared by the statics and the dynamics kernels live here; a record that only one family
-of kernels uses may live beside those kernels (:mod:`.snap_records`).
+of kernels uses may live beside those kernels (:mod:`.snap_records`, :mod:`.shell_records`).
 """
 
 from __future__ import annotations

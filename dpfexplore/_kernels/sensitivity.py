@@ -88,8 +88,6 @@ SENS_CURVATURE = 3
 SENS_ENERGY = 4
 SENS_STIFFNESS = 5
 N_SENS = 6
-#: Parameter kinds (the columns of the derivative table, then ``E``).
-N_KINDS = N_DPARAM + 1
 
 
 @kernel(inline="always")

@@ -26,27 +26,22 @@ Unknowns ``y`` (length ``m = 2N - 1``): ``y[0] = δ``, the apex travel (``z_0 = 
 ``(r_k, z_k)`` of nodes ``1..N-1`` at ``y[2k-1], y[2k]``. The Hessian is banded (a node's bending
 couples it to the nodes two away): half-bandwidth :data:`BAND` = 5, stored as
 ``band[i, BAND + j - i]`` (both triangles).
+
+The reference polygon and the material reach the kernels as one
+:data:`~.shell_records.ShellGeometry` record ``geom``.
 """
 
 from __future__ import annotations
 
 import math
-from collections import namedtuple
 
 import numpy as np
 
 from ._jit import kernel
+from .shell_records import AnglePartials
 
 #: Half-bandwidth of the Hessian in the unknowns ``y``.
 BAND = 5
-
-#: The reference polygon and the material, all the kernels need of one shell.
-#: ``r0, z0, area, s0, beta0, sa0`` per node (``N + 1``); ``l0, a0, rm0, wm`` per segment (``N``);
-#: ``C`` (N/mm), ``D`` (N·mm), ``nu``.
-ShellGeometry = namedtuple(
-    "ShellGeometry",
-    ["r0", "z0", "l0", "a0", "rm0", "wm", "area", "s0", "beta0", "sa0", "C", "D", "nu"],
-)
 
 
 @kernel
@@ -237,7 +232,7 @@ def assemble(y, geom, grad, band, want):
         huu = w * (dks_u * dks_u + 2.0 * nu * dks_u * dkt + dkt * dkt) + mt * ddkt
         hvv = w * (dks_v * dks_v + 2.0 * nu * dks_v * dkt + dkt * dkt) + mt * ddkt
         huv = w * (dks_u * dks_v + nu * (dks_u + dks_v) * dkt + dkt * dkt) + mt * ddkt
-        _pair_term(i - 1, uu, uv, huu, huv, hvv, ja, ha, gl, hl, want)
+        _pair_term(i - 1, AnglePartials(uu, uv, huu, huv, hvv), ja, ha, gl, hl, want)
         _scatter(i - 1, 3, gl, hl, n, grad, band, want)
 
     # Bending at the edge: hoop curvature from the last segment's slope, M_s = 0.
@@ -278,8 +273,9 @@ def _angle_term(j, u1, u2, ja, ha, gl, hl, want):
 
 
 @kernel(inline="always")
-def _pair_term(j, uu, uv, huu, huv, hvv, ja, ha, gl, hl, want):
-    """Local gradient/Hessian (nodes j..j+2) of ``U(a_j, a_{j+1})``: first and second partials."""
+def _pair_term(j, partials, ja, ha, gl, hl, want):
+    """Local gradient/Hessian (nodes j..j+2) of ``U(a_j, a_{j+1})`` of its ``partials``."""
+    uu, uv, huu, huv, hvv = partials
     # ∂a_j over the 6 local coordinates, and ∂a_{j+1}.
     gu = (-ja[j, 0], -ja[j, 1], ja[j, 0], ja[j, 1], 0.0, 0.0)
     gv = (0.0, 0.0, -ja[j + 1, 0], -ja[j + 1, 1], ja[j + 1, 0], ja[j + 1, 1])

@@ -42,6 +42,7 @@ import numpy as np
 from ._jit import kernel
 from .shell import BAND, assemble
 from .shell_linalg import band_lu, band_lu_solve, negative_pivots
+from .shell_records import PathPoints, PathScratch
 
 KL = BAND
 KU = BAND + 1
@@ -55,6 +56,13 @@ MAX_TURN = 0.9
 MAX_CURVE_TURN = 0.94
 #: Newton iterations of one corrector.
 MAX_ITER = 12
+#: The unknown ``δ`` (index 0 of ``y``), and the first free unknown: the first row of the free
+#: Hessian. int64, not literals: see the package docstring.
+DELTA = np.int64(0)
+FIRST_FREE = np.int64(1)
+# assemble's ``want`` stays a literal on purpose (2: the Hessian, 0: the energy alone): each
+# level compiles its own assembly without the other levels' branches. Passing int64 instead
+# saved about 6 s of the group's first compile but made every path about 5 % slower.
 
 #: Status codes of :func:`follow`.
 REACHED = 0
@@ -125,11 +133,17 @@ def _free_residual(g, p):
 
 
 @kernel
-def correct(y, p, geom, ftol, xtol, g, band, w, piv, b):
+def correct(y, p, geom, controls, scratch):
     """Newton on the free equations with ``y_p`` fixed; ``y`` is updated in place.
 
-    Returns the number of iterations, or -1 if the corrector failed.
+    Reads the tolerances ``ftol``, ``xtol`` of the :data:`~.shell_records.PathControls`
+    ``controls`` and works in the :data:`~.shell_records.PathScratch` ``scratch`` (its ``g`` and
+    ``band`` are left assembled at the result). Returns the number of iterations, or -1 if the
+    corrector failed.
     """
+    ftol = controls.ftol
+    xtol = controls.xtol
+    g, band, w, piv, b = scratch.g, scratch.band, scratch.w, scratch.piv, scratch.b
     m = y.shape[0]
     previous = math.inf
     for it in range(MAX_ITER):
@@ -158,11 +172,13 @@ def correct(y, p, geom, ftol, xtol, g, band, w, piv, b):
 
 
 @kernel
-def tangent(y, p, geom, t_prev, wn, g, band, w, piv, t):
-    """Unit tangent at the equilibrium ``y`` (``g``, ``band`` already assembled there).
+def tangent(y, p, t_prev, wn, scratch, t):
+    """Unit tangent ``t`` at the equilibrium ``y`` (``scratch.band`` already assembled there).
 
-    Oriented along ``t_prev``. Returns 0, or 1 if the matrix is singular.
+    Oriented along ``t_prev``; ``wn`` weighs the nodes in the norm. Returns 0, or 1 if the
+    matrix is singular.
     """
+    band, w, piv = scratch.band, scratch.w, scratch.piv
     m = y.shape[0]
     _jacobian(band, p, w)
     if band_lu(w, m, KL, KU, piv) != 0:
@@ -178,60 +194,79 @@ def tangent(y, p, geom, t_prev, wn, g, band, w, piv, t):
 
 
 @kernel
-def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction, stop_at_fold):
+def follow(geom, y0, travel, controls, direction, stop_at_fold):
     """Follow the path from the equilibrium ``y0`` (at ``δ = y0[0]``).
 
-    Starts toward larger ``δ`` (``direction = 1``) or smaller (``-1``). Stops when
-    ``δ >= travel`` (status :data:`REACHED`), after ``max_steps`` steps, when the path goes
-    below ``δ = -travel/20`` (:data:`BACKWARD`), when the step falls below ``h_min``
-    (:data:`STEP_TOO_SMALL`), or, with ``stop_at_fold``, at the first point past a fold in
-    ``δ`` (:data:`FOLD`).
+    Parameters
+    ----------
+    geom : ShellGeometry
+        The shell (:mod:`.shell_records`).
+    y0 : ndarray (m,)
+        The start: an equilibrium at its own ``δ`` (corrected here at that ``δ``).
+    travel : float, mm
+        Apex travel at which the path stops.
+    controls : PathControls
+        Steps ``h0``, ``h_max``, ``h_min`` (mm of weighted arclength), the step cap
+        ``max_steps`` (int) and the corrector's tolerances ``ftol`` (N), ``xtol`` (mm).
+    direction : float
+        Start toward larger ``δ`` (``1.0``) or smaller (``-1.0``).
+    stop_at_fold : bool
+        Stop at the first point past a fold in ``δ``.
 
     Returns
     -------
-    status, n : int
-        Status code and number of recorded points (``y0`` included).
-    ys, ts : ndarray (max_steps + 1, m)
-        The points and their unit tangents.
-    energy : ndarray (max_steps + 1, 2)
-        Membrane and bending energy, N·mm.
-    force, slope : ndarray (max_steps + 1,)
-        Apex reaction ``F = ∂Π/∂δ`` (N) and ``dF/ds`` along the tangent (N per unit of ``s``).
-    index : ndarray of int (max_steps + 1,)
-        Negative eigenvalues of the free Hessian (-1: singular).
+    status : int
+        :data:`REACHED` (``δ >= travel``), :data:`MAX_STEPS` (``max_steps`` steps taken),
+        :data:`BACKWARD` (the path went below ``δ = -travel/20``), :data:`STEP_TOO_SMALL` (the
+        step fell below ``h_min``) or :data:`FOLD` (with ``stop_at_fold``).
+    n : int
+        Number of recorded points (``y0`` included).
+    points : PathPoints
+        The recorded points in the first ``n`` of their ``max_steps + 1`` rows: ``ys``, unit
+        tangents ``ts``, ``energy`` (membrane, bending; N·mm), apex reaction ``force``
+        ``F = ∂Π/∂δ`` (N), ``slope`` ``dF/ds`` along the tangent (N per mm of ``s``) and
+        ``index``, the negative eigenvalues of the free Hessian (-1: singular).
     """
+    h_max = controls.h_max
+    h_min = controls.h_min
+    max_steps = controls.max_steps
     m = y0.shape[0]
     n_nodes = (m + 1) // 2 + 1
     wn = 1.0 / (n_nodes - 2)
-    ys = np.zeros((max_steps + 1, m))
-    ts = np.zeros((max_steps + 1, m))
-    energy = np.zeros((max_steps + 1, 2))
-    force = np.zeros(max_steps + 1)
-    slope = np.zeros(max_steps + 1)
-    index = np.zeros(max_steps + 1, dtype=np.int64)
-    g = np.zeros(m)
-    band = np.zeros((m, 2 * BAND + 1))
-    work = np.zeros((m, 2 * BAND + 1))
-    w = np.zeros((m, WIDTH))
-    piv = np.zeros(m, dtype=np.int64)
-    b = np.zeros(m)
+    points = PathPoints(
+        np.zeros((max_steps + 1, m)),
+        np.zeros((max_steps + 1, m)),
+        np.zeros((max_steps + 1, 2)),
+        np.zeros(max_steps + 1),
+        np.zeros(max_steps + 1),
+        np.zeros(max_steps + 1, dtype=np.int64),
+    )
+    slope = points.slope
+    scratch = PathScratch(
+        np.zeros(m),
+        np.zeros((m, 2 * BAND + 1)),
+        np.zeros((m, WIDTH)),
+        np.zeros(m, dtype=np.int64),
+        np.zeros(m),
+        np.zeros((m, 2 * BAND + 1)),
+    )
+    band, b = scratch.band, scratch.b
     y = y0.copy()
     t = np.zeros(m)
     t_new = np.zeros(m)
     t[0] = direction
-    p = 0
-    n = 0
+    n = np.int64(0)
     status = MAX_STEPS
 
     # First point: correct y0 at fixed δ (a no-op at the reference state).
-    if correct(y, 0, geom, ftol, xtol, g, band, w, piv, b) < 0:
-        return STEP_TOO_SMALL, 0, ys, ts, energy, force, slope, index
-    if tangent(y, 0, geom, t, wn, g, band, w, piv, t_new) != 0:
-        return STEP_TOO_SMALL, 0, ys, ts, energy, force, slope, index
+    if correct(y, DELTA, geom, controls, scratch) < 0:
+        return STEP_TOO_SMALL, 0, points
+    if tangent(y, DELTA, t, wn, scratch, t_new) != 0:
+        return STEP_TOO_SMALL, 0, points
     t[:] = t_new
-    _record(y, t, g, band, geom, work, n, ys, ts, energy, force, slope, index)
-    n = 1
-    h = h0
+    _record(y, t, geom, scratch, n, points)
+    n = np.int64(1)
+    h = controls.h0
     y_try = np.zeros(m)
     k0 = abs(slope[0] / t[0]) if t[0] != 0.0 else 0.0
     fscale = 1.0 / k0 if k0 > 0.0 else 0.0
@@ -242,7 +277,7 @@ def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction,
         p = _choose(t)
         for j in range(m):
             y_try[j] = y[j] + h * t[j]
-        its = correct(y_try, p, geom, ftol, xtol, g, band, w, piv, b)
+        its = correct(y_try, p, geom, controls, scratch)
         ok = its >= 0
         if ok:
             # distance from the predictor, weighted: a larger jump may have changed branch
@@ -250,7 +285,7 @@ def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction,
                 b[j] = y_try[j] - y[j] - h * t[j]
             ok = math.sqrt(_wdot(b, b, wn)) <= h
         if ok:
-            ok = tangent(y_try, p, geom, t, wn, g, band, w, piv, t_new) == 0
+            ok = tangent(y_try, p, t, wn, scratch, t_new) == 0
         if ok:
             ok = _wdot(t_new, t, wn) >= MAX_TURN or h <= 2.0 * h_min
         if ok and fscale > 0.0:
@@ -268,7 +303,7 @@ def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction,
         y[:] = y_try
         t[:] = t_new
         # the tangent solve reused w; g and band still hold the converged point's values
-        _record(y, t, g, band, geom, work, n, ys, ts, energy, force, slope, index)
+        _record(y, t, geom, scratch, n, points)
         n += 1
         if y[0] >= travel:
             status = REACHED
@@ -283,23 +318,29 @@ def follow(geom, y0, travel, h0, h_max, h_min, max_steps, ftol, xtol, direction,
             h = min(h_max, 1.5 * h)
         elif its >= 6:
             h *= 0.7
-    return status, n, ys, ts, energy, force, slope, index
+    return status, n, points
 
 
 @kernel
-def _record(y, t, g, band, geom, work, n, ys, ts, energy, force, slope, index):
-    ys[n, :] = y
-    ts[n, :] = t
-    em, eb = assemble(y, geom, g, band, 0)
-    energy[n, 0] = em
-    energy[n, 1] = eb
-    force[n] = g[0]
+def _record(y, t, geom, scratch, n, points):
+    """Write the point ``y`` and its tangent ``t`` to row ``n`` of ``points``.
+
+    ``scratch.band`` holds the Hessian at ``y`` (its reaction row gives the slope, its free
+    rows the inertia); the energy is assembled here.
+    """
+    band = scratch.band
+    points.ys[n, :] = y
+    points.ts[n, :] = t
+    em, eb = assemble(y, geom, scratch.g, band, 0)
+    points.energy[n, 0] = em
+    points.energy[n, 1] = eb
+    points.force[n] = scratch.g[0]
     s = 0.0
     for k in range(-BAND, BAND + 1):
         if 0 <= k < y.shape[0]:
             s += band[0, BAND + k] * t[k]
-    slope[n] = s
-    index[n] = negative_pivots(band, 1, BAND, work)
+    points.slope[n] = s
+    points.index[n] = negative_pivots(band, FIRST_FREE, BAND, scratch.work)
 
 
 @kernel
@@ -322,7 +363,7 @@ def equilibrate_free(y, geom, ftol, xtol):
         for j in range(m):
             res = max(res, abs(g[j]))
         if res <= ftol and it > 0:
-            return it, negative_pivots(band, 0, BAND, work)
+            return it, negative_pivots(band, DELTA, BAND, work)
         w[:, :] = 0.0
         for i in range(m):
             for k in range(-BAND, BAND + 1):
@@ -341,7 +382,7 @@ def equilibrate_free(y, geom, ftol, xtol):
             return -1, -1
         if dn <= xtol:
             assemble(y, geom, g, band, 2)
-            return it + 1, negative_pivots(band, 0, BAND, work)
+            return it + 1, negative_pivots(band, DELTA, BAND, work)
         if it >= 3 and dn > 0.5 * previous:
             return -1, -1
         previous = dn
@@ -389,7 +430,7 @@ def relax(y, geom, free_delta, ftol, max_iter):
                     work[k, BAND - k] = 0.0
                 work[0, BAND] = 1.0
             shifted = work.copy()
-            if negative_pivots(shifted, 0, BAND, work) != 0:
+            if negative_pivots(shifted, DELTA, BAND, work) != 0:
                 mu = max(4.0 * mu, 1e-8 * diag)
                 continue
             w[:, :] = 0.0

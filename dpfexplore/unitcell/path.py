@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .._kernels.shell import ShellGeometry
 from .._kernels.shell_path import equilibrate_free
+from .._kernels.shell_records import ShellGeometry
 
 __all__ = ["ZeroForceState", "branch_ids", "find_zero_force_states", "work_along_path"]
 

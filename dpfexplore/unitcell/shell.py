@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from .._kernels import shell_path
 from .._kernels.shell import assemble, nodes
+from .._kernels.shell_records import PathControls
 from ..solvers.compilation import announce
 from .geometry import check_inputs, reference_unknowns, shell
 from .path import ZeroForceState, branch_ids, find_zero_force_states, work_along_path
@@ -405,21 +406,19 @@ class _Piece:
 
 
 def _trace(geom, travel, h_max, max_steps, ftol, xtol, y0, direction, stop_at_fold) -> _Piece:
-    out = shell_path.follow(
-        geom,
-        y0,
-        travel,
-        0.25 * h_max,
-        h_max,
-        1e-8 * h_max,
-        max_steps,
-        ftol,
-        xtol,
-        direction,
-        stop_at_fold,
+    # fixed scalar types: one record type, one compiled signature
+    controls = PathControls(
+        h0=float(0.25 * h_max),
+        h_max=float(h_max),
+        h_min=float(1e-8 * h_max),
+        max_steps=int(max_steps),
+        ftol=float(ftol),
+        xtol=float(xtol),
     )
-    status, count = int(out[0]), int(out[1])
-    return _Piece(status, *(a[:count] for a in out[2:]))
+    status, count, points = shell_path.follow(
+        geom, y0, float(travel), controls, float(direction), bool(stop_at_fold)
+    )
+    return _Piece(int(status), *(a[:count] for a in points))
 
 
 def _inverted_branch(geom, travel, h_max, max_steps, ftol, xtol, H) -> _Piece | None:

@@ -1,6 +1,6 @@
 """Numba kernels: arrays in, arrays out, no Python objects.
 
-Arguments that travel together reach a kernel as one named record (STYLE.md §12): the lattice
+Arguments that travel together reach a kernel as one named record: the lattice
 (``Lattice``, ``LatticeBatch``, ``DesignTable``), the Newton controls (``NewtonControls``), the
 pressure knots (``PressureKnots``), the model of motion (``Physics``, ``MotionModel``), and what a
 kernel writes (``StateRows``, ``ResetRows``, ``RunRecord``, ...). Records are

@@ -1,4 +1,4 @@
-"""Named records that kernels take instead of long positional argument lists (STYLE.md §12).
+"""Named records that kernels take instead of long positional argument lists.
 
 Numba compiles ``collections.namedtuple`` instances of arrays and scalars in nopython mode, at no
 cost at run time: a record is passed as one struct and its fields are read by name. The classes

@@ -51,8 +51,7 @@ N_CNT = 5
 #
 # :func:`.snap.follow` is a loop over continuation steps; each stage of a step is a kernel of
 # its own (:mod:`.snap_steps`) that reads and writes the walk's scratch (``FollowScratch``) and
-# outputs (``WalkOutputs``) by name. Numba compiles the records as structs: no cost at run time
-# (STYLE.md §12).
+# outputs (``WalkOutputs``) by name. Numba compiles the records as structs: no cost at run time.
 
 #: What a walk writes: the event table ``ev`` (capacity, N_EV), the events' shapes ``ev_x``
 #: (capacity or 0, 2, 4N - 2), the branch ``path`` (rows, N_PATH_FIXED + N), the ``counts``

@@ -703,7 +703,66 @@ def bench_identify(r: dict) -> str:
         f"`{k}` {n} terms ({r['heldout_winner'].get(k, '?')} won held-out)"
         for k, n in r["terms"].items()
     )
-    return text + f"\nSelected closed forms: {terms}.\n"
+    text += f"\nSelected closed forms: {terms}.\n"
+    c = r.get("constants_tables")
+    if c:
+        text += (
+            f"\nA set's constants in the kernels, {fmt(c['domes'])} domes (median of "
+            f"{c['repeats']}): {fmt(c['set_ns_per_dome'])} ns per dome for the packaged paper set "
+            f"against {fmt(c['paper_ns_per_dome'])} ns for the paper's forms compiled as plain "
+            f"arithmetic ({fmt(c['ratio_set_over_paper'])}x; `k_b` apart by "
+            f"{fmt(c['max_rel_difference_k_b'])}, `alpha` by "
+            f"{fmt(c['max_rel_difference_alpha'])}). The kernel tables of "
+            f"{fmt(c['table_build_designs'])} designs of 6 units: "
+            f"{fmt(1e3 * c['tables_set_median_s'])} ms with the set against "
+            f"{fmt(1e3 * c['tables_paper_median_s'])} ms for the same build with the compiled "
+            f"paper forms ({fmt(c['ratio_tables_set_over_paper'])}x).\n"
+        )
+    return text
+
+
+def bench_unitcell(r: dict) -> str:
+    """``bench unitcell``: time per curve against the mesh error, the grid, the solid."""
+    rows = [
+        [
+            x["elements"],
+            x["median_s"],
+            x["max_s"],
+            x["median_steps"],
+            x["max_energy_error"],
+            x["max_fold_error"],
+            x["max_tip_dis_error"],
+        ]
+        for x in r["rows"]
+    ]
+    text = table(
+        ["elements", "median s", "max s", "steps", "energy error", "fold error", "tip_dis error"],
+        rows,
+    )
+    at_128 = next((x for x in r["rows"] if x["elements"] == 128), None)
+    if at_128 is not None:
+        met = at_128["median_s"] <= r["goal_s"]
+        text += (
+            f"\nGoal: one curve <= {fmt(r['goal_s'])} s at 128 elements: {goal_cell(met)} "
+            f"(median {fmt(at_128['median_s'])} s, slowest {fmt(at_128['max_s'])} s).\n"
+        )
+    grid = r.get("grid_sweep")
+    if grid:
+        text += (
+            f"\nGrid: {fmt(grid['curves'])} curves ({grid['grid'][0]} `H` x {grid['grid'][1]} `t`, "
+            f"{grid['elements']} elements) by `dpfexplore unitcell sweep` on {grid['workers']} "
+            f"workers, Parquet included: {fmt(grid['wall_s'])} s wall "
+            f"({fmt(grid['per_curve_s'])} s per curve); goal <= {fmt(grid['goal_s'])} s: "
+            f"{goal_cell(grid['wall_s'] <= grid['goal_s'])}. Statuses: {grid['statuses']}.\n"
+        )
+    for s in r.get("solid_side_by_side", []):
+        text += (
+            f"\nscikit-fem solid, `H` = {fmt(s['H'])}, `t` = {fmt(s['t'])}: "
+            f"{fmt(s['solid_cpu_s'])} s CPU ({fmt(s['solid_dofs'])} unknowns) against "
+            f"{fmt(s['shell_s'])} s for the shell; energies apart by at most "
+            f"{pct(s['max_energy_difference'])} over 0.25 H to the first fold.\n"
+        )
+    return text + compile_line(r.get("compile_s"), r.get("cache_load_s"))
 
 
 #: Placeholder name -> (record file, renderer).
@@ -719,6 +778,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], str]]] = {
     "design": ("bench-design.json", bench_design),
     "design-timing": ("bench-design-timing.json", bench_design_timing),
     "identify": ("bench-identify.json", bench_identify),
+    "unitcell": ("bench-unitcell.json", bench_unitcell),
 }
 
 PLACEHOLDER = re.compile(r"\{\{\s*bench\s+([\w-]+)\s*\}\}")

@@ -115,19 +115,18 @@ def _shift_line(sequences: Sequence[pd.DataFrame]) -> str:
     return f"tips at the last step {shift:.3g} mm apart"
 
 
-def _draw_tips(ax: Axes, sequences: Sequence[pd.DataFrame], names: Sequence[str]) -> None:
+def _plot_sequences(
+    ax: Axes, sequences: Sequence[pd.DataFrame], names: Sequence[str], x: str, y: str
+) -> None:
+    """One line per set through its sequence's ``x`` and ``y`` columns, unheld states hollow."""
     for i, (sequence, name) in enumerate(zip(sequences, names, strict=True)):
         color, marker, style = _STYLES[i]
-        ax.plot(
-            sequence["tip_x"],
-            sequence["tip_y"],
-            ls=style,
-            marker=marker,
-            color=color,
-            ms=5,
-            label=name,
-        )
-        _hollow(ax, sequence, sequence["tip_x"], sequence["tip_y"], color, marker)
+        ax.plot(sequence[x], sequence[y], ls=style, marker=marker, color=color, ms=5, label=name)
+        _hollow(ax, sequence, sequence[x], sequence[y], color, marker)
+
+
+def _draw_tips(ax: Axes, sequences: Sequence[pd.DataFrame], names: Sequence[str]) -> None:
+    _plot_sequences(ax, sequences, names, "tip_x", "tip_y")
     undeformed = [s[s["step"] == 0] for s in sequences]
     undeformed = [s for s in undeformed if not s.empty]
     if undeformed:
@@ -149,18 +148,7 @@ def _draw_tips(ax: Axes, sequences: Sequence[pd.DataFrame], names: Sequence[str]
 def _draw_stiffness(
     ax: Axes, sequences: Sequence[pd.DataFrame], names: Sequence[str], n_units: int
 ) -> None:
-    for i, (sequence, name) in enumerate(zip(sequences, names, strict=True)):
-        color, marker, style = _STYLES[i]
-        ax.plot(
-            sequence["step"],
-            sequence["stiffness"],
-            ls=style,
-            marker=marker,
-            color=color,
-            ms=5,
-            label=name,
-        )
-        _hollow(ax, sequence, sequence["step"], sequence["stiffness"], color, marker)
+    _plot_sequences(ax, sequences, names, "step", "stiffness")
     ax.set_xticks(range(n_units + 1))
     ax.set_xlabel("sequential step (units requested inverted)")
     ax.set_ylabel("tip stiffness (N/mm)")

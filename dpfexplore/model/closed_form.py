@@ -6,15 +6,15 @@ tables read a set as a record of two arrays (its terms' powers and coefficients)
 once per batch (:func:`set_terms`) and evaluate it a block of domes at a time
 (:func:`set_constants_block`): power tables per dome, then each term across the block. Both
 paths form the same products in the same order (powers by repeated multiplication,
-:func:`_ipow`; terms summed from zero in the form's order), so they agree bit for bit. Working
-across a block lets the compiler vectorise over domes, which makes a set's constants cost no
-more than the paper's forms compiled as plain arithmetic (``dpfexplore bench identify``).
+:class:`_Powers`; terms summed from zero in the form's order), so they agree bit for bit.
+Working across a block lets the compiler vectorise over domes (``dpfexplore bench identify``
+puts the cost beside the paper's forms compiled as plain arithmetic).
 """
 
 from __future__ import annotations
 
 from collections import namedtuple
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -85,8 +85,9 @@ class ClosedForm:
         """The closed form at ``(π1, π3)`` (broadcasting)."""
         pi1, pi3 = np.asarray(pi1, dtype=float), np.asarray(pi3, dtype=float)
         total = np.zeros(np.broadcast(pi1, pi3).shape)
+        powers1, powers3 = _Powers(pi1), _Powers(pi3)
         for (p, q), c in zip(self.exponents, self.coefficients, strict=True):
-            total = total + _term(c, p, q, pi1, pi3)
+            total = total + c * powers1[p] * powers3[q]
         return total
 
     def partials(self, pi1: ArrayLike, pi3: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -94,12 +95,23 @@ class ClosedForm:
         pi1, pi3 = np.asarray(pi1, dtype=float), np.asarray(pi3, dtype=float)
         d1 = np.zeros(np.broadcast(pi1, pi3).shape)
         d3 = np.zeros_like(d1)
+        powers1, powers3 = _Powers(pi1), _Powers(pi3)
         for (p, q), c in zip(self.exponents, self.coefficients, strict=True):
             if p:
-                d1 = d1 + _term(c * p, p - 1, q, pi1, pi3)
+                d1 = d1 + c * p * powers1[p - 1] * powers3[q]
             if q:
-                d3 = d3 + _term(c * q, p, q - 1, pi1, pi3)
+                d3 = d3 + c * q * powers1[p] * powers3[q - 1]
         return d1, d3
+
+    def at(self, powers1: Sequence[float], powers3: Sequence[float]) -> float:
+        """The closed form at one point from its :func:`float_powers` (a Python float).
+
+        The sum of :meth:`__call__` in plain floats: for one dome without NumPy's per-call cost.
+        """
+        total = 0.0
+        for (p, q), c in zip(self.exponents, self.coefficients, strict=True):
+            total = total + c * powers1[p + MAX_POWER] * powers3[q + MAX_POWER]
+        return total
 
     def text(self, name: str) -> str:
         """The closed form written out, e.g. ``alpha = 0.3823 π3³ − 0.5736 π1³ + ...``."""
@@ -140,21 +152,32 @@ class ClosedForm:
         return cls(tuple(exponents), tuple(coefficients))
 
 
-@register_jitable
-def _ipow(x, n):
-    """``x**n`` for a small integer ``n`` by multiplication (identical in NumPy and Numba)."""
-    result = 1.0 + 0.0 * x
-    for _ in range(abs(n)):
-        result = result * x
-    if n < 0:
-        return 1.0 / result
-    return result
+class _Powers:
+    """``x^n`` of an array for integer ``n``, each formed once.
+
+    ``x^k = x^(k-1) · x`` from ``x^0 = 1 + 0·x`` (NaN stays NaN), and ``x^-k = 1 / x^k``: the
+    products of the kernels' power tables (:func:`_power_rows`), bit for bit.
+    """
+
+    def __init__(self, x: NDArray) -> None:
+        self._x = x
+        self._positive = [1.0 + 0.0 * x]
+
+    def __getitem__(self, n: int) -> NDArray:
+        while len(self._positive) <= abs(n):
+            self._positive.append(self._positive[-1] * self._x)
+        return self._positive[n] if n >= 0 else 1.0 / self._positive[-n]
 
 
-@register_jitable
-def _term(c, p, q, pi1, pi3):
-    """One monomial ``c π1^p π3^q`` (scalars in kernels, arrays in NumPy)."""
-    return c * _ipow(pi1, p) * _ipow(pi3, q)
+def float_powers(x: float) -> list[float]:
+    """``x^k`` for ``k = -MAX_POWER .. MAX_POWER`` at index ``k + MAX_POWER`` (floats).
+
+    Formed as :class:`_Powers` forms them, for one dome's :meth:`ClosedForm.at`.
+    """
+    positive = [1.0 + 0.0 * x]
+    for _ in range(MAX_POWER):
+        positive.append(positive[-1] * x)
+    return [1.0 / v for v in positive[:0:-1]] + positive
 
 
 #: Row of the power ``π^0`` in a power table; a table holds the powers
@@ -270,8 +293,8 @@ def dome_block(terms):
 def _power_rows(P, power_range, n):
     """Fill rows ``π^lo .. π^hi`` of table ``P`` whose row ``π^1`` holds ``π`` (domes ``< n``).
 
-    ``π^k`` by the repeated multiplications of :func:`_ipow` and ``π^-k = 1 / π^k`` by its
-    division, so each entry is the number the NumPy path forms.
+    ``π^k`` by repeated multiplication and ``π^-k = 1 / π^k``, as :class:`_Powers` forms them:
+    each entry is the number the NumPy path forms.
     """
     lo = power_range[0]
     hi = power_range[1]

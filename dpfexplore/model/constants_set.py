@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .closed_form import ClosedForm, ConstantsSetError, _term
+from .closed_form import ClosedForm, ConstantsSetError, float_powers
 from .constants import _ALPHA_TERMS, _KB_TERMS, TIP_PER_HEIGHT, TIP_PER_THICKNESS
 from .domain import FITTED_RANGES
 
@@ -170,14 +170,9 @@ class ConstantsSet:
         cost.
         """
         R = (H * H + r_b * r_b) / (2.0 * H)
-        pi1, pi3 = t / H, H / R
-        values = []
-        for form in (self.k_hat, self.alpha):
-            total = 0.0
-            for (p, q), c in zip(form.exponents, form.coefficients, strict=True):
-                total = total + _term(c, p, q, pi1, pi3)
-            values.append(total)
-        return E * (t * t) / R * values[0], values[1]
+        powers1, powers3 = float_powers(t / H), float_powers(H / R)
+        k_hat, alpha = self.k_hat.at(powers1, powers3), self.alpha.at(powers1, powers3)
+        return E * (t * t) / R * k_hat, alpha
 
     def reach(
         self, H: ArrayLike, t: ArrayLike, r_b: ArrayLike, U_sep: ArrayLike, t_ch: ArrayLike

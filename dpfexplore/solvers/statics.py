@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from .._kernels import states as kstates
 from .._kernels.batch import solve_rows, solve_rows_serial
-from .._kernels.layout import n_free, n_nodes
+from .._kernels.layout import COL_ALPHA, COL_D, COL_KB, n_free, n_nodes
 from .._kernels.records import (
     DesignDerivatives,
     DesignTable,
@@ -50,6 +50,7 @@ from .._kernels.sensitivity_batch import (
     solve_rows_sensitivities_serial,
 )
 from ..model import status as st
+from ..model.constants import analyse_domes
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.formatting import num
@@ -223,9 +224,19 @@ def sequential_states(design: Design) -> list[int]:
     return _sequential_states(DesignBatch.from_designs([design]))[0, : design.n_units + 1].tolist()
 
 
-def _sequential_states(batch: DesignBatch) -> NDArray:
-    """Sequential states of every design, ``(n, MAX_UNITS + 1)``; row i's first N+1 are valid."""
-    domes = batch_constants(batch)["domes"]
+def _sequential_states(batch: DesignBatch, tables: KernelTables | None = None) -> NDArray:
+    """Sequential states of every design, ``(n, MAX_UNITS + 1)``; row i's first N+1 are valid.
+
+    The isolated domes' regimes and peak forces come from ``k_b``, ``alpha`` and ``d`` of the
+    batch's kernel ``tables`` when given (the numbers of the set's NumPy forms, bit for bit: a
+    single design's plan then costs no closed-form evaluation in NumPy), else from the set.
+    """
+    if tables is None:
+        domes = batch_constants(batch)["domes"]
+    else:
+        table = tables.unit_params
+        with np.errstate(all="ignore"):  # NaN padding, and invalid designs' meaningless rows
+            domes = analyse_domes(table[:, :, COL_KB], table[:, :, COL_ALPHA], table[:, :, COL_D])
     n_units = np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
     unit = np.arange(MAX_UNITS)[None, :]
     # Bistable domes by rising snap force, then the others (they cannot stay inverted on their
@@ -237,8 +248,9 @@ def _sequential_states(batch: DesignBatch) -> NDArray:
     return np.concatenate([np.zeros((len(batch), 1), np.int64), np.cumsum(bits, axis=1)], axis=1)
 
 
-def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], valid: NDArray):
+def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], tables: KernelTables):
     """Rows (design index, requested state) for a state set; invalid designs get one row (-1)."""
+    valid = tables.status == st.OK
     n_designs = len(batch)
     if not isinstance(states, str):
         return _given_states(states, n_designs, batch.n_units, valid)
@@ -255,7 +267,7 @@ def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], valid: NDArr
     if states == "all":
         requested = position
     else:
-        requested = _sequential_states(batch)[row_design, position]
+        requested = _sequential_states(batch, tables)[row_design, position]
     return row_design, np.where(valid[row_design], requested, -1).astype(np.int64)
 
 
@@ -350,7 +362,7 @@ def solve_batch(
     Dask worker processes with one thread each.
     """
     tables = kernel_tables(batch, derivatives=sensitivities)
-    row_design, row_state = _row_plan(batch, states, tables.status == st.OK)
+    row_design, row_state = _row_plan(batch, states, tables)
     rows = _solve(
         tables,
         row_design,
@@ -436,7 +448,7 @@ def warm_up(batch: DesignBatch, *, sensitivities: bool = False) -> None:
     afterwards only load them (see :mod:`dpfexplore.sweep.warmup`).
     """
     tables = kernel_tables(batch, derivatives=sensitivities)
-    row_design, row_state = _row_plan(batch, "all_inverted", tables.status == st.OK)
+    row_design, row_state = _row_plan(batch, "all_inverted", tables)
     for serial in (True, False):
         _solve(
             tables,
@@ -565,7 +577,7 @@ def enumerate_states(
         raise ValueError(f"which = {which!r}: choose 'all' or 'sequential'")
     batch = DesignBatch.from_designs([design])
     tables = design_kernel_tables(design)
-    row_design, row_state = _row_plan(batch, which, tables.status == st.OK)
+    row_design, row_state = _row_plan(batch, which, tables)
     rows = _solve(
         tables,
         row_design,

@@ -29,7 +29,7 @@ from ..model.constants import (
     reach_raw_form,
 )
 from ._jit import kernel
-from .tables import fill_designs, gather_domes
+from .tables import batch_block_size, fill_designs, gather_domes
 
 
 @kernel
@@ -49,7 +49,7 @@ def paper_forms(H, t, r_b, E, U_sep, t_ch, out):
 def set_forms(forms, H, t, r_b, E, U_sep, t_ch, out):
     """The same three numbers under a constants set (``forms``: its ``kernel_forms()``)."""
     terms = set_terms(forms, False)
-    block = dome_block(terms)
+    block = dome_block(terms, DOME_BLOCK)
     for first in range(0, H.shape[0], DOME_BLOCK):
         count = min(DOME_BLOCK, H.shape[0] - first)
         for d in range(count):
@@ -74,7 +74,7 @@ def paper_tables(designs, forms, out):
     from :func:`~dpfexplore.model.constants.kb_form` and :func:`alpha_form` (``forms`` only
     sizes the block). Without derivative tables.
     """
-    block = dome_block(set_terms(forms, False))
+    block = dome_block(set_terms(forms, False), batch_block_size(designs))
     first = 0
     while first < designs.n_units.shape[0]:
         end, count = gather_domes(designs, first, block)

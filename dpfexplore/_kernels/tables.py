@@ -26,10 +26,10 @@ import numpy as np
 
 from ..model import status as st
 from ..model.closed_form import (
-    DOME_BLOCK,
     FORM_ALPHA,
     FORM_K_HAT,
     FORM_TIP_RATIO,
+    block_size,
     dome_block,
     set_constants_block,
     set_terms,
@@ -177,6 +177,15 @@ def _derivative_rows(H, U_L, U_sep, shared, partials, contact, dtab):
 
 
 @kernel
+def batch_block_size(designs):
+    """The dome block a batch's table build uses: all its domes, up to ``DOME_BLOCK``."""
+    total = 0
+    for i in range(designs.n_units.shape[0]):
+        total += min(max(designs.n_units[i], 0), MAX_UNITS)
+    return block_size(total, MAX_UNITS)
+
+
+@kernel
 def gather_domes(designs, first, block):
     """Put the units of designs ``first, first + 1, ...`` into ``block`` while they fit.
 
@@ -187,7 +196,7 @@ def gather_domes(designs, first, block):
     end = first
     while end < n_units.shape[0]:
         active = min(max(n_units[end], 0), MAX_UNITS)
-        if count + active > DOME_BLOCK:
+        if count + active > block.H.shape[0]:
             break
         for k in range(active):
             block.H[count] = H[end, k]
@@ -271,7 +280,7 @@ def design_tables(designs, forms, out):
         (rows :data:`DC_H` and ``COL_P..COL_KT``, columns ``DP_*``), skipped when empty.
     """
     terms = set_terms(forms, out.dtab.shape[0] > 0)
-    block = dome_block(terms)
+    block = dome_block(terms, batch_block_size(designs))
     first = 0
     while first < designs.n_units.shape[0]:
         end, count = gather_domes(designs, first, block)
@@ -295,6 +304,7 @@ __all__ = [
     "N_COLS",
     "N_DCONST",
     "N_DPARAM",
+    "batch_block_size",
     "design_tables",
     "empty_derivative_table",
     "fill_designs",

@@ -51,8 +51,10 @@ __all__ = [
 FORMAT = "dpfexplore-surrogate/1"
 #: Version of the surrogates' features and estimators; bump when a saved one would mean
 #: something else (another feature set, scaling or target) or could not be loaded (surrogate-2:
-#: the estimators' classes moved to dpfexplore.surrogates, and skops stores class paths).
-SURROGATE_VERSION = "surrogate-2"
+#: the estimators' classes moved to dpfexplore.surrogates, and skops stores class paths;
+#: surrogate-3: every estimator holds its constants set, and the flat ones' dome features come
+#: from it).
+SURROGATE_VERSION = "surrogate-3"
 META, MODELS, REPORT = "surrogate.json", "models.skops", "report.json"
 SPEED_CSV, SPEED_PNG = "speed_error.csv", "speed_error.png"
 

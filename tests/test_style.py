@@ -68,11 +68,9 @@ def _jitted_functions() -> dict[str, int]:
             if isinstance(node, ast.FunctionDef) and any(
                 _decorator_name(d) in JIT_DECORATORS for d in node.decorator_list
             ):
-                arguments = node.args
-                count = len(arguments.posonlyargs) + len(arguments.args)
-                found[f"{path.relative_to(PACKAGE)}:{node.name}"] = count + len(
-                    arguments.kwonlyargs
-                )
+                a = node.args
+                count = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)
+                found[f"{path.relative_to(PACKAGE)}:{node.name}"] = count
     return found
 
 

@@ -202,7 +202,11 @@ def _compare(args: argparse.Namespace) -> int:
         print("sequential states (tip mm, stiffness N/mm, energy N·mm; tip_shift mm):")
         print(states.to_string(**show))
         tau = ", ".join(f"{v:g}" for v in RESET_PULSE["tau"])
-        print(f"reset times (s after a {RESET_PULSE['P0']:g} MPa pulse, tau {tau} s):")
+        after = RESET_PULSE["t_end"] - RESET_PULSE["tau"][-1]
+        print(
+            f"reset times (s after a {RESET_PULSE['P0']:g} MPa pulse, tau {tau} s; "
+            f"inf: still inverted {after:g} s after it):"
+        )
         print(resets.to_string(**show))
         for column in units.columns:
             if column.endswith(":in_domain") and not units[column].all():

@@ -271,3 +271,14 @@ def test_negative_powers_down_to_the_limit_in_the_kernels():
             np.testing.assert_allclose(
                 tables.derivatives[:, 0, row, j], fd, rtol=1e-7, atol=1e-9, err_msg=name
             )
+
+
+def test_a_set_read_twice_is_checked_once_and_a_tampered_copy_still_refused():
+    # from_dict keeps the sets it has checked by fingerprint (estimators read theirs on every
+    # prediction); the fingerprint is still verified on every read.
+    data = other_set().to_dict()
+    first = ConstantsSet.from_dict(data)
+    assert ConstantsSet.from_dict(data) is first and first == other_set()
+    tampered = dict(data, alpha={"terms": [{"pi1": 0, "pi3": 0, "coefficient": 0.5}]})
+    with pytest.raises(ConstantsSetError, match="do not match its fingerprint"):
+        ConstantsSet.from_dict(tampered)

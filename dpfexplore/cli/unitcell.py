@@ -185,6 +185,7 @@ def _summary(run) -> dict:
         "paper_k_b": float(dome_stiffness(run.E, run.H, run.t, run.R)),
         "folds": [float(x) for x in run.folds],
         "tip_dis": run.tip_dis,
+        "tip_kind": run.tip_kind,
         "bistable": run.bistable,
     }
 
@@ -227,8 +228,15 @@ def _print_text(run, summary: dict) -> None:
     )
     folds = ", ".join(f"{x:.4g}" for x in run.folds) or "none"
     print(f"folds in apex travel (mm): {folds}")
-    tip = "none (monostable on this path)" if run.tip_dis is None else f"{run.tip_dis:.5g} mm"
-    print(f"stable inverted rest (tip_dis): {tip}")
+    if run.tip_kind == "rest":
+        print(f"stable inverted rest (tip_dis): {run.tip_dis:.5g} mm")
+    elif run.tip_kind == "ghost":
+        print(
+            f"stable inverted rest: none (monostable); tip_dis from its ghost, the least force "
+            f"{run.ghost.force:.4g} N past H: {run.tip_dis:.5g} mm"
+        )
+    else:
+        print("stable inverted rest: none, and no least force past H (no tip_dis)")
     if run.zero_force_states:
         print("zero-force states: travel/mm  energy/N·mm  stable  negative eigenvalues")
         for s in run.zero_force_states:

@@ -13,8 +13,9 @@ column                    unit   meaning
 ``energy``                N·mm   strain energy (``energy`` and/or ``force``)
 ``force``                 N      apex reaction, ``d energy / d displacement``
 ``branch`` (optional)     --     branch id of a folded path (see below)
-``tip_dis`` (optional)    mm     the inverted apex travel against the next unit (one value per
-                                 curve; the paper's two-unit contact runs)
+``tip_dis`` (optional)    mm     the inverted apex travel the lattice's reach is built from
+                                 (one value per curve: the paper's two-unit contact runs; the
+                                 shell's inverted rest, or a monostable dome's ghost)
 ========================= ====== ===========================================================
 
 A dome under apex displacement control can fold back before it inverts and jump to an inverted

@@ -258,10 +258,11 @@ def identify_sweep(directory: str | Path, *, name: str):
     """A constants set from a ``unitcell sweep`` directory, by the features fit.
 
     ``k̂`` and ``α`` come from every trusted fit (monostable shells included: their ghost gives
-    a metastable ``α``); ``tip_dis`` exists only for the domes with a stable inverted rest, so
-    its closed form is selected on those (the sweep's ``curves.parquet`` leaves the column out
-    when one dome lacks it), and the set's domain is theirs. Flagged fits are left out and
-    counted in the notes.
+    a metastable ``α``); ``tip_dis`` exists for the domes with a stable inverted rest and for
+    the monostable ones with a ghost (its travel: the rest merges into it at the bistable edge,
+    :mod:`.path`), so its closed form is selected on those (the sweep's ``curves.parquet``
+    leaves the column out when one dome lacks it), and the set's domain is theirs. Flagged fits
+    are left out and counted in the notes.
 
     Returns
     -------
@@ -278,18 +279,21 @@ def identify_sweep(directory: str | Path, *, name: str):
     tips = {f"d{int(i):06d}": v for i, v in zip(designs["design"], designs["tip_dis"], strict=True)}
     if not set(tips) >= set(table["curve"].astype(str)):
         raise ValueError(f"{directory}: curves.parquet and designs.parquet do not match")
-    with_rest = table[table["curve"].astype(str).map(tips).notna()]
-    with_rest = with_rest.assign(tip_dis=with_rest["curve"].astype(str).map(tips))
+    kinds = dict(zip(designs["design"], designs["tip_kind"], strict=True))
+    n_ghost = sum(kinds[int(c[1:])] == "ghost" for c in table["curve"].astype(str).unique())
+    with_tip = table[table["curve"].astype(str).map(tips).notna()]
+    with_tip = with_tip.assign(tip_dis=with_tip["curve"].astype(str).map(tips))
     tip_fit = identify(
-        feature_curves_from_frame(with_rest), name=name, method="features", allow_flagged=True
+        feature_curves_from_frame(with_tip), name=name, method="features", allow_flagged=True
     )
     selections = {**main_fit.selections, "tip_ratio": tip_fit.selections["tip_ratio"]}
     flagged = sum(not f.ok for f in main_fit.fits)
     notes = [
         f"k_hat, alpha: {len(curves) - flagged} of {len(curves)} curves (features fit; "
         f"{flagged} flagged and left out)",
-        f"tip_ratio: the {with_rest['curve'].nunique()} curves with a stable inverted rest; the "
-        "domain is theirs (no inverted rest, no tip_dis: the monostable shells lie outside it)",
+        f"tip_ratio: the {with_tip['curve'].nunique()} curves with a tip_dis ({n_ghost} of them "
+        "monostable, by their ghost's travel); the domain is theirs (a dome with neither an "
+        "inverted rest nor a least force past H has no tip_dis and lies outside it)",
     ]
     provenance = {
         **main_fit.constants.provenance,
@@ -297,7 +301,7 @@ def identify_sweep(directory: str | Path, *, name: str):
         "sweep": str(directory),
         "tip_ratio_data_sha256": tip_fit.constants.provenance["data_sha256"],
     }
-    # the domain: where the shell has an inverted rest (tip_dis exists only there)
+    # the domain: where the shell gives a tip_dis (an inverted rest or a ghost)
     constants = dataclasses.replace(
         main_fit.constants,
         tip_ratio=selections["tip_ratio"].form,

@@ -5,8 +5,17 @@
   passed, so every branch is a piece of the path monotone in ``δ``.
 * **Zero-force states.** Where the apex reaction changes sign between two points, the state
   with ``δ`` free (``∇Π = 0`` in all unknowns, the dome resting with no apex load) is found by
-  Newton from the nearer point; its stability is that of the *full* Hessian (``δ`` included):
-  stable with the apex free, which is stricter than stable under displacement control.
+  Newton from the path interpolated to ``F = 0``; its stability is that of the *full* Hessian
+  (``δ`` included): stable with the apex free, which is stricter than stable under displacement
+  control. Where Newton fails (next to a saddle-node) the state is interpolated and its
+  stability read from the path (:func:`find_zero_force_states`).
+* **The ghost.** A dome with no stable inverted rest still has, past the flat position, a
+  least force (``dF/dδ = 0``, ``F > 0``): the remnant of the rest it lost at the saddle-node,
+  where a dome just past the bifurcation lingers (MODEL.md §4) and into which the rest merges
+  as the geometry crosses the bistable boundary (so its travel continues ``tip_dis``). Found on
+  stable points of one branch where ``dF/dδ`` changes sign from negative to positive, at the
+  minimum of the cubic Hermite interpolant of ``F(δ)`` over that step (third-order accurate in
+  the step).
 * **Work.** ``∫ F dδ`` along the path, per step by Gauss-Legendre quadrature of the cubic
   Hermite interpolants of ``δ`` and ``F`` in the step's best local coordinate (the unknown whose
   tangent components at both ends are largest); it should equal the energy change (a check of
@@ -23,7 +32,15 @@ from numpy.typing import NDArray
 from .._kernels.shell_path import equilibrate_free
 from .._kernels.shell_records import ShellGeometry
 
-__all__ = ["ZeroForceState", "branch_ids", "find_zero_force_states", "work_along_path"]
+__all__ = [
+    "GhostState",
+    "ZeroForceState",
+    "branch_ids",
+    "find_ghost",
+    "find_stepped_over_rests",
+    "find_zero_force_states",
+    "work_along_path",
+]
 
 
 @dataclass(frozen=True)
@@ -39,12 +56,13 @@ class ZeroForceState:
     stable : bool
         The full Hessian (apex free) is positive definite: the dome rests there by itself.
     index : int
-        Negative eigenvalues of the full Hessian (-1: singular, or not refined).
+        Negative eigenvalues of the full Hessian (-1: singular, or an unstable interpolated state).
     branch : int
         Branch of the path it was found on.
     refined : bool
-        False when Newton did not converge and the state was interpolated between two points
-        (then ``stable`` is False and ``index`` -1).
+        False when Newton did not converge and the state was interpolated between two points;
+        then ``stable`` comes from the path (:func:`find_zero_force_states`) and ``index`` is 0
+        if stable, else -1.
     """
 
     displacement: float
@@ -53,6 +71,118 @@ class ZeroForceState:
     index: int
     branch: int
     refined: bool
+
+
+@dataclass(frozen=True)
+class GhostState:
+    """The least apex force past the flat position of a dome without an inverted rest.
+
+    Attributes
+    ----------
+    displacement : float, mm
+        Apex travel where ``dF/dδ = 0``.
+    force : float, N
+        The force there (positive: the dome pushes back, it does not rest).
+    branch : int
+        Branch of the path it was found on.
+    """
+
+    displacement: float
+    force: float
+    branch: int
+
+
+def _step_cubic(displacement, force, stiffness, i):
+    """``F`` over step ``i`` as a cubic in ``s ∈ [0, 1]`` (Hermite): coefficients, high first."""
+    h = displacement[i + 1] - displacement[i]
+    f0, f1, m0, m1 = force[i], force[i + 1], stiffness[i] * h, stiffness[i + 1] * h
+    return np.array([2.0 * f0 + m0 - 2.0 * f1 + m1, -3.0 * f0 - 2.0 * m0 + 3.0 * f1 - m1, m0, f0])
+
+
+def _upward_root(poly, lo: float = 0.0) -> float | None:
+    """The root in ``[lo, 1]`` where the polynomial rises through zero (the smallest)."""
+    slope = np.polyder(poly)
+    found = [
+        r.real
+        for r in np.roots(np.trim_zeros(poly, "f"))
+        if abs(r.imag) < 1e-9
+        and lo - 1e-9 <= r.real <= 1.0 + 1e-9
+        and np.polyval(slope, r.real) >= 0
+    ]
+    return min(found) if found else None
+
+
+def _minima(displacement, force, stiffness, stable, branch, beyond):
+    """Steps past ``beyond`` where the force turns up on a stable branch: ``(i, s, F_min)``."""
+    for i in range(force.size - 1):
+        if (
+            stiffness[i] < 0.0 <= stiffness[i + 1]
+            and branch[i] == branch[i + 1]
+            and stable[i]
+            and stable[i + 1]
+            and displacement[i] > beyond
+        ):
+            poly = _step_cubic(displacement, force, stiffness, i)
+            s = _upward_root(np.polyder(poly))
+            s = min(
+                max(-stiffness[i] / (stiffness[i + 1] - stiffness[i]) if s is None else s, 0.0), 1.0
+            )
+            yield i, s, float(np.polyval(poly, s))
+
+
+def find_ghost(
+    displacement: NDArray,
+    force: NDArray,
+    stiffness: NDArray,
+    stable: NDArray,
+    branch: NDArray,
+    beyond: float,
+) -> GhostState | None:
+    """The least positive local minimum of the force at travel past ``beyond`` (None if none).
+
+    Parameters
+    ----------
+    displacement, force, stiffness : ndarray (n,)
+        Apex travel (mm), reaction (N) and ``dF/dδ`` (N/mm) at the path's points.
+    stable : ndarray of bool (n,)
+        Stable under displacement control.
+    branch : ndarray of int (n,)
+        Branch ids (:func:`branch_ids`).
+    beyond : float, mm
+        Only minima at larger travel count (the flat position, ``H``).
+    """
+    best = None
+    for i, s, value in _minima(displacement, force, stiffness, stable, branch, beyond):
+        if value > 0.0 and (best is None or value < best.force):
+            h = displacement[i + 1] - displacement[i]
+            best = GhostState(float(displacement[i] + s * h), value, int(branch[i]))
+    return best
+
+
+def find_stepped_over_rests(
+    displacement: NDArray,
+    force: NDArray,
+    stiffness: NDArray,
+    stable: NDArray,
+    branch: NDArray,
+    beyond: float,
+) -> list[float]:
+    """Travels (mm) of rests the path stepped over: a barrier and a rest within one step.
+
+    Next to the saddle-node both end points of a step can push back (``F > 0``) while the force
+    between them, the step's cubic Hermite interpolant, dips below zero: the rest is that
+    cubic's upward zero (third order in the step), stable by the path's own judgement (a stable
+    branch, force rising through zero). Arguments as :func:`find_ghost`.
+    """
+    travels = []
+    for i, s, value in _minima(displacement, force, stiffness, stable, branch, beyond):
+        if value <= 0.0 and force[i] > 0.0 and force[i + 1] > 0.0:
+            root = _upward_root(_step_cubic(displacement, force, stiffness, i), s)
+            if root is not None:
+                travels.append(
+                    float(displacement[i] + root * (displacement[i + 1] - displacement[i]))
+                )
+    return travels
 
 
 def branch_ids(t_delta: NDArray) -> NDArray:
@@ -71,33 +201,54 @@ def find_zero_force_states(
     ys: NDArray,
     force: NDArray,
     branch: NDArray,
+    index: NDArray,
     ftol: float,
     xtol: float,
 ) -> list[ZeroForceState]:
-    """Zero-force states between sign changes of the reaction (the start, ``δ = 0``, excluded)."""
+    """Zero-force states between sign changes of the reaction (the start, ``δ = 0``, excluded).
+
+    Newton with ``δ`` free refines each; next to a saddle-node (a rest and a barrier a hair
+    apart, the full Hessian nearly singular) it may fail, and then the state is interpolated
+    linearly in the force and judged from the path: with the other unknowns stable under
+    displacement control (index 0 at both ends), the full Hessian is positive definite exactly
+    when the Schur complement ``dF/dδ`` is, i.e. when the force rises through zero.
+    """
     from .._kernels.shell import assemble
 
-    states = []
+    states: list[ZeroForceState] = []
     for i in range(2, force.size):
         if not force[i - 1] * force[i] < 0.0:
             continue
-        near = i - 1 if abs(force[i - 1]) < abs(force[i]) else i
-        y = ys[near].copy()
-        its, index = equilibrate_free(y, geom, ftol, xtol)
+        # start from the path interpolated to F = 0: near a saddle-node the barrier and the rest
+        # are close, and Newton from the nearer end point may land on the other one
+        f = force[i - 1] / (force[i - 1] - force[i])
+        y = (1.0 - f) * ys[i - 1] + f * ys[i]
+        its, negative = equilibrate_free(y, geom, ftol, xtol)
         lo, hi = sorted((ys[i - 1, 0], ys[i, 0]))
         width = hi - lo
         refined = its >= 0 and lo - 2.0 * width <= y[0] <= hi + 2.0 * width
-        if not refined:  # interpolate linearly in the force (no stability claimed)
-            f = force[i - 1] / (force[i - 1] - force[i])
+        # two crossings are two states: one Newton landed on the other's (a near-fold start)
+        refined = refined and not any(
+            s.refined and abs(s.displacement - y[0]) <= 10.0 * xtol for s in states
+        )
+        # on a branch stable under displacement control the path itself says which state this
+        # is (Schur complement): a Newton result of the other kind landed on its neighbour
+        judged = index[i - 1] == 0 and index[i] == 0 and branch[i - 1] == branch[i]
+        rises = (force[i] - force[i - 1]) * (ys[i, 0] - ys[i - 1, 0]) > 0.0
+        refined = refined and not (judged and (negative == 0) != rises)
+        if refined:
+            stable = negative == 0
+        else:
             y = (1.0 - f) * ys[i - 1] + f * ys[i]
-            index = -1
+            stable = judged and rises
+            negative = 0 if stable else -1
         membrane, bending = assemble(y, geom, np.zeros(0), np.zeros((0, 0)), 0)
         states.append(
             ZeroForceState(
                 displacement=float(y[0]),
                 energy=float(membrane + bending),
-                stable=bool(refined and index == 0),
-                index=int(index),
+                stable=bool(stable),
+                index=int(negative),
                 branch=int(branch[i]),
                 refined=bool(refined),
             )

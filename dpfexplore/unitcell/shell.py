@@ -22,7 +22,15 @@ from .._kernels.shell import assemble, nodes
 from .._kernels.shell_records import PathControls
 from ..solvers.compilation import announce
 from .geometry import check_inputs, reference_unknowns, shell
-from .path import ZeroForceState, branch_ids, find_zero_force_states, work_along_path
+from .path import (
+    GhostState,
+    ZeroForceState,
+    branch_ids,
+    find_ghost,
+    find_stepped_over_rests,
+    find_zero_force_states,
+    work_along_path,
+)
 
 __all__ = ["DEFAULT_ELEMENTS", "UnitCellRun", "apex_stiffness", "unit_cell_curve"]
 
@@ -113,9 +121,15 @@ class UnitCellRun:
     zero_force_states : tuple of ZeroForceState
         Equilibria at zero apex force found on the path (the undeformed dome excluded).
     tip_dis : float or None, mm
-        Apex travel of the stable zero-force inverted state (travel beyond ``H``, apex free,
-        resting with no load and no contact: the dome's own inverted rest position); of the
-        lowest energy if several, None if the path shows none (monostable here).
+        The inverted apex travel the lattice's reach is built from (MODEL.md §3): the travel of
+        the stable zero-force inverted state (apex free, resting with no load and no contact:
+        the dome's own inverted rest; of the lowest energy if several; next to the bistable edge
+        possibly one the path stepped over, then not among ``zero_force_states``), else that of
+        the ghost
+        (``ghost``), else None. ``tip_kind`` says which. Why not contact with a rigid wall:
+        ``docs/guide/unitcell.md``, "The inverted apex travel".
+    tip_kind : str or None
+        ``"rest"``, ``"ghost"`` or None (neither: a dome whose force only rises past ``H``).
     status : str
         ``reached``; ``partial`` when the path stopped early and the inverted branch, traced
         separately from the mirror image, follows it (its points after a gap, its work restarted
@@ -126,6 +140,10 @@ class UnitCellRun:
     gap : int or None
         With status ``partial``: the index of the last point of the traced path, after which
         the separately traced inverted branch follows (not connected to it); None otherwise.
+    ghost : GhostState or None
+        Without an inverted rest: the least force past ``H`` (``dF/dδ = 0``, ``F > 0``), the
+        remnant of the lost rest (:mod:`.path`); None when the dome rests inverted or its force
+        has no minimum there.
     """
 
     H: float
@@ -148,11 +166,13 @@ class UnitCellRun:
     initial_stiffness: float
     zero_force_states: tuple[ZeroForceState, ...]
     tip_dis: float | None
+    tip_kind: str | None
     status: str
     message: str
     elapsed: float
     tangents: NDArray = field(repr=False)
     gap: int | None = None
+    ghost: GhostState | None = None
 
     @property
     def success(self) -> bool:
@@ -178,7 +198,7 @@ class UnitCellRun:
     @property
     def bistable(self) -> bool:
         """A stable zero-force inverted state exists on the path."""
-        return self.tip_dis is not None
+        return self.tip_kind == "rest"
 
     def energy_envelope(self, displacement: NDArray) -> NDArray:
         """Lowest energy (N·mm) any branch reaches at each ``displacement`` (mm); inf outside all.
@@ -207,7 +227,8 @@ class UnitCellRun:
         """The path as the table ``dpfexplore identify fit`` reads (``identification.curves``).
 
         Columns ``curve, H, t, r_b, E, nu, displacement, energy, force, branch`` and, when the
-        run found one, ``tip_dis`` (left out otherwise: ``identify`` refuses missing values).
+        run has one (an inverted rest or a ghost), ``tip_dis`` (left out otherwise: ``identify``
+        refuses missing values).
         """
         if curve is None:
             curve = f"H{self.H:g}_t{self.t:g}_rb{self.r_b:g}_E{self.E:g}_nu{self.nu:g}"
@@ -329,13 +350,16 @@ def unit_cell_curve(
     force = np.concatenate([p.force for p in pieces])
     energy = np.concatenate([p.energy for p in pieces])
     index = np.concatenate([p.index for p in pieces])
+    slope = np.concatenate([p.slope for p in pieces])
     branch, work, zero = [], [], []
     for piece in pieces:
         ids = branch_ids(piece.ts[:, 0]) + (branch[-1][-1] + 1 if branch else 0)
         branch.append(ids)
         work.append(work_along_path(piece.ys, piece.ts, piece.force, piece.slope))
         work[-1] += piece.energy[0].sum()
-        zero.extend(find_zero_force_states(geom, piece.ys, piece.force, ids, ftol, xtol))
+        zero.extend(
+            find_zero_force_states(geom, piece.ys, piece.force, ids, piece.index, ftol, xtol)
+        )
     branch, work = np.concatenate(branch), np.concatenate(work)
     count = force.size
     shapes = np.empty((count, n + 1, 2))
@@ -346,7 +370,19 @@ def unit_cell_curve(
     steps = np.diff(ys, axis=0)
     weighted = np.sqrt(steps[:, 0] ** 2 + np.sum(steps[:, 1:] ** 2, axis=1) / (n - 1))
     rests = [s for s in zero if s.stable and s.displacement > H]
-    tip = min(rests, key=lambda s: s.energy).displacement if rests else None
+    ghost, tip, tip_kind = None, None, None
+    if rests:
+        tip, tip_kind = min(rests, key=lambda s: s.energy).displacement, "rest"
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            stiffness = slope / ts[:, 0]
+        path = (ys[:, 0], force, stiffness, index == 0, branch, H)
+        stepped = find_stepped_over_rests(*path)  # a rest next to the saddle-node, between points
+        if stepped:
+            tip, tip_kind = stepped[0], "rest"
+        else:
+            ghost = find_ghost(*path)
+            tip, tip_kind = (ghost.displacement, "ghost") if ghost else (None, None)
     return UnitCellRun(
         H=H,
         t=t,
@@ -368,11 +404,13 @@ def unit_cell_curve(
         initial_stiffness=main.stiffness,
         zero_force_states=tuple(zero),
         tip_dis=tip,
+        tip_kind=tip_kind,
         status=name,
         message=_MESSAGES[name],
         elapsed=time.perf_counter() - started,
         tangents=ts,
         gap=main.force.size - 1 if len(pieces) > 1 else None,
+        ghost=ghost,
     )
 
 

@@ -28,9 +28,10 @@ under ``DIR/chunks/`` by a write-then-rename, so an interrupted sweep resumes wh
 (chunks present are skipped; the job's fingerprint in ``DIR/job.json`` must match). At the end
 ``DIR/curves.parquet`` (the table ``identify fit`` reads, every point of every path with its
 branch), ``DIR/designs.parquet`` (one row per geometry: status, message, initial stiffness,
-first fold, ``tip_dis``) and, last, ``DIR/manifest.json``. ``identify`` takes ``tip_dis`` for
-every curve or for none, so ``curves.parquet`` leaves the column out when some dome has no stable
-inverted state (``designs.parquet`` keeps it, and the manifest counts them). A geometry that
+first fold, ``tip_dis`` and ``tip_kind``: the inverted rest's travel, or a monostable dome's
+ghost's) and, last, ``DIR/manifest.json``. ``identify`` takes ``tip_dis`` for every curve or
+for none, so ``curves.parquet`` leaves the column out when some dome has neither a rest nor a
+ghost (``designs.parquet`` keeps it, and the manifest counts them). A geometry that
 fails is a row with its status and message; it never stops the sweep.
 """
 
@@ -186,6 +187,7 @@ def _trace_chunk(rows: list[tuple[int, tuple[float, ...]]], options: dict) -> tu
                 "initial_stiffness": run.initial_stiffness,
                 "first_fold": float(run.folds[0]) if run.folds.size else math.nan,
                 "tip_dis": math.nan if run.tip_dis is None else run.tip_dis,
+                "tip_kind": run.tip_kind or "",
                 "bistable": run.bistable,
             }
         )
@@ -308,7 +310,7 @@ def run_unitcell_sweep(
     )
     without_tip = 0
     if "tip_dis" in curves:
-        # identify takes tip_dis for every curve or none: a monostable dome has none
+        # identify takes tip_dis for every curve or none: a dome with no rest and no ghost has none
         without_tip = int(curves.groupby("curve")["tip_dis"].first().isna().sum())
         if without_tip:
             curves = curves.drop(columns="tip_dis")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import matplotlib
+import pandas as pd
 import pytest
 
 from dpfexplore.unitcell.compare_paper import classify, compare_grid, plot_maps, summarise
@@ -73,8 +74,39 @@ def test_a_set_from_a_small_sweep(tmp_path):
     constants = result.constants
     constants.check()
     assert constants.provenance["settings"]["fit"] == "features"
-    # the domain is where the shell has an inverted rest: the monostable dome lies outside it
-    assert not constants.in_domain(1.1, 1.0, 5.0, 26.0)[()]
+    # the domain is where the shell gives tip_dis: the monostable dome by its ghost is inside,
+    # a dome thinner than any of the grid's is not
+    kinds = pd.read_parquet(tmp_path / "designs.parquet").set_index(["H", "t"])["tip_kind"]
+    assert kinds[(1.1, 1.0)] == "ghost" and kinds[(1.1, 0.6)] == "rest"
+    assert constants.in_domain(1.1, 1.0, 5.0, 26.0)[()]
+    assert not constants.in_domain(2.0, 0.3, 5.0, 26.0)[()]
     assert constants.in_domain(4.0, 0.8, 5.0, 26.0)[()]
+    assert "1 of them monostable" in result.notes[1]
     tip = float(constants.evaluate(4.0, 1.0, 5.0, 26.0)["tip_dis"])
     assert tip == pytest.approx(2.04 * 4.0, rel=0.01)  # the shell's inverted rest, ~2.04 H
+
+
+def test_the_walker_legs_domes_run_inside_the_shell_extended_set():
+    # issue 21 §4: the walker's own low domes lie in the packaged set's fitted domain, and its
+    # forms there agree with the shell traced afresh (not the data the set was fitted on)
+    import tomllib
+
+    import numpy as np
+
+    from dpfexplore.examples import example_path
+    from dpfexplore.model.constants_set import find_constants_set
+    from dpfexplore.unitcell import unit_cell_curve
+
+    leg = tomllib.loads(example_path("walker-leg").read_text())
+    t = leg["defaults"]["t"]
+    heights = sorted({h for s in leg["section"] for h in s["design"]["H"] if h < 3.0})
+    assert heights == [1.1, 1.6, 2.0]
+    shell = find_constants_set("shell-extended")
+    assert shell.in_domain(np.array(heights), t, 5.0, 26.0).all()
+    values = shell.evaluate(np.array(heights), t, 5.0, 26.0)
+    for H, tip in zip(heights, values["tip_dis"], strict=True):
+        run = unit_cell_curve(H, t)
+        assert run.tip_kind == ("ghost" if H < 1.44 else "rest"), H  # the edge: H ≈ 1.442
+        assert abs(tip / run.tip_dis - 1.0) < 0.04, (H, tip, run.tip_dis)
+    # the monostable dome's law has no second minimum either (alpha above 1/9)
+    assert values["alpha"][0] > 1.0 / 9.0

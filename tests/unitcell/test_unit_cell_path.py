@@ -155,15 +155,55 @@ def test_a_path_that_stops_early_gets_the_inverted_branch_from_the_mirror_image(
     assert abs(run.work[-1] - run.energy[-1]) <= 1e-4 * run.energy.max()
 
 
-def test_a_shallow_thick_dome_is_monostable():
+def test_a_shallow_thick_dome_is_monostable_and_its_ghost_gives_tip_dis():
     run = unit_cell_curve(1.2, 1.0, r_b=7.0)
     assert run.status == "reached" and run.folds.size == 0
-    assert not run.bistable and run.tip_dis is None
+    assert not run.bistable and run.tip_kind == "ghost"
     assert np.all(run.force[1:] > 0.0)
+    ghost = run.ghost
+    assert run.tip_dis == ghost.displacement and ghost.displacement > run.H
+    # the least force past H: no point of the path lies below it, the points around it bracket
+    # it, and the force's finite-difference slope changes sign there
+    past = run.displacement > run.H
+    assert ghost.force > 0.0 and ghost.force <= run.force[past].min() + 1e-9
+    slope = np.gradient(run.force, run.displacement)
+    before = run.displacement < ghost.displacement
+    assert slope[past & before][-1] < 0.0 < slope[past & ~before][0]
+    # third order in the step: a tenth of the step moves it by far less than the step
+    fine = unit_cell_curve(1.2, 1.0, r_b=7.0, step=run.displacement[-1] / 600)
+    assert abs(fine.ghost.displacement - ghost.displacement) < 1e-5 * ghost.displacement
+    assert fine.ghost.force == pytest.approx(ghost.force, rel=1e-5)
     frame = run.to_frame()
-    assert "tip_dis" not in frame
+    assert frame["tip_dis"].iloc[0] == run.tip_dis
     (curve,) = curves_from_frame(frame)
     assert not curve.folded and curve.force is not None
+
+
+def test_a_nearly_flat_thick_dome_has_no_tip_dis():
+    # the force only rises past H: neither an inverted rest nor a least force
+    run = unit_cell_curve(0.5, 1.0)
+    assert run.status == "reached" and np.all(np.diff(run.force) > 0.0)
+    assert run.tip_kind is None and run.tip_dis is None and run.ghost is None
+    assert "tip_dis" not in run.to_frame()
+
+
+def test_the_rest_merges_into_the_ghost_at_the_bistable_edge():
+    # t = 1, r_b = 5: H = 1.3 has only a ghost, H = 1.5 rests inverted; at the saddle-node
+    # between them the rest and the barrier meet at the least force, so the travel that
+    # tip_dis reports is continuous across the edge (a square-root approach on the rest's side)
+    lo, hi = 1.3, 1.5
+    for _ in range(16):
+        mid = 0.5 * (lo + hi)
+        if unit_cell_curve(mid, 1.0).tip_kind == "rest":
+            hi = mid
+        else:
+            lo = mid
+    ghost, rest = unit_cell_curve(lo, 1.0), unit_cell_curve(hi, 1.0)
+    assert ghost.tip_kind == "ghost" and rest.tip_kind == "rest"
+    assert ghost.ghost.force < 1e-3 * ghost.force.max()  # the minimum touches zero
+    assert abs(rest.tip_dis - ghost.tip_dis) < 0.005 * rest.tip_dis
+    # far from the edge the two differ plainly: the test resolves the approach
+    assert unit_cell_curve(1.46, 1.0).tip_dis - unit_cell_curve(1.44, 1.0).tip_dis > 0.05
 
 
 def test_linear_elasticity_and_geometric_similarity():

@@ -18,7 +18,7 @@ def test_curve_json_is_one_document_with_the_series(capsys):
     series = document["series"]
     assert series["displacement"][0] == 0.0
     assert len(series["force"]) == len(series["energy"]) == document["summary"]["steps"]
-    assert document["summary"]["bistable"] is True
+    assert document["summary"]["bistable"] is True and document["summary"]["tip_kind"] == "rest"
     # the first steps resolve the small-deflection slope
     d, f = series["displacement"], series["force"]
     assert d[1] < 0.05 * 3.0
@@ -53,6 +53,16 @@ def test_curve_text_and_identify_table(tmp_path, capsys):
     assert set(pd.read_csv(table)["branch"]) == set(
         range(int(pd.read_csv(table)["branch"].max()) + 1)
     )
+
+
+def test_a_monostable_dome_says_where_its_tip_dis_comes_from(capsys):
+    assert main(["unitcell", "curve", "--H", "1.1", "--t", "1", "--elements", "32"]) == 0
+    out = capsys.readouterr().out
+    assert "stable inverted rest: none (monostable); tip_dis from its ghost" in out
+    assert main(["unitcell", "curve", "--H", "1.1", "--t", "1", "--elements", "32", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)["summary"]
+    assert summary["tip_kind"] == "ghost" and summary["bistable"] is False
+    assert 1.5 * 1.1 < summary["tip_dis"] < 2.0 * 1.1
 
 
 def test_bad_input_is_one_line_exit_2(capsys):

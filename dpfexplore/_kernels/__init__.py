@@ -12,6 +12,18 @@ build them with scalars of a fixed type, so one record type is one compiled sign
 unpacks a record by name or position at its top, and the ``prange`` entry points and their
 serial twins take the same records.
 
+Records at the entry points. Inside compiled code a record costs nothing, but a call from
+Python pays for typing its arguments, and Numba types a named tuple in Python, field by field,
+where a plain tuple of arrays is typed by its C fast path: the row kernels' four records took
+2.9 µs to dispatch against 0.7 µs as plain tuples (one-row call, `docs/decisions.md`). The
+entry points that every :func:`~dpfexplore.solvers.statics.solve_batch` call enters
+(:func:`.tables.design_tables`, :func:`.batch.solve_rows` and
+:func:`.sensitivity_batch.solve_rows_sensitivities` with their serial twins) therefore take
+each record as a plain tuple of its fields, in the record's order, and name it on entry
+(``DesignTable(*designs)``, :func:`.batch.name_row_records`); the callers write the record's
+name beside the tuple. Kernels entered once per long computation (integrators, continuation,
+the shell's path) take the named records themselves.
+
 Integer and boolean constants passed from one kernel to another are ``np.int64`` values (module
 constants such as ``RISING``, ``MAX_ITER``), never Python literals: Numba types a literal argument
 as ``Literal[int](value)`` and compiles the callee once more for each literal value it meets, so

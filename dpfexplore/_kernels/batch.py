@@ -18,7 +18,7 @@ from ..model.domain import MAX_UNITS
 from ._jit import batch_kernel, kernel
 from .layout import n_free
 from .newton import workspace
-from .records import Lattice
+from .records import DesignTable, Lattice, NewtonControls, RowPlan, StateRows
 from .states import N_OUT, solve_state
 
 #: Rows per parallel block: large enough to amortise the workspace allocation, small enough to
@@ -62,28 +62,48 @@ def _solve_rows(designs, rows, first, last, controls, outputs):
             shapes[r, nf:] = np.nan
 
 
-@batch_kernel
-def solve_rows(designs, rows, controls, outputs):
-    """Solve every (design, state) row in parallel.
+@kernel
+def name_row_records(designs, rows, controls, outputs):
+    """The row entry points' records from the plain tuples they are called with.
 
-    Parameters
-    ----------
-    designs : DesignTable
-        The batch's kernel tables and status codes (:mod:`.records`); rows of designs whose
-        status is not ``OK`` are copied through with NaN outputs.
-    rows : RowPlan
-        Design and requested state of each row, and which optional outputs to compute.
-    controls : NewtonControls
-        Newton controls.
-    outputs : StateRows
-        Receive each row's outputs, status, state found, iterations and (when not empty) shape.
+    Package docstring, "Records at the entry points".
     """
+    return DesignTable(*designs), RowPlan(*rows), NewtonControls(*controls), StateRows(*outputs)
+
+
+@batch_kernel
+def _solve_rows_parallel(designs, rows, controls, outputs):
+    """Every row, blocks of rows in parallel (records as :func:`solve_rows` names them)."""
     n_rows = rows.design.shape[0]
     n_blocks = (n_rows + BLOCK_ROWS - 1) // BLOCK_ROWS
     for b in prange(n_blocks):
         first = b * BLOCK_ROWS
         last = min(first + BLOCK_ROWS, n_rows)
         _solve_rows(designs, rows, first, last, controls, outputs)
+
+
+@kernel
+def solve_rows(designs, rows, controls, outputs):
+    """Solve every (design, state) row in parallel.
+
+    Each argument is a plain tuple of its record's fields, in order (:mod:`.records`), named
+    here and handed to the ``prange`` kernel (Numba's parfor lowering does not take records
+    built inside the parallel function itself).
+
+    Parameters
+    ----------
+    designs : DesignTable fields
+        The batch's kernel tables and status codes; rows of designs whose status is not ``OK``
+        are copied through with NaN outputs.
+    rows : RowPlan fields
+        Design and requested state of each row, and which optional outputs to compute.
+    controls : NewtonControls fields
+        Newton controls.
+    outputs : StateRows fields
+        Receive each row's outputs, status, state found, iterations and (when not empty) shape.
+    """
+    table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
+    _solve_rows_parallel(table, plan, newton, written)
 
 
 @kernel
@@ -94,7 +114,8 @@ def solve_rows_serial(designs, rows, controls, outputs):
     an idle machine to milliseconds on a loaded one: more than a few designs' solves. Same
     arguments and results as :func:`solve_rows`.
     """
-    _solve_rows(designs, rows, np.int64(0), rows.design.shape[0], controls, outputs)
+    table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
+    _solve_rows(table, plan, np.int64(0), plan.design.shape[0], newton, written)
 
 
 @kernel

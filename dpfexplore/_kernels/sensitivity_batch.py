@@ -16,7 +16,7 @@ from numba import prange
 from ..model import status as st
 from ..model.domain import MAX_UNITS
 from ._jit import batch_kernel, kernel
-from .batch import BLOCK_ROWS, _solve_rows
+from .batch import BLOCK_ROWS, _solve_rows, name_row_records
 from .layout import n_free
 from .records import DesignDerivatives, Lattice, SensitivityRows
 from .sensitivity import N_SENS, design_sensitivities, n_parameters, workspace
@@ -54,20 +54,8 @@ def _sensitivity_rows(designs, rows, first, last, controls, outputs, derivatives
 
 
 @batch_kernel
-def solve_rows_sensitivities(designs, rows, controls, outputs, derivatives, sens_rows):
-    """:func:`.batch.solve_rows` plus the sensitivities of every row, in parallel.
-
-    Parameters
-    ----------
-    designs, rows, controls, outputs
-        As in :func:`.batch.solve_rows`; ``outputs.shapes`` of shape (n_rows, 4·MAX_UNITS - 2)
-        receives the free coordinates of each row (needed here, so never empty).
-    derivatives : DesignDerivatives
-        Derivative tables (:func:`.tables.design_tables`) and Young's moduli of the designs.
-    sens_rows : SensitivityRows
-        Receive the sensitivities (rows ``SENS_*`` of :mod:`.sensitivity`) and, when not empty,
-        ``dx*/dθ`` of every row.
-    """
+def _sensitivity_rows_parallel(designs, rows, controls, outputs, derivatives, sens_rows):
+    """Every row, blocks of rows in parallel (records named by the entry point)."""
     n_rows = rows.design.shape[0]
     n_blocks = (n_rows + BLOCK_ROWS - 1) // BLOCK_ROWS
     for b in prange(n_blocks):
@@ -77,10 +65,36 @@ def solve_rows_sensitivities(designs, rows, controls, outputs, derivatives, sens
 
 
 @kernel
+def solve_rows_sensitivities(designs, rows, controls, outputs, derivatives, sens_rows):
+    """:func:`.batch.solve_rows` plus the sensitivities of every row, in parallel.
+
+    Each argument is a plain tuple of its record's fields, in order (:mod:`.records`), named
+    here as :func:`.batch.solve_rows` does.
+
+    Parameters
+    ----------
+    designs, rows, controls, outputs
+        As in :func:`.batch.solve_rows`; ``outputs``' shapes, of shape (n_rows,
+        4·MAX_UNITS - 2), receive the free coordinates of each row (needed here, so never
+        empty).
+    derivatives : DesignDerivatives fields
+        Derivative tables (:func:`.tables.design_tables`) and Young's moduli of the designs.
+    sens_rows : SensitivityRows fields
+        Receive the sensitivities (rows ``SENS_*`` of :mod:`.sensitivity`) and, when not empty,
+        ``dx*/dθ`` of every row.
+    """
+    table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
+    tables, into = DesignDerivatives(*derivatives), SensitivityRows(*sens_rows)
+    _sensitivity_rows_parallel(table, plan, newton, written, tables, into)
+
+
+@kernel
 def solve_rows_sensitivities_serial(designs, rows, controls, outputs, derivatives, sens_rows):
     """:func:`solve_rows_sensitivities` on the calling thread (small batches)."""
-    n_rows = rows.design.shape[0]
-    _sensitivity_rows(designs, rows, np.int64(0), n_rows, controls, outputs, derivatives, sens_rows)
+    table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
+    tables, into = DesignDerivatives(*derivatives), SensitivityRows(*sens_rows)
+    n_rows = plan.design.shape[0]
+    _sensitivity_rows(table, plan, np.int64(0), n_rows, newton, written, tables, into)
 
 
 @kernel

@@ -62,7 +62,7 @@ from .layout import (
     COL_U_LO,
     N_COLS,
 )
-from .records import SharedParams
+from .records import DesignArrays, SharedParams, TableOutputs
 
 #: Rows of the derivative table: the kernel table's physical columns ``COL_P..COL_KT`` (same
 #: indices), then the segment height ``h``.
@@ -264,14 +264,17 @@ def design_tables(designs, forms, out):
     The domes' constants are evaluated a block of designs at a time
     (:func:`~dpfexplore.model.closed_form.set_constants_block`), then each design's rows filled.
 
+    ``designs`` and ``out`` are plain tuples of their records' fields, in order (:mod:`.records`;
+    package docstring, "Records at the entry points").
+
     Parameters
     ----------
-    designs : DesignArrays
-        The arrays of a :class:`DesignBatch` (:mod:`.records`).
+    designs : DesignArrays fields
+        The arrays of a :class:`DesignBatch`.
     forms : tuple of (ndarray of int64, shape (3, n_terms, 2); ndarray, shape (3, n_terms))
         The batch's constants set: powers and coefficients of its closed forms
         (:meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`).
-    out : TableOutputs
+    out : TableOutputs fields
         Receives each design's ``status`` code; the per-unit tables ``table`` (n, MAX_UNITS,
         N_COLS), whose rows past a design's ``N`` are NaN, filled for invalid designs too
         (meaningless there), as :func:`dpfexplore.solvers.lattice.pack_batch` did; the segment
@@ -279,13 +282,14 @@ def design_tables(designs, forms, out):
         ``dtab`` (n, MAX_UNITS, N_DCONST, N_DPARAM), ``∂(constant)/∂(parameter)`` per unit
         (rows :data:`DC_H` and ``COL_P..COL_KT``, columns ``DP_*``), skipped when empty.
     """
-    terms = set_terms(forms, out.dtab.shape[0] > 0)
-    block = dome_block(terms, batch_block_size(designs))
+    arrays, written = DesignArrays(*designs), TableOutputs(*out)
+    terms = set_terms(forms, written.dtab.shape[0] > 0)
+    block = dome_block(terms, batch_block_size(arrays))
     first = 0
-    while first < designs.n_units.shape[0]:
-        end, count = gather_domes(designs, first, block)
+    while first < arrays.n_units.shape[0]:
+        end, count = gather_domes(arrays, first, block)
         set_constants_block(terms, block, count)
-        fill_designs(designs, first, end, block, out)
+        fill_designs(arrays, first, end, block, written)
         first = end
 
 

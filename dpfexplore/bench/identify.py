@@ -172,7 +172,8 @@ def _table_build(n: int, repeats: int, seed: int) -> dict:
         for name in ("set", "paper")
     }
     builds = {
-        "set": lambda: design_tables(designs, forms, outputs["set"]),
+        # design_tables takes its records as plain tuples (dpfexplore._kernels)
+        "set": lambda: design_tables(tuple(designs), forms, tuple(outputs["set"])),
         "paper": lambda: paper_tables(designs, forms, outputs["paper"]),
         "whole": lambda: kernel_tables(batch),
     }

@@ -310,24 +310,18 @@ def _interleaved(calls: dict, rounds: int = 40, min_time: float = 0.005) -> dict
 def _row_kernel(tables, states, *, sensitivities: bool, shape_derivatives: bool = False):
     """The serial row kernel :func:`solve_batch` runs, on prepared arrays, as a callable."""
     from .._kernels.batch import solve_rows_serial
-    from .._kernels.records import (
-        DesignDerivatives,
-        DesignTable,
-        RowPlan,
-        SensitivityRows,
-        StateRows,
-    )
     from .._kernels.sensitivity_batch import solve_rows_sensitivities_serial
     from ..model.domain import MAX_UNITS
     from ..solvers.statics import DEFAULT_OPTIONS
 
     n_rows = len(states)
     nf = 4 * MAX_UNITS - 2
+    # the records' fields as plain tuples, as solve_batch passes them (dpfexplore._kernels)
     args = (
-        DesignTable(tables.unit_params, tables.h, tables.n_units, tables.status),
-        RowPlan(np.arange(n_rows, dtype=np.int64), np.asarray(states, dtype=np.int64), True, True),
-        DEFAULT_OPTIONS.kernel_args(),
-        StateRows(
+        (tables.unit_params, tables.h, tables.n_units, tables.status),  # DesignTable
+        (np.arange(n_rows, dtype=np.int64), np.asarray(states, dtype=np.int64), True, True),
+        tuple(DEFAULT_OPTIONS.kernel_args()),  # NewtonControls
+        (  # StateRows
             np.empty((n_rows, 11)),
             np.empty(n_rows, np.int8),
             np.empty(n_rows, np.int64),
@@ -340,8 +334,8 @@ def _row_kernel(tables, states, *, sensitivities: bool, shape_derivatives: bool 
     n_params = 3 * MAX_UNITS + 3
     sens = np.empty((n_rows, 6, n_params))
     dx = np.empty((n_rows, nf, n_params) if shape_derivatives else (0, 0, 0))
-    derivatives = DesignDerivatives(tables.derivatives, tables.E)
-    sens_rows = SensitivityRows(sens, dx)
+    derivatives = (tables.derivatives, tables.E)  # DesignDerivatives
+    sens_rows = (sens, dx)  # SensitivityRows
     return lambda: solve_rows_sensitivities_serial(*args, derivatives, sens_rows)
 
 

@@ -7,6 +7,8 @@ lattice
 statics
     :func:`~.statics.find_state`, :func:`~.statics.enumerate_states`,
     :func:`~.statics.solve_batch` (MODEL.md §6-§7).
+row_plan
+    The (design, requested state) rows a batch solve runs, and the sequential order.
 sensitivities
     :class:`~.sensitivities.Sensitivities`: derivatives of a state's outputs in the design.
 follower

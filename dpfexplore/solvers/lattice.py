@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 
 from .._kernels import layout as lay
 from .._kernels import tables as ktables
-from .._kernels.records import DesignArrays, TableOutputs
 from ..model.constants import (
     POST_STIFFNESS_FACTOR,
     DomeAnalysis,
@@ -233,10 +232,10 @@ def _tables(n_units, H, U_L, U_sep, shared, forms, derivatives: bool) -> KernelT
         if derivatives
         else ktables.empty_derivative_table()
     )
+    # DesignArrays and TableOutputs as plain tuples (dpfexplore._kernels, "Records at the
+    # entry points")
     ktables.design_tables(
-        DesignArrays(n_units, H, U_L, U_sep, *shared),
-        forms,
-        TableOutputs(status, table, h, no_contact, dtab),
+        (n_units, H, U_L, U_sep, *shared), forms, (status, table, h, no_contact, dtab)
     )
     return KernelTables(status, table, h, n_units, shared[2], no_contact, dtab)
 

@@ -35,29 +35,21 @@ from numpy.typing import NDArray
 
 from .._kernels import states as kstates
 from .._kernels.batch import solve_rows, solve_rows_serial
-from .._kernels.layout import COL_ALPHA, COL_D, COL_KB, n_free, n_nodes
-from .._kernels.records import (
-    DesignDerivatives,
-    DesignTable,
-    NewtonControls,
-    RowPlan,
-    SensitivityRows,
-    StateRows,
-)
+from .._kernels.layout import n_free, n_nodes
+from .._kernels.records import NewtonControls
 from .._kernels.sensitivity import N_SENS, n_parameters
 from .._kernels.sensitivity_batch import (
     solve_rows_sensitivities,
     solve_rows_sensitivities_serial,
 )
-from ..model import status as st
-from ..model.constants import analyse_domes
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.formatting import num
 from ..model.status import Status
 from . import sensitivities as sens
 from .compilation import announce
-from .lattice import KernelTables, batch_constants, design_kernel_tables, kernel_tables
+from .lattice import KernelTables, design_kernel_tables, kernel_tables
+from .row_plan import StateSet, row_plan, sequential_state_table
 
 __all__ = [
     "SolverOptions",
@@ -69,8 +61,6 @@ __all__ = [
     "solve_batch",
     "state_string",
 ]
-
-StateSet = Literal["all_inverted", "sequential", "all"]
 
 
 @dataclass(frozen=True)
@@ -221,72 +211,9 @@ class StateResult:
 
 def sequential_states(design: Design) -> list[int]:
     """The ``N + 1`` states of sequential activation (see the module docstring for the order)."""
-    return _sequential_states(DesignBatch.from_designs([design]))[0, : design.n_units + 1].tolist()
-
-
-def _sequential_states(batch: DesignBatch, tables: KernelTables | None = None) -> NDArray:
-    """Sequential states of every design, ``(n, MAX_UNITS + 1)``; row i's first N+1 are valid.
-
-    The isolated domes' regimes and peak forces come from ``k_b``, ``alpha`` and ``d`` of the
-    batch's kernel ``tables`` when given (the numbers of the set's NumPy forms, bit for bit: a
-    single design's plan then costs no closed-form evaluation in NumPy), else from the set.
-    """
-    if tables is None:
-        domes = batch_constants(batch)["domes"]
-    else:
-        table = tables.unit_params
-        with np.errstate(all="ignore"):  # NaN padding, and invalid designs' meaningless rows
-            domes = analyse_domes(table[:, :, COL_KB], table[:, :, COL_ALPHA], table[:, :, COL_D])
-    n_units = np.clip(batch.n_units, 0, MAX_UNITS)[:, None]
-    unit = np.arange(MAX_UNITS)[None, :]
-    # Bistable domes by rising snap force, then the others (they cannot stay inverted on their
-    # own), then padding; ties toward the base (lexsort is stable).
-    group = np.where(unit >= n_units, 2, np.where(domes.regime == "bistable", 0, 1))
-    peak = np.nan_to_num(domes.peak_force, nan=-np.inf)
-    order = np.lexsort((peak, group), axis=-1)
-    bits = np.where(order < n_units, 1 << np.maximum(n_units - 1 - order, 0), 0)
-    return np.concatenate([np.zeros((len(batch), 1), np.int64), np.cumsum(bits, axis=1)], axis=1)
-
-
-def _row_plan(batch: DesignBatch, states: StateSet | Sequence[int], tables: KernelTables):
-    """Rows (design index, requested state) for a state set; invalid designs get one row (-1)."""
-    valid = tables.status == st.OK
-    n_designs = len(batch)
-    if not isinstance(states, str):
-        return _given_states(states, n_designs, batch.n_units, valid)
-    if states not in ("all_inverted", "sequential", "all"):
-        raise ValueError(f"states = {states!r}: choose 'all_inverted', 'sequential' or 'all'")
-    n_units = np.where(valid, batch.n_units, 0)
-    if states == "all_inverted":
-        requested = np.left_shift(1, n_units) - 1
-        requested[~valid] = -1
-        return np.arange(n_designs, dtype=np.int64), requested
-    counts = np.where(valid, 2**n_units if states == "all" else n_units + 1, 1)
-    row_design = np.repeat(np.arange(n_designs, dtype=np.int64), counts)
-    position = np.arange(row_design.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    if states == "all":
-        requested = position
-    else:
-        requested = _sequential_states(batch, tables)[row_design, position]
-    return row_design, np.where(valid[row_design], requested, -1).astype(np.int64)
-
-
-def _given_states(states: Sequence[int], n_designs: int, n_units: NDArray, valid: NDArray):
-    """Rows of one given state per design (invalid designs: -1).
-
-    Few NumPy calls: single designs and small batches are what optimisers send, and each call
-    costs about a microsecond.
-    """
-    requested = np.array(states, dtype=np.int64)
-    if requested.shape != (n_designs,):
-        raise ValueError(
-            f"states: need one requested state per design, got shape {requested.shape}"
-        )
-    # negative, or a bit beyond the design's units (invalid designs shift by 0 and are masked)
-    if (valid & ((requested >> np.where(valid, n_units, 0)) != 0)).any():
-        raise ValueError("states: a requested state does not fit its design's units")
-    requested[~valid] = -1
-    return np.arange(n_designs, dtype=np.int64), requested
+    return sequential_state_table(DesignBatch.from_designs([design]))[
+        0, : design.n_units + 1
+    ].tolist()
 
 
 #: Output columns of :func:`solve_batch` (besides the index and status columns).
@@ -362,7 +289,7 @@ def solve_batch(
     Dask worker processes with one thread each.
     """
     tables = kernel_tables(batch, derivatives=sensitivities)
-    row_design, row_state = _row_plan(batch, states, tables)
+    row_design, row_state = row_plan(batch, states, tables)
     rows = _solve(
         tables,
         row_design,
@@ -420,11 +347,13 @@ def _solve(
         if shapes or sensitivities
         else np.empty((n_rows, 0))
     )
+    # the records' fields as plain tuples: a Python call dispatches them several times faster
+    # than named tuples (dpfexplore._kernels, "Records at the entry points")
     args = (
-        DesignTable(tables.unit_params, tables.h, tables.n_units, tables.status),
-        RowPlan(row_design, row_state, stiffness, min_eig),
-        controls,
-        StateRows(out, status, found, n_iter, x),
+        (tables.unit_params, tables.h, tables.n_units, tables.status),  # DesignTable
+        (row_design, row_state, bool(stiffness), bool(min_eig)),  # RowPlan
+        tuple(controls),  # NewtonControls
+        (out, status, found, n_iter, x),  # StateRows
     )
     if serial is None:
         serial = n_rows <= SERIAL_MAX_ROWS
@@ -435,7 +364,9 @@ def _solve(
         table = np.empty((n_rows, N_SENS, n_params))
         dx = np.empty((n_rows, n_free(MAX_UNITS), n_params) if shape_derivatives else (0, 0, 0))
         run = solve_rows_sensitivities_serial if serial else solve_rows_sensitivities
-        run(*args, DesignDerivatives(tables.derivatives, tables.E), SensitivityRows(table, dx))
+        run(
+            *args, (tables.derivatives, tables.E), (table, dx)
+        )  # DesignDerivatives, SensitivityRows
     else:
         (solve_rows_serial if serial else solve_rows)(*args)
     return _Rows(row_design, row_state, out, status, found, n_iter, x, table, dx)
@@ -448,7 +379,7 @@ def warm_up(batch: DesignBatch, *, sensitivities: bool = False) -> None:
     afterwards only load them (see :mod:`dpfexplore.sweep.warmup`).
     """
     tables = kernel_tables(batch, derivatives=sensitivities)
-    row_design, row_state = _row_plan(batch, "all_inverted", tables)
+    row_design, row_state = row_plan(batch, "all_inverted", tables)
     for serial in (True, False):
         _solve(
             tables,
@@ -577,7 +508,7 @@ def enumerate_states(
         raise ValueError(f"which = {which!r}: choose 'all' or 'sequential'")
     batch = DesignBatch.from_designs([design])
     tables = design_kernel_tables(design)
-    row_design, row_state = _row_plan(batch, which, tables)
+    row_design, row_state = row_plan(batch, which, tables)
     rows = _solve(
         tables,
         row_design,

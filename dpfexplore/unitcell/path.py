@@ -25,6 +25,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,6 +35,7 @@ from .._kernels.shell_records import ShellGeometry
 
 __all__ = [
     "GhostState",
+    "PathSamples",
     "ZeroForceState",
     "branch_ids",
     "find_ghost",
@@ -92,6 +94,26 @@ class GhostState:
     branch: int
 
 
+class PathSamples(NamedTuple):
+    """The path's points as the minimum finders read them.
+
+    Attributes
+    ----------
+    displacement, force, stiffness : ndarray (n,)
+        Apex travel (mm), reaction (N) and ``dF/dδ`` (N/mm) at the path's points.
+    stable : ndarray of bool (n,)
+        Stable under displacement control.
+    branch : ndarray of int (n,)
+        Branch ids (:func:`branch_ids`).
+    """
+
+    displacement: NDArray
+    force: NDArray
+    stiffness: NDArray
+    stable: NDArray
+    branch: NDArray
+
+
 def _step_cubic(displacement, force, stiffness, i):
     """``F`` over step ``i`` as a cubic in ``s ∈ [0, 1]`` (Hermite): coefficients, high first."""
     h = displacement[i + 1] - displacement[i]
@@ -112,17 +134,18 @@ def _upward_root(poly, lo: float = 0.0) -> float | None:
     return min(found) if found else None
 
 
-def _minima(displacement, force, stiffness, stable, branch, beyond):
+def _minima(path: PathSamples, beyond: float):
     """Steps past ``beyond`` where the force turns up on a stable branch: ``(i, s, F_min)``."""
+    x, force, stiffness, stable, branch = path
     for i in range(force.size - 1):
         if (
             stiffness[i] < 0.0 <= stiffness[i + 1]
             and branch[i] == branch[i + 1]
             and stable[i]
             and stable[i + 1]
-            and displacement[i] > beyond
+            and x[i] > beyond
         ):
-            poly = _step_cubic(displacement, force, stiffness, i)
+            poly = _step_cubic(x, force, stiffness, i)
             s = _upward_root(np.polyder(poly))
             s = min(
                 max(-stiffness[i] / (stiffness[i + 1] - stiffness[i]) if s is None else s, 0.0), 1.0
@@ -130,58 +153,34 @@ def _minima(displacement, force, stiffness, stable, branch, beyond):
             yield i, s, float(np.polyval(poly, s))
 
 
-def find_ghost(
-    displacement: NDArray,
-    force: NDArray,
-    stiffness: NDArray,
-    stable: NDArray,
-    branch: NDArray,
-    beyond: float,
-) -> GhostState | None:
-    """The least positive local minimum of the force at travel past ``beyond`` (None if none).
+def find_ghost(path: PathSamples, beyond: float) -> GhostState | None:
+    """The least positive local minimum of the force at travel past ``beyond`` (mm; None if none).
 
-    Parameters
-    ----------
-    displacement, force, stiffness : ndarray (n,)
-        Apex travel (mm), reaction (N) and ``dF/dδ`` (N/mm) at the path's points.
-    stable : ndarray of bool (n,)
-        Stable under displacement control.
-    branch : ndarray of int (n,)
-        Branch ids (:func:`branch_ids`).
-    beyond : float, mm
-        Only minima at larger travel count (the flat position, ``H``).
+    ``beyond``: only minima at larger travel count (the flat position, ``H``).
     """
     best = None
-    for i, s, value in _minima(displacement, force, stiffness, stable, branch, beyond):
+    for i, s, value in _minima(path, beyond):
         if value > 0.0 and (best is None or value < best.force):
-            h = displacement[i + 1] - displacement[i]
-            best = GhostState(float(displacement[i] + s * h), value, int(branch[i]))
+            h = path.displacement[i + 1] - path.displacement[i]
+            best = GhostState(float(path.displacement[i] + s * h), value, int(path.branch[i]))
     return best
 
 
-def find_stepped_over_rests(
-    displacement: NDArray,
-    force: NDArray,
-    stiffness: NDArray,
-    stable: NDArray,
-    branch: NDArray,
-    beyond: float,
-) -> list[float]:
+def find_stepped_over_rests(path: PathSamples, beyond: float) -> list[float]:
     """Travels (mm) of rests the path stepped over: a barrier and a rest within one step.
 
     Next to the saddle-node both end points of a step can push back (``F > 0``) while the force
     between them, the step's cubic Hermite interpolant, dips below zero: the rest is that
     cubic's upward zero (third order in the step), stable by the path's own judgement (a stable
-    branch, force rising through zero). Arguments as :func:`find_ghost`.
+    branch, force rising through zero). ``beyond`` as in :func:`find_ghost`.
     """
+    x, force, stiffness = path.displacement, path.force, path.stiffness
     travels = []
-    for i, s, value in _minima(displacement, force, stiffness, stable, branch, beyond):
+    for i, s, value in _minima(path, beyond):
         if value <= 0.0 and force[i] > 0.0 and force[i + 1] > 0.0:
-            root = _upward_root(_step_cubic(displacement, force, stiffness, i), s)
+            root = _upward_root(_step_cubic(x, force, stiffness, i), s)
             if root is not None:
-                travels.append(
-                    float(displacement[i] + root * (displacement[i + 1] - displacement[i]))
-                )
+                travels.append(float(x[i] + root * (x[i + 1] - x[i])))
     return travels
 
 

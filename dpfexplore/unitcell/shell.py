@@ -24,6 +24,7 @@ from ..solvers.compilation import announce
 from .geometry import check_inputs, reference_unknowns, shell
 from .path import (
     GhostState,
+    PathSamples,
     ZeroForceState,
     branch_ids,
     find_ghost,
@@ -376,12 +377,12 @@ def unit_cell_curve(
     else:
         with np.errstate(divide="ignore", invalid="ignore"):
             stiffness = slope / ts[:, 0]
-        path = (ys[:, 0], force, stiffness, index == 0, branch, H)
-        stepped = find_stepped_over_rests(*path)  # a rest next to the saddle-node, between points
+        path = PathSamples(ys[:, 0], force, stiffness, index == 0, branch)
+        stepped = find_stepped_over_rests(path, H)  # a rest next to the saddle-node, between points
         if stepped:
             tip, tip_kind = stepped[0], "rest"
         else:
-            ghost = find_ghost(*path)
+            ghost = find_ghost(path, H)
             tip, tip_kind = (ghost.displacement, "ghost") if ghost else (None, None)
     return UnitCellRun(
         H=H,

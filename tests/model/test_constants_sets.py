@@ -60,7 +60,7 @@ def test_every_path_of_a_sets_numbers_agrees_bit_for_bit(constants):
     # Three evaluations of one set: the kernels' blocks, the NumPy forms (arrays) and
     # ConstantsSet.dome (one dome in floats, what validation uses); and the sequential plan
     # built from the kernel tables (solve_batch) against the one built from the NumPy forms.
-    from dpfexplore.solvers.statics import _sequential_states
+    from dpfexplore.solvers.row_plan import sequential_state_table
 
     rng = np.random.default_rng(4)
     designs = [
@@ -89,7 +89,7 @@ def test_every_path_of_a_sets_numbers_agrees_bit_for_bit(constants):
     valid = tables.status == Status.OK
     assert valid.sum() > 80  # most of them: the comparison below is not vacuous
     np.testing.assert_array_equal(
-        _sequential_states(batch, tables)[valid], _sequential_states(batch)[valid]
+        sequential_state_table(batch, tables)[valid], sequential_state_table(batch)[valid]
     )
 
 

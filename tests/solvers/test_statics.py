@@ -420,6 +420,38 @@ def test_batch_keeps_invalid_rows_and_matches_single_designs():
     assert (everything["status"] == Status.OK).sum() == 16
 
 
+def test_a_single_design_gets_the_rows_it_gets_in_a_batch():
+    # one design's row plan is formed in scalars (row_plan._single_design_row): the same rows,
+    # bit for bit, as the NumPy plan of a batch that holds it
+    good, other = Design(**PICKPLACE), Design(**GRIPPER)
+    pair = DesignBatch.from_designs([good, other])
+    one = DesignBatch.from_designs([good])
+    cases = [
+        ("all_inverted", "all_inverted", 0b111111),
+        ([0b101101], [0b101101, 0b10110], 0b101101),
+    ]
+    for alone_states, pair_states, requested in cases:
+        alone, both = solve_batch(one, alone_states), solve_batch(pair, pair_states)
+        for key, column in alone.items():
+            np.testing.assert_array_equal(column, both[key][:1], err_msg=f"{requested} {key}")
+        assert alone["requested"].tolist() == [requested]
+    with pytest.raises(ValueError, match="does not fit its design's units"):
+        solve_batch(one, [1 << 6])
+    with pytest.raises(ValueError, match="does not fit its design's units"):
+        solve_batch(one, [-1])
+    with pytest.raises(ValueError, match="one requested state per design"):
+        solve_batch(one, [1, 2])
+    # an invalid design: one row, requested -1, whatever state was asked for
+    H = one.H.copy()
+    H[0, 2] = -1.0
+    fields = {name: getattr(one, name) for name in DesignBatch.ARRAY_FIELDS}
+    bad = DesignBatch(**{**fields, "H": H})
+    for states in ("all_inverted", [1 << 9]):
+        rows = solve_batch(bad, states)
+        assert rows["requested"].tolist() == [-1]
+        assert rows["status"].tolist() == [Status.INVALID_INPUT]
+
+
 BOX = dict(H=(3.0, 5.0), U_L=(5.5, 10.0), U_sep=(1.0, 5.0), t=(0.5, 1.0), t_lim=(1.0, 2.0))
 
 

@@ -84,17 +84,17 @@ def solve_rows_sensitivities(designs, rows, controls, outputs, derivatives, sens
         ``dx*/dθ`` of every row.
     """
     table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
-    tables, into = DesignDerivatives(*derivatives), SensitivityRows(*sens_rows)
-    _sensitivity_rows_parallel(table, plan, newton, written, tables, into)
+    partials, into = DesignDerivatives(*derivatives), SensitivityRows(*sens_rows)
+    _sensitivity_rows_parallel(table, plan, newton, written, partials, into)
 
 
 @kernel
 def solve_rows_sensitivities_serial(designs, rows, controls, outputs, derivatives, sens_rows):
     """:func:`solve_rows_sensitivities` on the calling thread (small batches)."""
     table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
-    tables, into = DesignDerivatives(*derivatives), SensitivityRows(*sens_rows)
+    partials, into = DesignDerivatives(*derivatives), SensitivityRows(*sens_rows)
     n_rows = plan.design.shape[0]
-    _sensitivity_rows(table, plan, np.int64(0), n_rows, newton, written, tables, into)
+    _sensitivity_rows(table, plan, np.int64(0), n_rows, newton, written, partials, into)
 
 
 @kernel

@@ -211,9 +211,8 @@ class StateResult:
 
 def sequential_states(design: Design) -> list[int]:
     """The ``N + 1`` states of sequential activation (see the module docstring for the order)."""
-    return sequential_state_table(DesignBatch.from_designs([design]))[
-        0, : design.n_units + 1
-    ].tolist()
+    table = sequential_state_table(DesignBatch.from_designs([design]))
+    return table[0, : design.n_units + 1].tolist()
 
 
 #: Output columns of :func:`solve_batch` (besides the index and status columns).

@@ -279,7 +279,13 @@ def identify_sweep(directory: str | Path, *, name: str):
     tips = {f"d{int(i):06d}": v for i, v in zip(designs["design"], designs["tip_dis"], strict=True)}
     if not set(tips) >= set(table["curve"].astype(str)):
         raise ValueError(f"{directory}: curves.parquet and designs.parquet do not match")
-    kinds = dict(zip(designs["design"], designs["tip_kind"], strict=True))
+    # a sweep written before monostable domes had a ghost holds rests only
+    kind = (
+        designs["tip_kind"]
+        if "tip_kind" in designs
+        else designs["tip_dis"].notna().map({True: "rest", False: ""})
+    )
+    kinds = dict(zip(designs["design"], kind, strict=True))
     n_ghost = sum(kinds[int(c[1:])] == "ghost" for c in table["curve"].astype(str).unique())
     with_tip = table[table["curve"].astype(str).map(tips).notna()]
     with_tip = with_tip.assign(tip_dis=with_tip["curve"].astype(str).map(tips))

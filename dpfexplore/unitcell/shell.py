@@ -126,9 +126,8 @@ class UnitCellRun:
         the stable zero-force inverted state (apex free, resting with no load and no contact:
         the dome's own inverted rest; of the lowest energy if several; next to the bistable edge
         possibly one the path stepped over, then not among ``zero_force_states``), else that of
-        the ghost
-        (``ghost``), else None. ``tip_kind`` says which. Why not contact with a rigid wall:
-        ``docs/guide/unitcell.md``, "The inverted apex travel".
+        the ghost (``ghost``), else None. ``tip_kind`` says which. Why not contact with a rigid
+        wall: ``docs/guide/unitcell.md``, "The inverted apex travel".
     tip_kind : str or None
         ``"rest"``, ``"ghost"`` or None (neither: a dome whose force only rises past ``H``).
     status : str

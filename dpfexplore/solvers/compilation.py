@@ -31,7 +31,6 @@ from collections.abc import Iterable
 
 from .._kernels import batch, dynamics_batch, reduced, sensitivity_batch, shell_path
 from .._kernels import snap as ksnap
-from .._kernels import states as kstates
 from .._kernels._jit import is_cached
 
 __all__ = ["COMPILE_CPU_S", "KERNEL_GROUPS", "announce", "compile_notice", "uncompiled"]
@@ -40,8 +39,11 @@ logger = logging.getLogger("dpfexplore.compile")
 
 #: The entry kernels of each group (their callees are compiled with them).
 KERNEL_GROUPS = {
-    # one design runs the serial twins (a batch of a few rows is not worth the threads)
-    "states": (batch.solve_rows_serial, kstates.nodes_of),
+    # one design runs the serial twins (a batch of a few rows is not worth the threads); the
+    # node positions find_state adds (kstates.nodes_of) compile in under a second of CPU, and a
+    # group must hold only what its announcer runs, or a process that never calls them would
+    # announce a compilation on every start
+    "states": (batch.solve_rows_serial,),
     "statics": (batch.solve_rows,),
     "dynamics": (dynamics_batch.integrate,),
     "reset": (dynamics_batch.reset_times_kernel,),

@@ -250,6 +250,18 @@ def test_a_first_compilation_is_announced(tmp_path):
     )
 
 
+def test_solve_batch_alone_is_not_told_of_kernels_it_never_runs(monkeypatch):
+    # the node positions of find_state's results are compiled only when asked for; a process
+    # that only calls solve_batch on single designs must not announce a compilation while every
+    # kernel it runs is cached
+    from dpfexplore._kernels import states as kstates
+    from dpfexplore.solvers import compilation
+
+    monkeypatch.setattr(compilation, "_SETTLED", set())
+    monkeypatch.setattr(compilation, "is_cached", lambda kernel: kernel is not kstates.nodes_of)
+    assert compilation.compile_notice(["states"]) is None
+
+
 def test_the_python_api_announces_a_first_compilation_once(monkeypatch, caplog):
     # what a fresh cache reports, without paying for the compilation: the states group missing
     import logging

@@ -135,7 +135,11 @@ def _upward_root(poly, lo: float = 0.0) -> float | None:
 
 
 def _minima(path: PathSamples, beyond: float):
-    """Steps past ``beyond`` where the force turns up on a stable branch: ``(i, s, F_min)``."""
+    """Steps past ``beyond`` where the force turns up on a stable branch.
+
+    Yields ``(i, s, F_min, cubic)``: the step, where in it the force is least, that force, and
+    the step's cubic (:func:`_step_cubic`).
+    """
     x, force, stiffness, stable, branch = path
     for i in range(force.size - 1):
         if (
@@ -150,7 +154,7 @@ def _minima(path: PathSamples, beyond: float):
             s = min(
                 max(-stiffness[i] / (stiffness[i + 1] - stiffness[i]) if s is None else s, 0.0), 1.0
             )
-            yield i, s, float(np.polyval(poly, s))
+            yield i, s, float(np.polyval(poly, s)), poly
 
 
 def find_ghost(path: PathSamples, beyond: float) -> GhostState | None:
@@ -159,7 +163,7 @@ def find_ghost(path: PathSamples, beyond: float) -> GhostState | None:
     ``beyond``: only minima at larger travel count (the flat position, ``H``).
     """
     best = None
-    for i, s, value in _minima(path, beyond):
+    for i, s, value, _ in _minima(path, beyond):
         if value > 0.0 and (best is None or value < best.force):
             h = path.displacement[i + 1] - path.displacement[i]
             best = GhostState(float(path.displacement[i] + s * h), value, int(path.branch[i]))
@@ -174,11 +178,11 @@ def find_stepped_over_rests(path: PathSamples, beyond: float) -> list[float]:
     cubic's upward zero (third order in the step), stable by the path's own judgement (a stable
     branch, force rising through zero). ``beyond`` as in :func:`find_ghost`.
     """
-    x, force, stiffness = path.displacement, path.force, path.stiffness
+    x, force = path.displacement, path.force
     travels = []
-    for i, s, value in _minima(path, beyond):
+    for i, s, value, cubic in _minima(path, beyond):
         if value <= 0.0 and force[i] > 0.0 and force[i + 1] > 0.0:
-            root = _upward_root(_step_cubic(x, force, stiffness, i), s)
+            root = _upward_root(cubic, s)
             if root is not None:
                 travels.append(float(x[i] + root * (x[i + 1] - x[i])))
     return travels
@@ -221,7 +225,8 @@ def find_zero_force_states(
         # start from the path interpolated to F = 0: near a saddle-node the barrier and the rest
         # are close, and Newton from the nearer end point may land on the other one
         f = force[i - 1] / (force[i - 1] - force[i])
-        y = (1.0 - f) * ys[i - 1] + f * ys[i]
+        interpolated = (1.0 - f) * ys[i - 1] + f * ys[i]
+        y = interpolated.copy()  # Newton works in place
         its, negative = equilibrate_free(y, geom, ftol, xtol)
         lo, hi = sorted((ys[i - 1, 0], ys[i, 0]))
         width = hi - lo
@@ -238,7 +243,7 @@ def find_zero_force_states(
         if refined:
             stable = negative == 0
         else:
-            y = (1.0 - f) * ys[i - 1] + f * ys[i]
+            y = interpolated
             stable = judged and rises
             negative = 0 if stable else -1
         membrane, bending = assemble(y, geom, np.zeros(0), np.zeros((0, 0)), 0)

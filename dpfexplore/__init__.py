@@ -7,6 +7,9 @@ here in its order; each imports only the ones before it:
 numerics
     NumPy building blocks with no model knowledge (the one central-difference routine, the one
     local refiner).
+io
+    Shared I/O of every stage that writes: atomic files, one writer per directory, chunk files
+    committed through a manifest with checksums, result directories complete or absent.
 model
     Designs and their validation, closed-form spring constants and constants sets, pressure
     profiles, status codes.
@@ -21,7 +24,7 @@ plotting
 sweep
     Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines;
     design variables as a map of the unit box; ``sweep.storage``, the on-disk side (schema,
-    commits, verified reads, locks, result directories).
+    commits, verified reads).
 lookup
     Nearest designs of a dataset for target outputs, polished and verified by the exact model.
 surrogates

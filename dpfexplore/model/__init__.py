@@ -12,8 +12,8 @@ constants
 closed_form, constants_set
     Closed forms in ``π1 = t/H``, ``π3 = H/R`` as data, and the constants sets every
     computation runs on (the paper's by default; their domain, fingerprint, files).
-materials, limits, files, formatting
-    Material presets; front-end limits; atomic files; number formatting for output.
+materials, limits, formatting
+    Material presets; front-end limits; number formatting for output.
 pressure
     Piecewise-linear pressure profiles (MODEL.md §8).
 gripper

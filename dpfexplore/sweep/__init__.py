@@ -27,6 +27,6 @@ variables
     :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
     box (shared by lookup's polish and inverse design).
 storage
-    The on-disk side: dataset schema, chunk files and manifest, row filters, locks, what a sweep
-    directory holds, result directories of the other commands.
+    The on-disk side of a finger sweep: dataset schema, chunk files and manifest, row filters,
+    what a sweep directory holds (on the shared I/O of :mod:`dpfexplore.io`).
 """

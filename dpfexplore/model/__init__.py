@@ -18,6 +18,9 @@ pressure
     Piecewise-linear pressure profiles (MODEL.md §8).
 gripper
     The gripper transform and aperture of a finger shape (MODEL.md §7).
+variables
+    :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
+    box (lookup's polish and inverse design), and the parameter order of the sensitivities.
 status
     Status codes shared by kernels, API and stored datasets.
 version

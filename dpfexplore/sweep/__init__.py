@@ -23,9 +23,6 @@ repair
     Rebuilding a lost manifest from the chunks that verify.
 progress
     The progress protocol and the log lines of a running sweep.
-variables
-    :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
-    box (shared by lookup's polish and inverse design).
 storage
     The on-disk side of a finger sweep: dataset schema, chunk files and manifest, row filters,
     what a sweep directory holds (on the shared I/O of :mod:`dpfexplore.io`).

@@ -12,11 +12,13 @@ sampling
 evaluation
     What a job computes for a batch of designs (statics, reset times) as columns.
 chunks
-    The plan of chunks and what a worker does with one.
+    The plan of chunks and what a worker does with one (the finger sweep's work).
+work
+    The contract between an engine and what a chunk computes (finger or unit-cell sweeps).
 warmup
     Compiling the kernels a job needs before any worker starts.
 engines
-    Where chunks run: this process or Dask workers.
+    Where chunks run: this process, local worker processes, or Dask workers.
 driver
     :func:`~.driver.run_sweep`: the whole job, resumable.
 repair

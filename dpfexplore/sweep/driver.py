@@ -44,7 +44,6 @@ from ..io.lock import LOCK_NAME, LockHeld, sweep_lock
 from ..model.constants_set import DEFAULT
 from ..model.version import MODEL_VERSION, package_versions
 from .chunks import (
-    ChunkFailure,
     ChunkTask,
     SweepContext,
     dataset_schema,
@@ -58,6 +57,7 @@ from .progress import note as _note
 from .space import JobSpec
 from .storage import store
 from .storage.store import ChunkRecord, Manifest, StoreError
+from .work import ChunkFailure
 
 __all__ = [
     "LockHeld",

@@ -7,9 +7,12 @@ here in its order; each imports only the ones before it:
 numerics
     NumPy building blocks with no model knowledge (the one central-difference routine, the one
     local refiner).
+io
+    Shared I/O of every stage that writes: atomic files, one writer per directory, chunk files
+    committed through a manifest with checksums, result directories complete or absent.
 model
     Designs and their validation, closed-form spring constants and constants sets, pressure
-    profiles, status codes.
+    profiles, status codes, design variables as a map of the unit box.
 _kernels
     Numba only: energy/gradient/Hessian, Newton, state search, batch entry points, dynamics,
     snap continuation, the unit-cell shell.
@@ -20,8 +23,7 @@ plotting
     ``plot_*(..., ax=None) -> Axes``; imports only model and solvers.
 sweep
     Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines;
-    design variables as a map of the unit box; ``sweep.storage``, the on-disk side (schema,
-    commits, verified reads, locks, result directories).
+    ``sweep.storage``, the on-disk side (schema, commits, verified reads).
 lookup
     Nearest designs of a dataset for target outputs, polished and verified by the exact model.
 surrogates

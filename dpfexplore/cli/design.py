@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     from ..inverse.scene_file import with_seeds
     from ..inverse.scenes.timing_spec import with_target_reset
     from ..inverse.spec_fields import SceneSpecError
-    from ..sweep.storage.result_dirs import ResultError, check_output_dir
+    from ..io.result_dirs import ResultError, check_output_dir
 
     try:
         spec = load_scene(args.scene)

@@ -115,8 +115,8 @@ def _fit(args: argparse.Namespace) -> int:
     from ..identification.curves import CurveError, read_curves
     from ..identification.identify import identify
     from ..identification.report import _report, save_identification
+    from ..io.result_dirs import ResultError, check_output_dir
     from ..model.constants_set import ConstantsSetError
-    from ..sweep.storage.result_dirs import ResultError, check_output_dir
 
     try:
         check_output_dir(args.out, force=args.force)

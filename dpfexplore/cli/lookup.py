@@ -110,12 +110,12 @@ def _floats(text: str, option: str) -> list[float]:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore lookup``."""
+    from ..io.commits import StoreError
+    from ..io.result_dirs import ResultError, check_output_dir
     from ..lookup.files import write_designs
     from ..lookup.index import StaleIndexError
     from ..lookup.polish import parse_constraints
     from ..lookup.query import lookup, parse_n_units
-    from ..sweep.storage.result_dirs import ResultError, check_output_dir
-    from ..sweep.storage.store import StoreError
 
     try:  # output paths before the work
         if args.write:

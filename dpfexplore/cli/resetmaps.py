@@ -51,8 +51,8 @@ def run(args) -> int:
     """Run the command; returns the exit code."""
     import numpy as np
 
+    from ..io.result_dirs import ResultError, check_output_dir
     from ..solvers.dynamics.resetmaps import ResetMapSpec, reset_time_maps
-    from ..sweep.storage.result_dirs import ResultError, check_output_dir
 
     if not 1 <= args.units <= 12:
         raise UsageError(f"--units {args.units}: must be between 1 and 12")
@@ -100,11 +100,11 @@ def run(args) -> int:
 def write_reset_maps(maps, directory: str | Path, *, force: bool = False) -> list[Path]:
     """Write each map as ``reset_map_<name>.parquet`` and all three as ``reset_maps.png``.
 
-    The directory is a result directory (:mod:`dpfexplore.sweep.storage.result_dirs`): written whole
+    The directory is a result directory (:mod:`dpfexplore.io.result_dirs`): written whole
     or not at all; one holding an earlier result is replaced only with ``force``.
     """
+    from ..io.result_dirs import result_directory
     from ..plotting.dynamics import plot_reset_maps
-    from ..sweep.storage.result_dirs import result_directory
 
     directory = Path(directory)
     names = [f"reset_map_{name}.parquet" for name in maps] + ["reset_maps.png"]

@@ -119,12 +119,12 @@ def register(subparsers) -> None:
 
 
 def _fit(args: argparse.Namespace) -> int:
+    from ..io.commits import StoreError
+    from ..io.result_dirs import ResultError, check_output_dir
     from ..surrogates.data import load_training_data
     from ..surrogates.fit import fit_surrogates
     from ..surrogates.report import format_report, report_figures
     from ..surrogates.store import save_surrogates
-    from ..sweep.storage.result_dirs import ResultError, check_output_dir
-    from ..sweep.storage.store import StoreError
 
     try:  # before the fit: refusing after minutes of work helps nobody
         check_output_dir(args.out, force=args.force)

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.output import FIGURE_SUFFIXES, json_text, output_path
+from .support.output import FIGURE_SUFFIXES, error_line, json_text, output_path
 
 _TABLE_SUFFIXES = (".csv", ".parquet")
 
@@ -87,7 +87,8 @@ def register(subparsers) -> None:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from ..unitcell.sweep import read_job, run_unitcell_sweep
+    from ..io.commits import StoreError
+    from ..unitcell.sweep import SweepIncomplete, read_job, run_unitcell_sweep
 
     if args.workers < 1:
         raise UsageError(f"--workers {args.workers}: must be >= 1")
@@ -101,8 +102,17 @@ def _sweep(args: argparse.Namespace) -> int:
             engine=args.engine,
             scheduler=args.scheduler,
         )
-    except ValueError as exc:
+    except (ValueError, StoreError) as exc:
         raise UsageError(str(exc)) from None
+    except SweepIncomplete as exc:
+        error_line(f"dpfexplore unitcell sweep: {exc}")
+        return EXIT_FAILURE
+    except OSError as exc:  # a full disk while committing: what is committed stays valid
+        error_line(
+            f"dpfexplore unitcell sweep: writing {args.out} failed ({exc.strerror or exc}); the "
+            "chunks committed so far are intact: run the same command again to continue"
+        )
+        return EXIT_FAILURE
     if args.json:
         print(json_text(manifest))
     else:

@@ -5,7 +5,7 @@ what the model reads), ``fits.csv`` (one row per curve: the fitted ``k_b``, ``al
 their uncertainties, the relative RMS residual and any flags), ``report.json`` (per closed form:
 the grouped cross-validation curve, the terms chosen, the held-out scores of both selectors and
 the winner) and, on request, ``selection.png``. It is written whole or not at all
-(:func:`~dpfexplore.sweep.storage.result_dirs.result_directory`) and verified before it is read.
+(:func:`~dpfexplore.io.result_dirs.result_directory`) and verified before it is read.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def save_identification(
     result: Identification, path: str | Path, *, plot: bool = False, force: bool = False
 ) -> Path:
     """Write ``result`` as the result directory ``path`` (module docstring)."""
-    from ..sweep.storage.result_dirs import result_directory
+    from ..io.result_dirs import result_directory
 
     final = Path(path)
     facts = {"name": result.constants.name, "fingerprint": result.constants.fingerprint}
@@ -121,7 +121,7 @@ def read_identification(path: str | Path) -> tuple[ConstantsSet, dict[str, Any]]
     ValueError
         One line: not a saved identification, a changed file, or an invalid set.
     """
-    from ..sweep.storage.result_dirs import verify_result_dir
+    from ..io.result_dirs import verify_result_dir
 
     path = Path(path)
     verify_result_dir(path)

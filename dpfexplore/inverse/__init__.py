@@ -24,7 +24,7 @@ design
     :func:`design_scene`: the loop over a scene's targets.
 """
 
-from ..sweep.variables import DesignVariables
+from ..model.variables import DesignVariables
 from .design import design_scene, run_design
 from .kinds import load_scene, parse_scene
 from .spec import SceneSpec

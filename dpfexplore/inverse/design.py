@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
-from ..sweep.storage.result_dirs import check_output_dir, result_directory
+from ..io.result_dirs import check_output_dir, result_directory
 from .evaluation import SceneEvaluator
 from .kinds import SCENE_KINDS
 from .spec import SceneSpec

@@ -29,10 +29,10 @@ from numpy.typing import NDArray
 from ..model import status as st
 from ..model.design import DesignBatch
 from ..model.gripper import gripper_aperture
+from ..model.variables import DesignVariables
 from ..numerics.differences import central_differences
 from ..solvers.lattice import segment_height
 from ..solvers.sensitivities import batch_columns
-from ..sweep.variables import DesignVariables
 from .engine.derivatives import BOX_BOUNDS, STEP
 from .evaluation import SceneEvaluator
 from .spec import GripperSpec

@@ -93,7 +93,7 @@ from ..model.constants_set import DEFAULT
 from ..model.design import MATERIALS, Design, resolve_constants
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
-from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
+from ..model.variables import HEIGHT_ORDERS, DesignVariables
 from .spec import GripperSpec, OptimiserSettings, SceneSpec, Target
 from .spec_fields import (
     SceneSpecError,

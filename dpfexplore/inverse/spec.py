@@ -15,7 +15,7 @@ from typing import Any
 
 from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import Design
-from ..sweep.variables import DesignVariables
+from ..model.variables import DesignVariables
 from .scenes.timing_spec import PickPlaceSpec, WalkerSpec
 
 __all__ = ["GripperSpec", "OptimiserSettings", "SceneSpec", "Target"]

@@ -94,11 +94,11 @@ def write_designs(
 ) -> list[Path]:
     """Save each candidate as ``DIRECTORY/candidate-01.toml`` ... (best first).
 
-    ``DIRECTORY`` is a result directory (:mod:`dpfexplore.sweep.storage.result_dirs`): written
+    ``DIRECTORY`` is a result directory (:mod:`dpfexplore.io.result_dirs`): written
     whole, so no candidate file of an earlier lookup survives beside these; one holding an earlier
     result is replaced only with ``force``.
     """
-    from ..sweep.storage.result_dirs import result_directory
+    from ..io.result_dirs import result_directory
 
     final = Path(directory)
     with result_directory(final, kind="lookup-designs", force=force, option="--write") as staging:

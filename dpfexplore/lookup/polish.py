@@ -1,7 +1,7 @@
 """Polish a design with the exact model until its outputs meet a target.
 
 :func:`refine` moves a design, inside the box and constraints of a
-:class:`~dpfexplore.sweep.variables.DesignVariables`, until the outputs of one stable state
+:class:`~dpfexplore.model.variables.DesignVariables`, until the outputs of one stable state
 (the tip by default) equal a target to a tolerance (1e-6 mm). It is bounded nonlinear least
 squares on the variables ``z ∈ [0, 1]^m`` of that exact reparametrisation
 (:func:`scipy.optimize.least_squares`: dogbox, then trust-region reflective from the same start
@@ -47,12 +47,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..model import status as st
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
+from ..model.variables import HEIGHT_ORDERS, DesignVariables
 from ..numerics.differences import central_differences
 from ..numerics.local import GOAL_MET, NO_START, Stage, least_squares_in_box
 from ..solvers.sensitivities import batch_columns
 from ..solvers.statics import parse_state, solve_batch, state_string
 from ..sweep.space import DesignSpace
-from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
 
 __all__ = [
     "CONSTRAINT_KEYS",

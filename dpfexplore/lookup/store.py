@@ -64,8 +64,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..io.files import atomic_writer
 from ..model.domain import MAX_UNITS
-from ..model.files import atomic_writer
 from ..sweep.storage.datasets import DatasetInfo, dataset_info
 from .index import (
     DEFAULT_COLUMNS,

@@ -12,12 +12,15 @@ constants
 closed_form, constants_set
     Closed forms in ``π1 = t/H``, ``π3 = H/R`` as data, and the constants sets every
     computation runs on (the paper's by default; their domain, fingerprint, files).
-materials, limits, files, formatting
-    Material presets; front-end limits; atomic files; number formatting for output.
+materials, limits, formatting
+    Material presets; front-end limits; number formatting for output.
 pressure
     Piecewise-linear pressure profiles (MODEL.md §8).
 gripper
     The gripper transform and aperture of a finger shape (MODEL.md §7).
+variables
+    :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
+    box (lookup's polish and inverse design), and the parameter order of the sensitivities.
 status
     Status codes shared by kernels, API and stored datasets.
 version

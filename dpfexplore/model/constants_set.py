@@ -372,7 +372,7 @@ class ConstantsSet:
 
     def save(self, path: str | Path) -> Path:
         """Write the set as JSON (atomically; folders created) and return the path."""
-        from .files import atomic_write
+        from ..io.files import atomic_write
 
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -30,13 +30,14 @@ from numpy.typing import NDArray
 
 from .._kernels import sensitivity as ksens
 from ..model.domain import MAX_UNITS
+from ..model.variables import SENSITIVITY_PER_UNIT, SENSITIVITY_SHARED, parameter_names
 
 __all__ = ["COLUMNS", "OUTPUTS", "Sensitivities", "batch_columns", "parameter_names"]
 
 #: Per-unit parameter kinds, in column order.
-PER_UNIT = ("H", "U_L", "U_sep")
+PER_UNIT = SENSITIVITY_PER_UNIT
 #: Shared parameters, after the per-unit ones.
-SHARED = ("t", "t_lim", "E")
+SHARED = SENSITIVITY_SHARED
 #: Differentiated outputs and their rows in the kernel's table.
 OUTPUTS = {
     "tip_x": ksens.SENS_TIP_X,
@@ -52,12 +53,6 @@ COLUMNS = {f"d_{name}": row for name, row in OUTPUTS.items()}
 
 
 @functools.cache
-def parameter_names(n_units: int) -> tuple[str, ...]:
-    """Parameter names in sensitivity order: ``("H_1", ..., "U_sep_N", "t", "t_lim", "E")``."""
-    per_unit = tuple(f"{kind}_{k}" for kind in PER_UNIT for k in range(1, n_units + 1))
-    return per_unit + SHARED
-
-
 @functools.cache
 def batch_columns(n_units: int) -> NDArray:
     """Indices of an ``N``-unit design's parameters among the ``3·MAX_UNITS + 3`` batch columns.

@@ -31,8 +31,8 @@ from typing import Any
 
 import pandas as pd
 
+from ..io.files import file_sha256
 from ..model.constants_set import DEFAULT, ConstantsSet
-from ..model.files import file_sha256
 from ..model.version import MODEL_VERSION, package_versions
 from .data import dataset_fingerprint
 from .fit import SurrogateSet
@@ -123,7 +123,7 @@ def save_surrogates(
 
     ``figures`` maps file names (``speed_error.png``) to matplotlib figures drawn by the caller
     (:func:`dpfexplore.surrogates.report.report_figures`): the store writes, it does not draw.
-    Written complete or not at all (:func:`~dpfexplore.sweep.storage.result_dirs.result_directory`):
+    Written complete or not at all (:func:`~dpfexplore.io.result_dirs.result_directory`):
     a kill or a full disk mid-save leaves the previous surrogate whole; a directory that holds
     another result is replaced only with ``force``.
 
@@ -132,7 +132,7 @@ def save_surrogates(
     Path
         The directory.
     """
-    from ..sweep.storage.result_dirs import result_directory
+    from ..io.result_dirs import result_directory
 
     final = Path(path)
     description = {"outputs": list(surrogates.outputs), "best": surrogates.best}
@@ -198,7 +198,7 @@ _META_TYPES: dict[str, type | tuple[type, ...]] = {
 
 
 def _read_meta(path: Path) -> dict[str, Any]:
-    from ..sweep.storage.result_dirs import ResultError, read_result_marker, verify_result_dir
+    from ..io.result_dirs import ResultError, read_result_marker, verify_result_dir
 
     if not path.is_dir():
         raise SurrogateLoadError(f"{path}: no saved surrogate (not a directory)")

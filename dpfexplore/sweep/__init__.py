@@ -12,21 +12,20 @@ sampling
 evaluation
     What a job computes for a batch of designs (statics, reset times) as columns.
 chunks
-    The plan of chunks and what a worker does with one.
+    The plan of chunks and what a worker does with one (the finger sweep's work).
+work
+    The contract between an engine and what a chunk computes (finger or unit-cell sweeps).
 warmup
     Compiling the kernels a job needs before any worker starts.
 engines
-    Where chunks run: this process or Dask workers.
+    Where chunks run: this process, local worker processes, or Dask workers.
 driver
     :func:`~.driver.run_sweep`: the whole job, resumable.
 repair
     Rebuilding a lost manifest from the chunks that verify.
 progress
     The progress protocol and the log lines of a running sweep.
-variables
-    :class:`~.variables.DesignVariables`: bounds and constraints as an exact map of the unit
-    box (shared by lookup's polish and inverse design).
 storage
-    The on-disk side: dataset schema, chunk files and manifest, row filters, locks, what a sweep
-    directory holds, result directories of the other commands.
+    The on-disk side of a finger sweep: dataset schema, chunk files and manifest, row filters,
+    what a sweep directory holds (on the shared I/O of :mod:`dpfexplore.io`).
 """

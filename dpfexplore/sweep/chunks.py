@@ -1,19 +1,20 @@
-"""One chunk of a sweep: the plan of chunks, and what a worker does with one.
+"""One chunk of a sweep: the plan of chunks, and what a worker does with a chunk.
 
 A chunk is ``[start, stop)`` of the sample plan of one number of units ``N``
-(:class:`ChunkTask`). :func:`run_chunk` samples its designs, evaluates them through the batch
-kernels and writes one Parquet file, returning its
-:class:`~dpfexplore.sweep.storage.store.ChunkRecord`; it never touches the manifest. The engines
-(:mod:`dpfexplore.sweep.engines`) run it here or on Dask workers, and the driver
-(:mod:`dpfexplore.sweep.driver`) commits what they return.
+(:class:`ChunkTask`). :class:`SweepContext` is the sweep's work for the engines
+(:class:`~dpfexplore.sweep.work.ChunkWork`): its ``compute`` samples a chunk's designs and
+evaluates them through the batch kernels (:func:`evaluate_chunk`), its ``write`` writes one
+Parquet file and returns its :class:`~dpfexplore.sweep.storage.store.ChunkRecord`, never touching
+the manifest. The engines (:mod:`dpfexplore.sweep.engines`) run it here or on Dask workers, and
+the driver (:mod:`dpfexplore.sweep.driver`) commits what they return.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pyarrow as pa
@@ -24,19 +25,18 @@ from .sampling import sample_designs
 from .space import PER_UNIT_VARIABLES, SHARED_VARIABLES, ComputeSpec, JobSpec
 from .storage import store
 from .storage.store import ChunkRecord
+from .work import ChunkFailure
 
 __all__ = [
     "ChunkFailure",
     "ChunkTask",
     "SweepContext",
-    "compute_chunk",
     "dataset_schema",
     "default_chunk_size",
     "design_column_values",
     "evaluate_chunk",
     "plan_chunks",
     "rows_per_design",
-    "run_chunk",
     "write_chunk_file",
 ]
 
@@ -82,14 +82,6 @@ class ChunkTask:
         return self.stop - self.start
 
 
-@dataclass(frozen=True)
-class ChunkFailure:
-    """A chunk an engine could not complete (after its retries); the sweep goes on without it."""
-
-    task: ChunkTask
-    error: str
-
-
 def plan_chunks(spec: JobSpec, chunk_sizes: Mapping[int, int]) -> list[ChunkTask]:
     """Every chunk of the job, in (N, start) order."""
     tasks = []
@@ -110,6 +102,10 @@ def dataset_schema(spec: JobSpec, evaluator: Evaluator) -> pa.Schema:
 class SweepContext:
     """Everything a worker needs to evaluate and write a chunk (picklable).
 
+    The sweep's :class:`~dpfexplore.sweep.work.ChunkWork`: workers write their chunk files
+    themselves (``write_in_parent`` is False), so ``root`` must be on a filesystem they share
+    with the driver.
+
     Attributes
     ----------
     spec : JobSpec
@@ -124,6 +120,19 @@ class SweepContext:
     evaluator: Evaluator
     schema: pa.Schema
     root: str
+    write_in_parent: ClassVar[bool] = False
+
+    def warm_up(self) -> float:
+        """Compile (or load from the cache) the evaluator's kernels; returns seconds."""
+        return float(self.evaluator.warm_up())
+
+    def compute(self, task: ChunkTask) -> pa.Table:
+        """Sample, evaluate and tabulate one chunk (:func:`evaluate_chunk`; no file I/O)."""
+        return evaluate_chunk(self.spec, self.evaluator, self.schema, task)
+
+    def write(self, task: ChunkTask, table: pa.Table) -> ChunkRecord:
+        """Write a computed chunk atomically (:func:`write_chunk_file`); returns its record."""
+        return write_chunk_file(self, task, table)
 
 
 def design_column_values(spec: JobSpec, batch: DesignBatch, task: ChunkTask) -> dict[str, object]:
@@ -165,33 +174,6 @@ def evaluate_chunk(
     return store.table_from_columns(schema, columns, n_units=batch.n_units[index])
 
 
-# Batch kernels must not run from two threads of one process at once (Numba's workqueue layer
-# aborts, and any layer would oversubscribe the cores); a Dask worker with several threads runs
-# its chunks one after another through this lock.
-_PROCESS_LOCK = threading.Lock()
-
-
-def compute_chunk(
-    context: SweepContext, task: ChunkTask, numba_threads: int | None = None
-) -> pa.Table:
-    """Evaluate one chunk into its table, holding the process's kernel lock.
-
-    Parameters
-    ----------
-    context : SweepContext
-    task : ChunkTask
-    numba_threads : int, optional
-        Threads for the batch kernels in this call (``numba.set_num_threads``, which is per
-        calling thread); None leaves Numba's setting alone.
-    """
-    with _PROCESS_LOCK:
-        if numba_threads is not None:
-            import numba
-
-            numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
-        return evaluate_chunk(context.spec, context.evaluator, context.schema, task)
-
-
 def write_chunk_file(context: SweepContext, task: ChunkTask, table: pa.Table) -> ChunkRecord:
     """Write a computed chunk atomically; its record carries the row count per status."""
     record = store.write_chunk(context.root, task.n_units, task.index, task.start, task.stop, table)
@@ -200,10 +182,3 @@ def write_chunk_file(context: SweepContext, task: ChunkTask, table: pa.Table) ->
         statuses = {str(entry["values"]): int(entry["counts"]) for entry in counts.to_pylist()}
         record = dataclasses.replace(record, statuses=dict(sorted(statuses.items())))
     return record
-
-
-def run_chunk(
-    context: SweepContext, task: ChunkTask, numba_threads: int | None = None
-) -> ChunkRecord:
-    """Evaluate one chunk and write its file (not the manifest): what a worker does."""
-    return write_chunk_file(context, task, compute_chunk(context, task, numba_threads))

@@ -21,7 +21,7 @@ Invariants (tested in ``tests/sweep/test_sweep*.py``)
     * Peak memory is bounded by the chunk size: a chunk's designs and rows live only while it is
       evaluated and written; the driver keeps only chunk records.
     * One sweep at a time per directory: the whole call holds the directory's lock
-      (:mod:`dpfexplore.sweep.storage.lock`); a second sweep into it refuses, naming the holder.
+      (:mod:`dpfexplore.io.lock`); a second sweep into it refuses, naming the holder.
     * A rerun of a complete directory of the same job (without ``resume``) computes nothing and
       returns its summary; an incomplete one needs ``resume=True``.
     * Ctrl-C (``KeyboardInterrupt``) leaves every committed chunk committed and raises
@@ -39,10 +39,11 @@ from pathlib import Path
 
 import pyarrow as pa
 
+from ..io.files import TEMP_SUFFIX
+from ..io.lock import LOCK_NAME, LockHeld, sweep_lock
 from ..model.constants_set import DEFAULT
 from ..model.version import MODEL_VERSION, package_versions
 from .chunks import (
-    ChunkFailure,
     ChunkTask,
     SweepContext,
     dataset_schema,
@@ -55,8 +56,8 @@ from .progress import LogProgress, Progress
 from .progress import note as _note
 from .space import JobSpec
 from .storage import store
-from .storage.lock import LOCK_NAME, LockHeld, sweep_lock
 from .storage.store import ChunkRecord, Manifest, StoreError
+from .work import ChunkFailure
 
 __all__ = [
     "LockHeld",
@@ -172,7 +173,7 @@ def check_output(
     # A run killed while creating the directory leaves at most temporary files behind (and
     # the lock, which the caller holds).
     has_files = out.is_dir() and any(
-        p.name != LOCK_NAME and not (p.name.startswith(".") and p.name.endswith(store.TEMP_SUFFIX))
+        p.name != LOCK_NAME and not (p.name.startswith(".") and p.name.endswith(TEMP_SUFFIX))
         for p in out.iterdir()
     )
     if not has_files:
@@ -333,7 +334,7 @@ def run_sweep(
     ------
     StoreError
         If ``out`` cannot be used (see :func:`check_output`; nothing is written then), or
-        :class:`~dpfexplore.sweep.storage.lock.LockHeld` if another sweep holds it.
+        :class:`~dpfexplore.io.lock.LockHeld` if another sweep holds it.
     SweepInterrupted
         On Ctrl-C (a ``KeyboardInterrupt``), after the sweep has stopped; every chunk
         committed before stays committed.

@@ -1,32 +1,38 @@
-"""Where a sweep's chunks run: this process or Dask workers.
+"""Where a sweep's chunks run: this process, local worker processes, or Dask workers.
 
-:class:`LocalEngine` runs them here, :class:`DaskEngine` on Dask distributed workers.
+:class:`LocalEngine` runs them here (or on ``processes`` local worker processes),
+:class:`DaskEngine` on Dask distributed workers.
 
-An engine takes the sweep's :class:`~dpfexplore.sweep.chunks.SweepContext` and the chunks still
-to do, runs :func:`~dpfexplore.sweep.chunks.run_chunk` on each, and yields a
-:class:`~dpfexplore.sweep.storage.store.ChunkRecord` per finished chunk (in completion order) or a
-:class:`~dpfexplore.sweep.chunks.ChunkFailure` for a chunk that failed every attempt. The driver
-(:func:`~dpfexplore.sweep.driver.run_sweep`) commits what it receives; engines never touch the
-manifest.
+An engine takes a *work* object (:class:`~dpfexplore.sweep.work.ChunkWork`: what a chunk
+computes and how its files are written) and the chunks still to do, computes and writes each,
+and yields the chunk's record per finished chunk (in completion order) or a
+:class:`~dpfexplore.sweep.work.ChunkFailure` for a chunk that failed every attempt. It knows
+nothing of what a chunk holds: finger sweeps (:class:`~dpfexplore.sweep.chunks.SweepContext`)
+and unit-cell sweeps (:class:`~dpfexplore.unitcell.sweep_chunks.UnitCellWork`) run on the same
+engines. The caller (:func:`~dpfexplore.sweep.driver.run_sweep`,
+:func:`~dpfexplore.unitcell.sweep.run_unitcell_sweep`) commits what it receives; engines never
+touch the manifest.
 
 Threads, processes and the Numba cache
     The batch kernels parallelise over designs with ``prange``. Entering them from several
     threads of one process at once aborts under Numba's ``workqueue`` layer and oversubscribes
     the cores under any layer, so the project runs one kernel call per process at a time
-    (:data:`dpfexplore.sweep.chunks._PROCESS_LOCK` enforces it even in a multi-threaded Dask worker)
+    (:func:`dpfexplore.sweep.work.compute_chunk` enforces it even in a multi-threaded Dask worker)
     and parallelises across processes:
 
-    * :class:`LocalEngine`: chunks one after another in this process, each on all cores.
+    * :class:`LocalEngine`: chunks one after another in this process, each on all cores; or,
+      for work whose chunks run on one core (the unit-cell shell), on ``processes`` worker
+      processes started by ``spawn``, each with ``cores // processes`` Numba threads.
     * :class:`DaskEngine`: worker *processes* with one thread each, and
       ``cores // workers_on_the_host`` Numba threads per worker (``NUMBA_NUM_THREADS`` in the
       environment of a LocalCluster's workers, ``numba.set_num_threads`` in every task), so
       that workers x threads never exceeds the cores.
 
-    Kernels are compiled in the parent before any worker starts
-    (:func:`dpfexplore.sweep.warmup.compile_kernels`); the workers of a LocalCluster inherit
-    ``NUMBA_CACHE_DIR`` and load the cached machine code (reading only). Workers of an existing
-    cluster (``--scheduler``) may run on machines whose cache is cold; they warm up one at a
-    time, so no two processes ever write the cache at once.
+    Kernels are compiled in the parent before any worker starts (the work's ``warm_up``, e.g.
+    :func:`dpfexplore.sweep.warmup.compile_kernels`); local worker processes and the workers of
+    a LocalCluster inherit ``NUMBA_CACHE_DIR`` and load the cached machine code (reading only).
+    Workers of an existing cluster (``--scheduler``) may run on machines whose cache is cold;
+    they warm up one at a time, so no two processes ever write the cache at once.
 
 Faults
     A worker that dies mid-chunk loses nothing committed: its temporary file is never renamed,
@@ -39,7 +45,15 @@ Faults
     up, and if no worker at all is seen for ``no_workers_timeout`` seconds it reports the
     remaining chunks as failed instead of waiting forever (``--resume`` continues).
     Workers that join an existing cluster later load or compile the kernels on their first
-    chunk; only then could two processes on one machine compile at once.
+    chunk; only then could two processes on one machine compile at once. A local worker process
+    that dies fails the chunks it had not finished (``BrokenProcessPool``); they are reported
+    as failures and a rerun computes them.
+
+Stopping
+    :meth:`Engine.close` ends the workers: after a complete run it waits for them to exit; after
+    an interruption (Ctrl-C, an error in the caller) it cancels the chunks not started and
+    terminates local worker processes at once, so that nothing computes on after the caller
+    has stopped and no process is left behind.
 """
 
 from __future__ import annotations
@@ -47,22 +61,21 @@ from __future__ import annotations
 import abc
 import logging
 import os
+import re
 import time
 import uuid
-from collections.abc import Iterator, Sequence
-from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import (
+    CancelledError,
+    Future,
+    ProcessPoolExecutor,
+    ThreadPoolExecutor,
+    as_completed,
+)
+from functools import partial
 from typing import Any
 
-from .chunks import (
-    _PROCESS_LOCK,
-    ChunkFailure,
-    ChunkTask,
-    SweepContext,
-    compute_chunk,
-    run_chunk,
-    write_chunk_file,
-)
-from .storage.store import ChunkRecord
+from .work import _PROCESS_LOCK, ChunkFailure, ChunkWork, compute_chunk, run_on_worker
 
 __all__ = ["DaskEngine", "Engine", "LocalEngine", "make_engine"]
 
@@ -73,7 +86,7 @@ _DASK_LOG = logging.getLogger("distributed")
 class Engine(abc.ABC):
     """Runs chunks; see the module docstring.
 
-    The driver calls :meth:`start` (compile, start workers), then :meth:`run`, then
+    The caller calls :meth:`start` (compile, start workers), then :meth:`run`, then
     :meth:`close` (always, also after an error).
 
     Attributes
@@ -88,66 +101,142 @@ class Engine(abc.ABC):
     def __init__(self) -> None:
         self.timings: dict[str, float] = {}
 
-    def start(self, context: SweepContext) -> None:
+    def start(self, work: ChunkWork) -> None:
         """Compile the kernels (in this process) and get the workers ready."""
-        self.timings = {"compile_s": float(context.evaluator.warm_up())}
+        self.timings = {"compile_s": float(work.warm_up())}
 
     @abc.abstractmethod
-    def run(
-        self, context: SweepContext, tasks: Sequence[ChunkTask]
-    ) -> Iterator[ChunkRecord | ChunkFailure]:
-        """Run every task; yield one record or failure per task as they finish."""
+    def run(self, work: ChunkWork, tasks: Sequence[Any]) -> Iterator[Any]:
+        """Run every task; yield one record or :class:`ChunkFailure` per task as they finish."""
 
     def close(self) -> None:  # noqa: B027 - engines without resources need nothing here
         """Release workers and connections."""
 
 
 class LocalEngine(Engine):
-    """Chunks one after another in this process, each chunk's kernels on ``threads`` cores.
+    """Chunks in this process, one after another, or on local worker processes.
 
-    A chunk's Parquet file is encoded and written on a second thread while the next chunk is
-    computed (both release the GIL), so the cores are not idle during I/O; at most two chunks'
-    rows are in memory.
+    With one process (the default), each chunk's kernels run here on ``threads`` cores, and a
+    chunk's files are written on a second thread while the next chunk is computed (both
+    release the GIL), so the cores are not idle during I/O; at most two chunks' results are in
+    memory. With ``processes > 1``, chunks run on that many worker processes (``spawn``), each
+    warmed up from the cache this process filled; for work whose chunks each run on one core.
 
     Parameters
     ----------
     threads : int, optional
-        Numba threads (default: Numba's, i.e. all cores or ``NUMBA_NUM_THREADS``).
+        Numba threads per process (default: Numba's, i.e. all cores or ``NUMBA_NUM_THREADS``,
+        in this process; ``cores // processes`` in each worker process).
+    processes : int
+        Worker processes; 1 runs the chunks in this process.
     """
 
     name = "local"
 
-    def __init__(self, threads: int | None = None) -> None:
+    def __init__(self, threads: int | None = None, processes: int = 1) -> None:
         super().__init__()
         if threads is not None and threads < 1:
             raise ValueError(f"threads = {threads}: must be >= 1")
+        if not isinstance(processes, int) or processes < 1:
+            raise ValueError(f"processes = {processes!r}: must be an integer >= 1")
         self.threads = threads
+        self.processes = processes
+        self._pool: ProcessPoolExecutor | None = None
+        self._finished = False
 
-    def run(  # noqa: D102
-        self, context: SweepContext, tasks: Sequence[ChunkTask]
-    ) -> Iterator[ChunkRecord | ChunkFailure]:
+    def start(self, work: ChunkWork) -> None:  # noqa: D102
+        super().start(work)  # compile here, before any worker process exists
+        self._finished = False
+        if self.processes > 1:
+            from multiprocessing import get_context
+
+            threads = self.threads or max(1, (os.cpu_count() or 1) // self.processes)
+            self._pool = ProcessPoolExecutor(
+                self.processes,
+                mp_context=get_context("spawn"),
+                initializer=_start_process,
+                initargs=(work, threads),
+            )
+
+    def run(self, work: ChunkWork, tasks: Sequence[Any]) -> Iterator[Any]:  # noqa: D102
+        if self._pool is not None:
+            yield from self._run_on_processes(self._pool, work, tasks)
+        else:
+            yield from self._run_here(work, tasks)
+        self._finished = True
+
+    def _run_here(self, work: ChunkWork, tasks: Sequence[Any]) -> Iterator[Any]:
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dpfexplore-writer") as writer:
-            writing: tuple[ChunkTask, Future] | None = None
+            writing: tuple[Any, Future] | None = None
             for task in tasks:
                 try:
-                    table = compute_chunk(context, task, self.threads)
+                    result = compute_chunk(work, task, self.threads)
                 except Exception as exc:  # one broken chunk must not stop the night's job
                     logger.exception("chunk %s failed", task.path)
                     yield ChunkFailure(task, f"{type(exc).__name__}: {exc}")
                     continue
-                submitted = (task, writer.submit(write_chunk_file, context, task, table))
-                del table
+                submitted = (task, writer.submit(work.write, task, result))
+                del result
                 if writing is not None:
-                    yield _written(*writing)
+                    yield _written(writing[0], writing[1].result)
                 writing = submitted
             if writing is not None:
-                yield _written(*writing)
+                yield _written(writing[0], writing[1].result)
+
+    @staticmethod
+    def _run_on_processes(
+        pool: ProcessPoolExecutor, work: ChunkWork, tasks: Sequence[Any]
+    ) -> Iterator[Any]:
+        futures = {pool.submit(run_on_worker, work, task): task for task in tasks}
+        for future in as_completed(futures):
+            task = futures.pop(future)
+            try:
+                outcome = future.result()
+            except Exception as exc:  # a chunk that raised, or a worker process that died
+                yield ChunkFailure(task, f"{type(exc).__name__}: {exc}")
+                continue
+            if work.write_in_parent:
+                yield _written(task, partial(work.write, task, outcome))
+            else:
+                yield outcome
+
+    def close(self) -> None:
+        """Stop the worker processes: wait for them after a complete run, else terminate them."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        if self._finished:
+            pool.shutdown(wait=True)
+            return
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            if process.is_alive():
+                process.terminate()
+        for process in processes:
+            process.join(timeout=5.0)
 
 
-def _written(task: ChunkTask, future: Future) -> ChunkRecord | ChunkFailure:
+def _start_process(work: ChunkWork, threads: int) -> None:
+    """Initializer of a local worker process: its Numba threads, then the kernels from the cache.
+
+    The process ignores SIGINT: Ctrl-C reaches the whole process group, and the parent, which
+    handles it, ends its workers (:meth:`LocalEngine.close`).
+    """
+    import signal
+
+    import numba
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    work.warm_up()
+
+
+def _written(task: Any, write: Callable[[], Any]) -> Any:
+    """The record ``write()`` returns, or the chunk's failure (one line for an OSError)."""
     try:
-        return future.result()
-    except OSError as exc:  # a full disk, a lost mount: the driver logs one line per chunk
+        return write()
+    except OSError as exc:  # a full disk, a lost mount: the caller logs one line per chunk
         return ChunkFailure(task, f"cannot write the chunk ({exc.strerror or exc})")
     except Exception as exc:  # a bug: keep its traceback
         logger.exception("writing chunk %s failed", task.path)
@@ -155,22 +244,22 @@ def _written(task: ChunkTask, future: Future) -> ChunkRecord | ChunkFailure:
 
 
 def _run_chunk_on_worker(
-    context: SweepContext, task: ChunkTask, threads_by_host: dict[str, int], default: int
-) -> ChunkRecord:
+    work: ChunkWork, task: Any, threads_by_host: dict[str, int], default: int
+) -> Any:
     from distributed import get_worker
     from distributed.comm.addressing import get_address_host
 
     host = get_address_host(get_worker().address)
-    return run_chunk(context, task, threads_by_host.get(host, default))
+    return run_on_worker(work, task, threads_by_host.get(host, default))
 
 
-def _warm_worker(context: SweepContext, threads: int) -> dict[str, Any]:
+def _warm_worker(work: ChunkWork, threads: int) -> dict[str, Any]:
     """Load the kernels from the cache on one worker; report its Numba settings."""
     import numba
 
     with _PROCESS_LOCK:
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-        seconds = float(context.evaluator.warm_up())
+        seconds = float(work.warm_up())
         try:
             layer = numba.threading_layer()
         except ValueError:  # no parallel region ran (an evaluator without batch kernels)
@@ -242,10 +331,10 @@ class DaskEngine(Engine):
         self._log_level: int | None = None
         self._threads: tuple[dict[str, int], int] = ({}, 1)
 
-    def start(self, context: SweepContext) -> None:  # noqa: D102
+    def start(self, work: ChunkWork) -> None:  # noqa: D102
         from distributed import Client
 
-        super().start(context)  # compile in the parent, before any worker exists
+        super().start(work)  # compile in the parent, before any worker exists
         # Dask's scheduler logs every connection at INFO, which drowns a sweep's progress
         # lines once they propagate to the root handler; WARNING and above still show.
         self._log_level = _DASK_LOG.level
@@ -259,15 +348,13 @@ class DaskEngine(Engine):
         self.timings["cluster_start_s"] = time.perf_counter() - begin
         self._threads = self._numba_threads(self._client)
         begin = time.perf_counter()
-        self._warm_workers(self._client, context, *self._threads)
+        self._warm_workers(self._client, work, *self._threads)
         self.timings["worker_warmup_s"] = time.perf_counter() - begin
 
-    def run(  # noqa: D102
-        self, context: SweepContext, tasks: Sequence[ChunkTask]
-    ) -> Iterator[ChunkRecord | ChunkFailure]:
+    def run(self, work: ChunkWork, tasks: Sequence[Any]) -> Iterator[Any]:  # noqa: D102
         if self._client is None:
             raise RuntimeError("DaskEngine.run before start")
-        yield from self._execute(self._client, context, tasks, *self._threads)
+        yield from self._execute(self._client, work, tasks, *self._threads)
 
     def close(self) -> None:  # noqa: D102
         begin = time.perf_counter()
@@ -323,7 +410,7 @@ class DaskEngine(Engine):
                 )
         return threads, 1
 
-    def _warm_workers(self, client, context, threads_by_host, default) -> None:
+    def _warm_workers(self, client, work, threads_by_host, default) -> None:
         from distributed.comm.addressing import get_address_host
 
         self.worker_info = {}
@@ -332,25 +419,25 @@ class DaskEngine(Engine):
             # Our own LocalCluster: same machine, same cache directory, which the parent has
             # just filled, so the workers only read it and may load it all at once.
             threads = max(threads_by_host.values(), default=default)
-            self.worker_info.update(client.run(_warm_worker, context, threads, workers=workers))
+            self.worker_info.update(client.run(_warm_worker, work, threads, workers=workers))
             return
         # Somebody else's workers may find the cache cold (another machine, another CPU) and
         # compile: one worker at a time, so that no two processes write the cache at once.
         for address in workers:
             threads = threads_by_host.get(get_address_host(address), default)
-            self.worker_info.update(client.run(_warm_worker, context, threads, workers=[address]))
+            self.worker_info.update(client.run(_warm_worker, work, threads, workers=[address]))
 
-    def _execute(self, client, context, tasks, threads_by_host, default):
+    def _execute(self, client, work, tasks, threads_by_host, default):
         from distributed import wait
 
         token = uuid.uuid4().hex[:8]
-        submitted: dict[str, tuple[ChunkTask, int]] = {}
+        submitted: dict[str, tuple[Any, int]] = {}
 
-        def submit(task: ChunkTask, attempt: int):
-            key = f"dpfexplore-chunk-{token}-N{task.n_units:02d}-{task.index:06d}-a{attempt}"
+        def submit(task: Any, attempt: int):
+            key = f"dpfexplore-chunk-{token}-{_key_name(task.path)}-a{attempt}"
             future = client.submit(
                 _run_chunk_on_worker,
-                context,
+                work,
                 task,
                 threads_by_host,
                 default,
@@ -388,7 +475,10 @@ class DaskEngine(Engine):
                     continue
                 finally:
                     future.release()
-                yield record
+                if work.write_in_parent:  # the worker sent the result back: write it here
+                    yield _written(task, partial(work.write, task, record))
+                else:
+                    yield record
             if done or client.nthreads():
                 idle_since = None
                 continue
@@ -409,6 +499,11 @@ class DaskEngine(Engine):
 
 #: Seconds between checks for workers while no chunk finishes.
 _POLL_S = 2.0
+
+
+def _key_name(path: str) -> str:
+    """A chunk's path as part of a Dask key (``N05/part-000012.parquet`` -> ``N05-part-000012``)."""
+    return re.sub(r"[^A-Za-z0-9]+", "-", path.removesuffix(".parquet")).strip("-")
 
 
 def make_engine(name: str, *, workers: int | None = None, scheduler: str | None = None) -> Engine:

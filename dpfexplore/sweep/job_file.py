@@ -65,6 +65,7 @@ from ..model.constants_set import DEFAULT, ConstantsSetError
 from ..model.design import DEFAULTS, MATERIALS, resolve_constants
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
+from ..model.variables import HEIGHT_ORDERS
 from . import job_fields as _v
 from .job_fields import JobSpecError
 from .space import (
@@ -78,7 +79,6 @@ from .space import (
     PressureLoad,
     Variable,
 )
-from .variables import HEIGHT_ORDERS
 
 __all__ = ["JobSpecError", "load_job", "parse_job", "recorded_space"]
 

@@ -37,13 +37,13 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from ..io.lock import sweep_lock
 from ..model.version import MODEL_VERSION, package_versions
 from .chunks import ChunkTask, dataset_schema, default_chunk_size, design_column_values, plan_chunks
 from .evaluation import Evaluator, StaticsEvaluator
 from .sampling import sample_designs
 from .space import JobSpec
 from .storage import store
-from .storage.lock import sweep_lock
 from .storage.store import ChunkRecord, Manifest, StoreError
 
 __all__ = ["RepairReport", "repair_sweep"]

@@ -18,9 +18,10 @@ checks
     Pogorelov's ridge exponent.
 plotting
     Force and energy against apex travel by branch, deformed meridians.
-sweep
-    Many geometries (a grid or a Latin hypercube) on worker processes or a Dask cluster into
-    the identification table; resumable.
+sweep, sweep_chunks
+    Many geometries (a grid or a Latin hypercube) on the sweep engines (worker processes or a
+    Dask cluster) into the identification table; resumable. Its chunks: what one computes, its
+    files committed with their checksums, their manifest, the merge.
 compare_paper
     The shell's spring constants (``identify``'s features fit) beside the paper's closed forms
     over its box, and the extended constants set packaged as ``shell-extended``.

@@ -18,21 +18,31 @@ A job (TOML) names the geometries, as a grid or a Latin hypercube, and the run's
     chunk = 8                   # geometries per chunk file
     max_steps = 3000
 
-:func:`run_unitcell_sweep` traces every geometry with :func:`~.shell.unit_cell_curve` on
-``workers`` local processes, or on a Dask cluster (``engine="dask"``: a ``LocalCluster`` of
-``workers`` processes, or the running scheduler at ``scheduler``; the workers send their chunks
-back and this process writes them, so remote workers need no shared disk). The kernels are
-compiled in this process first: several processes writing Numba's cache at once is a known
-source of crashes. Each chunk is written as two Parquet files
-under ``DIR/chunks/`` by a write-then-rename, so an interrupted sweep resumes where it stopped
-(chunks present are skipped; the job's fingerprint in ``DIR/job.json`` must match). At the end
-``DIR/curves.parquet`` (the table ``identify fit`` reads, every point of every path with its
-branch), ``DIR/designs.parquet`` (one row per geometry: status, message, initial stiffness,
-first fold, ``tip_dis`` and ``tip_kind``: the inverted rest's travel, or a monostable dome's
-ghost's) and, last, ``DIR/manifest.json``. ``identify`` takes ``tip_dis`` for every curve or
-for none, so ``curves.parquet`` leaves the column out when some dome has neither a rest nor a
-ghost (``designs.parquet`` keeps it, and the manifest counts them). A geometry that
-fails is a row with its status and message; it never stops the sweep.
+:func:`run_unitcell_sweep` traces every geometry with :func:`~.shell.unit_cell_curve` on the
+finger sweeps' engines (:mod:`dpfexplore.sweep.engines`): ``workers`` local processes, or a Dask
+cluster (``engine="dask"``: a ``LocalCluster`` of ``workers`` processes, or the running
+scheduler at ``scheduler``; the workers send their chunks back and this process writes them, so
+remote workers need no shared disk). The kernels are compiled in this process first: several
+processes writing Numba's cache at once is a known source of crashes.
+
+The sweep holds the directory's lock while it runs (one writer per directory,
+:func:`dpfexplore.io.lock.sweep_lock`) and commits each chunk as a finger sweep does: its files
+written whole, then recorded with their SHA-256 in ``DIR/chunks/_manifest.json``
+(:mod:`.sweep_chunks` has the layout). An interrupted sweep resumes where it stopped when run
+again: committed chunks are checked against their checksums and kept, a chunk missing or
+changed is recomputed, and a directory of another job is refused (``DIR/job.json`` holds the
+job's fingerprint). At the end ``DIR/curves.parquet`` (the table ``identify fit`` reads, every
+point of every path with its branch), ``DIR/designs.parquet`` (one row per geometry: status,
+message, initial stiffness, first fold, ``tip_dis`` and ``tip_kind``: the inverted rest's
+travel, or a monostable dome's ghost's) are merged from the verified chunks and, last,
+``DIR/manifest.json`` is written. ``identify`` takes ``tip_dis`` for every curve or for none, so
+``curves.parquet`` leaves the column out when some dome has neither a rest nor a ghost
+(``designs.parquet`` keeps it, and the manifest counts them). A geometry that fails is a row
+with its status and message; it never stops the sweep.
+
+A directory written by an older dpfexplore, whose chunk files have no manifest to verify them
+against, is refused in one line: give a new directory, or remove its ``chunks`` folder to
+recompute it there.
 """
 
 from __future__ import annotations
@@ -40,19 +50,37 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import logging
 import math
-import os
 import tomllib
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
-__all__ = ["UnitCellJob", "read_job", "run_unitcell_sweep"]
+from ..io.commits import MANIFEST, StoreError, read_json, remove_leftovers
+from ..io.files import atomic_write
+from ..io.lock import sweep_lock
+from ..sweep.engines import DaskEngine, Engine, LocalEngine
+from ..sweep.work import ChunkFailure
+from .sweep_chunks import (
+    CHUNKS,
+    CellTask,
+    ChunkManifest,
+    UnitCellWork,
+    chunk_problem,
+    merge_chunks,
+    parquet_bytes,
+    plan_tasks,
+    read_manifest,
+    remove_uncommitted,
+    write_manifest,
+)
+
+__all__ = ["SweepIncomplete", "UnitCellJob", "read_job", "run_unitcell_sweep"]
+
+logger = logging.getLogger(__name__)
 
 PARAMETERS = ("H", "t", "r_b", "E", "nu")
 _DEFAULTS = {"r_b": 5.0, "E": 26.0, "nu": 0.35}
@@ -153,87 +181,29 @@ def read_job(path: str | Path) -> UnitCellJob:
         raise ValueError(f"{path}: {exc}") from None
 
 
-def _trace_chunk(rows: list[tuple[int, tuple[float, ...]]], options: dict) -> tuple[list, list]:
-    """Trace every geometry of a chunk (in a worker): frames of curves, rows of designs."""
-    from .shell import unit_cell_curve
+class SweepIncomplete(RuntimeError):
+    """Chunks that could not be computed or written (a worker died, a full disk).
 
-    frames, designs = [], []
-    for index, (H, t, r_b, E, nu) in rows:
-        record = {"design": index, "H": H, "t": t, "r_b": r_b, "E": E, "nu": nu}
-        try:
-            run = unit_cell_curve(
-                H,
-                t,
-                r_b,
-                E,
-                nu,
-                travel=options["travel"] * H,
-                n_elements=options["n_elements"],
-                max_steps=options["max_steps"],
-            )
-        except ValueError as exc:
-            designs.append({**record, "status": "invalid", "message": str(exc)})
-            continue
-        except Exception as exc:  # one bad geometry never stops the sweep
-            designs.append({**record, "status": "error", "message": f"{type(exc).__name__}: {exc}"})
-            continue
-        designs.append(
-            {
-                **record,
-                "status": run.status,
-                "message": run.message,
-                "steps": run.n_steps,
-                "seconds": run.elapsed,
-                "initial_stiffness": run.initial_stiffness,
-                "first_fold": float(run.folds[0]) if run.folds.size else math.nan,
-                "tip_dis": math.nan if run.tip_dis is None else run.tip_dis,
-                "tip_kind": run.tip_kind or "",
-                "bistable": run.bistable,
-            }
+    The chunks committed stay committed; running the sweep again computes the others.
+
+    Attributes
+    ----------
+    failures : list of ChunkFailure
+    """
+
+    def __init__(self, out: Path, failures: list) -> None:
+        self.failures = failures
+        first = failures[0]
+        super().__init__(
+            f"{out}: {len(failures)} chunk(s) failed (first: {first.task.path}: {first.error}); "
+            "the others are committed: run the sweep again to retry them"
         )
-        if run.status in ("reached", "partial"):
-            frames.append(run.to_frame(curve=f"d{index:06d}"))
-    return frames, designs
 
 
-def _write(frame: pd.DataFrame, path: Path) -> None:
-    staging = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    frame.to_parquet(staging, index=False)
-    os.replace(staging, path)  # a chunk is there whole or not at all
-
-
-def _warm() -> None:
-    from .shell import _announce
-
-    _announce()
-
-
-def _dask_results(chunks, pending, options, workers, scheduler):
-    """``(chunk index, result)`` of the pending chunks as Dask workers finish them."""
-    import logging
-
-    from distributed import Client, LocalCluster
-    from distributed import as_completed as completed
-
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        )
-    client = Client(scheduler if scheduler is not None else cluster)
-    try:
-        client.run(_warm)  # each worker loads the kernels this process compiled
-        futures = {client.submit(_trace_chunk, chunks[k], options, pure=False): k for k in pending}
-        for future in completed(futures):
-            yield futures[future], future.result()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+def _make_engine(engine: str, workers: int, scheduler: str | None) -> Engine:
+    if engine == "local":
+        return LocalEngine(processes=workers)
+    return DaskEngine(scheduler=scheduler, n_workers=workers)
 
 
 def run_unitcell_sweep(
@@ -247,9 +217,37 @@ def run_unitcell_sweep(
 ) -> dict[str, Any]:
     """Trace every geometry of ``job`` into ``out`` (module docstring); resumes a partial run.
 
-    ``engine``: ``"local"`` (``workers`` processes; one: this process) or ``"dask"`` (a
-    ``LocalCluster`` of ``workers`` processes, or the scheduler at ``scheduler``, e.g.
-    ``tcp://host:8786``). Returns the manifest: counts of designs per status, chunk count, paths.
+    Parameters
+    ----------
+    job : UnitCellJob
+    out : str or Path
+        The sweep directory: new, or holding a sweep of this job (resumed).
+    workers : int
+        Worker processes (one: this process).
+    progress : callable, optional
+        Called as ``progress(done, total)`` (chunks) after each chunk is committed.
+    engine : {"local", "dask"}
+        ``"local"``: ``workers`` processes here
+        (:class:`~dpfexplore.sweep.engines.LocalEngine`); ``"dask"``: a ``LocalCluster`` of
+        ``workers`` processes, or the scheduler at ``scheduler`` (``tcp://host:8786``)
+        (:class:`~dpfexplore.sweep.engines.DaskEngine`).
+    scheduler : str, optional
+        With ``engine="dask"``: the address of a running scheduler.
+
+    Returns
+    -------
+    dict
+        The manifest: counts of designs per status, chunk count, paths.
+
+    Raises
+    ------
+    ValueError
+        For bad arguments, or an ``out`` that holds another job's sweep, an older sweep's
+        unverifiable chunks, or a file (one line; nothing is written then).
+    LockHeld
+        If another sweep is writing ``out`` (a :class:`~dpfexplore.io.commits.StoreError`).
+    SweepIncomplete
+        If chunks failed; the others stay committed.
     """
     out = Path(out)
     if not isinstance(workers, int) or workers < 1:
@@ -258,74 +256,141 @@ def run_unitcell_sweep(
         raise ValueError(f"engine={engine!r}: choose 'local' or 'dask'")
     if scheduler is not None and engine != "dask":
         raise ValueError("scheduler: only with engine='dask'")
-    chunks_dir = out / "chunks"
-    chunks_dir.mkdir(parents=True, exist_ok=True)
-    marker = out / "job.json"
-    if marker.exists():
-        previous = json.loads(marker.read_text()).get("fingerprint")
-        if previous != job.fingerprint:
-            raise ValueError(f"{out}: holds a sweep of another job; give a new directory")
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{out}: exists and is not a directory")
+    runner = _make_engine(engine, workers, scheduler)
+    created = not out.exists()
+    try:
+        with sweep_lock(out):
+            return _run_locked(job, out, runner, progress)
+    except ValueError:
+        if created:  # bad input writes nothing: remove the directory the lock created
+            _remove_if_empty(out)
+        raise
+
+
+def _remove_if_empty(out: Path) -> None:
+    try:
+        out.rmdir()
+    except OSError:
+        pass
+
+
+def _marked_fingerprint(out: Path) -> str | None:
+    """The fingerprint ``out/job.json`` records, None if it has none (missing, unreadable)."""
+    try:
+        value = read_json(out / "job.json").get("fingerprint")
+    except (FileNotFoundError, StoreError):
+        return None
+    return value if isinstance(value, str) else None
+
+
+def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkManifest:
+    """The directory's chunk manifest, checked against ``job``, with only verified chunks in it.
+
+    A new directory gets its manifest (from then on it is this job's) and ``job.json``; a
+    resumed one loses the chunks that fail their checks, then temporary and uncommitted files.
+    """
+    chunks = out / CHUNKS
+    another = f"{out}: holds a sweep of another job; give a new directory"
+    if (out / MANIFEST).exists():
+        raise ValueError(f"{out}: is a finger sweep's dataset; give a directory of its own")
+    marked = _marked_fingerprint(out)
+    try:
+        manifest = read_manifest(chunks)
+    except FileNotFoundError:
+        manifest = None
+    except StoreError as exc:
+        raise ValueError(f"{exc}; give a new directory") from None
+    if manifest is None:
+        if marked is not None and marked != job.fingerprint:
+            raise ValueError(another)
+        if any(chunks.glob("designs-*.parquet")) or any(chunks.glob("curves-*.parquet")):
+            raise ValueError(
+                f"{out}: holds chunk files of an older unit-cell sweep, with no {CHUNKS}/"
+                f"{MANIFEST} to verify them against; give a new directory, or remove {chunks} "
+                "to recompute them here"
+            )
+        manifest = ChunkManifest(
+            fingerprint=job.fingerprint,
+            job=job.source,
+            geometries=len(job.geometries),
+            chunk_size=job.options["chunk"],
+            n_chunks=len(tasks),
+        )
+        chunks.mkdir(parents=True, exist_ok=True)
+        write_manifest(chunks, manifest)  # from now on the directory is this job's
+    elif manifest.fingerprint != job.fingerprint:
+        raise ValueError(another)
     else:
-        marker.write_text(json.dumps({"fingerprint": job.fingerprint, "job": job.source}))
-    size = job.options["chunk"]
-    indexed = list(enumerate(map(tuple, job.geometries.tolist())))
-    chunks = [indexed[i : i + size] for i in range(0, len(indexed), size)]
-    pending = [
-        k for k in range(len(chunks)) if not (chunks_dir / f"designs-{k:05d}.parquet").exists()
-    ]
-    _warm()  # compile here, before any worker loads the cache
-    done = len(chunks) - len(pending)
+        dropped = False
+        for name, chunk in sorted(manifest.chunks.items()):
+            problem = chunk_problem(chunks, chunk)
+            if problem is not None:
+                logger.warning("unitcell sweep: recomputing chunk %s (%s)", name, problem)
+                del manifest.chunks[name]
+                dropped = True
+        if dropped:
+            write_manifest(chunks, manifest)
+    remove_uncommitted(chunks, manifest)
+    remove_leftovers(out)
+    if marked != job.fingerprint:  # new, or lost or damaged: the manifest says whose it is
+        atomic_write(
+            out / "job.json", json.dumps({"fingerprint": job.fingerprint, "job": job.source})
+        )
+    return manifest
 
-    def commit(k: int, frames: list, designs: list) -> None:
-        nonlocal done
-        if frames:
-            _write(pd.concat(frames, ignore_index=True), chunks_dir / f"curves-{k:05d}.parquet")
-        _write(pd.DataFrame(designs), chunks_dir / f"designs-{k:05d}.parquet")  # written last
-        done += 1
-        if progress is not None:
-            progress(done, len(chunks))
 
-    if engine == "dask" and pending:
-        for k, result in _dask_results(chunks, pending, job.options, workers, scheduler):
-            commit(k, *result)
-    elif workers == 1:
-        for k in pending:
-            commit(k, *_trace_chunk(chunks[k], job.options))
-    elif pending:
-        with ProcessPoolExecutor(
-            workers, mp_context=get_context("spawn"), initializer=_warm
-        ) as pool:
-            futures = {pool.submit(_trace_chunk, chunks[k], job.options): k for k in pending}
-            for future in as_completed(futures):
-                commit(futures[future], *future.result())
-    designs = pd.concat(
-        [pd.read_parquet(chunks_dir / f"designs-{k:05d}.parquet") for k in range(len(chunks))],
-        ignore_index=True,
-    ).sort_values("design", ignore_index=True)
-    curve_files = sorted(chunks_dir.glob("curves-*.parquet"))
-    curves = (
-        pd.concat([pd.read_parquet(p) for p in curve_files], ignore_index=True)
-        if curve_files
-        else pd.DataFrame(columns=["curve", *PARAMETERS, "displacement", "energy", "force"])
-    )
+def _run_locked(job: UnitCellJob, out: Path, engine: Engine, progress) -> dict[str, Any]:
+    tasks = plan_tasks(job.geometries, job.options["chunk"])
+    chunks = out / CHUNKS
+    manifest = _open_chunks(out, job, tasks)
+    pending = [task for task in tasks if task.path not in manifest.chunks]
+    failures: list[ChunkFailure] = []
+    if pending:
+        work = UnitCellWork(root=str(chunks.resolve()), options=job.options)
+        done = len(tasks) - len(pending)
+        try:
+            engine.start(work)  # compile here, before any worker loads the cache
+            for outcome in engine.run(work, pending):
+                if isinstance(outcome, ChunkFailure):
+                    logger.error(
+                        "unitcell sweep: chunk %s failed: %s", outcome.task.path, outcome.error
+                    )
+                    failures.append(outcome)
+                    continue
+                manifest.chunks[outcome.path] = outcome
+                write_manifest(chunks, manifest)
+                done += 1
+                if progress is not None:
+                    progress(done, len(tasks))
+        finally:
+            engine.close()  # stops the workers, at once after an interruption
+            remove_leftovers(chunks)
+    if failures:
+        raise SweepIncomplete(out, failures)
+    return _merge(out, job, manifest)
+
+
+def _merge(out: Path, job: UnitCellJob, manifest: ChunkManifest) -> dict[str, Any]:
+    """Write the merged tables and, last, ``manifest.json``; returns the manifest."""
+    curves, designs = merge_chunks(out / CHUNKS, manifest)
     without_tip = 0
     if "tip_dis" in curves:
         # identify takes tip_dis for every curve or none: a dome with no rest and no ghost has none
         without_tip = int(curves.groupby("curve")["tip_dis"].first().isna().sum())
         if without_tip:
             curves = curves.drop(columns="tip_dis")
-    _write(curves, out / "curves.parquet")
-    _write(designs, out / "designs.parquet")
-    manifest = {
+    atomic_write(out / "curves.parquet", parquet_bytes(curves))
+    atomic_write(out / "designs.parquet", parquet_bytes(designs))
+    summary = {
         "fingerprint": job.fingerprint,
         "designs": len(designs),
-        "chunks": len(chunks),
+        "chunks": manifest.n_chunks,
         "status": {str(k): int(v) for k, v in designs["status"].value_counts().items()},
         "curves": "curves.parquet",
         "curves_without_tip_dis": without_tip,
         "summary": "designs.parquet",
     }
-    staging = out / f".manifest.{os.getpid()}.tmp"
-    staging.write_text(json.dumps(manifest, indent=2) + "\n")
-    os.replace(staging, out / "manifest.json")
-    return manifest
+    atomic_write(out / "manifest.json", json.dumps(summary, indent=2) + "\n")
+    return summary

@@ -7,7 +7,7 @@ from __future__ import annotations
 import time
 
 from dpfexplore.cli import main
-from dpfexplore.sweep.storage.result_dirs import verify_result_dir
+from dpfexplore.io.result_dirs import verify_result_dir
 
 SCENE = """
 [scene]

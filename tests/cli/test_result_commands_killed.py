@@ -18,7 +18,7 @@ from sweep_helpers import job_dict, toml_text
 from test_result_commands import scene
 
 from dpfexplore.cli import main
-from dpfexplore.sweep.storage.result_dirs import verify_result_dir
+from dpfexplore.io.result_dirs import verify_result_dir
 
 
 def run(argv, cwd):

@@ -9,8 +9,8 @@ import pytest
 
 from dpfexplore.cli import main
 from dpfexplore.identification.synthetic import synthetic_curves
+from dpfexplore.io.result_dirs import verify_result_dir
 from dpfexplore.model.constants_set import DEFAULT, load_constants_set
-from dpfexplore.sweep.storage.result_dirs import verify_result_dir
 
 
 @pytest.fixture(scope="module")

@@ -24,9 +24,9 @@ from dpfexplore.inverse.problem import GripperProblem, PositionProblem
 from dpfexplore.inverse.spec_fields import SceneSpecError
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.model.gripper import gripper_aperture
+from dpfexplore.model.variables import DesignVariables
 from dpfexplore.solvers.lattice import lattice_params, spring_constants
 from dpfexplore.solvers.statics import find_state
-from dpfexplore.sweep.variables import DesignVariables
 
 JOBS = Path(__file__).parents[2] / "jobs"
 GRIPPER = dict(

@@ -16,8 +16,8 @@ from dpfexplore.lookup.polish import (
     variables_for,
 )
 from dpfexplore.lookup.query import designs_of, lookup
+from dpfexplore.model.variables import DesignVariables
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.variables import DesignVariables
 
 BOX = {
     "H": (3.0, 5.0),

@@ -12,6 +12,7 @@ import pytest
 from sweep_helpers import make_job
 
 from dpfexplore.cli import main
+from dpfexplore.io.result_dirs import RESULT_MARKER
 from dpfexplore.surrogates import store
 from dpfexplore.surrogates.data import (
     held_out_errors,
@@ -21,7 +22,6 @@ from dpfexplore.surrogates.data import (
 from dpfexplore.surrogates.fit import fit_surrogates
 from dpfexplore.surrogates.flat import DesignSurrogate, StatusClassifier
 from dpfexplore.sweep.driver import run_sweep
-from dpfexplore.sweep.storage.result_dirs import RESULT_MARKER
 
 OUTPUTS = ("tip_x", "tip_y", "stiffness")
 SMALL = {"job.samples_per_n": 40, "compute.states": "sequential"}

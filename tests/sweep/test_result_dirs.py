@@ -18,8 +18,8 @@ import time
 
 import pytest
 
-from dpfexplore.sweep.storage import result_dirs as rd
-from dpfexplore.sweep.storage.result_dirs import (
+from dpfexplore.io import result_dirs as rd
+from dpfexplore.io.result_dirs import (
     ResultError,
     ResultExists,
     check_output_dir,
@@ -154,7 +154,7 @@ def test_a_second_writer_is_refused_and_a_stale_empty_lock_is_taken_over(tmp_pat
 KILLED_WRITER = textwrap.dedent(
     """
     import sys, time
-    from dpfexplore.sweep.storage.result_dirs import result_directory
+    from dpfexplore.io.result_dirs import result_directory
     out, tag = sys.argv[1], sys.argv[2]
     print("ready", flush=True)  # imported: the kill lands in the write, not in the imports
     start = time.perf_counter()

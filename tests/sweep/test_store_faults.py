@@ -20,7 +20,7 @@ import pytest
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
-from dpfexplore.model import files
+from dpfexplore.io import files
 from dpfexplore.sweep.storage import store
 
 

@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 from sweep_helpers import UnitConstantsEvaluator, job_dict, toml_text
 
+from dpfexplore.io.lock import LOCK_NAME, LockHeld, read_lock, sweep_lock
 from dpfexplore.sweep.driver import run_sweep
 from dpfexplore.sweep.job_file import load_job
 from dpfexplore.sweep.storage import store
-from dpfexplore.sweep.storage.lock import LOCK_NAME, LockHeld, read_lock, sweep_lock
 
 TESTS = Path(__file__).parents[1]
 # Process A: a real sweep (8 chunks) whose chunks after the second wait until the test creates

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as hs
 
 from dpfexplore.model.design import Design, DesignBatch
-from dpfexplore.sweep.variables import DesignVariables, parameter_names
+from dpfexplore.model.variables import DesignVariables, parameter_names
 
 GRIPPER = dict(
     n_units=5,

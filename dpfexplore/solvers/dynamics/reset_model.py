@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 
 from ..._kernels.records import TreeArrays
 from ..._kernels.trees import tree_ensemble_predict
+from ...io.files import atomic_write
 from ...model.constants_set import DEFAULT, ConstantsSet
-from ...model.files import atomic_write
 from ...model.version import MODEL_VERSION
 
 __all__ = [

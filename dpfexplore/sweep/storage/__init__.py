@@ -10,10 +10,9 @@ store
 row_filter
     ``--where`` row filters: parsed by a grammar, evaluated by Arrow on the columns, never run as
     code.
-lock
-    One writer per directory: the lock file of a sweep or of a result directory.
 datasets
     What a sweep directory holds now: committed chunks, content checksum, verified reads.
-result_dirs
-    Result directories (design, lookup, fit, ...) that are complete or absent.
+
+The locks, atomic writes and chunk commits it uses are the ones every stage shares
+(:mod:`dpfexplore.io`).
 """

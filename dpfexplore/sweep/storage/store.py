@@ -1,7 +1,8 @@
 """Parquet storage of sweep results: atomic chunk commits, manifest, verified readers.
 
 The dataset schema (columns, units, metadata) lives in :mod:`dpfexplore.sweep.storage.schema` and is
-re-exported here.
+re-exported here; the commit of a chunk file (atomic write, checksum, verified read) is the one
+every chunked directory shares (:mod:`dpfexplore.io.commits`).
 
 Layout of a sweep directory::
 
@@ -63,7 +64,16 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
-from ...model.files import TEMP_SUFFIX, atomic_write, file_sha256
+from ...io.commits import (
+    MANIFEST,
+    StoreError,
+    commit_file,
+    read_file_buffer,
+    verified_bytes,
+    verify_file,
+)
+from ...io.commits import remove_leftovers as _remove_leftovers
+from ...io.files import atomic_write, file_sha256
 from .row_filter import parse_filter
 from .schema import (  # the store's public names include the schema's
     FORMAT,
@@ -95,6 +105,7 @@ __all__ = [
     "dataset_metadata",
     "describe_schema",
     "design_fields",
+    "file_sha256",
     "open_dataset",
     "read_file_buffer",
     "read_manifest",
@@ -109,15 +120,10 @@ __all__ = [
     "write_manifest",
 ]
 
-MANIFEST = "_manifest.json"
 COMMON_METADATA = "_common_metadata"
 #: Schema-metadata key, in each chunk file, of the chunk's identity and content digest.
 CHUNK_KEY = b"dpfexplore.chunk"
 _PART = re.compile(r"^N(\d+)/part-(\d+)\.parquet$")
-
-
-class StoreError(Exception):
-    """A sweep directory that cannot be used as asked (another job's, corrupt, not a sweep)."""
 
 
 # ----------------------------------------------------------------------------- chunks
@@ -210,10 +216,7 @@ def write_chunk(
     its own temporary file and the last rename wins; both wrote the same bytes. The file
     carries the chunk's identity and :func:`table_digest` in its key-value metadata.
     """
-    root = Path(root)
     relpath = chunk_path(n_units, index)
-    target = root / relpath
-    target.parent.mkdir(parents=True, exist_ok=True)
     identity = {
         "n_units": n_units,
         "index": index,
@@ -227,9 +230,7 @@ def write_chunk(
     table = table.replace_schema_metadata(metadata)
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink, compression="zstd")
-    buffer = sink.getvalue()
-    digest = hashlib.sha256(memoryview(buffer)).hexdigest()
-    atomic_write(target, memoryview(buffer))
+    written = commit_file(root, relpath, memoryview(sink.getvalue()))
     return ChunkRecord(
         path=relpath,
         n_units=n_units,
@@ -237,22 +238,9 @@ def write_chunk(
         start=start,
         stop=stop,
         rows=table.num_rows,
-        bytes=buffer.size,
-        sha256=digest,
+        bytes=written.bytes,
+        sha256=written.sha256,
     )
-
-
-def read_file_buffer(path: str | Path) -> pa.Buffer:
-    """The whole file in memory that Arrow allocated (not a Python ``bytes``).
-
-    Arrow's Parquet reader may release its input on one of its own threads after the read has
-    returned. Were the input a Python object, that release would need the GIL, and at
-    interpreter exit it killed the process ("terminate called without an active exception",
-    exit 134, 1 run in 25-150 of any command that read a verified chunk). Memory owned by Arrow
-    is released without Python.
-    """
-    with pa.OSFile(str(path)) as fh:
-        return fh.read_buffer()
 
 
 def chunk_bytes(root: str | Path, record: ChunkRecord, *, verify: bool = True) -> pa.Buffer:
@@ -266,38 +254,18 @@ def chunk_bytes(root: str | Path, record: ChunkRecord, *, verify: bool = True) -
         Naming the chunk, if it is missing, or (``verify``) its size or SHA-256 differs from
         the record: it changed after it was committed.
     """
-    path = Path(root) / record.path
-    try:
-        data = read_file_buffer(path)
-    except FileNotFoundError:
-        raise StoreError(f"chunk {path}: missing (it is in {MANIFEST})") from None
-    if verify:
-        problem = None
-        if data.size != record.bytes:
-            problem = f"size {data.size} != {record.bytes} bytes"
-        elif hashlib.sha256(memoryview(data)).hexdigest() != record.sha256:
-            problem = "SHA-256 differs from the manifest's"
-        if problem is not None:
-            raise StoreError(
-                f"chunk {path}: {problem}: the file changed after it was committed; "
-                "recompute it with 'dpfexplore sweep JOB --out DIR --resume' (or read "
-                "unverified with verify=False / --no-verify)"
-            )
-    return data
+    return verified_bytes(
+        root,
+        record,
+        verify=verify,
+        remedy="recompute it with 'dpfexplore sweep JOB --out DIR --resume' (or read "
+        "unverified with verify=False / --no-verify)",
+    )
 
 
 def verify_chunk(root: str | Path, record: ChunkRecord, *, checksum: bool = True) -> str | None:
     """Why a committed chunk cannot be trusted any more, or None if it is intact."""
-    path = Path(root) / record.path
-    try:
-        size = path.stat().st_size
-    except FileNotFoundError:
-        return "missing"
-    if size != record.bytes:
-        return f"size {size} != {record.bytes} bytes"
-    if checksum and file_sha256(path) != record.sha256:
-        return "checksum mismatch"
-    return None
+    return verify_file(root, record, checksum=checksum)
 
 
 def remove_leftovers(root: str | Path) -> list[Path]:
@@ -305,12 +273,7 @@ def remove_leftovers(root: str | Path) -> list[Path]:
 
     Call it only while no writer runs (before a sweep starts or after it ends).
     """
-    root = Path(root)
-    removed = []
-    for path in [*root.glob(f".*{TEMP_SUFFIX}"), *root.glob(f"N*/.*{TEMP_SUFFIX}")]:
-        path.unlink(missing_ok=True)
-        removed.append(path)
-    return removed
+    return _remove_leftovers(root, ("N*",))
 
 
 def part_files(root: str | Path) -> list[str]:

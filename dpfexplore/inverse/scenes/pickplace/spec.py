@@ -14,7 +14,7 @@ from itertools import pairwise
 from typing import Any
 
 from ....model.pressure import PressureProfile
-from ....sweep.variables import DesignVariables
+from ....model.variables import DesignVariables
 from ...spec_fields import (
     SceneSpecError,
     _keys,

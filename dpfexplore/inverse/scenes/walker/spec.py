@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from ....model.pressure import PressureProfile
+from ....model.variables import DesignVariables
 from ....solvers.legs.leg import Leg, load_leg
-from ....sweep.variables import DesignVariables
 from ...spec_fields import (
     SceneSpecError,
     _keys,

@@ -15,7 +15,7 @@ sweep's guarantees:
 * a failure or Ctrl-C before the swap removes the staging directory: the previous result is
   untouched, no half result is ever visible under ``NAME``;
 * two writers of one ``NAME`` cannot interleave: a lock file ``.NAME.dpfexplore-lock`` beside it
-  (:func:`dpfexplore.sweep.storage.lock.file_lock`) refuses the second;
+  (:func:`dpfexplore.io.lock.file_lock`) refuses the second;
 * a directory that holds anything is replaced only with ``force`` (one line naming what is
   there), and never when it is a sweep dataset, the working directory or one of its parents, the
   home directory or ``/``.
@@ -39,9 +39,9 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
-from ...model.files import atomic_write, file_sha256, fsync_dir
+from .commits import MANIFEST as _SWEEP_MANIFEST
+from .files import atomic_write, file_sha256, fsync_dir
 from .lock import LockHeld, file_lock
-from .store import MANIFEST as _SWEEP_MANIFEST
 
 __all__ = [
     "RESULT_MARKER",

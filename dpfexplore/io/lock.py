@@ -1,7 +1,8 @@
-"""One sweep at a time per directory: an exclusive lock file held for the life of a sweep.
+"""One writer at a time per directory: an exclusive lock file held for the life of a run.
 
-Two sweeps writing one directory would both compute everything, and a ``--resume`` started
-beside a running sweep deletes that sweep's uncommitted chunk files. So :func:`sweep_lock`
+Two sweeps (of fingers or of unit cells) writing one directory would both compute everything,
+and a resumed run started beside a running one deletes its uncommitted chunk files; two commands
+writing one result directory would mix their files. So :func:`sweep_lock`
 creates ``DIR/.dpfexplore-lock`` with ``O_CREAT | O_EXCL`` (atomic on local filesystems and on
 NFS v3 and later) before it looks at the directory, and removes it when the sweep ends, whatever
 the way it ends (return, exception, Ctrl-C). The file holds the holder's host, pid, process
@@ -30,7 +31,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from .store import StoreError
+from .commits import StoreError
 
 __all__ = ["LOCK_NAME", "LockHeld", "file_lock", "read_lock", "sweep_lock"]
 

@@ -1,8 +1,8 @@
 """Writing files so that a reader sees the old contents or the new, never a mixture.
 
-The lowest layer of the package, so that every stage (constants sets, models, reports) writes
-the same way: to a unique temporary file in the target's folder, flushed and fsynced, renamed
-over the target (atomic on POSIX), and the folder fsynced so that the rename survives a crash.
+Every stage (constants sets, models, reports, sweeps) writes the same way: to a unique temporary
+file in the target's folder, flushed and fsynced, renamed over the target (atomic on POSIX), and
+the folder fsynced so that the rename survives a crash.
 """
 
 from __future__ import annotations

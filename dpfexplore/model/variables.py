@@ -33,8 +33,8 @@ The map
     * ``U_L`` and ``U_sep`` are either one shared variable or one per unit.
 
 Parameter order of :meth:`~DesignVariables.jacobian` is that of the model's sensitivities
-(:mod:`dpfexplore.solvers.sensitivities`): ``H_1..H_N, U_L_1..U_L_N, U_sep_1..U_sep_N, t,
-t_lim, E``.
+(:func:`parameter_names`, which :mod:`dpfexplore.solvers.sensitivities` follows): ``H_1..H_N,
+U_L_1..U_L_N, U_sep_1..U_sep_N, t, t_lim, E``.
 """
 
 from __future__ import annotations
@@ -46,12 +46,22 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..model.constants_set import DEFAULT, ConstantsSet
-from ..model.design import DEFAULTS, Design, DesignBatch
-from ..model.domain import MAX_UNITS
-from ..solvers.sensitivities import parameter_names
+from .constants_set import DEFAULT, ConstantsSet
+from .design import DEFAULTS, Design, DesignBatch
+from .domain import MAX_UNITS
 
-__all__ = ["HEIGHT_ORDERS", "DesignVariables", "parameter_names"]
+__all__ = [
+    "HEIGHT_ORDERS",
+    "SENSITIVITY_PER_UNIT",
+    "SENSITIVITY_SHARED",
+    "DesignVariables",
+    "parameter_names",
+]
+
+#: Per-unit parameter kinds of the model's sensitivities, in column order.
+SENSITIVITY_PER_UNIT = ("H", "U_L", "U_sep")
+#: Shared parameters of the model's sensitivities, after the per-unit ones.
+SENSITIVITY_SHARED = ("t", "t_lim", "E")
 
 #: Order constraints on the dome heights (unit 1 is at the base).
 HEIGHT_ORDERS = ("free", "ascending", "descending")
@@ -63,6 +73,12 @@ _RANGED = ("U_L", "U_sep", "t", "t_lim")
 _FIXED = ("E", "nu", "r_b", "t_ch")
 #: How far outside its bounds a decoded parameter may sit from rounding, mm.
 _BOUND_SLACK = 1e-12
+
+
+def parameter_names(n_units: int) -> tuple[str, ...]:
+    """Parameter names in sensitivity order: ``("H_1", ..., "U_sep_N", "t", "t_lim", "E")``."""
+    per_unit = tuple(f"{kind}_{k}" for kind in SENSITIVITY_PER_UNIT for k in range(1, n_units + 1))
+    return per_unit + SENSITIVITY_SHARED
 
 
 def _interval(name: str, value: float | Sequence[float]) -> tuple[float, float]:

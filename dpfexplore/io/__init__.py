@@ -1,0 +1,7 @@
+"""Shared I/O: how every stage writes what it leaves on disk, and reads it back checked.
+
+The bottom of the pipeline beside :mod:`dpfexplore.numerics`: it knows no model, no dataset and
+no job. Atomic files (:mod:`.files`), one writer per directory (:mod:`.lock`), chunk files
+committed through a manifest with checksums (:mod:`.commits`), result directories that are
+complete or absent (:mod:`.result_dirs`).
+"""

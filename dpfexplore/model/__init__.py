@@ -13,8 +13,9 @@ closed_form, constants_set
     Closed forms in ``π1 = t/H``, ``π3 = H/R`` as data, and the constants sets every
     computation runs on (the paper's by default; their domain, fingerprint, files).
 quantities
-    The tables that declare the model's quantities: a stable state's output columns (one row
-    each; the kernels, results, datasets and lookup read them), with the recipe for a new one.
+    The tables that declare the model's quantities, one row each: a stable state's output
+    columns and a constants set's closed forms (the kernels, results, datasets, set files and
+    identification read them), with the recipes for a new one.
 materials, limits, files, formatting
     Material presets; front-end limits; atomic files; number formatting for output.
 pressure

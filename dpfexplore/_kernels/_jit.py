@@ -31,14 +31,16 @@ _MARKER = "dpfexplore-sources.sha256"
 
 def _kernel_sources_digest() -> str:
     digest = hashlib.sha256()
-    # The kernels also read the status codes and the domain limits as compile-time constants,
-    # and compile inline the closed forms of constants.py, a constants set's evaluation
-    # (closed_form.py) and the status rules of validation.py.
+    # The kernels also read the status codes, the domain limits and the indices of the
+    # quantities tables as compile-time constants, and compile inline the closed forms of
+    # constants.py, a constants set's evaluation (closed_form.py) and the status rules of
+    # validation.py.
     model = _KERNELS_DIR.parent / "model"
     names = (
         "status.py",
         "limits.py",
         "domain.py",
+        "quantities.py",
         "constants.py",
         "closed_form.py",
         "validation.py",

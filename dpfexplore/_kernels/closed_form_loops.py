@@ -11,11 +11,14 @@ build with the compiled paper forms in place of the set).
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..model.closed_form import (
     DOME_BLOCK,
     FORM_ALPHA,
     FORM_K_HAT,
     FORM_TIP_RATIO,
+    N_FORMS,
     dome_block,
     set_constants_block,
     set_terms,
@@ -72,7 +75,8 @@ def paper_tables(designs, forms, out):
 
     The same blocks, rows and status checks; ``k_b``, ``alpha`` and ``tip_dis`` of each dome
     from :func:`~dpfexplore.model.constants.kb_form` and :func:`alpha_form` (``forms`` only
-    sizes the block). Without derivative tables.
+    sizes the block). Without derivative tables. A form of the set's table that the paper does
+    not have (:data:`~dpfexplore.model.quantities.SET_FORMS` beyond these three) is NaN here.
     """
     block = dome_block(set_terms(forms, False), batch_block_size(designs))
     first = 0
@@ -85,5 +89,8 @@ def paper_tables(designs, forms, out):
             block.values[FORM_K_HAT, d] = kb_form(block.E[d], H, t, R)
             block.values[FORM_ALPHA, d] = alpha_form(H, t, R)
             block.values[FORM_TIP_RATIO, d] = TIP_PER_THICKNESS * t + TIP_PER_HEIGHT * H
+        for f in range(N_FORMS):
+            if f != FORM_K_HAT and f != FORM_ALPHA and f != FORM_TIP_RATIO:
+                block.values[f, :count] = np.nan
         fill_designs(designs, first, end, block, out)
         first = end

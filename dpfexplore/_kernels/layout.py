@@ -16,33 +16,39 @@ from __future__ import annotations
 
 from ._jit import kernel
 
+#: The physical columns of the per-unit table, by name, in order: the derivative table of
+#: :mod:`.tables` has one row per physical column, at its index. A constants set's quantity that
+#: the table holds as it is names its column here
+#: (:attr:`dpfexplore.model.quantities.SetForm.column`).
+PHYSICAL_COLUMNS = ("p", "k_b", "alpha", "d", "k_lim", "k_post", "k_t")
 #: Segment length ``p = U_L + t_ch + U_sep`` (mm): rest length of the unit's dome and layer.
-COL_P = 0
+COL_P = PHYSICAL_COLUMNS.index("p")
 #: Dome spring stiffness ``k_b`` (N/mm).
-COL_KB = 1
+COL_KB = PHYSICAL_COLUMNS.index("k_b")
 #: Dome energy ratio ``α``.
-COL_ALPHA = 2
+COL_ALPHA = PHYSICAL_COLUMNS.index("alpha")
 #: Dome reach ``d`` (mm).
-COL_D = 3
+COL_D = PHYSICAL_COLUMNS.index("d")
 #: Limiting-layer axial stiffness ``k_lim`` (N/mm).
-COL_KLIM = 4
+COL_KLIM = PHYSICAL_COLUMNS.index("k_lim")
 #: Post axial stiffness ``k_post`` (N/mm) of the post closing the unit (post ``k`` for unit ``k``).
-COL_KPOST = 5
+COL_KPOST = PHYSICAL_COLUMNS.index("k_post")
 #: Torsional stiffness ``k_t`` (N·mm/rad) of both angles at the unit's limiting-layer node.
-COL_KT = 6
+COL_KT = PHYSICAL_COLUMNS.index("k_t")
 #: Lower bound on ``u = x̄/d`` enforced by a penalty (``-inf``: none). Used only to steer the
-#: state search (constrained pre-relaxation); physical evaluations leave it off.
-COL_U_LO = 7
+#: state search (constrained pre-relaxation); physical evaluations leave it off. This column
+#: and those below follow the physical ones.
+COL_U_LO = len(PHYSICAL_COLUMNS)
 #: Upper bound on ``u`` enforced by the penalty (``+inf``: none).
-COL_U_HI = 8
+COL_U_HI = COL_U_LO + 1
 #: Penalty stiffness (N/mm); 0 switches the penalty off.
-COL_PEN = 9
+COL_PEN = COL_U_LO + 2
 #: Extension ``u`` past which the unit counts as inverted (barrier, or 3/4 without one).
-COL_U_INV = 10
+COL_U_INV = COL_U_LO + 3
 #: Extension ``u`` of the isolated dome's inverted minimum (1, the reach, without one): where
 #: the state search holds an inverted dome before releasing it.
-COL_U_HELD = 11
-N_COLS = 12
+COL_U_HELD = COL_U_LO + 4
+N_COLS = COL_U_LO + 5
 
 NODE_D0 = 0
 NODE_L0 = 1

@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from ..model import status as st
+from ..model.quantities import STATE_OUTPUT_NAMES
 from ._jit import kernel
 from .lattice import (
     GRADIENT,
@@ -87,19 +88,20 @@ STEERING_TOL_FACTOR = 1e4
 EIG_RTOL = 1e-7
 EIG_MAX_ITER = 200
 
-# Columns of the per-state output vector.
-OUT_ENERGY = 0
-OUT_ENERGY_LINEAR = 1
-OUT_ENERGY_DOME = 2
-OUT_ENERGY_TORSION = 3
-OUT_TIP_X = 4
-OUT_TIP_Y = 5
-OUT_BEND = 6
-OUT_CURVATURE = 7
-OUT_MIN_EIG = 8
-OUT_STIFFNESS = 9
-OUT_GRAD_NORM = 10
-N_OUT = 11
+# Columns of the per-state output vector: the rows of the outputs table
+# (dpfexplore.model.quantities.STATE_OUTPUTS), by name.
+OUT_ENERGY = STATE_OUTPUT_NAMES.index("energy")
+OUT_ENERGY_LINEAR = STATE_OUTPUT_NAMES.index("energy_linear")
+OUT_ENERGY_DOME = STATE_OUTPUT_NAMES.index("energy_dome")
+OUT_ENERGY_TORSION = STATE_OUTPUT_NAMES.index("energy_torsion")
+OUT_TIP_X = STATE_OUTPUT_NAMES.index("tip_x")
+OUT_TIP_Y = STATE_OUTPUT_NAMES.index("tip_y")
+OUT_BEND = STATE_OUTPUT_NAMES.index("bend_angle")
+OUT_CURVATURE = STATE_OUTPUT_NAMES.index("curvature")
+OUT_MIN_EIG = STATE_OUTPUT_NAMES.index("min_eig")
+OUT_STIFFNESS = STATE_OUTPUT_NAMES.index("stiffness")
+OUT_GRAD_NORM = STATE_OUTPUT_NAMES.index("grad_norm")
+N_OUT = len(STATE_OUTPUT_NAMES)
 
 
 @kernel

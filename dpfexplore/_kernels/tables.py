@@ -29,6 +29,7 @@ from ..model.closed_form import (
     FORM_ALPHA,
     FORM_K_HAT,
     FORM_TIP_RATIO,
+    N_FORMS,
     block_size,
     dome_block,
     set_constants_block,
@@ -45,12 +46,11 @@ from ..model.constants import (
     segment_height_form,
 )
 from ..model.domain import MAX_UNITS
+from ..model.quantities import SET_FORMS
 from ..model.validation import constants_status, geometry_status
 from ._jit import kernel
 from .layout import (
-    COL_ALPHA,
     COL_D,
-    COL_KB,
     COL_KLIM,
     COL_KPOST,
     COL_KT,
@@ -61,13 +61,19 @@ from .layout import (
     COL_U_INV,
     COL_U_LO,
     N_COLS,
+    PHYSICAL_COLUMNS,
 )
 from .records import DesignArrays, SharedParams, TableOutputs
 
 #: Rows of the derivative table: the kernel table's physical columns ``COL_P..COL_KT`` (same
-#: indices), then the segment height ``h``.
-DC_H = 7
-N_DCONST = 8
+#: indices, :data:`.layout.PHYSICAL_COLUMNS`), then the segment height ``h``.
+DC_H = len(PHYSICAL_COLUMNS)
+N_DCONST = DC_H + 1
+#: Kernel-table column of each closed form of a constants set (rows ``FORM_*``) whose quantity
+#: the table holds as it is (-1: a column computed from it, as the reach from ``tip_dis``).
+FORM_COLUMNS = tuple(
+    -1 if form.column is None else PHYSICAL_COLUMNS.index(form.column) for form in SET_FORMS
+)
 #: Columns of the derivative table: the unit's own ``H``, ``U_L``, ``U_sep``, then the shared
 #: ``t`` and ``t_lim``.
 DP_H = 0
@@ -79,12 +85,13 @@ N_DPARAM = 5
 
 
 @kernel
-def _unit_row(H, U_L, U_sep, shared, k_b, alpha, tip, row):
+def _unit_row(H, U_L, U_sep, shared, alpha, tip, row):
     """Fill one unit's kernel table row; returns True where ``d`` was clamped (no contact).
 
     ``H``, ``U_L``, ``U_sep``: the unit's (mm); ``shared``: the design's
-    :class:`~.records.SharedParams`; ``k_b`` (N/mm), ``alpha``, ``tip`` (``tip_dis``, mm): the
-    dome's constants under the batch's set.
+    :class:`~.records.SharedParams`; ``alpha``, ``tip`` (``tip_dis``, mm): the dome's constants
+    under the batch's set. The columns of the set's quantities that the table holds as they
+    are (:data:`FORM_COLUMNS`: ``k_b``, ``alpha``) are the caller's (:func:`fill_designs`).
     """
     t, t_lim, E, nu, r_b, t_ch = shared
     # the reach of MODEL.md §3, in ConstantsSet.reach's order of operations
@@ -92,8 +99,6 @@ def _unit_row(H, U_L, U_sep, shared, k_b, alpha, tip, row):
     no_contact = raw <= 0.0
     k_lim = k_lim_form(E, t_lim, r_b, U_L, t, t_ch)
     row[COL_P] = U_L + t_ch + U_sep
-    row[COL_KB] = k_b
-    row[COL_ALPHA] = alpha
     row[COL_D] = NO_CONTACT_REACH if no_contact else raw
     row[COL_KLIM] = k_lim
     row[COL_KPOST] = POST_STIFFNESS_FACTOR * k_lim
@@ -122,17 +127,15 @@ def _unit_row(H, U_L, U_sep, shared, k_b, alpha, tip, row):
 def _derivative_rows(H, U_L, U_sep, shared, partials, contact, dtab):
     """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule).
 
-    ``k_b``, ``alpha`` and the reach through the constants set's own derivatives, ``partials``
-    (the unit's column of :attr:`~dpfexplore.model.closed_form.DomeBlock.partials`);
-    ``contact`` is 0 where the reach is clamped (a constant there, so its derivatives vanish).
-    Other arguments as :func:`_unit_row`.
+    The constants set's quantities through their own derivatives in ``H`` and ``t``,
+    ``partials`` (the unit's column of :attr:`~dpfexplore.model.closed_form.DomeBlock.partials`,
+    rows ``2 FORM_*`` and ``2 FORM_* + 1``), into the rows of their columns
+    (:data:`FORM_COLUMNS`), and the reach through those of ``tip_dis``; ``contact`` is 0 where
+    the reach is clamped (a constant there, so its derivatives vanish). Other arguments as
+    :func:`_unit_row`.
     """
-    dkb_dH = partials[0]
-    dkb_dt = partials[1]
-    dalpha_dH = partials[2]
-    dalpha_dt = partials[3]
-    dd_dH = (partials[4] - 1.0) * contact
-    dd_dt = (partials[5] - 0.5) * contact
+    dd_dH = (partials[2 * FORM_TIP_RATIO] - 1.0) * contact
+    dd_dt = (partials[2 * FORM_TIP_RATIO + 1] - 0.5) * contact
     dd_dUsep = -1.0 * contact
     (
         _,
@@ -153,12 +156,12 @@ def _derivative_rows(H, U_L, U_sep, shared, partials, contact, dtab):
     for c in range(N_DCONST):
         for j in range(N_DPARAM):
             dtab[c, j] = 0.0
+    for f in range(N_FORMS):
+        if FORM_COLUMNS[f] >= 0:
+            dtab[FORM_COLUMNS[f], DP_H] = partials[2 * f]
+            dtab[FORM_COLUMNS[f], DP_T] = partials[2 * f + 1]
     dtab[COL_P, DP_UL] = 1.0
     dtab[COL_P, DP_USEP] = 1.0
-    dtab[COL_KB, DP_H] = dkb_dH
-    dtab[COL_KB, DP_T] = dkb_dt
-    dtab[COL_ALPHA, DP_H] = dalpha_dH
-    dtab[COL_ALPHA, DP_T] = dalpha_dt
     dtab[COL_D, DP_H] = dd_dH
     dtab[COL_D, DP_USEP] = dd_dUsep
     dtab[COL_D, DP_T] = dd_dt
@@ -212,9 +215,9 @@ def gather_domes(designs, first, block):
 def fill_designs(designs, first, end, block, out):
     """Status and tables of designs ``first .. end - 1`` from their domes' constants in ``block``.
 
-    ``block.values`` holds ``k_b``, ``alpha`` and ``tip_dis`` of the designs' units in order
-    (those :func:`gather_domes` put in), ``block.partials`` their derivatives when ``out``
-    asks for the derivative tables. Arguments as :func:`design_tables`.
+    ``block.values`` holds the set's quantities (``k_b``, ``alpha``, ``tip_dis``, ...) of the
+    designs' units in order (those :func:`gather_domes` put in), ``block.partials`` their
+    derivatives when ``out`` asks for the derivative tables. Arguments as :func:`design_tables`.
     """
     n_units, H, U_L, U_sep, t, t_lim, E, nu, r_b, t_ch = designs
     status, table, h, no_contact, dtab = out
@@ -235,15 +238,16 @@ def fill_designs(designs, first, end, block, out):
                 if want_derivatives:
                     dtab[i, k] = np.nan
                 continue
-            k_b = values[FORM_K_HAT, dome]
+            row = table[i, k]
+            for f in range(N_FORMS):  # the set's quantities the table holds as they are
+                if FORM_COLUMNS[f] >= 0:
+                    row[FORM_COLUMNS[f]] = values[f, dome]
             alpha = values[FORM_ALPHA, dome]
             tip = values[FORM_TIP_RATIO, dome]
-            clamped = _unit_row(
-                H[i, k], U_L[i, k], U_sep[i, k], shared, k_b, alpha, tip, table[i, k]
-            )
+            clamped = _unit_row(H[i, k], U_L[i, k], U_sep[i, k], shared, alpha, tip, row)
             no_contact[i, k] = clamped
             if status[i] == st.OK:
-                status[i] = constants_status(k_b, alpha)
+                status[i] = constants_status(values[FORM_K_HAT, dome], alpha)
             if want_derivatives:
                 _derivative_rows(
                     H[i, k],
@@ -271,7 +275,7 @@ def design_tables(designs, forms, out):
     ----------
     designs : DesignArrays fields
         The arrays of a :class:`DesignBatch`.
-    forms : tuple of (ndarray of int64, shape (3, n_terms, 2); ndarray, shape (3, n_terms))
+    forms : tuple of (ndarray of int64, shape (N_FORMS, n_terms, 2); ndarray, (N_FORMS, n_terms))
         The batch's constants set: powers and coefficients of its closed forms
         (:meth:`~dpfexplore.model.constants_set.ConstantsSet.kernel_forms`).
     out : TableOutputs fields

@@ -1,7 +1,8 @@
 """Closed forms selected from per-curve constants: RFE with ridge, done right (MODEL.md §11).
 
-Targets (per curve): ``k_hat = k_b R / (E t²)`` (the ``E t²/R`` scaling removed exactly),
-``alpha``, and ``tip_ratio = tip_dis / H`` when the table gives ``tip_dis``. Library: the
+Targets (per curve, one per row of :data:`~dpfexplore.model.quantities.SET_FORMS`):
+``k_hat = k_b R / (E t²)`` (the ``E t²/R`` scaling removed exactly), ``alpha``, and
+``tip_ratio = tip_dis / H`` when the table gives ``tip_dis``. Library: the
 monomials ``π1^p π3^q``, ``0 <= p, q <= degree`` (``π1 = t/H``, ``π3 = H/R``), the constant being
 the intercept. The paper's library in ``π1, π2, π3`` has duplicate columns (``π2 = π1 π3``);
 written by exponent vector in ``(π1, π3)`` it is exactly this tensor-product basis.

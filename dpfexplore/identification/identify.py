@@ -18,8 +18,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, data_hull
+from ..model.quantities import SET_FORMS, unscaled
 from .closed_forms import Selection, select_closed_form
 from .curves import CurveError, UnitCellCurve
 from .spring_fit import CurveFit, fit_curve
@@ -67,6 +69,33 @@ def _versions() -> dict[str, str]:
     from importlib.metadata import version
 
     return {name: version(name) for name in ("numpy", "scipy", "scikit-learn")}
+
+
+def _targets(
+    used: Sequence[tuple[UnitCellCurve, CurveFit]],
+    H: NDArray,
+    t: NDArray,
+    R: NDArray,
+    E: NDArray,
+) -> tuple[dict[str, NDArray], list[str]]:
+    """Per-curve values of each closed form of a set, and notes on the forms left out.
+
+    One target per row of :data:`~dpfexplore.model.quantities.SET_FORMS`: the row's quantity
+    from each curve's fit or from the curve itself (its ``source``), with the quantity's scale
+    removed exactly (``k_hat = k_b R / (E t²)``, ``tip_ratio = tip_dis / H``). A form whose
+    quantity some curve lacks is left out (the default set's form is kept), with a note.
+    """
+    targets, notes = {}, []
+    for form in SET_FORMS:
+        values = [getattr(f if form.source == "fit" else c, form.quantity) for c, f in used]
+        if any(v is None for v in values):
+            notes.append(
+                f"{form.name}: no {form.quantity} for every curve; the default set's closed form "
+                "is kept"
+            )
+            continue
+        targets[form.name] = unscaled(form.scale, np.array(values), H, t, R, E)
+    return targets, notes
 
 
 def identify(
@@ -120,15 +149,8 @@ def identify(
     E = np.array([c.E for c, _ in used])
     R = (H**2 + r_b**2) / (2 * H)
     pi1, pi3 = t / H, H / R
-    k_b = np.array([f.k_b for _, f in used])
+    targets, notes = _targets(used, H, t, R, E)
     alpha = np.array([f.alpha for _, f in used])
-    targets = {"k_hat": k_b * R / (E * t * t), "alpha": alpha}
-    with_tip = np.array([c.tip_dis is not None for c, _ in used])
-    notes = []
-    if with_tip.all():
-        targets["tip_ratio"] = np.array([c.tip_dis for c, _ in used]) / H
-    else:
-        notes.append("tip_ratio: no tip_dis for every curve; the default set's closed form is kept")
     by_geometry: dict[str, list[float]] = defaultdict(list)
     for g, a in zip(groups, alpha, strict=True):
         by_geometry[g].append(a)
@@ -172,9 +194,12 @@ def identify(
     }
     constants = ConstantsSet(
         name=name,
-        k_hat=selections["k_hat"].form,
-        alpha=selections["alpha"].form,
-        tip_ratio=selections["tip_ratio"].form if "tip_ratio" in selections else DEFAULT.tip_ratio,
+        **{
+            form.name: selections[form.name].form
+            if form.name in selections
+            else getattr(DEFAULT, form.name)
+            for form in SET_FORMS
+        },
         domain=domain,
         provenance=provenance,
         hull=data_hull(H / r_b, t / r_b),

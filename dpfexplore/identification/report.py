@@ -21,6 +21,7 @@ import pandas as pd
 from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import ConstantsSet, load_constants_set
 from ..model.formatting import json_text
+from ..model.quantities import SET_FORMS
 from .identify import Identification
 
 __all__ = [
@@ -170,18 +171,19 @@ def _unit_class(alpha: float) -> str:
 def compare_sets(
     sets: Sequence[ConstantsSet], H: Sequence[float], t: float, r_b: float, E: float
 ) -> pd.DataFrame:
-    """One row per dome height: ``k_b``, ``alpha``, ``tip_dis`` and the class under each set."""
+    """One row per dome height: ``k_b``, ``alpha``, ``tip_dis`` and the class under each set.
+
+    The quantities are those of :data:`~dpfexplore.model.quantities.SET_FORMS`, in its order.
+    """
     rows = []
     for h in H:
         row: dict[str, Any] = {"H": h, "t": t}
         for constants in sets:
             values = constants.evaluate(h, t, r_b, E)
-            alpha = float(values["alpha"])
             prefix = constants.name
-            row[f"{prefix}:k_b"] = float(values["k_b"])
-            row[f"{prefix}:alpha"] = alpha
-            row[f"{prefix}:tip_dis"] = float(values["tip_dis"])
-            row[f"{prefix}:class"] = _unit_class(alpha)
+            for form in SET_FORMS:
+                row[f"{prefix}:{form.quantity}"] = float(values[form.quantity])
+            row[f"{prefix}:class"] = _unit_class(float(values["alpha"]))
             row[f"{prefix}:in_domain"] = bool(constants.in_domain(h, t, r_b, E))
         rows.append(row)
     return pd.DataFrame(rows)

@@ -50,7 +50,7 @@ from ..model.domain import MAX_UNITS
 from ..model.variables import HEIGHT_ORDERS, DesignVariables
 from ..numerics.differences import central_differences
 from ..numerics.local import GOAL_MET, NO_START, Stage, least_squares_in_box
-from ..solvers.sensitivities import batch_columns
+from ..solvers.sensitivities import OUTPUTS, batch_columns
 from ..solvers.statics import parse_state, solve_batch, state_string
 from ..sweep.space import DesignSpace
 
@@ -64,7 +64,7 @@ __all__ = [
 ]
 
 #: Outputs the model has design sensitivities for (the columns a refinement can target).
-REFINABLE_COLUMNS = ("tip_x", "tip_y", "bend_angle", "curvature", "energy", "stiffness")
+REFINABLE_COLUMNS = tuple(OUTPUTS)
 #: Keys of a constraints mapping (:func:`variables_for`) and of ``--constraints KEY=VALUE``.
 CONSTRAINT_KEYS = (
     "heights",

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ..model.design import Design
 from ..model.formatting import json_number
-from ..solvers.statics import OUTPUT_COLUMNS
+from ..model.quantities import STATE_OUTPUT_NAMES
 from ..sweep.storage.datasets import DatasetInfo
 from .index import LookupIndex
 from .polish import Refinement
@@ -36,8 +36,9 @@ __all__ = [
 #: Order of candidate statuses in the output (best first within a status by error).
 STATUS_ORDER = ("ok", "not_met", "collapsed", "failed")
 VERIFIED_NOTE = "every reported design was re-solved by the exact model before it was reported"
-#: Columns the verification solve recomputes; any other reported column is re-read.
-RESOLVED_COLUMNS = tuple(OUTPUT_COLUMNS)
+#: Columns the verification solve recomputes (every per-state output of the model,
+#: :data:`~dpfexplore.model.quantities.STATE_OUTPUTS`); any other reported column is re-read.
+RESOLVED_COLUMNS = STATE_OUTPUT_NAMES
 #: Provenance of a reported value (:attr:`Candidate.provenance`).
 RESOLVED, REREAD, REREAD_UNVERIFIED = "re-solved", "re-read", "re-read-unverified"
 #: Columns the table always prints besides the indexed ones (all re-solved).

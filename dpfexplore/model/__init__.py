@@ -12,6 +12,10 @@ constants
 closed_form, constants_set
     Closed forms in ``π1 = t/H``, ``π3 = H/R`` as data, and the constants sets every
     computation runs on (the paper's by default; their domain, fingerprint, files).
+quantities
+    The tables that declare the model's quantities, one row each: a stable state's output
+    columns and a constants set's closed forms (the kernels, results, datasets, set files and
+    identification read them), with the recipes for a new one.
 materials, limits, formatting
     Material presets; front-end limits; number formatting for output.
 pressure

@@ -1,7 +1,8 @@
 """Closed forms in ``π1 = t/H`` and ``π3 = H/R``, and their evaluation in NumPy and in kernels.
 
 A :class:`ClosedForm` is a sum of monomials ``c · π1^p · π3^q``. A constants set
-(:mod:`dpfexplore.model.constants_set`) holds three of them; the kernels that build the lattice
+(:mod:`dpfexplore.model.constants_set`) holds one per row of
+:data:`~dpfexplore.model.quantities.SET_FORMS`; the kernels that build the lattice
 tables read a set as a record of two arrays (its terms' powers and coefficients), flatten it
 once per batch (:func:`set_terms`) and evaluate it a block of domes at a time
 (:func:`set_constants_block`): power tables per dome, then each term across the block. Both
@@ -22,12 +23,15 @@ import numpy as np
 from numba.extending import register_jitable
 from numpy.typing import ArrayLike, NDArray
 
+from .quantities import SCALE_HEIGHT, SCALE_STIFFNESS, SET_FORM_NAMES, SET_FORMS
+
 __all__ = [
     "DOME_BLOCK",
     "FORM_ALPHA",
     "FORM_K_HAT",
     "FORM_TIP_RATIO",
     "MAX_POWER",
+    "N_FORMS",
     "ClosedForm",
     "ConstantsSetError",
     "DomeBlock",
@@ -41,10 +45,17 @@ __all__ = [
 #: Largest power of ``π1`` or ``π3`` a closed form may hold (either sign): identification's
 #: libraries go to degree 5.
 MAX_POWER = 6
-#: Rows of :meth:`ConstantsSet.kernel_forms`: the three closed forms.
-FORM_K_HAT = 0
-FORM_ALPHA = 1
-FORM_TIP_RATIO = 2
+#: Rows of :meth:`ConstantsSet.kernel_forms` and of :attr:`DomeBlock.values`: one per closed form
+#: of :data:`~dpfexplore.model.quantities.SET_FORMS`, in its order.
+FORM_K_HAT = SET_FORM_NAMES.index("k_hat")
+FORM_ALPHA = SET_FORM_NAMES.index("alpha")
+FORM_TIP_RATIO = SET_FORM_NAMES.index("tip_ratio")
+#: Closed forms of a set. :func:`set_terms` gives ``N_FORMS`` forms (rows ``FORM_*``), or with
+#: ``partials`` also their derivatives in ``π1`` (rows ``N_FORMS + FORM_*``) and in ``π3``
+#: (``2 N_FORMS + FORM_*``).
+N_FORMS = len(SET_FORMS)
+#: How each form gives its quantity (``SCALE_*`` of :mod:`.quantities`), by row.
+FORM_SCALES = tuple(form.scale for form in SET_FORMS)
 
 
 class ConstantsSetError(ValueError):
@@ -186,12 +197,10 @@ def float_powers(x: float) -> list[float]:
 #: lower, and ``1 / π^k`` needs ``π^k``).
 POWER_OFFSET = MAX_POWER + 1
 POWER_TABLE_SIZE = 2 * MAX_POWER + 3
-#: Forms of :func:`set_terms`: the three closed forms (rows ``FORM_*``), then with ``partials``
-#: their derivatives in ``π1`` (rows ``N_FORMS + FORM_*``) and in ``π3`` (``2 N_FORMS + FORM_*``).
-N_FORMS = 3
-#: Rows of :attr:`DomeBlock.partials`: ``∂k_b/∂H, ∂k_b/∂t, ∂α/∂H, ∂α/∂t, ∂tip_dis/∂H,
-#: ∂tip_dis/∂t`` (units of the constant per mm).
-N_SET_PARTIALS = 6
+#: Rows of :attr:`DomeBlock.partials`: each form's quantity differentiated in ``H`` (row
+#: ``2 FORM_*``) and in ``t`` (row ``2 FORM_* + 1``): ``∂k_b/∂H, ∂k_b/∂t, ∂α/∂H, ...`` (units of
+#: the quantity per mm).
+N_SET_PARTIALS = 2 * N_FORMS
 #: Most domes a kernel evaluates together (at least ``MAX_UNITS``: one design's units share a
 #: block). Larger blocks cost fewer passes of the gather, term and fill loops; on the benchmark
 #: machine 384 built the tables about 15 % faster than 96, and 768 no faster than 384.
@@ -208,9 +217,8 @@ FormTerms = namedtuple(
 #: A block of domes (:func:`dome_block`): their ``H``, ``t``, ``r_b`` (mm) and ``E`` (MPa), each
 #: ``(DOME_BLOCK,)``, filled by the caller; the radii ``R`` (mm) and the power tables ``P1``,
 #: ``P3`` ``(POWER_TABLE_SIZE, DOME_BLOCK)`` as scratch; and what :func:`set_constants_block`
-#: writes: ``values`` ``(n_forms, DOME_BLOCK)`` (rows ``FORM_K_HAT``, ``FORM_ALPHA``,
-#: ``FORM_TIP_RATIO`` end as ``k_b`` (N/mm), ``alpha``, ``tip_dis`` (mm)) and ``partials``
-#: ``(N_SET_PARTIALS, DOME_BLOCK)``.
+#: writes: ``values`` ``(n_forms, DOME_BLOCK)`` (rows ``FORM_*`` end as the forms' quantities:
+#: ``k_b`` (N/mm), ``alpha``, ``tip_dis`` (mm)) and ``partials`` ``(N_SET_PARTIALS, DOME_BLOCK)``.
 DomeBlock = namedtuple("DomeBlock", ["H", "t", "r_b", "E", "R", "P1", "P3", "values", "partials"])
 
 
@@ -228,7 +236,7 @@ def _used_terms(powers, coefficients, f):
 def set_terms(forms, partials):
     """The terms a kernel evaluates for a set: :meth:`ConstantsSet.kernel_forms` flattened.
 
-    The three closed forms, and with ``partials`` (bool) their derivatives in ``π1`` and ``π3``
+    The closed forms, and with ``partials`` (bool) their derivatives in ``π1`` and ``π3``
     as closed forms of their own (``c p · π1^(p-1) π3^q`` per term with ``p != 0``, as
     :meth:`ClosedForm.partials` forms them). Trailing padding is dropped: a term ``0 · 1 · 1``
     adds ``+0`` to a sum that starts at ``+0``, which changes no sum. Built once per batch.
@@ -236,9 +244,10 @@ def set_terms(forms, partials):
     powers, coefficients = forms
     n_forms = 3 * N_FORMS if partials else N_FORMS
     used = np.zeros(N_FORMS, dtype=np.int64)
+    size = 0
     for f in range(N_FORMS):
         used[f] = _used_terms(powers, coefficients, f)
-    size = 3 * (used[0] + used[1] + used[2])
+        size += 3 * used[f]
     c = np.empty(size)
     index1 = np.empty(size, dtype=np.int64)
     index3 = np.empty(size, dtype=np.int64)
@@ -382,14 +391,15 @@ def _evaluate_block(terms, block, n):
 
 @register_jitable
 def set_constants_block(terms, block, n):
-    """``k_b``, ``alpha``, ``tip_dis`` (and their partials) of the first ``n`` domes of a block.
+    """The forms' quantities (and their partials) of the first ``n`` domes of a block.
 
     ``terms``: :func:`set_terms` of the set; ``block``: a :data:`DomeBlock` whose ``H``, ``t``,
-    ``r_b``, ``E`` hold the domes. Writes ``block.values`` rows ``FORM_K_HAT``, ``FORM_ALPHA``,
-    ``FORM_TIP_RATIO`` as ``k_b = E t²/R · k̂`` (N/mm), ``alpha`` and ``tip_dis = H · tip/H``
-    (mm): the arithmetic of :meth:`ConstantsSet.evaluate`, bit for bit. When ``terms`` holds
-    the partials, also ``block.partials``: the chain rule through ``π1 = t/H``, ``π3 = H/R``
-    and ``R = (H² + r_b²)/(2H)`` (MODEL.md §2-§3), exact for any set.
+    ``r_b``, ``E`` hold the domes. Writes ``block.values`` rows ``FORM_*`` as each form's
+    quantity, scaled as its row of :data:`~dpfexplore.model.quantities.SET_FORMS` says:
+    ``k_b = E t²/R · k̂`` (N/mm), ``alpha`` and ``tip_dis = H · tip/H`` (mm), the arithmetic of
+    :meth:`ConstantsSet.evaluate` (:func:`~dpfexplore.model.quantities.scaled`), bit for bit.
+    When ``terms`` holds the partials, also ``block.partials``: the chain rule through
+    ``π1 = t/H``, ``π3 = H/R`` and ``R = (H² + r_b²)/(2H)`` (MODEL.md §2-§3), exact for any set.
     """
     _evaluate_block(terms, block, n)
     H, t, r_b, E, R, values = block.H, block.t, block.r_b, block.E, block.R, block.values
@@ -403,26 +413,30 @@ def set_constants_block(terms, block, n):
             dpi1_dH = -td / (Hd * Hd)
             dpi1_dt = 1.0 / Hd
             dpi3_dH = (Rd - Hd * dR_dH) / (Rd * Rd)
-            k = values[FORM_K_HAT, d]
-            k1 = values[N_FORMS + FORM_K_HAT, d]
-            k3 = values[2 * N_FORMS + FORM_K_HAT, d]
-            a1 = values[N_FORMS + FORM_ALPHA, d]
-            a3 = values[2 * N_FORMS + FORM_ALPHA, d]
-            g = values[FORM_TIP_RATIO, d]
-            g1 = values[N_FORMS + FORM_TIP_RATIO, d]
-            g3 = values[2 * N_FORMS + FORM_TIP_RATIO, d]
-            scale = E[d] * (td * td) / Rd
-            dk[0, d] = scale * (k1 * dpi1_dH + k3 * dpi3_dH) - scale * k * dR_dH / Rd
-            dk[1, d] = 2.0 * E[d] * td / Rd * k + scale * k1 * dpi1_dt
-            dk[2, d] = a1 * dpi1_dH + a3 * dpi3_dH
-            dk[3, d] = a1 * dpi1_dt
-            dk[4, d] = g + Hd * (g1 * dpi1_dH + g3 * dpi3_dH)
-            dk[5, d] = Hd * g1 * dpi1_dt
-    k_b = values[FORM_K_HAT]
-    tip = values[FORM_TIP_RATIO]
-    for d in range(n):
-        k_b[d] = E[d] * (t[d] * t[d]) / R[d] * k_b[d]
-        tip[d] = H[d] * tip[d]
+            for f in range(N_FORMS):
+                v = values[f, d]
+                v1 = values[N_FORMS + f, d]
+                v3 = values[2 * N_FORMS + f, d]
+                scale = FORM_SCALES[f]
+                if scale == SCALE_STIFFNESS:
+                    s = E[d] * (td * td) / Rd
+                    dk[2 * f, d] = s * (v1 * dpi1_dH + v3 * dpi3_dH) - s * v * dR_dH / Rd
+                    dk[2 * f + 1, d] = 2.0 * E[d] * td / Rd * v + s * v1 * dpi1_dt
+                elif scale == SCALE_HEIGHT:
+                    dk[2 * f, d] = v + Hd * (v1 * dpi1_dH + v3 * dpi3_dH)
+                    dk[2 * f + 1, d] = Hd * v1 * dpi1_dt
+                else:
+                    dk[2 * f, d] = v1 * dpi1_dH + v3 * dpi3_dH
+                    dk[2 * f + 1, d] = v1 * dpi1_dt
+    for f in range(N_FORMS):
+        scale = FORM_SCALES[f]
+        row = values[f]
+        if scale == SCALE_STIFFNESS:
+            for d in range(n):
+                row[d] = E[d] * (t[d] * t[d]) / R[d] * row[d]
+        elif scale == SCALE_HEIGHT:
+            for d in range(n):
+                row[d] = H[d] * row[d]
 
 
 def _superscript(n: int) -> str:

@@ -1,8 +1,8 @@
 """Constants sets: the closed forms of a dome's spring constants as data (MODEL.md §3, §11).
 
-A constants set holds three closed forms in the dimensionless groups ``π1 = t/H`` and
-``π3 = H/R`` (``π2 = t/R = π1 π3`` adds no column, MODEL.md §11), each a sum of monomials
-``c · π1^p · π3^q``:
+A constants set holds one closed form per row of :data:`~dpfexplore.model.quantities.SET_FORMS`,
+in the dimensionless groups ``π1 = t/H`` and ``π3 = H/R`` (``π2 = t/R = π1 π3`` adds no column,
+MODEL.md §11), each a sum of monomials ``c · π1^p · π3^q``:
 
 * ``k_hat = k_b R / (E t²)``, so ``k_b = E t² / R · k_hat``, N/mm;
 * ``alpha``, the dome's energy ratio (dimensionless);
@@ -38,6 +38,7 @@ Domain
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from collections.abc import Mapping, Sequence
@@ -48,9 +49,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .closed_form import ClosedForm, ConstantsSetError, float_powers
+from .closed_form import N_FORMS, ClosedForm, ConstantsSetError, float_powers
 from .constants import _ALPHA_TERMS, _KB_TERMS, TIP_PER_HEIGHT, TIP_PER_THICKNESS
 from .domain import FITTED_RANGES
+from .quantities import SET_FORMS, scaled
 
 __all__ = [
     "CONSTANTS_FORMAT",
@@ -83,6 +85,9 @@ DOMAIN_KEYS: dict[str, tuple[str, bool]] = {
 @dataclass(frozen=True, eq=False)
 class ConstantsSet:
     """The closed forms for ``k_b``, ``alpha`` and the reach, their domain and provenance.
+
+    One :class:`ClosedForm` field per row of :data:`~dpfexplore.model.quantities.SET_FORMS`, in
+    its order (checked when this module is imported).
 
     Two sets are equal when their fingerprints are (the same forms, domain and provenance), so
     designs and batches that carry a set compare and hash by it.
@@ -150,6 +155,7 @@ class ConstantsSet:
     ) -> dict[str, NDArray]:
         """``k_b`` (N/mm), ``alpha`` and ``tip_dis`` (mm) of domes ``H, t, r_b`` (mm), ``E``.
 
+        One entry per row of :data:`~dpfexplore.model.quantities.SET_FORMS` (its quantity).
         ``E`` in MPa; all arguments broadcast. The arithmetic of the kernels
         (:func:`.closed_form.set_constants_block`).
         """
@@ -157,9 +163,8 @@ class ConstantsSet:
         R = (H * H + r_b * r_b) / (2.0 * H)
         pi1, pi3 = t / H, H / R
         return {
-            "k_b": E * (t * t) / R * self.k_hat(pi1, pi3),
-            "alpha": self.alpha(pi1, pi3),
-            "tip_dis": H * self.tip_ratio(pi1, pi3),
+            form.quantity: scaled(form.scale, getattr(self, form.name)(pi1, pi3), H, t, R, E)
+            for form in SET_FORMS
         }
 
     def dome(self, E: float, H: float, t: float, r_b: float) -> tuple[float, float]:
@@ -212,23 +217,23 @@ class ConstantsSet:
         }
 
     def kernel_forms(self) -> tuple[NDArray, NDArray]:
-        """The three closed forms as the record the kernels read.
+        """The closed forms as the record the kernels read.
 
         Returns
         -------
-        powers : ndarray of int64, shape (3, n_terms, 2)
-            ``(p, q)`` of each term; rows :data:`.closed_form.FORM_K_HAT`, ``FORM_ALPHA``,
-            :data:`FORM_TIP_RATIO`.
-        coefficients : ndarray of shape (3, n_terms)
+        powers : ndarray of int64, shape (N_FORMS, n_terms, 2)
+            ``(p, q)`` of each term; rows ``FORM_*`` of :mod:`.closed_form` (the order of
+            :data:`~dpfexplore.model.quantities.SET_FORMS`).
+        coefficients : ndarray of shape (N_FORMS, n_terms)
             ``c`` of each term. Shorter forms are padded with terms ``0 · π1⁰ · π3⁰``, which
             add nothing. Both arrays cached and read-only.
         """
         cached = self.__dict__.get("_kernel_forms")
         if cached is None:
-            forms = (self.k_hat, self.alpha, self.tip_ratio)
+            forms = [getattr(self, form.name) for form in SET_FORMS]
             width = max(1, *(len(f.coefficients) for f in forms))
-            powers = np.zeros((3, width, 2), dtype=np.int64)
-            coefficients = np.zeros((3, width))
+            powers = np.zeros((N_FORMS, width, 2), dtype=np.int64)
+            coefficients = np.zeros((N_FORMS, width))
             for i, form in enumerate(forms):
                 terms = zip(form.exponents, form.coefficients, strict=True)
                 for j, ((p, q), c) in enumerate(terms):
@@ -318,8 +323,9 @@ class ConstantsSet:
         Raises
         ------
         ConstantsSetError
-            Naming the first dome where ``k_b <= 0``, ``alpha`` is outside ``(0, 1)`` or
-            ``tip_dis <= H``.
+            Naming the first form (in the order of
+            :data:`~dpfexplore.model.quantities.SET_FORMS`) and dome where its quantity is not
+            physical: ``k_b <= 0``, ``alpha`` outside ``(0, 1)``, ``tip_dis <= H``.
         """
         h_range, t_range = self.ratio_ranges()
         H, t = np.meshgrid(
@@ -327,17 +333,12 @@ class ConstantsSet:
         )
         values = self.evaluate(H, t, 1.0, 1.0)
         claimed = self.inside_hull(H, t)  # the box's corners outside the data's hull are not
-        problems = (
-            (~(values["k_b"] > 0.0), "k_b <= 0"),
-            (~((values["alpha"] > 0.0) & (values["alpha"] < 1.0)), "alpha outside (0, 1)"),
-            (~(values["tip_dis"] > H), "tip_dis <= H (the inverted apex would not pass flat)"),
-        )
-        for bad, what in problems:
-            bad = bad & claimed
+        for form in SET_FORMS:
+            bad = ~form.physical(values[form.quantity], H) & claimed
             if np.any(bad):
                 i, j = np.argwhere(bad)[0]
                 raise ConstantsSetError(
-                    f"constants set {self.name!r}: {what} inside its own domain, at "
+                    f"constants set {self.name!r}: {form.unphysical} inside its own domain, at "
                     f"H/r_b = {H[i, j]:.4g}, t/r_b = {t[i, j]:.4g}"
                 )
 
@@ -361,9 +362,7 @@ class ConstantsSet:
         return {
             "format": CONSTANTS_FORMAT,
             "name": self.name,
-            "k_hat": self.k_hat.to_dict(),
-            "alpha": self.alpha.to_dict(),
-            "tip_ratio": self.tip_ratio.to_dict(),
+            **{form.name: getattr(self, form.name).to_dict() for form in SET_FORMS},
             "domain": {k: list(v) for k, v in self.domain.items()},
             "provenance": self.provenance,
             # only when present, so that sets without a hull keep their fingerprints
@@ -388,7 +387,7 @@ class ConstantsSet:
             raise ConstantsSetError(
                 f"{source}: format {data.get('format')!r}, expected {CONSTANTS_FORMAT!r}"
             )
-        for key in ("name", "k_hat", "alpha", "tip_ratio", "domain", "fingerprint"):
+        for key in ("name", *(form.name for form in SET_FORMS), "domain", "fingerprint"):
             if key not in data:
                 raise ConstantsSetError(f"{source}: missing {key!r}")
         body = {k: v for k, v in data.items() if k != "fingerprint"}
@@ -420,9 +419,10 @@ class ConstantsSet:
         try:
             result = cls(
                 name=str(data["name"]),
-                k_hat=ClosedForm.from_dict(data["k_hat"], f"{source}: k_hat"),
-                alpha=ClosedForm.from_dict(data["alpha"], f"{source}: alpha"),
-                tip_ratio=ClosedForm.from_dict(data["tip_ratio"], f"{source}: tip_ratio"),
+                **{
+                    form.name: ClosedForm.from_dict(data[form.name], f"{source}: {form.name}")
+                    for form in SET_FORMS
+                },
                 domain=domain,
                 provenance=dict(data.get("provenance") or {}),
                 hull=_hull(data.get("hull"), source),
@@ -438,6 +438,23 @@ class ConstantsSet:
         _READ_SETS[data["fingerprint"]] = result
         return result
 
+
+def _check_form_fields() -> None:
+    """Fail at import when :data:`SET_FORMS` and :class:`ConstantsSet`'s forms disagree.
+
+    :class:`ConstantsSet` spells its closed forms out as typed, documented fields (its callers
+    construct it by keyword); they must be the table's forms, in its order.
+    """
+    fields = [f.name for f in dataclasses.fields(ConstantsSet) if f.type == "ClosedForm"]
+    names = [form.name for form in SET_FORMS]
+    if fields != names:
+        raise ImportError(
+            "dpfexplore.model.quantities.SET_FORMS and ConstantsSet disagree: the table's forms "
+            f"are {names}, the set's ClosedForm fields {fields}"
+        )
+
+
+_check_form_fields()
 
 #: Sets :meth:`ConstantsSet.from_dict` has read and checked, by fingerprint (a few at most).
 _READ_SETS: dict[str, ConstantsSet] = {}

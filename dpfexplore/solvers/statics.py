@@ -25,10 +25,11 @@ toward the tip this is base-first, giving the gripper's 10000, 11000, 11100, 111
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,6 +46,7 @@ from .._kernels.sensitivity_batch import (
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.formatting import num
+from ..model.quantities import STATE_OUTPUTS
 from ..model.status import Status
 from . import sensitivities as sens
 from .compilation import announce
@@ -215,20 +217,32 @@ def sequential_states(design: Design) -> list[int]:
     return table[0, : design.n_units + 1].tolist()
 
 
-#: Output columns of :func:`solve_batch` (besides the index and status columns).
-OUTPUT_COLUMNS = {
-    "energy": kstates.OUT_ENERGY,
-    "energy_linear": kstates.OUT_ENERGY_LINEAR,
-    "energy_dome": kstates.OUT_ENERGY_DOME,
-    "energy_torsion": kstates.OUT_ENERGY_TORSION,
-    "tip_x": kstates.OUT_TIP_X,
-    "tip_y": kstates.OUT_TIP_Y,
-    "bend_angle": kstates.OUT_BEND,
-    "curvature": kstates.OUT_CURVATURE,
-    "min_eig": kstates.OUT_MIN_EIG,
-    "stiffness": kstates.OUT_STIFFNESS,
-    "grad_norm": kstates.OUT_GRAD_NORM,
-}
+#: Output columns of :func:`solve_batch` (besides the index and status columns): name -> index
+#: in the kernels' output vector, the rows of :data:`~dpfexplore.model.quantities.STATE_OUTPUTS`.
+OUTPUT_COLUMNS = {output.name: index for index, output in enumerate(STATE_OUTPUTS)}
+#: Fields of :class:`StateResult` that are not per-state outputs of the table.
+_RESULT_FIELDS = ("requested", "found", "status", "nodes", "x", "n_iter", "sensitivities")
+
+
+def _check_result_fields() -> None:
+    """Fail at import when the outputs table and :class:`StateResult`'s fields disagree.
+
+    :class:`StateResult` spells its fields out (typed and documented, grouped where outputs
+    belong together: ``energy_split``, ``tip``); every field besides :data:`_RESULT_FIELDS` must
+    hold outputs of the table, and every row must name one of its fields.
+    """
+    fields = [f.name for f in dataclasses.fields(StateResult)]
+    named = {output.attribute for output in STATE_OUTPUTS}
+    holding = set(fields) - set(_RESULT_FIELDS)
+    if named != holding:
+        raise ImportError(
+            "dpfexplore.model.quantities.STATE_OUTPUTS and StateResult disagree: "
+            f"fields without a row: {sorted(holding - named)}; "
+            f"rows without a field: {sorted(named - holding)}"
+        )
+
+
+_check_result_fields()
 
 
 #: Batches of up to this many rows run on the calling thread: waking the worker threads of a
@@ -275,10 +289,10 @@ def solve_batch(
     dict of str to ndarray
         One entry per row: ``design_index`` (int64), ``requested`` and ``found`` (int64 state
         integers; -1 for none), ``status`` (int8 :class:`Status` codes), ``n_iter`` (int32),
-        and the float64 outputs ``energy``, ``energy_linear``, ``energy_dome``,
-        ``energy_torsion`` (N·mm), ``tip_x``, ``tip_y`` (mm), ``bend_angle`` (rad),
-        ``curvature`` (1/mm), ``min_eig`` (N/mm), ``stiffness`` (N/mm), ``grad_norm`` (N);
-        NaN where not computed or not converged.
+        and one column per output of :data:`~dpfexplore.model.quantities.STATE_OUTPUTS`
+        (float64, units there): ``energy``, ``energy_linear``, ``energy_dome``,
+        ``energy_torsion``, ``tip_x``, ``tip_y``, ``bend_angle``, ``curvature``, ``min_eig``,
+        ``stiffness``, ``grad_norm``; NaN where not computed or not converged.
 
     Notes
     -----
@@ -407,7 +421,9 @@ def _columns(rows: _Rows, *, shapes: bool) -> dict[str, NDArray]:
     by_column = (
         rows.out.T if rows.out.shape[0] <= SERIAL_MAX_ROWS else np.ascontiguousarray(rows.out.T)
     )
-    result.update({name: by_column[col] for name, col in OUTPUT_COLUMNS.items()})
+    for index, output in enumerate(STATE_OUTPUTS):  # the kernels compute float64
+        column = by_column[index]
+        result[output.name] = column if output.dtype == "float64" else column.astype(output.dtype)
     if shapes:
         result["x"] = rows.x
     if rows.sens is not None:
@@ -436,24 +452,12 @@ def _results(design: Design, tables: KernelTables, rows: _Rows) -> list[StateRes
             derivatives = sens.from_kernel(
                 rows.sens[r], rows.dx[r], n, tables.no_contact[0], found_bits
             )
-        out = rows.out[r].tolist()
         results.append(
             StateResult(
                 requested=state_string(rows.row_state[r], n),
                 found=found_bits,
                 status=Status(int(rows.status[r])),
-                energy=out[kstates.OUT_ENERGY],
-                energy_split={
-                    "linear": out[kstates.OUT_ENERGY_LINEAR],
-                    "dome": out[kstates.OUT_ENERGY_DOME],
-                    "torsion": out[kstates.OUT_ENERGY_TORSION],
-                },
-                tip=rows.out[r, kstates.OUT_TIP_X : kstates.OUT_TIP_Y + 1].copy(),
-                bend_angle=out[kstates.OUT_BEND],
-                curvature=out[kstates.OUT_CURVATURE],
-                min_eig=out[kstates.OUT_MIN_EIG],
-                stiffness=out[kstates.OUT_STIFFNESS],
-                grad_norm=out[kstates.OUT_GRAD_NORM],
+                **_result_outputs(rows.out[r]),
                 nodes=nodes,
                 x=x,
                 n_iter=int(rows.n_iter[r]),
@@ -461,6 +465,25 @@ def _results(design: Design, tables: KernelTables, rows: _Rows) -> list[StateRes
             )
         )
     return results
+
+
+def _result_outputs(out: NDArray) -> dict[str, Any]:
+    """The :class:`StateResult` fields of one row's output vector, as the table places them.
+
+    A field that is the value gets a Python float, a dict field its entries in table order,
+    an array field (``tip``) a float64 array of its entries.
+    """
+    values = out.tolist()
+    fields: dict[str, Any] = {}
+    for output, value in zip(STATE_OUTPUTS, values, strict=True):
+        if output.key is None:
+            fields[output.attribute] = value
+        else:
+            fields.setdefault(output.attribute, {})[output.key] = value
+    for name, entries in fields.items():
+        if isinstance(entries, dict) and all(isinstance(k, int) for k in entries):
+            fields[name] = np.array([entries[k] for k in range(len(entries))])
+    return fields
 
 
 def find_state(

@@ -25,6 +25,7 @@ import pyarrow as pa
 from numpy.typing import NDArray
 
 from ..model.design import DesignBatch
+from ..model.quantities import STATE_OUTPUTS
 from .space import ComputeSpec, PressureLoad
 from .storage.store import STATUS_TYPE, column
 
@@ -127,48 +128,15 @@ class StaticsEvaluator:
                 "collapsed (requested state does not exist; outputs describe the found "
                 "state), nonfinite, degenerate_geometry, unstable",
             ),
-            column("energy", pa.float64(), "N·mm", "total elastic energy of the state"),
-            column("energy_linear", pa.float64(), "N·mm", "energy of posts and limiting layer"),
-            column("energy_dome", pa.float64(), "N·mm", "energy of the dome springs"),
-            column("energy_torsion", pa.float64(), "N·mm", "energy of the torsional springs"),
-            column("tip_x", pa.float64(), "mm", "x of the tip node L_N (MODEL.md §5 frame)"),
-            column("tip_y", pa.float64(), "mm", "y of the tip node L_N"),
-            column(
-                "bend_angle",
-                pa.float64(),
-                "rad",
-                "heading of the last limiting-layer segment (unwrapped along the finger)",
-            ),
-            column(
-                "curvature",
-                pa.float64(),
-                "1/mm",
-                "mean curvature: bend angle over the limiting layer's length",
-            ),
         ]
-        if self.compute.min_eig:
-            fields.append(
-                column(
-                    "min_eig",
-                    pa.float64(),
-                    "N/mm",
-                    "smallest eigenvalue of the Hessian on the free coordinates",
-                )
-            )
-        if self.compute.stiffness:
-            fields.append(
-                column(
-                    "stiffness",
-                    pa.float64(),
-                    "N/mm",
-                    "tip stiffness 1/(n^T H^-1 n) for a force normal to the last "
-                    "limiting-layer segment (MODEL.md §7)",
-                )
-            )
         fields += [
-            column("grad_norm", pa.float64(), "N", "largest gradient component at the solution"),
-            column("n_iter", pa.int32(), "1", "Hessian evaluations over all search attempts"),
+            column(output.name, pa.from_numpy_dtype(output.dtype), output.unit, output.description)
+            for output in STATE_OUTPUTS
+            if not output.optional or getattr(self.compute, output.name)
         ]
+        fields.append(
+            column("n_iter", pa.int32(), "1", "Hessian evaluations over all search attempts")
+        )
         if self.compute.reset_times is not None:
             fields += _dynamics_fields(max_units, fast=self.compute.reset_times.method == "fast")
         return fields
@@ -181,10 +149,9 @@ class StaticsEvaluator:
         rows = solve_batch(
             batch, compute.states, stiffness=compute.stiffness, min_eig=compute.min_eig
         )
-        if not compute.stiffness:
-            rows.pop("stiffness", None)
-        if not compute.min_eig:
-            rows.pop("min_eig", None)
+        for output in STATE_OUTPUTS:
+            if output.optional and not getattr(compute, output.name):
+                rows.pop(output.name, None)
         n_units = np.unique(batch.n_units)
         if n_units.size > 1:  # the sweep evaluates one N per chunk; bit labels rely on it
             raise ValueError(f"batch mixes numbers of units {n_units.tolist()}")

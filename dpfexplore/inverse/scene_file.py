@@ -1,18 +1,18 @@
-"""Scene files: what a finger must do, as TOML, read and validated into a SceneSpec.
+"""Scene files: what a finger must do, as TOML; the tables every kind shares, read and validated.
 
 Read by :func:`dpfexplore.inverse.kinds.load_scene`. A scene names its kind (one of
-:data:`dpfexplore.inverse.kinds.SCENE_KINDS`), its targets, the design variables with their
-bounds and constraints, the material and the objective's weights or tolerances
-(:class:`~.spec.SceneSpec`). Every problem in
-a scene file is one :class:`SceneSpecError` (a ``ValueError``) whose one-line message starts with
-the dotted key, e.g. ``variables.H.min = 6.0: greater than max = 5.0``; nothing is computed or
-written for a scene that does not validate.
+:data:`dpfexplore.inverse.kinds.SCENE_KINDS`), the design variables with their bounds and
+constraints, the material, and the kind's own tables (its targets, objective or requirements),
+read by the kind's parser in its package (``dpfexplore.inverse.scenes.<kind>.spec``). Every
+problem in a scene file is one :class:`SceneSpecError` (a ``ValueError``) whose one-line message
+starts with the dotted key, e.g. ``variables.H.min = 6.0: greater than max = 5.0``; nothing is
+computed or written for a scene that does not validate.
 
-Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of MODEL.md §5)::
+The shared tables (lengths in mm, ``E`` in MPa; model frame of MODEL.md §5)::
 
     [scene]
-    kind = "position"             # "position", "position_stiffness" or "gripper"
-                                  # ("pickplace", "walker_leg": inverse.scenes.timing_spec)
+    kind = "position"             # a kind of SCENE_KINDS: "position", "position_stiffness",
+                                  # "gripper", "pickplace", "walker_leg"
     name = "design-position-cheetah"   # default output directory results/<name>
     description = "..."           # free text
     material = "cheetah-95a"      # or "ninjaflex-85a"; or give E (and nu) instead
@@ -34,19 +34,6 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     shared_U_L = true             # one U_L for all units (default) or one per unit
     shared_U_sep = true
 
-    [[targets]]                   # position, position_stiffness: one table per target
-    point = [46.0, 32.0]          # tip (x, y) of the targeted state, mm
-    reference = {H = [...], U_L = 9.98, U_sep = 2.26, t = 0.9, t_lim = 1.89}  # optional:
-                                  # a design to compare with (e.g. the paper's), material's E
-
-    [objective]
-    state = "all_inverted"        # position kinds: the targeted state ("all_inverted" or bits
-                                  # when N is fixed)
-    tolerance = 1e-6              # mm²: a target is met when |tip - target|² <= tolerance
-    # position_stiffness only:
-    front = [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0]   # tip tolerances of the front, mm
-    weights = [1.0, 1.0]          # optional: also solve the paper's w1 |r|² + w2 (1/K)²
-
     [optimiser]                   # all optional
     candidates_per_n = 64         # Latin-hypercube candidates per N
     starts_per_n = 3              # gradient refinements per N before a target is declared
@@ -57,23 +44,11 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
                                   # hypercube (dpfexplore.inverse.engine.seeds); path from the cwd
     seeds_per_n = 8               # seeds per N
 
-    [gripper]                     # kind = "gripper" (MODEL.md §7, §9)
-    states = ["10000", "11000", "11100", "11110"]
-    apertures = [70.0, 60.0, 45.0, 35.0]   # mm, one per state
-    aperture_tol = 0.05           # mm
-    activated = "11110"           # the state whose tip stiffness is maximised
-    theta_B_deg = {min = -60.0, max = 0.0}
-    base_L = {min = 5.0, max = 40.0}
-    min_window_kPa = 10.0         # each state's pressure window under a slow ramp
-    metastable_unit = 5           # must reset, after >= min_reset_s, under the pulse
-    min_reset_s = 0.05
-    pulse = {P0 = 0.7, tau = [0.0, 0.5, 1.0, 1.1], t_end = 2.0}
-    reference = {H = [...], ..., theta_B_deg = -27.065, base_L = 20.081}   # optional
-
-Every kind is one record of the literal table :data:`dpfexplore.inverse.kinds.SCENE_KINDS`: its
-own tables, whether it describes its variables itself (the walker leg: one set per section), its
-parser (here for the position and gripper kinds, in :mod:`dpfexplore.inverse.scenes.timing_spec`
-for the timing kinds), its solver, report and writer.
+A kind that describes its variables itself (the walker leg: one set per section) has no
+``[variables]`` table. The kinds' own tables: :mod:`dpfexplore.inverse.scenes.position.spec`,
+:mod:`dpfexplore.inverse.scenes.position_stiffness.spec`,
+:mod:`dpfexplore.inverse.scenes.gripper.spec`, :mod:`dpfexplore.inverse.scenes.pickplace.spec`,
+:mod:`dpfexplore.inverse.scenes.walker.spec`.
 """
 
 from __future__ import annotations
@@ -82,7 +57,6 @@ import math
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -92,33 +66,20 @@ from ..model import status as st
 from ..model.constants_set import DEFAULT
 from ..model.design import MATERIALS, Design, resolve_constants
 from ..model.domain import MAX_UNITS
-from ..model.pressure import PressureProfile
 from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
-from .spec import GripperSpec, OptimiserSettings, SceneSpec, Target
+from .engine.settings import OptimiserSettings
+from .spec import SceneCommon, SceneSpec
 from .spec_fields import (
     SceneSpecError,
     _bound,
     _keys,
-    _numbers,
     _plain,
     _positive,
-    _range,
     _string,
     _table,
 )
 
-__all__ = [
-    "build_spec",
-    "check_seeds",
-    "parse_gripper",
-    "parse_position",
-    "read_scene_file",
-    "with_seeds",
-]
-
-#: Farthest tip target accepted (mm along either axis): far beyond any finger of MAX_UNITS
-#: units, near enough that squared distances stay finite (1e300 mm overflowed to inf).
-MAX_TARGET_DISTANCE = 1000.0
+__all__ = ["build_spec", "check_seeds", "read_scene_file", "reference_design"]
 
 
 def read_scene_file(path: str | Path) -> dict[str, Any]:
@@ -141,18 +102,20 @@ def build_spec(
     kind: str,
     tables: Sequence[str],
     own_variables: bool,
-    parse: Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]],
+    parse: Callable[[Mapping[str, Any], SceneCommon], Any],
     default_name: str = "scene",
     base: str | Path | None = None,
 ) -> SceneSpec:
     """Validate a TOML-shaped scene of a known ``kind`` into a :class:`SceneSpec`.
 
-    The parts every kind shares (``[scene]``, ``[variables]``, ``[optimiser]``) are read here;
-    ``parse`` reads the kind's own tables (``tables``) and returns the fields it adds. The
-    table of kinds, and the entry points :func:`~dpfexplore.inverse.kinds.load_scene` /
-    :func:`~dpfexplore.inverse.kinds.parse_scene`, are in :mod:`dpfexplore.inverse.kinds`.
-    ``scene.constants`` names a constants set file relative to ``base`` (the scene file's
-    folder); every design the scene makes, reference designs included, runs on it.
+    The parts every kind shares (``[scene]``, ``[variables]``, ``[optimiser]``) are read here
+    into a :class:`SceneCommon`; ``parse`` reads the kind's own tables (``tables``) and returns
+    its kind spec. A kind with ``own_variables`` has no ``[variables]`` table: its kind spec's
+    ``n_units`` are the scene's. The table of kinds, and the entry points
+    :func:`~dpfexplore.inverse.kinds.load_scene` / :func:`~dpfexplore.inverse.kinds.parse_scene`,
+    are in :mod:`dpfexplore.inverse.kinds`. ``scene.constants`` names a constants set file
+    relative to ``base`` (the scene file's folder); every design the scene makes, reference
+    designs included, runs on it.
     """
     own = own_variables
     _keys(
@@ -186,7 +149,7 @@ def build_spec(
         except ValueError as exc:
             raise SceneSpecError(f"scene.constants = {written!r}: {exc}") from None
     n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
-    fields = dict(
+    common = SceneCommon(
         kind=kind,
         name=name,
         description=_string(scene, "scene", "description", ""),
@@ -200,8 +163,10 @@ def build_spec(
         document=_plain(data),
         constants=constants,
     )
-    fields.update(parse(data, fields))
-    spec = SceneSpec(**fields)
+    kind_spec = parse(data, common)
+    if own:
+        common = replace(common, n_units=tuple(kind_spec.n_units))
+    spec = SceneSpec.of(common, kind_spec)
     for n in () if own else spec.n_units:
         try:
             variables = spec.design_variables(n)
@@ -230,151 +195,6 @@ def _check_box_holds_designs(variables: DesignVariables) -> None:
             f"variables (N = {variables.n_units}): the box holds no valid design (none of "
             f"{len(z)} sampled over it), e.g. {example}"
         )
-
-
-def parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The fields of a position (or position-and-stiffness) scene: targets and objective."""
-    stiffness = fields["kind"] == "position_stiffness"
-    if "gripper" in data:
-        raise SceneSpecError(f"gripper = {{...}}: unknown table for kind {fields['kind']!r}")
-    if "targets" not in data:
-        raise SceneSpecError("targets: missing; give [[targets]] tables with point = [x, y]")
-    raw = data["targets"]
-    if not isinstance(raw, list) or not raw or not all(isinstance(t, Mapping) for t in raw):
-        raise SceneSpecError("targets: need one or more [[targets]] tables")
-    targets = []
-    for i, entry in enumerate(raw):
-        where = f"targets[{i}]"
-        _keys(entry, where, required=("point",), optional=("reference",))
-        point = _numbers(entry["point"], f"{where}.point", length=2, unit="mm")
-        if max(abs(point[0]), abs(point[1])) > MAX_TARGET_DISTANCE:
-            raise SceneSpecError(
-                f"{where}.point = {list(point)}: more than {MAX_TARGET_DISTANCE:g} mm from the "
-                "base; no finger of this model reaches that far"
-            )
-        reference = None
-        if "reference" in entry:
-            reference = _design(entry["reference"], f"{where}.reference", fields, extra=())[0]
-        targets.append(Target(point=(point[0], point[1]), reference=reference))
-    objective = data.get("objective", {})
-    if not isinstance(objective, Mapping):
-        raise SceneSpecError(f"objective = {objective!r}: must be a table")
-    extra = ("front", "weights") if stiffness else ()
-    _keys(objective, "objective", required=(), optional=("state", "tolerance", *extra))
-    state = _string(objective, "objective", "state", "all_inverted")
-    if state != "all_inverted":
-        if (
-            len(fields["n_units"]) != 1
-            or len(state) != fields["n_units"][0]
-            or set(state) - {"0", "1"}
-        ):
-            raise SceneSpecError(
-                f"objective.state = {state!r}: 'all_inverted', or a bit string of N characters "
-                "when variables.n_units is one number"
-            )
-    out: dict[str, Any] = {
-        "targets": tuple(targets),
-        "state": state,
-        "tolerance": _positive(objective, "objective", "tolerance", 1e-6),
-    }
-    if stiffness:
-        front = objective.get("front", [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0])
-        front = _numbers(front, "objective.front", length=None, unit="mm")
-        if not front or any(v <= 0 for v in front):
-            raise SceneSpecError(f"objective.front = {front!r}: need tolerances > 0 mm")
-        out["front"] = tuple(sorted(front))
-        if "weights" in objective:
-            w = _numbers(objective["weights"], "objective.weights", length=2, unit="")
-            if any(v < 0 for v in w) or not any(v > 0 for v in w):
-                raise SceneSpecError(f"objective.weights = {list(w)!r}: need w >= 0, not both 0")
-            out["weights"] = (w[0], w[1])
-    return out
-
-
-def parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The fields of a gripper scene: its ``[gripper]`` table."""
-    for key in ("targets", "objective"):
-        if key in data:
-            raise SceneSpecError(f"{key}: not used by kind 'gripper' (its targets are [gripper])")
-    if "gripper" not in data:
-        raise SceneSpecError("gripper: missing [gripper] table")
-    g = _table(data, "gripper")
-    _keys(
-        g,
-        "gripper",
-        required=("states", "apertures"),
-        optional=(
-            "aperture_tol",
-            "activated",
-            "theta_B_deg",
-            "base_L",
-            "min_window_kPa",
-            "metastable_unit",
-            "min_reset_s",
-            "pulse",
-            "reference",
-        ),
-    )
-    if len(fields["n_units"]) != 1:
-        raise SceneSpecError(
-            f"variables.n_units = {list(fields['n_units'])}: the gripper needs one number of units"
-        )
-    n = fields["n_units"][0]
-    states = g["states"]
-    if (
-        not isinstance(states, list)
-        or not states
-        or not all(isinstance(s, str) and len(s) == n and not set(s) - {"0", "1"} for s in states)
-    ):
-        raise SceneSpecError(f"gripper.states = {states!r}: need bit strings of {n} characters")
-    apertures = _numbers(g["apertures"], "gripper.apertures", length=len(states), unit="mm")
-    activated = _string(g, "gripper", "activated", states[-1])
-    if len(activated) != n or set(activated) - {"0", "1"}:
-        raise SceneSpecError(f"gripper.activated = {activated!r}: need {n} characters 0/1")
-    unit = g.get("metastable_unit", n)
-    if isinstance(unit, bool) or not isinstance(unit, int) or not 1 <= unit <= n:
-        raise SceneSpecError(f"gripper.metastable_unit = {unit!r}: a unit in 1..{n}")
-    pulse = g.get("pulse", {"P0": 0.7, "tau": [0.0, 0.5, 1.0, 1.1], "t_end": 2.0})
-    if not isinstance(pulse, Mapping):
-        raise SceneSpecError(f"gripper.pulse = {pulse!r}: must be a table")
-    _keys(pulse, "gripper.pulse", required=("P0", "tau"), optional=("t_end",))
-    tau = _numbers(pulse["tau"], "gripper.pulse.tau", length=4, unit="s")
-    if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
-        raise SceneSpecError(f"gripper.pulse.tau = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
-    t_end = _positive(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
-    pulse_P0 = _positive(pulse, "gripper.pulse", "P0", 0.7)
-    try:  # the pressure range every entry point holds, checked before the optimisation
-        PressureProfile.pulse(pulse_P0, tau)
-    except ValueError as exc:
-        raise SceneSpecError(f"gripper.pulse: {exc}") from None
-    if t_end <= tau[3]:
-        raise SceneSpecError(f"gripper.pulse.t_end = {t_end}: must be after τ4 = {tau[3]}")
-    reference = theta_ref = base_ref = None
-    if "reference" in g:
-        reference, extra = _design(
-            g["reference"], "gripper.reference", fields, extra=("theta_B_deg", "base_L")
-        )
-        theta_ref, base_ref = extra.get("theta_B_deg"), extra.get("base_L")
-    spec = GripperSpec(
-        states=tuple(states),
-        apertures=tuple(apertures),
-        aperture_tol=_positive(g, "gripper", "aperture_tol", 0.05),
-        activated=activated,
-        theta_B_deg=_range(
-            g.get("theta_B_deg", {"min": -60.0, "max": 0.0}), "gripper.theta_B_deg", positive=False
-        ),
-        base_L=_range(g.get("base_L", {"min": 5.0, "max": 40.0}), "gripper.base_L"),
-        min_window_kPa=_positive(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
-        metastable_unit=unit,
-        min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
-        pulse_P0=pulse_P0,
-        pulse_tau=tuple(tau),
-        pulse_t_end=t_end,
-        reference=reference,
-        reference_theta_B_deg=theta_ref,
-        reference_base_L=base_ref,
-    )
-    return {"gripper": spec}
 
 
 # ----------------------------------------------------------------------------- pieces
@@ -493,17 +313,25 @@ def _poisson(scene: Mapping[str, Any], default: float) -> float:
     return nu
 
 
-def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str, ...]):
+def reference_design(
+    value: Any, where: str, common: SceneCommon, *, extra: tuple[str, ...] = ()
+) -> tuple[Design, dict[str, float]]:
+    """A reference design of a scene (a table of design keys), with the scene's material.
+
+    ``extra`` names keys of the table that are not design keys (finite numbers, returned apart:
+    e.g. the gripper's base). The scene's constants set applies; a table naming another is
+    refused.
+    """
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{where} = {value!r}: must be a table of design keys")
     data = {k: v for k, v in value.items() if k not in extra}
-    data.setdefault("E", fields["E"])
-    data.setdefault("nu", fields["nu"])
+    data.setdefault("E", common.E)
+    data.setdefault("nu", common.nu)
     if "constants" in data:
         raise SceneSpecError(
             f"{where}.constants: the scene's constants set applies (scene.constants)"
         )
-    data["constants"] = fields["constants"]
+    data["constants"] = common.constants
     try:
         design = Design.from_dict(data)
     except (TypeError, ValueError) as exc:
@@ -554,11 +382,3 @@ def check_seeds(value: Any, where: str) -> str:
             "`dpfexplore sweep JOB --out DIR`, e.g. jobs/design-seeds-descending.toml"
         )
     return value
-
-
-def with_seeds(spec: SceneSpec, dataset: str) -> SceneSpec:
-    """The scene with its candidates seeded from ``dataset`` (``dpfexplore design --seeds``)."""
-    if spec.kind not in ("position", "position_stiffness"):
-        raise SceneSpecError(f"--seeds: only position scenes take seeds, not {spec.kind!r}")
-    settings = replace(spec.optimiser, seeds=check_seeds(dataset, "--seeds"))
-    return replace(spec, optimiser=settings)

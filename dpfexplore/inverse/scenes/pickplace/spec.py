@@ -1,8 +1,45 @@
 """Scene file of the pick-and-place scene: the ``[pickplace]`` table (MODEL.md §9).
 
-The file format, with every key and its default, is in :mod:`dpfexplore.inverse.scenes.timing_spec`.
-Every problem is one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line
-message starts with the dotted key. Times in s, pressures in MPa.
+The tables every kind shares are read by :mod:`dpfexplore.inverse.scene_file`; as there, every
+problem is one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line message
+starts with the dotted key. Times in s, pressures in MPa (paper eq. opti_pick_and_place)::
+
+    [scene]
+    kind = "pickplace"
+    [variables]                    # one N; one free height (a tie group) and t free
+    n_units = 6
+    H = [4.0, 4.5, 5.0, 5.0, {min = 2.0, max = 4.0}, {min = 2.0, max = 4.0}]
+    tied = [[5, 6]]
+    U_L = 6.0
+    U_sep = 1.0
+    t = {min = 0.5, max = 1.0}
+    t_lim = 1.0
+
+    [pickplace]
+    profile = {P0 = 0.7, tau = [0.0, 1.0, 5.0, 5.1], t_end = 15.0}   # the scene's pulse
+    hold_units = [1, 2, 3, 4]      # must stay inverted (bistable): the grasp set point
+    reset_unit = "last"            # "last": when every other inverted unit has reset (the
+                                   # object is released); or a unit number
+    targets = [0.3, 1.0, 2.0, 3.0] # target reset times (s); --target-reset T replaces them
+    tolerance = 0.01               # relative: met when |reset - target| <= 1 % of target
+    grasp_state = "111100"         # whose tip stiffness is reported and maximised
+                                   # (default: the hold units inverted)
+    screening = "fast"             # "fast" (where its trained scene matches), "release", "rodas4"
+    grid = {t = 11, H = 41}        # screening lines of t, points of H per line
+    search_atol = 1e-6             # mm: full model inside the root finding
+    verify_atol = 1e-7             # mm: full model of every reported design
+    prefer_fitted = true           # answer inside the fitted range when a bracket lies there
+
+    [[pickplace.unit_targets]]     # optional: reset times of named units at once
+    units = [5, 6]
+    reset = [2.657, 1.613]
+
+    [pickplace.difference]         # optional: the paper's form, max RT_2 - RT_1 and stiffness
+    profile = {P0 = 1.0, tau = [0.0, 1.0, 5.0, 5.1], t_end = 15.0}   # profile 2
+    max_reset = 6.0                # every reset under both profiles within this (s)
+    weights = [1.0, 1.0]           # optional: w1 (1/K)^2 + w2 / (RT_2 - RT_1) as the paper
+
+``dpfexplore design --target-reset T`` (:func:`with_target_reset`) replaces the targets by ``T``.
 """
 
 from __future__ import annotations
@@ -14,7 +51,7 @@ from itertools import pairwise
 from typing import Any
 
 from ....model.pressure import PressureProfile
-from ....sweep.variables import DesignVariables
+from ...spec import SceneCommon, SceneSpec
 from ...spec_fields import (
     SceneSpecError,
     _keys,
@@ -136,8 +173,8 @@ def _units(value: Any, where: str, n: int) -> tuple[int, ...]:
 _PULSE = {"P0": 0.7, "tau": [0.0, 1.0, 5.0, 5.1], "t_end": 15.0}
 
 
-def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The ``[pickplace]`` table (module docstring) -> ``{"pickplace": PickPlaceSpec}``."""
+def parse_pickplace(data: Mapping[str, Any], common: SceneCommon) -> PickPlaceSpec:
+    """The ``[pickplace]`` table (module docstring) -> :class:`PickPlaceSpec`."""
     if "pickplace" not in data:
         raise SceneSpecError("pickplace: missing [pickplace] table")
     p = _table(data, "pickplace")
@@ -161,19 +198,13 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
             "difference",
         ),
     )
-    if len(fields["n_units"]) != 1:
+    if len(common.n_units) != 1:
         raise SceneSpecError(
-            f"variables.n_units = {list(fields['n_units'])}: the pick-and-place "
+            f"variables.n_units = {list(common.n_units)}: the pick-and-place "
             "scene needs one number of units"
         )
-    n = fields["n_units"][0]
-    variables = DesignVariables(
-        n_units=n,
-        E=fields["E"],
-        nu=fields["nu"],
-        constants=fields["constants"],
-        **fields["variables"],
-    )
+    n = common.n_units[0]
+    variables = common.design_variables(n)
     names = variables.names
     if len(names) != 2 or not names[0].startswith("H_") or names[1] != "t":
         raise SceneSpecError(
@@ -261,7 +292,7 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
                 )
             weights = (w[0], w[1])
         difference = DifferenceSpec(second, max_reset, weights)
-    spec = PickPlaceSpec(
+    return PickPlaceSpec(
         pulse=pulse,
         hold_units=hold,
         reset_unit=reset_unit,
@@ -277,26 +308,25 @@ def parse_pickplace(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str
         prefer_fitted=_bool(p, "pickplace", "prefer_fitted", True),
         difference=difference,
     )
-    return {"pickplace": spec}
 
 
-def with_target_reset(spec, target: float):
+def with_target_reset(spec: SceneSpec, target: float) -> SceneSpec[PickPlaceSpec]:
     """The scene with its targets replaced by one target reset time ``target`` (s).
 
     ``--target-reset T`` of ``dpfexplore design``: the unit targets and the difference objective
     are dropped too (the command asks for one reset time). ``ValueError`` naming the option for a
     scene of another kind or a target outside the horizon.
     """
-    if spec.kind != "pickplace":
+    if not isinstance(spec.kind_spec, PickPlaceSpec):
         raise ValueError(
             f"--target-reset {target}: only for pick-and-place scenes (scene.kind = {spec.kind!r})"
         )
-    p = spec.pickplace
+    p = spec.kind_spec
     if not (math.isfinite(target) and 0 < target < p.pulse.horizon):
         raise ValueError(
             f"--target-reset {target}: must be in (0, {p.pulse.horizon:g}) s "
             "(the horizon after the release)"
         )
     return replace(
-        spec, pickplace=replace(p, targets=(float(target),), unit_targets=(), difference=None)
+        spec, kind_spec=replace(p, targets=(float(target),), unit_targets=(), difference=None)
     )

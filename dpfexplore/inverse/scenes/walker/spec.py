@@ -1,15 +1,51 @@
 """Scene file of the walker-leg scene: the ``[walker]`` table (MODEL.md §10).
 
-The file format, with every key and its default, is in :mod:`dpfexplore.inverse.scenes.timing_spec`.
-Every problem is one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line
-message starts with the dotted key. Times in s, pressures in MPa, lengths in mm.
+The ``[scene]`` table is read by :mod:`dpfexplore.inverse.scene_file`; the scene has no
+``[variables]`` table (each section's are in ``[walker.variables]``). As there, every problem is
+one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line message starts with
+the dotted key. Times in s, pressures in MPa, lengths in mm::
+
+    [scene]
+    kind = "walker_leg"
+    material = "cheetah-95a"
+    [walker]
+    leg = "walker-leg"             # base leg (example name or leg file): sections purple, green,
+                                   # action, composition, fixed design keys
+    monostable_leg = "walker-leg"  # the comparison leg, run at the scene's gait
+    legs = ["front", "middle"]
+    [walker.gait]
+    walk_pressure = 0.2            # both phases while walking
+    turn_pressure = 0.35           # phase 2 raised for one cycle: front legs turn
+    phase1 = [0.0, 0.1, 1.1, 1.2]  # tau of phase 1 (purple zone)
+    phase2 = [1.1, 1.2, 2.2, 2.3]  # tau of phase 2 (green zone and action section)
+    period = 3.0                   # phase 1 repeats after this
+    t_end = 5.0                    # tip path of one cycle
+    cycles = 2                     # cycles in the timing diagram
+    [walker.variables]             # per section: H (one bound for all its free units) and t
+    purple = {H = {min = 1.8, max = 3.2}, t = {min = 0.55, max = 0.7}}
+    green = {H = {min = 1.4, max = 2.6}, t = 1.0}
+    action = {H = {min = 2.5, max = 4.2}, t = {min = 0.9, max = 1.0}}   # the action unit only
+    [walker.requirements]
+    pressure_margin_kPa = 10.0
+    purple_reset = [1.0, 1.8]      # s after phase 1 ends: lifted through phase 2's hold, down
+                                   # before phase 1 rises again
+    purple_aim = [1.25, 1.55]      # root-finding aims of units 1 and 2 (inside the window)
+    green_class = "monostable"
+    front_action_min_reset = 3.0   # s after the raised phase 2 ends: a full gait cycle
+    front_action_aim = 3.6
+    middle_action_max_reset = 0.05 # monostable
+    min_stride_ratio = 1.5         # over the monostable leg at the same gait
+    [walker.search]
+    t_lines = 4                    # values of t tried per section
+    atol = 1e-5                    # mm: full model inside the root finding
+    verify_atol = 1e-7             # mm: full model of every reported design
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
@@ -17,6 +53,7 @@ from typing import Any
 from ....model.pressure import PressureProfile
 from ....solvers.legs.leg import Leg, load_leg
 from ....sweep.variables import DesignVariables
+from ...spec import SceneCommon
 from ...spec_fields import (
     SceneSpecError,
     _keys,
@@ -121,12 +158,16 @@ class WalkerSpec:
     t_lines: int = 4
     atol: float = 1e-5
     verify_atol: float = 1e-7
-    extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
     @property
     def n_results(self) -> int:
         """One result row per designed leg."""
         return len(self.legs)
+
+    @property
+    def n_units(self) -> tuple[int]:
+        """The scene's numbers of units: the widest section of the leg."""
+        return (max(s.design.n_units for s in self.leg.sections),)
 
 
 def _leg(value: Any, where: str) -> tuple[Leg, str]:
@@ -190,8 +231,8 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
         raise SceneSpecError(f"{where}: {exc}") from None
 
 
-def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The ``[walker]`` table (module docstring) -> ``{"walker": WalkerSpec, "n_units": ...}``."""
+def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
+    """The ``[walker]`` table (module docstring) -> :class:`WalkerSpec`."""
     if "walker" not in data:
         raise SceneSpecError("walker: missing [walker] table")
     w = _table(data, "walker")
@@ -204,7 +245,7 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
     leg, source = _leg(w.get("leg", "walker-leg"), "walker.leg")
     mono, mono_source = _leg(w.get("monostable_leg", "walker-leg"), "walker.monostable_leg")
     # The scene's material and constants set: every section of both legs.
-    scene = {"E": fields["E"], "nu": fields["nu"], "constants": fields["constants"]}
+    scene = {"E": common.E, "nu": common.nu, "constants": common.constants}
     leg = replace(
         leg, sections=tuple(replace(s, design=s.design.replace(**scene)) for s in leg.sections)
     )
@@ -266,7 +307,7 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
     if not isinstance(search, Mapping):
         raise SceneSpecError(f"walker.search = {search!r}: must be a table")
     _keys(search, "walker.search", required=(), optional=("t_lines", "atol", "verify_atol"))
-    spec = WalkerSpec(
+    return WalkerSpec(
         leg=leg,
         leg_source=source,
         monostable_leg=mono,
@@ -279,8 +320,6 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
         atol=_positive(search, "walker.search", "atol", 1e-5),
         verify_atol=_positive(search, "walker.search", "verify_atol", 1e-7),
     )
-    n_max = max(s.design.n_units for s in leg.sections)
-    return {"walker": spec, "n_units": (n_max,)}
 
 
 def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:

@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore design``."""
     from ..inverse.design import run_design
     from ..inverse.kinds import SCENE_KINDS, SCENE_OPTIONS, load_scene
-    from ..inverse.spec_fields import SceneSpecError
+    from ..inverse.scene_file import SceneSpecError
     from ..sweep.storage.result_dirs import ResultError, check_output_dir
 
     try:

@@ -7,9 +7,9 @@ scene_kind
     What a kind is (:class:`~.scene_kind.SceneKind`) and what its results offer.
 spec
     What a scene is: the parts every kind shares and the kind's own spec, as records.
-scene_file, spec_fields
-    Scene files (TOML): the tables every kind shares, read and validated; the field readers
-    every scene format shares. Design variables
+scene_file
+    Scene files (TOML): the tables every kind shares, read and validated (the fields by
+    :mod:`dpfexplore.io.toml_fields`); :class:`SceneSpecError`. Design variables
     (:class:`~dpfexplore.sweep.variables.DesignVariables`) come from the sweep stage, which
     lookup shares.
 evaluation
@@ -29,8 +29,8 @@ design
 from ..sweep.variables import DesignVariables
 from .design import design_scene, run_design
 from .kinds import load_scene, parse_scene
+from .scene_file import SceneSpecError
 from .spec import SceneSpec
-from .spec_fields import SceneSpecError
 
 __all__ = [
     "DesignVariables",

@@ -22,9 +22,10 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from ..io.toml_fields import check_keys, reported_as, table
 from ..model.constants_set import DEFAULT
 from ..model.design import resolve_constants
-from .scene_file import build_spec, read_scene_file
+from .scene_file import SceneSpecError, build_spec, read_scene_file
 from .scene_kind import SceneKind
 from .scenes.gripper import kind as gripper
 from .scenes.gripper.spec import GripperSpec
@@ -37,7 +38,6 @@ from .scenes.position_stiffness.spec import PositionStiffnessSpec
 from .scenes.walker import kind as walker
 from .scenes.walker.spec import WalkerSpec
 from .spec import SceneSpec
-from .spec_fields import SceneSpecError, _keys, _table
 
 __all__ = [
     "SCENE_KINDS",
@@ -60,6 +60,7 @@ SCENE_KINDS: dict[str, SceneKind] = {
 KindSpec = PositionSpec | PositionStiffnessSpec | GripperSpec | PickPlaceSpec | WalkerSpec
 
 
+@reported_as(SceneSpecError)
 def parse_scene(
     data: Mapping[str, Any], *, default_name: str = "scene", base: str | Path | None = None
 ) -> SceneSpec:
@@ -73,8 +74,8 @@ def parse_scene(
             "dpfexplore sweep; design scenes are in jobs/design-*.toml"
         )
     if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
-        _keys(data, "", required=("scene",), optional=tuple(data))
-        _keys(_table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
+        check_keys(data, "", required=("scene",), optional=tuple(data))
+        check_keys(table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
     name = data["scene"]["kind"]
     if not isinstance(name, str) or name not in SCENE_KINDS:
         known = ", ".join(SCENE_KINDS)

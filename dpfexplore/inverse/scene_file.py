@@ -54,7 +54,6 @@ A kind that describes its variables itself (the walker leg: one set per section)
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -62,40 +61,47 @@ from typing import Any
 
 import numpy as np
 
+from ..io.toml_fields import (
+    boolean,
+    bound,
+    check_keys,
+    integer_in,
+    plain,
+    positive_number,
+    read_toml,
+    reported_as,
+    string,
+    table,
+)
 from ..model import status as st
 from ..model.constants_set import DEFAULT
 from ..model.design import MATERIALS, Design, resolve_constants
 from ..model.domain import MAX_UNITS
+from ..sweep.job_file import JobSpecError
 from ..sweep.variables import HEIGHT_ORDERS, DesignVariables
 from .engine.settings import OptimiserSettings
 from .spec import SceneCommon, SceneSpec
-from .spec_fields import (
-    SceneSpecError,
-    _bound,
-    _keys,
-    _plain,
-    _positive,
-    _string,
-    _table,
-)
 
-__all__ = ["build_spec", "check_seeds", "read_scene_file", "reference_design"]
+__all__ = ["SceneSpecError", "build_spec", "check_seeds", "read_scene_file", "reference_design"]
+
+
+class SceneSpecError(JobSpecError):
+    """A scene file that does not validate; the message is one line naming the key."""
 
 
 def read_scene_file(path: str | Path) -> dict[str, Any]:
     """The TOML document of a scene file (:class:`SceneSpecError` if unreadable)."""
     path = Path(path)
     try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
+        with reported_as(SceneSpecError):
+            return read_toml(path)
     except OSError as exc:
         raise SceneSpecError(f"{path}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneSpecError(f"{path}: not valid TOML ({exc})") from None
     except UnicodeDecodeError:
         raise SceneSpecError(f"{path}: not a text file (a scene is TOML)") from None
 
 
+@reported_as(SceneSpecError)
 def build_spec(
     data: Mapping[str, Any],
     *,
@@ -118,20 +124,20 @@ def build_spec(
     designs included, runs on it.
     """
     own = own_variables
-    _keys(
+    check_keys(
         data,
         "",
         required=("scene",) if own else ("scene", "variables"),
         optional=("optimiser", *tables),
     )
-    scene = _table(data, "scene")
-    _keys(
+    scene = table(data, "scene")
+    check_keys(
         scene,
         "scene",
         required=("kind",),
         optional=("name", "description", "material", "E", "nu", "seed", "constants"),
     )
-    name = _string(scene, "scene", "name", default_name)
+    name = string(scene, "scene", "name", default=default_name)
     if not name.strip() or "/" in name or "\\" in name or name in (".", ".."):
         # the name is the default --out folder: it must name a folder of its own
         raise SceneSpecError(
@@ -143,16 +149,16 @@ def build_spec(
     E, nu, material = _material(scene)
     constants = DEFAULT
     if "constants" in scene:
-        written = _string(scene, "scene", "constants", "")
+        written = string(scene, "scene", "constants", default="")
         try:
             constants = resolve_constants(written, base)
         except ValueError as exc:
             raise SceneSpecError(f"scene.constants = {written!r}: {exc}") from None
-    n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
+    n_units, variables = ((), {}) if own else _variables(table(data, "variables"))
     common = SceneCommon(
         kind=kind,
         name=name,
-        description=_string(scene, "scene", "description", ""),
+        description=string(scene, "scene", "description", default=""),
         seed=seed,
         E=E,
         nu=nu,
@@ -160,7 +166,7 @@ def build_spec(
         n_units=n_units,
         variables=variables,
         optimiser=_optimiser(data.get("optimiser", {})),
-        document=_plain(data),
+        document=plain(data),
         constants=constants,
     )
     kind_spec = parse(data, common)
@@ -200,35 +206,35 @@ def _check_box_holds_designs(variables: DesignVariables) -> None:
 # ----------------------------------------------------------------------------- pieces
 
 
-def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
-    _keys(
-        table,
+def _variables(given: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
+    check_keys(
+        given,
         "variables",
         required=("n_units", "H", "U_L", "U_sep", "t", "t_lim"),
         optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep", "min_step"),
     )
-    n_units = _n_units(table["n_units"])
+    n_units = _n_units(given["n_units"])
     out: dict[str, Any] = {}
-    H = table["H"]
+    H = given["H"]
     if isinstance(H, list):
         if len(n_units) != 1 or len(H) != n_units[0]:
             raise SceneSpecError(
                 f"variables.H = {H!r}: one entry per unit needs one N (variables.n_units) and "
                 f"{n_units[0] if len(n_units) == 1 else 'N'} entries"
             )
-        out["H"] = [_bound(v, f"variables.H[{k}]") for k, v in enumerate(H)]
+        out["H"] = [bound(v, f"variables.H[{k}]") for k, v in enumerate(H)]
     else:
-        out["H"] = _bound(H, "variables.H")
+        out["H"] = bound(H, "variables.H")
     for name in ("U_L", "U_sep", "t", "t_lim"):
-        out[name] = _bound(table[name], f"variables.{name}")
-    heights = table.get("heights", "free")
+        out[name] = bound(given[name], f"variables.{name}")
+    heights = given.get("heights", "free")
     if heights not in HEIGHT_ORDERS:
         raise SceneSpecError(
             f"variables.heights = {heights!r}: must be one of {', '.join(HEIGHT_ORDERS)}"
         )
     out["heights"] = heights
-    if "ordered_units" in table:
-        units = table["ordered_units"]
+    if "ordered_units" in given:
+        units = given["ordered_units"]
         if (
             not isinstance(units, list)
             or not units
@@ -243,16 +249,16 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
                 f"variables.ordered_units = {units!r}: unit beyond N = {min(n_units)}"
             )
         out["ordered_units"] = tuple(units)
-    if "tied" in table:
-        tied = table["tied"]
+    if "tied" in given:
+        tied = given["tied"]
         if not isinstance(tied, list) or not all(
             isinstance(g, list) and all(isinstance(u, int) and not isinstance(u, bool) for u in g)
             for g in tied
         ):
             raise SceneSpecError(f"variables.tied = {tied!r}: need lists of unit numbers")
         out["tied"] = tuple(tuple(g) for g in tied)
-    if "min_step" in table:
-        step = table["min_step"]
+    if "min_step" in given:
+        step = given["min_step"]
         if (
             isinstance(step, bool)
             or not isinstance(step, (int, float))
@@ -262,10 +268,7 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
             raise SceneSpecError(f"variables.min_step = {step!r}: must be a number >= 0 mm")
         out["min_step"] = float(step)
     for name in ("shared_U_L", "shared_U_sep"):
-        value = table.get(name, True)
-        if not isinstance(value, bool):
-            raise SceneSpecError(f"variables.{name} = {value!r}: must be true or false")
-        out[name] = value
+        out[name] = boolean(given, "variables", name, default=True)
     return n_units, out
 
 
@@ -278,7 +281,7 @@ def _n_units(value: Any) -> tuple[int, ...]:
         return v
 
     if isinstance(value, Mapping):
-        _keys(value, where, required=("min", "max"), optional=())
+        check_keys(value, where, required=("min", "max"), optional=())
         low, high = unit(value["min"]), unit(value["max"])
         if low > high:
             raise SceneSpecError(f"{where} = {{min = {low}, max = {high}}}: empty range")
@@ -303,11 +306,11 @@ def _material(scene: Mapping[str, Any]) -> tuple[float, float, str]:
         return preset.E, _poisson(scene, preset.nu), key.lower()
     if "E" not in scene:
         raise SceneSpecError("scene.material: missing; give material or E")
-    return _positive(scene, "scene", "E", 26.0), _poisson(scene, 0.35), ""
+    return positive_number(scene, "scene", "E", 26.0), _poisson(scene, 0.35), ""
 
 
 def _poisson(scene: Mapping[str, Any], default: float) -> float:
-    nu = _positive(scene, "scene", "nu", default, allow_zero=True)
+    nu = positive_number(scene, "scene", "nu", default, allow_zero=True)
     if not nu < 0.5:
         raise SceneSpecError(f"scene.nu = {nu!r}: a Poisson ratio must be in [0, 0.5)")
     return nu
@@ -349,27 +352,24 @@ def reference_design(
 def _optimiser(value: Any) -> OptimiserSettings:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"optimiser = {value!r}: must be a table")
-    _keys(
+    check_keys(
         value,
         "optimiser",
         required=(),
         optional=("candidates_per_n", "starts_per_n", "max_iter", "seeds", "seeds_per_n"),
     )
-    out: dict[str, Any] = {}
-    if "seeds" in value:
-        out["seeds"] = check_seeds(value["seeds"], "optimiser.seeds")
-    for key, (low, high) in (
-        ("candidates_per_n", (2, 1 << 20)),
-        ("starts_per_n", (1, 1000)),
-        ("max_iter", (1, 10000)),
-        ("seeds_per_n", (1, 10000)),
-    ):
-        if key in value:
-            v = value[key]
-            if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
-                raise SceneSpecError(f"optimiser.{key} = {v!r}: an integer in [{low}, {high}]")
-            out[key] = v
-    return OptimiserSettings(**out)
+    default = OptimiserSettings()
+    seeds = check_seeds(value["seeds"], "optimiser.seeds") if "seeds" in value else None
+    counts = {
+        key: integer_in(value, "optimiser", key, default=getattr(default, key), low=low, high=high)
+        for key, (low, high) in (
+            ("candidates_per_n", (2, 1 << 20)),
+            ("starts_per_n", (1, 1000)),
+            ("max_iter", (1, 10000)),
+            ("seeds_per_n", (1, 10000)),
+        )
+    }
+    return OptimiserSettings(seeds=seeds, **counts)
 
 
 def check_seeds(value: Any, where: str) -> str:

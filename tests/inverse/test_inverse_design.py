@@ -20,9 +20,9 @@ from dpfexplore.cli import main
 from dpfexplore.inverse.design import design_scene
 from dpfexplore.inverse.evaluation import SceneEvaluator
 from dpfexplore.inverse.kinds import load_scene, parse_scene
+from dpfexplore.inverse.scene_file import SceneSpecError
 from dpfexplore.inverse.scenes.gripper.problem import GripperProblem
 from dpfexplore.inverse.scenes.position.problem import PositionProblem
-from dpfexplore.inverse.spec_fields import SceneSpecError
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.model.gripper import gripper_aperture
 from dpfexplore.solvers.lattice import lattice_params, spring_constants

@@ -19,11 +19,11 @@ from dpfexplore import Design, DesignBatch, PressureProfile, simulate
 from dpfexplore.cli import main
 from dpfexplore.inverse.engine.roots import grow_bracket, root_on_line
 from dpfexplore.inverse.kinds import load_scene
+from dpfexplore.inverse.scene_file import SceneSpecError
 from dpfexplore.inverse.scenes.pickplace.problem import ResetEval, line_brackets
 from dpfexplore.inverse.scenes.pickplace.spec import with_target_reset
 from dpfexplore.inverse.scenes.walker.report import inverted_intervals
 from dpfexplore.inverse.scenes.walker.solve import violation
-from dpfexplore.inverse.spec_fields import SceneSpecError
 from dpfexplore.solvers.dynamics.ramp import inversion_pressures
 from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
 

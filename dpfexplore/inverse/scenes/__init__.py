@@ -19,7 +19,4 @@ pickplace
     Pick-and-place units: reset times by design (screening, brackets, roots, fronts).
 walker
     Walker-leg zones that keep time: legs composed from section runs, inversion pressures.
-
-timing_fields
-    Checks of scene-file values both timing scenes use.
 """

@@ -1,7 +1,7 @@
 """Scene file of the multi-aperture gripper: its ``[gripper]`` table (MODEL.md §7, §9).
 
 The tables every kind shares are read by :mod:`dpfexplore.inverse.scene_file`; as there, every
-problem is one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line message
+problem is one :class:`~dpfexplore.inverse.scene_file.SceneSpecError` whose one-line message
 starts with the dotted key. Lengths in mm, pressures in MPa (``min_window_kPa`` in kPa), times
 in s::
 
@@ -32,11 +32,11 @@ from dataclasses import dataclass
 from itertools import pairwise
 from typing import Any
 
+from ....io.toml_fields import check_keys, interval, numbers, positive_number, string, table
 from ....model.design import Design
 from ....model.pressure import PressureProfile
-from ...scene_file import reference_design
+from ...scene_file import SceneSpecError, reference_design
 from ...spec import SceneCommon
-from ...spec_fields import SceneSpecError, _keys, _numbers, _positive, _range, _string, _table
 
 __all__ = ["GripperSpec", "parse_gripper"]
 
@@ -98,8 +98,8 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
             raise SceneSpecError(f"{key}: not used by kind 'gripper' (its targets are [gripper])")
     if "gripper" not in data:
         raise SceneSpecError("gripper: missing [gripper] table")
-    g = _table(data, "gripper")
-    _keys(
+    g = table(data, "gripper")
+    check_keys(
         g,
         "gripper",
         required=("states", "apertures"),
@@ -127,8 +127,8 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
         or not all(isinstance(s, str) and len(s) == n and not set(s) - {"0", "1"} for s in states)
     ):
         raise SceneSpecError(f"gripper.states = {states!r}: need bit strings of {n} characters")
-    apertures = _numbers(g["apertures"], "gripper.apertures", length=len(states), unit="mm")
-    activated = _string(g, "gripper", "activated", states[-1])
+    apertures = numbers(g["apertures"], "gripper.apertures", length=len(states), unit="mm")
+    activated = string(g, "gripper", "activated", default=states[-1])
     if len(activated) != n or set(activated) - {"0", "1"}:
         raise SceneSpecError(f"gripper.activated = {activated!r}: need {n} characters 0/1")
     unit = g.get("metastable_unit", n)
@@ -137,12 +137,12 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
     pulse = g.get("pulse", {"P0": 0.7, "tau": [0.0, 0.5, 1.0, 1.1], "t_end": 2.0})
     if not isinstance(pulse, Mapping):
         raise SceneSpecError(f"gripper.pulse = {pulse!r}: must be a table")
-    _keys(pulse, "gripper.pulse", required=("P0", "tau"), optional=("t_end",))
-    tau = _numbers(pulse["tau"], "gripper.pulse.tau", length=4, unit="s")
+    check_keys(pulse, "gripper.pulse", required=("P0", "tau"), optional=("t_end",))
+    tau = numbers(pulse["tau"], "gripper.pulse.tau", length=4, unit="s")
     if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
         raise SceneSpecError(f"gripper.pulse.tau = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
-    t_end = _positive(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
-    pulse_P0 = _positive(pulse, "gripper.pulse", "P0", 0.7)
+    t_end = positive_number(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
+    pulse_P0 = positive_number(pulse, "gripper.pulse", "P0", 0.7)
     try:  # the pressure range every entry point holds, checked before the optimisation
         PressureProfile.pulse(pulse_P0, tau)
     except ValueError as exc:
@@ -158,15 +158,15 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
     return GripperSpec(
         states=tuple(states),
         apertures=tuple(apertures),
-        aperture_tol=_positive(g, "gripper", "aperture_tol", 0.05),
+        aperture_tol=positive_number(g, "gripper", "aperture_tol", 0.05),
         activated=activated,
-        theta_B_deg=_range(
+        theta_B_deg=interval(
             g.get("theta_B_deg", {"min": -60.0, "max": 0.0}), "gripper.theta_B_deg", positive=False
         ),
-        base_L=_range(g.get("base_L", {"min": 5.0, "max": 40.0}), "gripper.base_L"),
-        min_window_kPa=_positive(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
+        base_L=interval(g.get("base_L", {"min": 5.0, "max": 40.0}), "gripper.base_L"),
+        min_window_kPa=positive_number(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
         metastable_unit=unit,
-        min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
+        min_reset_s=positive_number(g, "gripper", "min_reset_s", 0.05),
         pulse_P0=pulse_P0,
         pulse_tau=tuple(tau),
         pulse_t_end=t_end,

@@ -2,7 +2,7 @@
 
 The tables every kind shares (``[scene]``, ``[variables]``, ``[optimiser]``) are read by
 :mod:`dpfexplore.inverse.scene_file`; this module reads the kind's own. As there, every problem
-is one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line message starts with
+is one :class:`~dpfexplore.inverse.scene_file.SceneSpecError` whose one-line message starts with
 the dotted key. Lengths in mm (model frame of MODEL.md §5)::
 
     [scene]
@@ -27,10 +27,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
+from ....io.toml_fields import check_keys, numbers, positive_number, string
 from ....model.design import Design
-from ...scene_file import check_seeds, reference_design
+from ...scene_file import SceneSpecError, check_seeds, reference_design
 from ...spec import SceneCommon, SceneSpec
-from ...spec_fields import SceneSpecError, _keys, _numbers, _positive, _string
 
 __all__ = [
     "MAX_TARGET_DISTANCE",
@@ -102,8 +102,8 @@ def read_position(
     targets = []
     for i, entry in enumerate(raw):
         where = f"targets[{i}]"
-        _keys(entry, where, required=("point",), optional=("reference",))
-        point = _numbers(entry["point"], f"{where}.point", length=2, unit="mm")
+        check_keys(entry, where, required=("point",), optional=("reference",))
+        point = numbers(entry["point"], f"{where}.point", length=2, unit="mm")
         if max(abs(point[0]), abs(point[1])) > MAX_TARGET_DISTANCE:
             raise SceneSpecError(
                 f"{where}.point = {list(point)}: more than {MAX_TARGET_DISTANCE:g} mm from the "
@@ -116,15 +116,17 @@ def read_position(
     objective = data.get("objective", {})
     if not isinstance(objective, Mapping):
         raise SceneSpecError(f"objective = {objective!r}: must be a table")
-    _keys(objective, "objective", required=(), optional=("state", "tolerance", *objective_keys))
-    state = _string(objective, "objective", "state", "all_inverted")
+    check_keys(
+        objective, "objective", required=(), optional=("state", "tolerance", *objective_keys)
+    )
+    state = string(objective, "objective", "state", default="all_inverted")
     if state != "all_inverted":
         if len(common.n_units) != 1 or len(state) != common.n_units[0] or set(state) - {"0", "1"}:
             raise SceneSpecError(
                 f"objective.state = {state!r}: 'all_inverted', or a bit string of N characters "
                 "when variables.n_units is one number"
             )
-    tolerance = _positive(objective, "objective", "tolerance", 1e-6)
+    tolerance = positive_number(objective, "objective", "tolerance", 1e-6)
     return tuple(targets), state, tolerance, objective
 
 

@@ -17,8 +17,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ....io.toml_fields import numbers
+from ...scene_file import SceneSpecError
 from ...spec import SceneCommon
-from ...spec_fields import SceneSpecError, _numbers
 from ..position.spec import PositionSpec, read_position
 
 __all__ = ["DEFAULT_FRONT", "PositionStiffnessSpec", "parse_position_stiffness"]
@@ -49,12 +50,12 @@ def parse_position_stiffness(data: Mapping[str, Any], common: SceneCommon) -> Po
         data, common, objective_keys=("front", "weights")
     )
     front = objective.get("front", list(DEFAULT_FRONT))
-    front = _numbers(front, "objective.front", length=None, unit="mm")
+    front = numbers(front, "objective.front", length=None, unit="mm")
     if not front or any(v <= 0 for v in front):
         raise SceneSpecError(f"objective.front = {front!r}: need tolerances > 0 mm")
     weights = None
     if "weights" in objective:
-        w = _numbers(objective["weights"], "objective.weights", length=2, unit="")
+        w = numbers(objective["weights"], "objective.weights", length=2, unit="")
         if any(v < 0 for v in w) or not any(v > 0 for v in w):
             raise SceneSpecError(f"objective.weights = {list(w)!r}: need w >= 0, not both 0")
         weights = (w[0], w[1])

@@ -2,7 +2,7 @@
 
 The ``[scene]`` table is read by :mod:`dpfexplore.inverse.scene_file`; the scene has no
 ``[variables]`` table (each section's are in ``[walker.variables]``). As there, every problem is
-one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line message starts with
+one :class:`~dpfexplore.inverse.scene_file.SceneSpecError` whose one-line message starts with
 the dotted key. Times in s, pressures in MPa, lengths in mm::
 
     [scene]
@@ -50,20 +50,20 @@ from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
+from ....io.toml_fields import (
+    check_keys,
+    integer_in,
+    interval,
+    numbers,
+    positive_number,
+    string,
+    table,
+)
 from ....model.pressure import PressureProfile
 from ....solvers.legs.leg import Leg, load_leg
 from ....sweep.variables import DesignVariables
+from ...scene_file import SceneSpecError
 from ...spec import SceneCommon
-from ...spec_fields import (
-    SceneSpecError,
-    _keys,
-    _numbers,
-    _positive,
-    _range,
-    _string,
-    _table,
-)
-from ..timing_fields import integer as _integer
 
 __all__ = [
     "LEG_KINDS",
@@ -196,11 +196,11 @@ def _leg(value: Any, where: str) -> tuple[Leg, str]:
 def _section_variables(value: Any, where: str, design, role: str) -> DesignVariables:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{where} = {value!r}: must be a table {{H, t}}")
-    _keys(value, where, required=("H",), optional=("t",))
+    check_keys(value, where, required=("H",), optional=("t",))
 
-    def bound(v: Any, key: str):
+    def section_bound(v: Any, key: str):
         if isinstance(v, Mapping):
-            return _range(v, key)
+            return interval(v, key)
         if (
             isinstance(v, bool)
             or not isinstance(v, (int, float))
@@ -209,8 +209,8 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
             raise SceneSpecError(f"{key} = {v!r}: give a number or {{min, max}}")
         return float(v)
 
-    H = bound(value["H"], f"{where}.H")
-    t = bound(value.get("t", design.t), f"{where}.t")
+    H = section_bound(value["H"], f"{where}.H")
+    t = section_bound(value.get("t", design.t), f"{where}.t")
     n = design.n_units
     heights = [H, *design.H[1:]] if role == "action" else [H] * n
     try:
@@ -235,8 +235,8 @@ def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
     """The ``[walker]`` table (module docstring) -> :class:`WalkerSpec`."""
     if "walker" not in data:
         raise SceneSpecError("walker: missing [walker] table")
-    w = _table(data, "walker")
-    _keys(
+    w = table(data, "walker")
+    check_keys(
         w,
         "walker",
         required=("gait", "variables"),
@@ -260,16 +260,16 @@ def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
         or len(set(legs)) != len(legs)
     ):
         raise SceneSpecError(f"walker.legs = {legs!r}: distinct entries of {', '.join(LEG_KINDS)}")
-    g = _table(w, "gait")
+    g = table(w, "gait")
     where = "walker.gait"
-    _keys(
+    check_keys(
         g,
         where,
         required=("walk_pressure", "phase1", "phase2", "period"),
         optional=("turn_pressure", "t_end", "cycles"),
     )
-    walk = _positive(g, where, "walk_pressure", 0.2)
-    turn = _positive(g, where, "turn_pressure", walk)
+    walk = positive_number(g, where, "walk_pressure", 0.2)
+    turn = positive_number(g, where, "turn_pressure", walk)
     if "front" in legs and turn <= walk:
         raise SceneSpecError(
             f"{where}.turn_pressure = {turn}: must be above walk_pressure = "
@@ -277,25 +277,25 @@ def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
         )
     phases = []
     for key in ("phase1", "phase2"):
-        tau = _numbers(g[key], f"{where}.{key}", length=4, unit="s")
+        tau = numbers(g[key], f"{where}.{key}", length=4, unit="s")
         if tau[0] < 0 or any(b < a for a, b in pairwise(tau)):
             raise SceneSpecError(f"{where}.{key} = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
         phases.append((tau[0], tau[1], tau[2], tau[3]))
-    period = _positive(g, where, "period", 3.0)
+    period = positive_number(g, where, "period", 3.0)
     if period < max(phases[0][3], phases[1][3]) - min(phases[0][0], phases[1][0]):
         raise SceneSpecError(f"{where}.period = {period}: shorter than one cycle of both phases")
-    t_end = _positive(g, where, "t_end", max(phases[0][3], phases[1][3]) + 2.0)
+    t_end = positive_number(g, where, "t_end", max(phases[0][3], phases[1][3]) + 2.0)
     if t_end < max(phases[0][3], phases[1][3]):
         raise SceneSpecError(f"{where}.t_end = {t_end}: before the phases end")
-    cycles = _integer(g, where, "cycles", 2, 1, 20)
+    cycles = integer_in(g, where, "cycles", default=2, low=1, high=20)
     gait = GaitSpec(walk, turn, phases[0], phases[1], period, t_end, cycles)
     try:
         for number in (1, 2):
             gait.phase(number, cycles=cycles, raised_first=True)
     except ValueError as exc:
         raise SceneSpecError(f"{where}: {exc}") from None
-    v = _table(w, "variables")
-    _keys(v, "walker.variables", required=LEG_ROLES, optional=())
+    v = table(w, "variables")
+    check_keys(v, "walker.variables", required=LEG_ROLES, optional=())
     variables = {
         role: _section_variables(
             v[role], f"walker.variables.{role}", leg.section(role).design, role
@@ -306,7 +306,7 @@ def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
     search = w.get("search", {})
     if not isinstance(search, Mapping):
         raise SceneSpecError(f"walker.search = {search!r}: must be a table")
-    _keys(search, "walker.search", required=(), optional=("t_lines", "atol", "verify_atol"))
+    check_keys(search, "walker.search", required=(), optional=("t_lines", "atol", "verify_atol"))
     return WalkerSpec(
         leg=leg,
         leg_source=source,
@@ -316,9 +316,9 @@ def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
         gait=gait,
         variables=variables,
         requirements=requirements,
-        t_lines=_integer(search, "walker.search", "t_lines", 4, 1, 100),
-        atol=_positive(search, "walker.search", "atol", 1e-5),
-        verify_atol=_positive(search, "walker.search", "verify_atol", 1e-7),
+        t_lines=integer_in(search, "walker.search", "t_lines", default=4, low=1, high=100),
+        atol=positive_number(search, "walker.search", "atol", 1e-5),
+        verify_atol=positive_number(search, "walker.search", "verify_atol", 1e-7),
     )
 
 
@@ -327,7 +327,7 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{where} = {value!r}: must be a table")
     names = WalkerRequirements.__dataclass_fields__
-    _keys(value, where, required=(), optional=tuple(names))
+    check_keys(value, where, required=(), optional=tuple(names))
     base = WalkerRequirements(
         front_action_min_reset=gait.period, front_action_aim=1.2 * gait.period
     )
@@ -339,9 +339,9 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
         "middle_action_max_reset",
         "min_stride_ratio",
     ):
-        out[key] = _positive(value, where, key, getattr(base, key), allow_zero=True)
+        out[key] = positive_number(value, where, key, getattr(base, key), allow_zero=True)
     for key in ("purple_reset", "purple_aim"):
-        pair = _numbers(
+        pair = numbers(
             value.get(key, list(getattr(base, key))), f"{where}.{key}", length=2, unit="s"
         )
         if any(v <= 0 for v in pair):
@@ -360,7 +360,7 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
             f"{where}.front_action_aim = {out['front_action_aim']}: below "
             f"front_action_min_reset = {out['front_action_min_reset']}"
         )
-    green = _string(value, where, "green_class", base.green_class)
+    green = string(value, where, "green_class", default=base.green_class)
     if green not in ("monostable", "metastable", "any"):
         raise SceneSpecError(f"{where}.green_class = {green!r}: monostable, metastable or any")
     out["green_class"] = green

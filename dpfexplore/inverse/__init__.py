@@ -18,8 +18,7 @@ engine
     Scene-agnostic numerics (imports no scene, reads no kind): problems, candidates,
     trust-region refinement, fronts, roots, differences.
 scenes
-    One package per scene kind (position, position_stiffness, gripper, pickplace, walker): its
-    spec, problem, solve, report, text summary and record.
+    One package per scene kind: its spec, problem, solve, report, text summary and record.
 report
     What every kind's report shares: verified re-solves, the summary and history files.
 design

@@ -11,8 +11,7 @@ computed or written for a scene that does not validate.
 The shared tables (lengths in mm, ``E`` in MPa; model frame of MODEL.md §5)::
 
     [scene]
-    kind = "position"             # a kind of SCENE_KINDS: "position", "position_stiffness",
-                                  # "gripper", "pickplace", "walker_leg"
+    kind = "position"             # one of dpfexplore.inverse.kinds.SCENE_KINDS
     name = "design-position-cheetah"   # default output directory results/<name>
     description = "..."           # free text
     material = "cheetah-95a"      # or "ninjaflex-85a"; or give E (and nu) instead
@@ -45,10 +44,8 @@ The shared tables (lengths in mm, ``E`` in MPa; model frame of MODEL.md §5)::
     seeds_per_n = 8               # seeds per N
 
 A kind that describes its variables itself (the walker leg: one set per section) has no
-``[variables]`` table. The kinds' own tables: :mod:`dpfexplore.inverse.scenes.position.spec`,
-:mod:`dpfexplore.inverse.scenes.position_stiffness.spec`,
-:mod:`dpfexplore.inverse.scenes.gripper.spec`, :mod:`dpfexplore.inverse.scenes.pickplace.spec`,
-:mod:`dpfexplore.inverse.scenes.walker.spec`.
+``[variables]`` table. Each kind's own tables are in the docstring of its ``spec`` module,
+``dpfexplore.inverse.scenes.<kind>.spec`` (e.g. :mod:`dpfexplore.inverse.scenes.position.spec`).
 """
 
 from __future__ import annotations

@@ -216,8 +216,8 @@ def _summary(evaluator, paper: float, ours_evals: float, ours_wall: float) -> di
 
 def bench_position(spec, index: int, material: str, args) -> dict:
     """One position target: ours, TPE and GP-BO."""
-    from ..inverse.engine.optimiser import position_problems, solve_position_target
     from ..inverse.evaluation import SceneEvaluator
+    from ..inverse.scenes.position.solve import position_problems, solve_position_target
 
     paper = PAPER_OBJECTIVES[material][index]
     ours = SceneEvaluator(max(spec.n_units))
@@ -225,7 +225,7 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     mine = _summary(ours, paper, np.inf, np.inf)
     methods = {"ours": mine}
     if not args.no_seeded:
-        from ..inverse.scene_file import with_seeds
+        from ..inverse.scenes.position.spec import with_seeds
 
         seeded_spec = with_seeds(spec, seed_dataset(spec, args.seed_datasets))
         seeded = SceneEvaluator(max(spec.n_units))  # its clock starts here: after the one-off open
@@ -238,14 +238,14 @@ def bench_position(spec, index: int, material: str, args) -> dict:
             problems = {p.n_units: p for p in position_problems(spec, index, evaluator)}
             runner(
                 problems,
-                _position_objective(problems, spec.targets[index].point),
+                _position_objective(problems, spec.kind_spec.targets[index].point),
                 budget,
                 args.seed,
             )
             methods[name] = _summary(evaluator, paper, mine["evals"], mine["wall_s"])
         except ImportError as exc:
             methods[name] = {"error": f"not installed ({exc.name}): pip install -e '.[baselines]'"}
-    return _row("position", spec.targets[index].point, material, paper, methods)
+    return _row("position", spec.kind_spec.targets[index].point, material, paper, methods)
 
 
 def seed_dataset(spec, made: dict[str, dict]) -> str:
@@ -337,7 +337,7 @@ def bench_gripper(args) -> dict:
             methods[name] = _summary(evaluator, 0.05**2, mine["evals"], mine["wall_s"])
         except ImportError as exc:
             methods[name] = {"error": f"not installed ({exc.name}): pip install -e '.[baselines]'"}
-    return _row("gripper", spec.gripper.apertures, spec.material, 0.05**2, methods)
+    return _row("gripper", spec.kind_spec.apertures, spec.material, 0.05**2, methods)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -135,7 +135,7 @@ def bench_pickplace(args, jobs) -> list[dict]:
     rows = []
     for target in [float(v) for v in args.pickplace_targets.split(",") if v]:
         spec = with_target_reset(base, target)
-        goal = spec.pickplace.tolerance
+        goal = spec.kind_spec.tolerance
         ours_ev = SceneEvaluator(max(spec.n_units))
         solve_pickplace(spec, 0, ours_ev)
         tight = SEARCH_FRACTION * goal
@@ -150,7 +150,7 @@ def bench_pickplace(args, jobs) -> list[dict]:
                     z[None, :],
                     purpose="baseline",
                     method="rodas4",
-                    atol=spec.pickplace.search_atol,
+                    atol=spec.kind_spec.search_atol,
                     objective_target=target,
                 )
                 value = float(ev.value[0])
@@ -174,8 +174,8 @@ def bench_walker(args, jobs) -> list[dict]:
 
     base = load_scene(jobs / "design-walker-leg.toml")
     rows = []
-    for kind in base.walker.legs:
-        spec = replace(base, walker=replace(base.walker, legs=(kind,)))
+    for kind in base.kind_spec.legs:
+        spec = replace(base, kind_spec=replace(base.kind_spec, legs=(kind,)))
         ours_ev = SceneEvaluator(4)
         solve_walker(spec, 0, ours_ev)
         ours = _summary(ours_ev, 0.0)
@@ -183,7 +183,7 @@ def bench_walker(args, jobs) -> list[dict]:
         try:
             evaluator = SceneEvaluator(4)
             search = WalkerSearch(spec, evaluator)
-            variables = spec.walker.variables
+            variables = spec.kind_spec.variables
             sizes = {role: variables[role].n_variables for role in ("purple", "green", "action")}
 
             f = _leg_objective(search, variables, sizes, kind, violation)

@@ -1,34 +1,35 @@
 """Inverse design: from what a finger must do to verified designs.
 
 kinds
-    :data:`~.kinds.SCENE_KINDS`: one record per scene kind (tables, parser, solver, report,
-    writer), and :func:`load_scene` / :func:`parse_scene`.
+    :data:`~.kinds.SCENE_KINDS`: one record per scene kind, listed in one literal table, and
+    :func:`load_scene` / :func:`parse_scene`.
+scene_kind
+    What a kind is (:class:`~.scene_kind.SceneKind`) and what its results offer.
 spec
-    What a scene is: targets, variables, material, objective, budget, as records.
-scene_file, spec_fields
-    Scene files (TOML): the format of the shape kinds, read and validated into a scene spec; the
-    field readers every scene format shares.
-    Design variables (:class:`~dpfexplore.sweep.variables.DesignVariables`) come from the sweep
-    stage, which lookup shares.
+    What a scene is: the parts every kind shares and the kind's own spec, as records.
+scene_file
+    Scene files (TOML): the tables every kind shares, read and validated (the fields by
+    :mod:`dpfexplore.io.toml_fields`); :class:`SceneSpecError`. Design variables
+    (:class:`~dpfexplore.model.variables.DesignVariables`) come from the model stage, which
+    lookup shares.
 evaluation
     :class:`SceneEvaluator`: every exact model solve of a scene, counted by kind and recorded.
-problem
-    The problems of the shape scenes: residuals and stiffness of box points.
 engine
-    Scene-agnostic numerics: candidates, trust-region refinement, fronts, differences.
+    Scene-agnostic numerics (imports no scene, reads no kind): problems, candidates,
+    trust-region refinement, fronts, roots, differences.
 scenes
-    One package per timing or gripper scene kind (gripper, pickplace, walker).
+    One package per scene kind: its spec, problem, solve, report, text summary and record.
 report
-    Verification of every reported design and the report files of the shape scenes.
+    What every kind's report shares: verified re-solves, the summary and history files.
 design
-    :func:`design_scene`: the loop over a scene's targets.
+    :func:`design_scene`: the loop over a scene's result rows; :func:`run_design` writes them.
 """
 
 from ..model.variables import DesignVariables
 from .design import design_scene, run_design
 from .kinds import load_scene, parse_scene
+from .scene_file import SceneSpecError
 from .spec import SceneSpec
-from .spec_fields import SceneSpecError
 
 __all__ = [
     "DesignVariables",

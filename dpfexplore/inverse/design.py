@@ -4,15 +4,16 @@
 
     >>> from dpfexplore.inverse import load_scene, design_scene
     >>> outcome = design_scene(load_scene("jobs/design-position-cheetah.toml"))  # doctest: +SKIP
-    >>> outcome.rows[1]["tip"], outcome.rows[1]["objective"]                   # doctest: +SKIP
+    >>> outcome.results[1].reachable, outcome.rows[1]["objective"]            # doctest: +SKIP
 
 Each kind's solver, report and writer come from its record in
-:data:`dpfexplore.inverse.kinds.SCENE_KINDS`.
+:data:`dpfexplore.inverse.kinds.SCENE_KINDS`; nothing here knows a kind.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -20,6 +21,7 @@ from typing import Any, Protocol
 from ..io.result_dirs import check_output_dir, result_directory
 from .evaluation import SceneEvaluator
 from .kinds import SCENE_KINDS
+from .scene_kind import SceneResult
 from .spec import SceneSpec
 
 __all__ = [
@@ -44,15 +46,30 @@ class TargetProgress(Protocol):
 
 @dataclass
 class DesignOutcome:
-    """A solved scene: one verified row per target, the evaluator (counts, history), wall time."""
+    """A solved scene: one verified result per row, the evaluator (counts, history), wall time.
+
+    Attributes
+    ----------
+    spec : SceneSpec
+    results : list of SceneResult
+        The kind's result records (:class:`~.scene_kind.SceneResult`).
+    evaluator : SceneEvaluator
+    wall_s : float
+        Seconds of the whole solve.
+    """
 
     spec: SceneSpec
-    rows: list[dict[str, Any]]
+    results: list[SceneResult]
     evaluator: SceneEvaluator
     wall_s: float
 
+    @property
+    def rows(self) -> list[dict[str, Any]]:
+        """The results as ``--json`` rows (what ``summary.json`` holds)."""
+        return [r.to_dict() for r in self.results]
 
-def _progress_text(i: int, total: int, row: dict[str, Any]) -> str:
+
+def _progress_text(i: int, total: int, row: Mapping[str, Any]) -> str:
     objective = row.get("objective")
     shown = f"{objective:.3g}" if isinstance(objective, (int, float)) else str(objective)
     return f"result {i + 1}/{total} {row.get('target')}: objective {shown}"
@@ -62,15 +79,16 @@ def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> 
     """Solve every target of a scene and verify every reported design."""
     evaluator = SceneEvaluator(max(spec.n_units))
     kind = SCENE_KINDS[spec.kind]
-    total = kind.n_results(spec)
+    total = spec.kind_spec.n_results
     if progress is not None:
         progress.start(total)
-    rows = []
+    results = []
     try:
         for i in range(total):
-            result = kind.solve(spec, i, evaluator)
-            row = kind.report(spec, result, evaluator)
-            rows.append(row)
+            outcome = kind.solve(spec, i, evaluator)
+            result = kind.report(spec, outcome, evaluator)
+            results.append(result)
+            row = result.to_dict()
             logger.info(
                 "target %d: objective %s, %s",
                 i + 1,
@@ -82,7 +100,7 @@ def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> 
     finally:
         if progress is not None:
             progress.close()
-    return DesignOutcome(spec=spec, rows=rows, evaluator=evaluator, wall_s=evaluator.wall_s)
+    return DesignOutcome(spec=spec, results=results, evaluator=evaluator, wall_s=evaluator.wall_s)
 
 
 def run_design(
@@ -96,9 +114,9 @@ def run_design(
     """Solve a scene and write its report to the result directory ``out``.
 
     ``out`` is checked before the solve
-    (:func:`~dpfexplore.sweep.storage.result_dirs.check_output_dir`: a directory holding another
+    (:func:`~dpfexplore.io.result_dirs.check_output_dir`: a directory holding another
     result needs ``force``) and written complete or not at all
-    (:func:`~dpfexplore.sweep.storage.result_dirs.result_directory`): files of an earlier run are
+    (:func:`~dpfexplore.io.result_dirs.result_directory`): files of an earlier run are
     never mixed with this one's.
     """
     check_output_dir(out, force=force)
@@ -107,9 +125,9 @@ def run_design(
     facts = {
         "scene": spec.name,
         "kind": spec.kind,
-        "results": len(outcome.rows),
+        "results": len(outcome.results),
         "constants": spec.constants.fingerprint,
     }
     with result_directory(out, kind="design", force=force, description=facts) as staging:
-        writer(spec, outcome.rows, outcome.evaluator, staging, wall_s=outcome.wall_s, plot=plot)
+        writer(spec, outcome.results, outcome.evaluator, staging, wall_s=outcome.wall_s, plot=plot)
     return outcome

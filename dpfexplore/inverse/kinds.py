@@ -1,144 +1,66 @@
 """Scene kinds: one record per kind, in one literal table, and the scene entry points.
 
-A :class:`SceneKind` says everything the rest of the package needs of a kind: the top-level
-tables its file may have, whether it describes its own variables, its parser, how many result
-rows it reports, and its solver, report and writer. Nothing registers itself at import: a new
-kind is one more line of :data:`SCENE_KINDS`.
+A :class:`~.scene_kind.SceneKind` says everything the rest of the package and the ``design``
+command need of a kind: the top-level tables its file may have, whether it describes its own
+variables, its parser, solver, report, writer and text summary, and how its designs are
+verified. Each kind lives in its own package, ``dpfexplore.inverse.scenes.<kind>``, whose
+``kind`` module holds the record; nothing registers itself at import. A new kind is one more
+package and one more entry of :data:`SCENE_KINDS` (its spec record joins the :data:`KindSpec`
+union beside it): the recipe is in the scenes guide (``docs/guide/scenes.md``).
 
 ::
 
     >>> from dpfexplore.inverse.kinds import load_scene
     >>> spec = load_scene("jobs/design-position-cheetah.toml")  # doctest: +SKIP
+    >>> type(spec.kind_spec).__name__                            # doctest: +SKIP
+    'PositionSpec'
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..io.toml_fields import check_keys, reported_as, table
 from ..model.constants_set import DEFAULT
 from ..model.design import resolve_constants
-from .engine.optimiser import TargetResult, solve_position_target
-from .evaluation import SceneEvaluator
-from .report import gripper_report, position_report, write_report
-from .scene_file import build_spec, parse_gripper, parse_position, read_scene_file
-from .scenes.gripper.solve import solve_gripper
-from .scenes.pickplace.report import pickplace_report, write_timing_report
-from .scenes.pickplace.solve import solve_pickplace
-from .scenes.pickplace.spec import parse_pickplace
-from .scenes.walker.report import walker_report, write_walker_report
-from .scenes.walker.solve import solve_walker
-from .scenes.walker.spec import parse_walker
+from .scene_file import SceneSpecError, build_spec, read_scene_file
+from .scene_kind import SceneKind
+from .scenes.gripper import kind as gripper
+from .scenes.gripper.spec import GripperSpec
+from .scenes.pickplace import kind as pickplace
+from .scenes.pickplace.spec import PickPlaceSpec, with_target_reset
+from .scenes.position import kind as position
+from .scenes.position.spec import PositionSpec, with_seeds
+from .scenes.position_stiffness import kind as position_stiffness
+from .scenes.position_stiffness.spec import PositionStiffnessSpec
+from .scenes.walker import kind as walker
+from .scenes.walker.spec import WalkerSpec
 from .spec import SceneSpec
-from .spec_fields import SceneSpecError, _keys, _table
 
-__all__ = ["SCENE_KINDS", "SceneKind", "load_scene", "parse_scene"]
+__all__ = [
+    "SCENE_KINDS",
+    "SCENE_OPTIONS",
+    "KindSpec",
+    "SceneKind",
+    "load_scene",
+    "parse_scene",
+    "with_constants_file",
+]
 
-
-@dataclass(frozen=True)
-class SceneKind:
-    """One kind of scene.
-
-    Attributes
-    ----------
-    name : str
-        The ``scene.kind`` value.
-    tables : tuple of str
-        Top-level tables the file may have besides ``scene``, ``variables``, ``optimiser``.
-    own_variables : bool
-        The kind describes its variables itself (no ``[variables]`` table).
-    parse : callable
-        ``parse(data, fields) -> dict``: the kind's own fields of the :class:`SceneSpec`.
-    n_results : callable
-        ``n_results(spec) -> int``: result rows (one per target; the gripper has one).
-    solve : callable
-        ``solve(spec, index, evaluator) -> TargetResult`` for result row ``index``.
-    report : callable
-        ``report(spec, result, evaluator) -> dict``: the verified row.
-    write : callable
-        ``write(spec, rows, evaluator, directory, *, wall_s, plot)``: the report's files.
-    """
-
-    name: str
-    tables: tuple[str, ...]
-    own_variables: bool
-    parse: Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]]
-    n_results: Callable[[SceneSpec], int]
-    solve: Callable[[SceneSpec, int, SceneEvaluator], TargetResult]
-    report: Callable[[SceneSpec, TargetResult, SceneEvaluator], dict[str, Any]]
-    write: Callable[..., list[Path]]
-
-
-def _per_target(spec: SceneSpec) -> int:
-    return len(spec.targets)
-
-
-def _solve_front(spec: SceneSpec, index: int, evaluator: SceneEvaluator) -> TargetResult:
-    return solve_position_target(spec, index, evaluator, exhaustive=True)
-
-
-_POSITION_TABLES = ("targets", "objective", "gripper")
-
-#: Every scene kind (see :class:`SceneKind`).
+#: Every scene kind, by its ``scene.kind`` name (each package's ``kind.KIND``: a
+#: :class:`~.scene_kind.SceneKind`).
 SCENE_KINDS: dict[str, SceneKind] = {
     kind.name: kind
-    for kind in (
-        SceneKind(
-            "position",
-            _POSITION_TABLES,
-            False,
-            parse_position,
-            _per_target,
-            solve_position_target,
-            position_report,
-            write_report,
-        ),
-        SceneKind(
-            "position_stiffness",
-            _POSITION_TABLES,
-            False,
-            parse_position,
-            _per_target,
-            _solve_front,
-            position_report,
-            write_report,
-        ),
-        SceneKind(
-            "gripper",
-            _POSITION_TABLES,
-            False,
-            parse_gripper,
-            lambda spec: 1,  # one result: the set of apertures
-            solve_gripper,
-            gripper_report,
-            write_report,
-        ),
-        SceneKind(
-            "pickplace",
-            ("pickplace",),
-            False,
-            parse_pickplace,
-            lambda spec: spec.pickplace.n_results,
-            solve_pickplace,
-            pickplace_report,
-            write_timing_report,
-        ),
-        SceneKind(
-            "walker_leg",
-            ("walker",),
-            True,
-            parse_walker,
-            lambda spec: spec.walker.n_results,
-            solve_walker,
-            walker_report,
-            write_walker_report,
-        ),
-    )
+    for kind in (position.KIND, position_stiffness.KIND, gripper.KIND, pickplace.KIND, walker.KIND)
 }
 
+#: The spec record of every kind (the type of :attr:`SceneSpec.kind_spec`).
+KindSpec = PositionSpec | PositionStiffnessSpec | GripperSpec | PickPlaceSpec | WalkerSpec
 
+
+@reported_as(SceneSpecError)
 def parse_scene(
     data: Mapping[str, Any], *, default_name: str = "scene", base: str | Path | None = None
 ) -> SceneSpec:
@@ -152,8 +74,8 @@ def parse_scene(
             "dpfexplore sweep; design scenes are in jobs/design-*.toml"
         )
     if not isinstance(data.get("scene"), Mapping) or "kind" not in data["scene"]:
-        _keys(data, "", required=("scene",), optional=tuple(data))
-        _keys(_table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
+        check_keys(data, "", required=("scene",), optional=tuple(data))
+        check_keys(table(data, "scene"), "scene", required=("kind",), optional=tuple(data["scene"]))
     name = data["scene"]["kind"]
     if not isinstance(name, str) or name not in SCENE_KINDS:
         known = ", ".join(SCENE_KINDS)
@@ -192,3 +114,13 @@ def with_constants_file(spec: SceneSpec, path: str | Path) -> SceneSpec:
     document = {**spec.document, "scene": {**spec.document["scene"]}}
     document["scene"]["constants"] = str(Path(path).resolve())
     return parse_scene(document, default_name=spec.name)
+
+
+#: What the options of ``dpfexplore design`` do to a scene, in the order they apply: each takes
+#: the scene and the option's value and refuses, in one line naming the option, a scene it does
+#: not apply to (:class:`SceneSpecError` or ``ValueError``).
+SCENE_OPTIONS: dict[str, Callable[[SceneSpec, Any], SceneSpec]] = {
+    "constants": with_constants_file,
+    "target_reset": with_target_reset,
+    "seeds": with_seeds,
+}

@@ -1,18 +1,17 @@
-"""Scene files: what a finger must do, as TOML, read and validated into a SceneSpec.
+"""Scene files: what a finger must do, as TOML; the tables every kind shares, read and validated.
 
 Read by :func:`dpfexplore.inverse.kinds.load_scene`. A scene names its kind (one of
-:data:`dpfexplore.inverse.kinds.SCENE_KINDS`), its targets, the design variables with their
-bounds and constraints, the material and the objective's weights or tolerances
-(:class:`~.spec.SceneSpec`). Every problem in
-a scene file is one :class:`SceneSpecError` (a ``ValueError``) whose one-line message starts with
-the dotted key, e.g. ``variables.H.min = 6.0: greater than max = 5.0``; nothing is computed or
-written for a scene that does not validate.
+:data:`dpfexplore.inverse.kinds.SCENE_KINDS`), the design variables with their bounds and
+constraints, the material, and the kind's own tables (its targets, objective or requirements),
+read by the kind's parser in its package (``dpfexplore.inverse.scenes.<kind>.spec``). Every
+problem in a scene file is one :class:`SceneSpecError` (a ``ValueError``) whose one-line message
+starts with the dotted key, e.g. ``variables.H.min = 6.0: greater than max = 5.0``; nothing is
+computed or written for a scene that does not validate.
 
-Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of MODEL.md §5)::
+The shared tables (lengths in mm, ``E`` in MPa; model frame of MODEL.md §5)::
 
     [scene]
-    kind = "position"             # "position", "position_stiffness" or "gripper"
-                                  # ("pickplace", "walker_leg": inverse.scenes.timing_spec)
+    kind = "position"             # one of dpfexplore.inverse.kinds.SCENE_KINDS
     name = "design-position-cheetah"   # default output directory results/<name>
     description = "..."           # free text
     material = "cheetah-95a"      # or "ninjaflex-85a"; or give E (and nu) instead
@@ -20,7 +19,7 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     constants = "results/constants/shell/constants.json"  # optional: a constants set file,
                                   # relative to the scene file (default: the paper's forms)
 
-    [variables]                   # -> dpfexplore.sweep.variables.DesignVariables, per N
+    [variables]                   # -> dpfexplore.model.variables.DesignVariables, per N
     n_units = {min = 2, max = 8}  # or a list [3, 4], or one number
     H = {min = 3.0, max = 5.0}    # a number (fixed), {min, max}, or one of those per unit
     U_L = {min = 5.5, max = 10.0} # a number or {min, max}
@@ -34,19 +33,6 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
     shared_U_L = true             # one U_L for all units (default) or one per unit
     shared_U_sep = true
 
-    [[targets]]                   # position, position_stiffness: one table per target
-    point = [46.0, 32.0]          # tip (x, y) of the targeted state, mm
-    reference = {H = [...], U_L = 9.98, U_sep = 2.26, t = 0.9, t_lim = 1.89}  # optional:
-                                  # a design to compare with (e.g. the paper's), material's E
-
-    [objective]
-    state = "all_inverted"        # position kinds: the targeted state ("all_inverted" or bits
-                                  # when N is fixed)
-    tolerance = 1e-6              # mm²: a target is met when |tip - target|² <= tolerance
-    # position_stiffness only:
-    front = [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0]   # tip tolerances of the front, mm
-    weights = [1.0, 1.0]          # optional: also solve the paper's w1 |r|² + w2 (1/K)²
-
     [optimiser]                   # all optional
     candidates_per_n = 64         # Latin-hypercube candidates per N
     starts_per_n = 3              # gradient refinements per N before a target is declared
@@ -57,118 +43,98 @@ Layout (lengths in mm, ``E`` in MPa, pressure in MPa, times in s; model frame of
                                   # hypercube (dpfexplore.inverse.engine.seeds); path from the cwd
     seeds_per_n = 8               # seeds per N
 
-    [gripper]                     # kind = "gripper" (MODEL.md §7, §9)
-    states = ["10000", "11000", "11100", "11110"]
-    apertures = [70.0, 60.0, 45.0, 35.0]   # mm, one per state
-    aperture_tol = 0.05           # mm
-    activated = "11110"           # the state whose tip stiffness is maximised
-    theta_B_deg = {min = -60.0, max = 0.0}
-    base_L = {min = 5.0, max = 40.0}
-    min_window_kPa = 10.0         # each state's pressure window under a slow ramp
-    metastable_unit = 5           # must reset, after >= min_reset_s, under the pulse
-    min_reset_s = 0.05
-    pulse = {P0 = 0.7, tau = [0.0, 0.5, 1.0, 1.1], t_end = 2.0}
-    reference = {H = [...], ..., theta_B_deg = -27.065, base_L = 20.081}   # optional
-
-Every kind is one record of the literal table :data:`dpfexplore.inverse.kinds.SCENE_KINDS`: its
-own tables, whether it describes its variables itself (the walker leg: one set per section), its
-parser (here for the position and gripper kinds, in :mod:`dpfexplore.inverse.scenes.timing_spec`
-for the timing kinds), its solver, report and writer.
+A kind that describes its variables itself (the walker leg: one set per section) has no
+``[variables]`` table. Each kind's own tables are in the docstring of its ``spec`` module,
+``dpfexplore.inverse.scenes.<kind>.spec`` (e.g. :mod:`dpfexplore.inverse.scenes.position.spec`).
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..io.toml_fields import (
+    boolean,
+    bound,
+    check_keys,
+    integer_in,
+    plain,
+    positive_number,
+    read_toml,
+    reported_as,
+    string,
+    table,
+)
 from ..model import status as st
 from ..model.constants_set import DEFAULT
 from ..model.design import MATERIALS, Design, resolve_constants
 from ..model.domain import MAX_UNITS
-from ..model.pressure import PressureProfile
 from ..model.variables import HEIGHT_ORDERS, DesignVariables
-from .spec import GripperSpec, OptimiserSettings, SceneSpec, Target
-from .spec_fields import (
-    SceneSpecError,
-    _bound,
-    _keys,
-    _numbers,
-    _plain,
-    _positive,
-    _range,
-    _string,
-    _table,
-)
+from ..sweep.job_file import JobSpecError
+from .engine.settings import OptimiserSettings
+from .spec import SceneCommon, SceneSpec
 
-__all__ = [
-    "build_spec",
-    "check_seeds",
-    "parse_gripper",
-    "parse_position",
-    "read_scene_file",
-    "with_seeds",
-]
+__all__ = ["SceneSpecError", "build_spec", "check_seeds", "read_scene_file", "reference_design"]
 
-#: Farthest tip target accepted (mm along either axis): far beyond any finger of MAX_UNITS
-#: units, near enough that squared distances stay finite (1e300 mm overflowed to inf).
-MAX_TARGET_DISTANCE = 1000.0
+
+class SceneSpecError(JobSpecError):
+    """A scene file that does not validate; the message is one line naming the key."""
 
 
 def read_scene_file(path: str | Path) -> dict[str, Any]:
     """The TOML document of a scene file (:class:`SceneSpecError` if unreadable)."""
     path = Path(path)
     try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
+        with reported_as(SceneSpecError):
+            return read_toml(path)
     except OSError as exc:
         raise SceneSpecError(f"{path}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneSpecError(f"{path}: not valid TOML ({exc})") from None
     except UnicodeDecodeError:
         raise SceneSpecError(f"{path}: not a text file (a scene is TOML)") from None
 
 
+@reported_as(SceneSpecError)
 def build_spec(
     data: Mapping[str, Any],
     *,
     kind: str,
     tables: Sequence[str],
     own_variables: bool,
-    parse: Callable[[Mapping[str, Any], dict[str, Any]], dict[str, Any]],
+    parse: Callable[[Mapping[str, Any], SceneCommon], Any],
     default_name: str = "scene",
     base: str | Path | None = None,
 ) -> SceneSpec:
     """Validate a TOML-shaped scene of a known ``kind`` into a :class:`SceneSpec`.
 
-    The parts every kind shares (``[scene]``, ``[variables]``, ``[optimiser]``) are read here;
-    ``parse`` reads the kind's own tables (``tables``) and returns the fields it adds. The
-    table of kinds, and the entry points :func:`~dpfexplore.inverse.kinds.load_scene` /
-    :func:`~dpfexplore.inverse.kinds.parse_scene`, are in :mod:`dpfexplore.inverse.kinds`.
-    ``scene.constants`` names a constants set file relative to ``base`` (the scene file's
-    folder); every design the scene makes, reference designs included, runs on it.
+    The parts every kind shares (``[scene]``, ``[variables]``, ``[optimiser]``) are read here
+    into a :class:`SceneCommon`; ``parse`` reads the kind's own tables (``tables``) and returns
+    its kind spec. A kind with ``own_variables`` has no ``[variables]`` table: its kind spec's
+    ``n_units`` are the scene's. The table of kinds, and the entry points
+    :func:`~dpfexplore.inverse.kinds.load_scene` / :func:`~dpfexplore.inverse.kinds.parse_scene`,
+    are in :mod:`dpfexplore.inverse.kinds`. ``scene.constants`` names a constants set file
+    relative to ``base`` (the scene file's folder); every design the scene makes, reference
+    designs included, runs on it.
     """
     own = own_variables
-    _keys(
+    check_keys(
         data,
         "",
         required=("scene",) if own else ("scene", "variables"),
         optional=("optimiser", *tables),
     )
-    scene = _table(data, "scene")
-    _keys(
+    scene = table(data, "scene")
+    check_keys(
         scene,
         "scene",
         required=("kind",),
         optional=("name", "description", "material", "E", "nu", "seed", "constants"),
     )
-    name = _string(scene, "scene", "name", default_name)
+    name = string(scene, "scene", "name", default=default_name)
     if not name.strip() or "/" in name or "\\" in name or name in (".", ".."):
         # the name is the default --out folder: it must name a folder of its own
         raise SceneSpecError(
@@ -180,16 +146,16 @@ def build_spec(
     E, nu, material = _material(scene)
     constants = DEFAULT
     if "constants" in scene:
-        written = _string(scene, "scene", "constants", "")
+        written = string(scene, "scene", "constants", default="")
         try:
             constants = resolve_constants(written, base)
         except ValueError as exc:
             raise SceneSpecError(f"scene.constants = {written!r}: {exc}") from None
-    n_units, variables = ((), {}) if own else _variables(_table(data, "variables"))
-    fields = dict(
+    n_units, variables = ((), {}) if own else _variables(table(data, "variables"))
+    common = SceneCommon(
         kind=kind,
         name=name,
-        description=_string(scene, "scene", "description", ""),
+        description=string(scene, "scene", "description", default=""),
         seed=seed,
         E=E,
         nu=nu,
@@ -197,11 +163,13 @@ def build_spec(
         n_units=n_units,
         variables=variables,
         optimiser=_optimiser(data.get("optimiser", {})),
-        document=_plain(data),
+        document=plain(data),
         constants=constants,
     )
-    fields.update(parse(data, fields))
-    spec = SceneSpec(**fields)
+    kind_spec = parse(data, common)
+    if own:
+        common = replace(common, n_units=tuple(kind_spec.n_units))
+    spec = SceneSpec.of(common, kind_spec)
     for n in () if own else spec.n_units:
         try:
             variables = spec.design_variables(n)
@@ -232,183 +200,38 @@ def _check_box_holds_designs(variables: DesignVariables) -> None:
         )
 
 
-def parse_position(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The fields of a position (or position-and-stiffness) scene: targets and objective."""
-    stiffness = fields["kind"] == "position_stiffness"
-    if "gripper" in data:
-        raise SceneSpecError(f"gripper = {{...}}: unknown table for kind {fields['kind']!r}")
-    if "targets" not in data:
-        raise SceneSpecError("targets: missing; give [[targets]] tables with point = [x, y]")
-    raw = data["targets"]
-    if not isinstance(raw, list) or not raw or not all(isinstance(t, Mapping) for t in raw):
-        raise SceneSpecError("targets: need one or more [[targets]] tables")
-    targets = []
-    for i, entry in enumerate(raw):
-        where = f"targets[{i}]"
-        _keys(entry, where, required=("point",), optional=("reference",))
-        point = _numbers(entry["point"], f"{where}.point", length=2, unit="mm")
-        if max(abs(point[0]), abs(point[1])) > MAX_TARGET_DISTANCE:
-            raise SceneSpecError(
-                f"{where}.point = {list(point)}: more than {MAX_TARGET_DISTANCE:g} mm from the "
-                "base; no finger of this model reaches that far"
-            )
-        reference = None
-        if "reference" in entry:
-            reference = _design(entry["reference"], f"{where}.reference", fields, extra=())[0]
-        targets.append(Target(point=(point[0], point[1]), reference=reference))
-    objective = data.get("objective", {})
-    if not isinstance(objective, Mapping):
-        raise SceneSpecError(f"objective = {objective!r}: must be a table")
-    extra = ("front", "weights") if stiffness else ()
-    _keys(objective, "objective", required=(), optional=("state", "tolerance", *extra))
-    state = _string(objective, "objective", "state", "all_inverted")
-    if state != "all_inverted":
-        if (
-            len(fields["n_units"]) != 1
-            or len(state) != fields["n_units"][0]
-            or set(state) - {"0", "1"}
-        ):
-            raise SceneSpecError(
-                f"objective.state = {state!r}: 'all_inverted', or a bit string of N characters "
-                "when variables.n_units is one number"
-            )
-    out: dict[str, Any] = {
-        "targets": tuple(targets),
-        "state": state,
-        "tolerance": _positive(objective, "objective", "tolerance", 1e-6),
-    }
-    if stiffness:
-        front = objective.get("front", [0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0])
-        front = _numbers(front, "objective.front", length=None, unit="mm")
-        if not front or any(v <= 0 for v in front):
-            raise SceneSpecError(f"objective.front = {front!r}: need tolerances > 0 mm")
-        out["front"] = tuple(sorted(front))
-        if "weights" in objective:
-            w = _numbers(objective["weights"], "objective.weights", length=2, unit="")
-            if any(v < 0 for v in w) or not any(v > 0 for v in w):
-                raise SceneSpecError(f"objective.weights = {list(w)!r}: need w >= 0, not both 0")
-            out["weights"] = (w[0], w[1])
-    return out
-
-
-def parse_gripper(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The fields of a gripper scene: its ``[gripper]`` table."""
-    for key in ("targets", "objective"):
-        if key in data:
-            raise SceneSpecError(f"{key}: not used by kind 'gripper' (its targets are [gripper])")
-    if "gripper" not in data:
-        raise SceneSpecError("gripper: missing [gripper] table")
-    g = _table(data, "gripper")
-    _keys(
-        g,
-        "gripper",
-        required=("states", "apertures"),
-        optional=(
-            "aperture_tol",
-            "activated",
-            "theta_B_deg",
-            "base_L",
-            "min_window_kPa",
-            "metastable_unit",
-            "min_reset_s",
-            "pulse",
-            "reference",
-        ),
-    )
-    if len(fields["n_units"]) != 1:
-        raise SceneSpecError(
-            f"variables.n_units = {list(fields['n_units'])}: the gripper needs one number of units"
-        )
-    n = fields["n_units"][0]
-    states = g["states"]
-    if (
-        not isinstance(states, list)
-        or not states
-        or not all(isinstance(s, str) and len(s) == n and not set(s) - {"0", "1"} for s in states)
-    ):
-        raise SceneSpecError(f"gripper.states = {states!r}: need bit strings of {n} characters")
-    apertures = _numbers(g["apertures"], "gripper.apertures", length=len(states), unit="mm")
-    activated = _string(g, "gripper", "activated", states[-1])
-    if len(activated) != n or set(activated) - {"0", "1"}:
-        raise SceneSpecError(f"gripper.activated = {activated!r}: need {n} characters 0/1")
-    unit = g.get("metastable_unit", n)
-    if isinstance(unit, bool) or not isinstance(unit, int) or not 1 <= unit <= n:
-        raise SceneSpecError(f"gripper.metastable_unit = {unit!r}: a unit in 1..{n}")
-    pulse = g.get("pulse", {"P0": 0.7, "tau": [0.0, 0.5, 1.0, 1.1], "t_end": 2.0})
-    if not isinstance(pulse, Mapping):
-        raise SceneSpecError(f"gripper.pulse = {pulse!r}: must be a table")
-    _keys(pulse, "gripper.pulse", required=("P0", "tau"), optional=("t_end",))
-    tau = _numbers(pulse["tau"], "gripper.pulse.tau", length=4, unit="s")
-    if any(b < a for a, b in pairwise(tau)) or tau[0] < 0:
-        raise SceneSpecError(f"gripper.pulse.tau = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
-    t_end = _positive(pulse, "gripper.pulse", "t_end", tau[3] + 1.0)
-    pulse_P0 = _positive(pulse, "gripper.pulse", "P0", 0.7)
-    try:  # the pressure range every entry point holds, checked before the optimisation
-        PressureProfile.pulse(pulse_P0, tau)
-    except ValueError as exc:
-        raise SceneSpecError(f"gripper.pulse: {exc}") from None
-    if t_end <= tau[3]:
-        raise SceneSpecError(f"gripper.pulse.t_end = {t_end}: must be after τ4 = {tau[3]}")
-    reference = theta_ref = base_ref = None
-    if "reference" in g:
-        reference, extra = _design(
-            g["reference"], "gripper.reference", fields, extra=("theta_B_deg", "base_L")
-        )
-        theta_ref, base_ref = extra.get("theta_B_deg"), extra.get("base_L")
-    spec = GripperSpec(
-        states=tuple(states),
-        apertures=tuple(apertures),
-        aperture_tol=_positive(g, "gripper", "aperture_tol", 0.05),
-        activated=activated,
-        theta_B_deg=_range(
-            g.get("theta_B_deg", {"min": -60.0, "max": 0.0}), "gripper.theta_B_deg", positive=False
-        ),
-        base_L=_range(g.get("base_L", {"min": 5.0, "max": 40.0}), "gripper.base_L"),
-        min_window_kPa=_positive(g, "gripper", "min_window_kPa", 10.0, allow_zero=True),
-        metastable_unit=unit,
-        min_reset_s=_positive(g, "gripper", "min_reset_s", 0.05),
-        pulse_P0=pulse_P0,
-        pulse_tau=tuple(tau),
-        pulse_t_end=t_end,
-        reference=reference,
-        reference_theta_B_deg=theta_ref,
-        reference_base_L=base_ref,
-    )
-    return {"gripper": spec}
-
-
 # ----------------------------------------------------------------------------- pieces
 
 
-def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
-    _keys(
-        table,
+def _variables(given: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any]]:
+    check_keys(
+        given,
         "variables",
         required=("n_units", "H", "U_L", "U_sep", "t", "t_lim"),
         optional=("heights", "ordered_units", "tied", "shared_U_L", "shared_U_sep", "min_step"),
     )
-    n_units = _n_units(table["n_units"])
+    n_units = _n_units(given["n_units"])
     out: dict[str, Any] = {}
-    H = table["H"]
+    H = given["H"]
     if isinstance(H, list):
         if len(n_units) != 1 or len(H) != n_units[0]:
             raise SceneSpecError(
                 f"variables.H = {H!r}: one entry per unit needs one N (variables.n_units) and "
                 f"{n_units[0] if len(n_units) == 1 else 'N'} entries"
             )
-        out["H"] = [_bound(v, f"variables.H[{k}]") for k, v in enumerate(H)]
+        out["H"] = [bound(v, f"variables.H[{k}]") for k, v in enumerate(H)]
     else:
-        out["H"] = _bound(H, "variables.H")
+        out["H"] = bound(H, "variables.H")
     for name in ("U_L", "U_sep", "t", "t_lim"):
-        out[name] = _bound(table[name], f"variables.{name}")
-    heights = table.get("heights", "free")
+        out[name] = bound(given[name], f"variables.{name}")
+    heights = given.get("heights", "free")
     if heights not in HEIGHT_ORDERS:
         raise SceneSpecError(
             f"variables.heights = {heights!r}: must be one of {', '.join(HEIGHT_ORDERS)}"
         )
     out["heights"] = heights
-    if "ordered_units" in table:
-        units = table["ordered_units"]
+    if "ordered_units" in given:
+        units = given["ordered_units"]
         if (
             not isinstance(units, list)
             or not units
@@ -423,16 +246,16 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
                 f"variables.ordered_units = {units!r}: unit beyond N = {min(n_units)}"
             )
         out["ordered_units"] = tuple(units)
-    if "tied" in table:
-        tied = table["tied"]
+    if "tied" in given:
+        tied = given["tied"]
         if not isinstance(tied, list) or not all(
             isinstance(g, list) and all(isinstance(u, int) and not isinstance(u, bool) for u in g)
             for g in tied
         ):
             raise SceneSpecError(f"variables.tied = {tied!r}: need lists of unit numbers")
         out["tied"] = tuple(tuple(g) for g in tied)
-    if "min_step" in table:
-        step = table["min_step"]
+    if "min_step" in given:
+        step = given["min_step"]
         if (
             isinstance(step, bool)
             or not isinstance(step, (int, float))
@@ -442,10 +265,7 @@ def _variables(table: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, Any
             raise SceneSpecError(f"variables.min_step = {step!r}: must be a number >= 0 mm")
         out["min_step"] = float(step)
     for name in ("shared_U_L", "shared_U_sep"):
-        value = table.get(name, True)
-        if not isinstance(value, bool):
-            raise SceneSpecError(f"variables.{name} = {value!r}: must be true or false")
-        out[name] = value
+        out[name] = boolean(given, "variables", name, default=True)
     return n_units, out
 
 
@@ -458,7 +278,7 @@ def _n_units(value: Any) -> tuple[int, ...]:
         return v
 
     if isinstance(value, Mapping):
-        _keys(value, where, required=("min", "max"), optional=())
+        check_keys(value, where, required=("min", "max"), optional=())
         low, high = unit(value["min"]), unit(value["max"])
         if low > high:
             raise SceneSpecError(f"{where} = {{min = {low}, max = {high}}}: empty range")
@@ -483,27 +303,35 @@ def _material(scene: Mapping[str, Any]) -> tuple[float, float, str]:
         return preset.E, _poisson(scene, preset.nu), key.lower()
     if "E" not in scene:
         raise SceneSpecError("scene.material: missing; give material or E")
-    return _positive(scene, "scene", "E", 26.0), _poisson(scene, 0.35), ""
+    return positive_number(scene, "scene", "E", 26.0), _poisson(scene, 0.35), ""
 
 
 def _poisson(scene: Mapping[str, Any], default: float) -> float:
-    nu = _positive(scene, "scene", "nu", default, allow_zero=True)
+    nu = positive_number(scene, "scene", "nu", default, allow_zero=True)
     if not nu < 0.5:
         raise SceneSpecError(f"scene.nu = {nu!r}: a Poisson ratio must be in [0, 0.5)")
     return nu
 
 
-def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str, ...]):
+def reference_design(
+    value: Any, where: str, common: SceneCommon, *, extra: tuple[str, ...] = ()
+) -> tuple[Design, dict[str, float]]:
+    """A reference design of a scene (a table of design keys), with the scene's material.
+
+    ``extra`` names keys of the table that are not design keys (finite numbers, returned apart:
+    e.g. the gripper's base). The scene's constants set applies; a table naming another is
+    refused.
+    """
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{where} = {value!r}: must be a table of design keys")
     data = {k: v for k, v in value.items() if k not in extra}
-    data.setdefault("E", fields["E"])
-    data.setdefault("nu", fields["nu"])
+    data.setdefault("E", common.E)
+    data.setdefault("nu", common.nu)
     if "constants" in data:
         raise SceneSpecError(
             f"{where}.constants: the scene's constants set applies (scene.constants)"
         )
-    data["constants"] = fields["constants"]
+    data["constants"] = common.constants
     try:
         design = Design.from_dict(data)
     except (TypeError, ValueError) as exc:
@@ -521,27 +349,24 @@ def _design(value: Any, where: str, fields: dict[str, Any], *, extra: tuple[str,
 def _optimiser(value: Any) -> OptimiserSettings:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"optimiser = {value!r}: must be a table")
-    _keys(
+    check_keys(
         value,
         "optimiser",
         required=(),
         optional=("candidates_per_n", "starts_per_n", "max_iter", "seeds", "seeds_per_n"),
     )
-    out: dict[str, Any] = {}
-    if "seeds" in value:
-        out["seeds"] = check_seeds(value["seeds"], "optimiser.seeds")
-    for key, (low, high) in (
-        ("candidates_per_n", (2, 1 << 20)),
-        ("starts_per_n", (1, 1000)),
-        ("max_iter", (1, 10000)),
-        ("seeds_per_n", (1, 10000)),
-    ):
-        if key in value:
-            v = value[key]
-            if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
-                raise SceneSpecError(f"optimiser.{key} = {v!r}: an integer in [{low}, {high}]")
-            out[key] = v
-    return OptimiserSettings(**out)
+    default = OptimiserSettings()
+    seeds = check_seeds(value["seeds"], "optimiser.seeds") if "seeds" in value else None
+    counts = {
+        key: integer_in(value, "optimiser", key, default=getattr(default, key), low=low, high=high)
+        for key, (low, high) in (
+            ("candidates_per_n", (2, 1 << 20)),
+            ("starts_per_n", (1, 1000)),
+            ("max_iter", (1, 10000)),
+            ("seeds_per_n", (1, 10000)),
+        )
+    }
+    return OptimiserSettings(seeds=seeds, **counts)
 
 
 def check_seeds(value: Any, where: str) -> str:
@@ -554,11 +379,3 @@ def check_seeds(value: Any, where: str) -> str:
             "`dpfexplore sweep JOB --out DIR`, e.g. jobs/design-seeds-descending.toml"
         )
     return value
-
-
-def with_seeds(spec: SceneSpec, dataset: str) -> SceneSpec:
-    """The scene with its candidates seeded from ``dataset`` (``dpfexplore design --seeds``)."""
-    if spec.kind not in ("position", "position_stiffness"):
-        raise SceneSpecError(f"--seeds: only position scenes take seeds, not {spec.kind!r}")
-    settings = replace(spec.optimiser, seeds=check_seeds(dataset, "--seeds"))
-    return replace(spec, optimiser=settings)

@@ -1,78 +1,36 @@
-"""What a scene is: its targets, design variables, material, objective and budget, as records.
+"""What a scene is: the parts every kind shares, and the kind's own spec, as records.
 
-:class:`SceneSpec` holds a validated scene of any kind: the parts every kind shares (name, seed,
-material, the numbers of units and the :class:`~dpfexplore.sweep.variables.DesignVariables` fields
-per ``N``, the :class:`OptimiserSettings` and the constants set) and the kind's own: the
-:class:`Target` points of the position kinds, the :class:`GripperSpec`, or the timing scenes'
-specs (:mod:`dpfexplore.inverse.scenes.timing_spec`). Scene files are read into these records by
-:mod:`dpfexplore.inverse.scene_file` (the format is in its docstring).
+:class:`SceneSpec` is a validated scene of any kind: what every kind shares (name, seed,
+material, the numbers of units and the :class:`~dpfexplore.model.variables.DesignVariables`
+fields per ``N``, the :class:`~.engine.settings.OptimiserSettings`, the constants set, the parsed
+document: :class:`SceneCommon`) and ``kind_spec``, the kind's own record (one of
+:data:`dpfexplore.inverse.kinds.KindSpec`: the position kinds' targets, the gripper's apertures,
+the timing scenes' requirements). ``SceneSpec[K]`` names the kind spec's type, so that each kind's
+functions annotate the scene they take (``SceneSpec[GripperSpec]``). Scene files are read into
+these records by :mod:`dpfexplore.inverse.scene_file` (the shared tables) and each kind's parser
+(its own tables).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, fields
+from typing import Any, Generic, TypeVar
 
 from ..model.constants_set import DEFAULT, ConstantsSet
-from ..model.design import Design
 from ..model.variables import DesignVariables
-from .scenes.timing_spec import PickPlaceSpec, WalkerSpec
+from .engine.settings import OptimiserSettings
 
-__all__ = ["GripperSpec", "OptimiserSettings", "SceneSpec", "Target"]
+__all__ = ["OptimiserSettings", "SceneCommon", "SceneSpec"]
 
-
-@dataclass(frozen=True)
-class Target:
-    """One target of a position scene.
-
-    Attributes
-    ----------
-    point : tuple of float
-        Tip ``(x, y)`` of the targeted state, mm (model frame).
-    reference : Design or None
-        A design to compare with (e.g. the paper's), with the scene's material.
-    """
-
-    point: tuple[float, float]
-    reference: Design | None = None
+#: The type of a scene's kind spec.
+K = TypeVar("K")
 
 
 @dataclass(frozen=True)
-class OptimiserSettings:
-    """Budget of the optimiser (see :mod:`dpfexplore.inverse.engine.optimiser`)."""
+class SceneCommon:
+    """The parts of a scene every kind shares (the file's keys are in :mod:`~.scene_file`).
 
-    candidates_per_n: int = 64
-    starts_per_n: int = 3
-    max_iter: int = 60
-    #: Sweep dataset whose nearest designs seed the position kinds (None: a Latin hypercube).
-    seeds: str | None = None
-    seeds_per_n: int = 8
-
-
-@dataclass(frozen=True)
-class GripperSpec:
-    """The multi-aperture gripper's targets and requirements (MODEL.md §7, §9)."""
-
-    states: tuple[str, ...]
-    apertures: tuple[float, ...]
-    aperture_tol: float
-    activated: str
-    theta_B_deg: tuple[float, float]
-    base_L: tuple[float, float]
-    min_window_kPa: float
-    metastable_unit: int
-    min_reset_s: float
-    pulse_P0: float
-    pulse_tau: tuple[float, float, float, float]
-    pulse_t_end: float
-    reference: Design | None = None
-    reference_theta_B_deg: float | None = None
-    reference_base_L: float | None = None
-
-
-@dataclass(frozen=True)
-class SceneSpec:
-    """A validated scene (the file's keys are in :mod:`~.scene_file`).
+    A kind's parser receives these, read and checked, and returns its kind spec.
 
     Attributes
     ----------
@@ -83,20 +41,10 @@ class SceneSpec:
     material : str
         Preset key, or ``""`` when ``E`` was given.
     n_units : tuple of int
-        The numbers of units searched.
+        The numbers of units searched (a kind with its own variables sets them).
     variables : dict
         :class:`DesignVariables` fields other than ``n_units``, ``E`` and ``nu``.
-    targets : tuple of Target
-        Position kinds; empty for the gripper.
-    state : str
-        ``"all_inverted"`` or a bit string: the targeted state of the position kinds.
-    tolerance : float, mm²
-    front : tuple of float, mm
-        Tip tolerances of the stiffness front (position_stiffness).
-    weights : tuple of float or None
-        ``(w1, w2)`` of the paper's weighted sum, if asked.
     optimiser : OptimiserSettings
-    gripper : GripperSpec or None
     document : dict
         The parsed TOML, recorded with the results.
     constants : ConstantsSet
@@ -112,17 +60,7 @@ class SceneSpec:
     material: str
     n_units: tuple[int, ...]
     variables: dict[str, Any]
-    targets: tuple[Target, ...] = ()
-    state: str = "all_inverted"
-    tolerance: float = 1e-6
-    front: tuple[float, ...] = ()
-    weights: tuple[float, float] | None = None
     optimiser: OptimiserSettings = field(default_factory=OptimiserSettings)
-    gripper: GripperSpec | None = None
-    #: The ``pickplace`` and ``walker_leg`` kinds' own specs
-    #: (:mod:`dpfexplore.inverse.scenes.timing_spec`); None for the other kinds.
-    pickplace: PickPlaceSpec | None = None
-    walker: WalkerSpec | None = None
     document: dict[str, Any] = field(default_factory=dict, compare=False)
     constants: ConstantsSet = DEFAULT
 
@@ -131,3 +69,51 @@ class SceneSpec:
         return DesignVariables(
             n_units=n_units, E=self.E, nu=self.nu, constants=self.constants, **self.variables
         )
+
+
+@dataclass(frozen=True)
+class SceneSpec(SceneCommon, Generic[K]):
+    """A validated scene: the shared parts (:class:`SceneCommon`) and the kind's own spec.
+
+    Attributes
+    ----------
+    kind_spec : K
+        The kind's record (:data:`dpfexplore.inverse.kinds.KindSpec`), e.g.
+        :class:`~dpfexplore.inverse.scenes.position.spec.PositionSpec` for ``kind = "position"``.
+        Its ``n_results`` is the number of result rows the scene reports.
+
+    Notes
+    -----
+    ``targets`` (the position kinds' :class:`~.scenes.position.spec.Target` points, else empty)
+    and ``gripper``, ``pickplace``, ``walker`` (the kind spec of a scene of that kind, else
+    None) read the kind spec under the names the scene file's tables have.
+    """
+
+    kind_spec: K = field(kw_only=True)
+
+    @classmethod
+    def of(cls, common: SceneCommon, kind_spec: K) -> SceneSpec[K]:
+        """The scene of the shared parts ``common`` and the kind spec ``kind_spec``."""
+        return cls(
+            **{f.name: getattr(common, f.name) for f in fields(SceneCommon)}, kind_spec=kind_spec
+        )
+
+    @property
+    def targets(self) -> tuple:
+        """The targets of a position scene (empty for the other kinds)."""
+        return self.kind_spec.targets if self.kind in ("position", "position_stiffness") else ()
+
+    @property
+    def gripper(self) -> Any:
+        """The kind spec of a gripper scene (None for the other kinds)."""
+        return self.kind_spec if self.kind == "gripper" else None
+
+    @property
+    def pickplace(self) -> Any:
+        """The kind spec of a pick-and-place scene (None for the other kinds)."""
+        return self.kind_spec if self.kind == "pickplace" else None
+
+    @property
+    def walker(self) -> Any:
+        """The kind spec of a walker-leg scene (None for the other kinds)."""
+        return self.kind_spec if self.kind == "walker_leg" else None

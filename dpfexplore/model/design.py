@@ -15,7 +15,6 @@ The rules of the validation and their messages live in :mod:`dpfexplore.model.va
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..io.toml_fields import read_toml
 from . import status as st
 from .constants_set import (
     DEFAULT,
@@ -264,16 +264,13 @@ def load_design(path: str | Path) -> Design:
     """
     path = Path(path)
     try:
-        with path.open("rb") as fh:
-            document = tomllib.load(fh)
+        document = read_toml(path)  # "PATH: not valid TOML (...)", a ValueError
     except FileNotFoundError:
         raise ValueError(f"{path}: no such design file") from None
     except IsADirectoryError:
         raise ValueError(f"{path}: is a directory, not a design file (TOML)") from None
     except OSError as exc:
         raise ValueError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML ({exc})") from None
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file (a design is TOML)") from None
     if "design" not in document:

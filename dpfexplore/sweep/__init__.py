@@ -4,9 +4,9 @@ Modules
 -------
 space
     What a job is: the design space, what is computed, the validated :class:`~.space.JobSpec`.
-job_file, job_fields
-    Job files (TOML): the format, read and validated into a job spec; the field validators
-    (shared with scene files).
+job_file
+    Job files (TOML): the format, read and validated into a job spec (the fields by
+    :mod:`dpfexplore.io.toml_fields`).
 sampling
     Latin-hypercube plans per ``N`` (scipy.stats.qmc), generated chunk by chunk.
 evaluation

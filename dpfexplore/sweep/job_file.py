@@ -56,18 +56,17 @@ from __future__ import annotations
 
 import logging
 import math
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ..io import toml_fields as _v
+from ..io.toml_fields import FieldError, reported_as
 from ..model.constants_set import DEFAULT, ConstantsSetError
 from ..model.design import DEFAULTS, MATERIALS, resolve_constants
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
 from ..model.variables import HEIGHT_ORDERS
-from . import job_fields as _v
-from .job_fields import JobSpecError
 from .space import (
     PER_UNIT_VARIABLES,
     SHARED_VARIABLES,
@@ -81,6 +80,11 @@ from .space import (
 )
 
 __all__ = ["JobSpecError", "load_job", "parse_job", "recorded_space"]
+
+
+class JobSpecError(FieldError):
+    """A job file that does not validate; the message is one line naming the key."""
+
 
 #: Variables a job must give; the others default (material preset or MODEL.md §2).
 REQUIRED_VARIABLES = ("H", "U_L", "U_sep", "t", "t_lim")
@@ -102,20 +106,19 @@ def load_job(path: str | Path) -> JobSpec:
     """
     path = Path(path)
     try:
-        with path.open("rb") as fh:
-            document = tomllib.load(fh)
+        with reported_as(JobSpecError):
+            document = _v.read_toml(path)
     except FileNotFoundError:
         raise JobSpecError(f"{path}: no such job file") from None
     except IsADirectoryError:
         raise JobSpecError(f"{path}: is a directory, not a job file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise JobSpecError(f"{path}: not valid TOML ({exc})") from None
     try:
         return parse_job(document, default_name=path.stem, base=path.parent)
     except JobSpecError as exc:
         raise JobSpecError(f"{path}: {exc}") from None
 
 
+@reported_as(JobSpecError)
 def parse_job(
     data: Mapping[str, Any], *, default_name: str = "job", base: str | Path | None = None
 ) -> JobSpec:
@@ -181,6 +184,7 @@ def parse_job(
     )
 
 
+@reported_as(JobSpecError)
 def recorded_space(job: Mapping[str, Any]) -> DesignSpace:
     """The design space of a job recorded with a dataset (:meth:`JobSpec.to_dict`).
 

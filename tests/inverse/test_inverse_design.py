@@ -20,8 +20,9 @@ from dpfexplore.cli import main
 from dpfexplore.inverse.design import design_scene
 from dpfexplore.inverse.evaluation import SceneEvaluator
 from dpfexplore.inverse.kinds import load_scene, parse_scene
-from dpfexplore.inverse.problem import GripperProblem, PositionProblem
-from dpfexplore.inverse.spec_fields import SceneSpecError
+from dpfexplore.inverse.scene_file import SceneSpecError
+from dpfexplore.inverse.scenes.gripper.problem import GripperProblem
+from dpfexplore.inverse.scenes.position.problem import PositionProblem
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.model.gripper import gripper_aperture
 from dpfexplore.model.variables import DesignVariables
@@ -597,9 +598,9 @@ def test_seed_set_reads_each_n_once_and_gives_the_rows_designs(tmp_path):
 
 
 def test_problems_hold_no_run_state_the_evaluator_remembers():
-    from dpfexplore.inverse.engine.optimiser import position_problems
     from dpfexplore.inverse.evaluation import SceneEvaluator
     from dpfexplore.inverse.kinds import parse_scene
+    from dpfexplore.inverse.scenes.position.solve import position_problems
 
     spec = parse_scene(position_scene([(40.0, 25.0)], n_units=(2,)))
     evaluator = SceneEvaluator(2)

@@ -19,11 +19,11 @@ from dpfexplore import Design, DesignBatch, PressureProfile, simulate
 from dpfexplore.cli import main
 from dpfexplore.inverse.engine.roots import grow_bracket, root_on_line
 from dpfexplore.inverse.kinds import load_scene
+from dpfexplore.inverse.scene_file import SceneSpecError
 from dpfexplore.inverse.scenes.pickplace.problem import ResetEval, line_brackets
-from dpfexplore.inverse.scenes.timing_spec import with_target_reset
+from dpfexplore.inverse.scenes.pickplace.spec import with_target_reset
 from dpfexplore.inverse.scenes.walker.report import inverted_intervals
 from dpfexplore.inverse.scenes.walker.solve import violation
-from dpfexplore.inverse.spec_fields import SceneSpecError
 from dpfexplore.solvers.dynamics.ramp import inversion_pressures
 from dpfexplore.solvers.legs.leg import load_leg, simulate_leg
 
@@ -392,7 +392,7 @@ def test_bench_design_timing_rows(capsys, tmp_path, monkeypatch):
 
 
 def test_walker_table_names_units_that_never_invert(capsys):
-    from dpfexplore.cli.support.timing_output import _walker
+    from dpfexplore.inverse.scenes.walker.summary import leg_lines
 
     unit = {
         "section": "purple",
@@ -415,7 +415,7 @@ def test_walker_table_names_units_that_never_invert(capsys):
         "wall_s": 1.0,
         "units": [unit, {**unit, "class": "metastable", "inversion_pressure_MPa": 0.21}],
     }
-    _walker([row])
+    print(*leg_lines([row]), sep="\n")  # the lines dpfexplore design prints
     out = capsys.readouterr().out
     assert "inf MPa" not in out and "flat" not in out
     assert "never inverts on the ramp" in out and "not inverted" in out
@@ -423,7 +423,7 @@ def test_walker_table_names_units_that_never_invert(capsys):
 
 
 def test_walker_turning_line_names_the_run_it_speaks_of(capsys):
-    from dpfexplore.cli.support.timing_output import _walker
+    from dpfexplore.inverse.scenes.walker.summary import leg_lines
 
     row = {
         "leg": "front",
@@ -442,6 +442,6 @@ def test_walker_turning_line_names_the_run_it_speaks_of(capsys):
             "stride": 0.3,
         },
     }
-    _walker([row])
+    print(*leg_lines([row]), sep="\n")  # the lines dpfexplore design prints
     out = capsys.readouterr().out
     assert "end of the stride run (5 s; the timing figure runs 8 s)" in out

@@ -13,7 +13,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PathCollection
 from matplotlib.figure import Figure
 
-from dpfexplore.inverse.scenes.pickplace.report import _target_label
+from dpfexplore.inverse.scenes.pickplace.figures import target_label as _target_label
 from dpfexplore.plotting.design import plot_objective_history
 from dpfexplore.plotting.timing import plot_difference_front
 

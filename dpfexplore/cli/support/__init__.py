@@ -9,6 +9,4 @@ inputs
 output
     Streams that survive closed pipes, JSON on stdout, output paths checked before the work,
     compile notices, the fitted-range line.
-timing_output
-    The text tables of the timing scenes (pick-and-place, walker).
 """

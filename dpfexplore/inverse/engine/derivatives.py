@@ -2,10 +2,10 @@
 
 The differences themselves are the package's one routine,
 :func:`dpfexplore.numerics.differences.central_differences`, called by
-:meth:`dpfexplore.inverse.problem.Problem.jacobian` with these settings. The optimiser's
+:meth:`dpfexplore.inverse.engine.problem.Problem.jacobian` with these settings. The optimiser's
 fallback Jacobian: scenes take their Jacobians from the model's exact
 sensitivities (``solve_batch(..., sensitivities=True)`` chained with
-:meth:`DesignVariables.jacobian`, :meth:`.scenes.Problem.jacobian`) and use these central
+:meth:`DesignVariables.jacobian`, :meth:`.problem.Problem.jacobian`) and use these central
 differences of the exact model only where those are undefined (a row whose Hessian is not
 positive definite, an output without sensitivities). The ``2m`` displaced designs of a
 stencil are solved in one batch, and a displacement that would leave ``[0, 1]`` is clipped to

@@ -4,7 +4,7 @@ Method
 ------
 1. **Candidates for every N at once.** A Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`)
    in the box ``z ∈ [0, 1]^dim`` of each number of units, mapped to designs by
-   :class:`~dpfexplore.sweep.variables.DesignVariables` (so every candidate honours the bounds,
+   :class:`~dpfexplore.model.variables.DesignVariables` (so every candidate honours the bounds,
    orders, ties and shared parameters exactly), solved in one batch across all N; or, when the
    scene names a sweep dataset (``[optimiser] seeds``), the dataset's designs nearest the target
    (:mod:`dpfexplore.inverse.engine.seeds`: the lookup index, no model evaluation).
@@ -22,12 +22,13 @@ Method
    (residual ``[√w1 r, √w2 / K]``) and is solved by step 2.
 4. **Unreachable targets are proven, not guessed.** A target is declared unreachable only when
    ``starts_per_n`` refinements from the best distinct candidates of every N all stop above the
-   tolerance; the report gives the nearest tip found and the tips of every evaluated design
-   (the sampled reachable region) per N.
+   tolerance (:func:`~.distinct_starts`; the position scenes' rounds are in
+   :mod:`dpfexplore.inverse.scenes.position.solve`); the report gives the nearest tip found and
+   the tips of every evaluated design (the sampled reachable region) per N.
 
-Each scene kind's solver is named by its record in :data:`dpfexplore.inverse.kinds.SCENE_KINDS`
-(the position kinds' is :func:`solve_position_target`, the gripper's is in
-:mod:`dpfexplore.inverse.scenes.gripper.solve`).
+The engine imports no scene and reads no kind: a scene kind's solver (in its package under
+:mod:`dpfexplore.inverse.scenes`) builds its :class:`~.problem.Problem` objects and drives these
+steps with its own tolerances and budget (:class:`~.settings.OptimiserSettings`).
 """
 
 from __future__ import annotations
@@ -46,18 +47,21 @@ from scipy.stats import qmc
 from ...model.design import DesignBatch
 from ...numerics.local import least_squares_in_box
 from ..evaluation import SceneEvaluator
-from ..problem import Evaluation, PositionProblem, Problem
+from .problem import Evaluation, Problem
 from .seeds import seed_candidates
+from .settings import OptimiserSettings
 
 __all__ = [
     "FrontPoint",
     "ResidualRefinement",
     "TargetResult",
+    "candidates",
+    "distinct_starts",
     "latin_candidates",
     "maximise_stiffness",
     "refine_residual",
     "screen",
-    "solve_position_target",
+    "stiffness_front",
 ]
 
 logger = logging.getLogger(__name__)
@@ -100,7 +104,29 @@ class FrontPoint:
 
 @dataclass
 class TargetResult:
-    """Everything the optimiser found for one target (before verification and reporting)."""
+    """Everything the optimiser found for one target (before verification and reporting).
+
+    Attributes
+    ----------
+    target_index : int
+    target : tuple of float
+        The target (tip, mm; apertures, mm).
+    best : ResidualRefinement or None
+        The best point found (the nearest one when the target is out of reach).
+    reachable : bool
+    per_n : dict of int to float
+        Best objective (mm²) per number of units.
+    starts : list of ResidualRefinement
+        Every refinement run.
+    front : list of FrontPoint
+        The stiffness front, when one was grown.
+    weighted : ResidualRefinement or None
+        The weighted-sum optimum, when asked.
+    counts : dict of str to int
+        Evaluations of this target by kind.
+    wall_s : float
+        Seconds spent on this target.
+    """
 
     target_index: int
     target: tuple[float, ...]
@@ -112,7 +138,6 @@ class TargetResult:
     weighted: ResidualRefinement | None = None
     counts: dict[str, int] = field(default_factory=dict)
     wall_s: float = 0.0
-    extra: dict = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- candidates
@@ -151,22 +176,25 @@ def screen(
     return evaluations
 
 
-def _candidates(
-    problems: Sequence[PositionProblem], spec, evaluator: SceneEvaluator
+def candidates(
+    problems: Sequence[Problem],
+    settings: OptimiserSettings,
+    seed: int,
+    evaluator: SceneEvaluator,
 ) -> list[Evaluation]:
-    """Candidates of every N: the scene's dataset seeds, else a screened Latin hypercube.
+    """Candidates of every N: the dataset seeds of ``settings``, else a screened Latin hypercube.
 
-    The N a seeds dataset lacks (or a scene without one) get the Latin hypercube, screened in
-    one batch.
+    Seeding needs problems with a tip target (:class:`~.seeds.SeedableProblem`). The N a seeds
+    dataset lacks (or settings without one) get the Latin hypercube of
+    ``settings.candidates_per_n`` points (seeded by ``seed`` and N), screened in one batch.
     """
-    settings = spec.optimiser
     seeded: list[Evaluation | None] = [None] * len(problems)
     if settings.seeds is not None:
         seeded = seed_candidates(list(problems), settings.seeds, settings.seeds_per_n, evaluator)
     missing = [i for i, ev in enumerate(seeded) if ev is None]
     points = [
         latin_candidates(
-            problems[i].dim, settings.candidates_per_n, spec.seed + 7919 * problems[i].n_units
+            problems[i].dim, settings.candidates_per_n, seed + 7919 * problems[i].n_units
         )
         for i in missing
     ]
@@ -175,7 +203,7 @@ def _candidates(
     return seeded  # type: ignore[return-value]
 
 
-def _distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> list[int]:
+def distinct_starts(ev: Evaluation, count: int, *, min_gap: float = 0.15) -> list[int]:
     """Indices of up to ``count`` best feasible candidates, at least ``min_gap`` apart in z."""
     order = np.argsort(ev.objective)
     chosen: list[int] = []
@@ -354,151 +382,19 @@ def maximise_stiffness(
     return best["z"], best["ev"]
 
 
-# ----------------------------------------------------------------------------- position
+def stiffness_front(
+    met: Sequence[ResidualRefinement], rungs: Sequence[float], *, max_iter: int
+) -> list[FrontPoint]:
+    """Stiffness against tip tolerance, grown from exact solutions of a target.
 
-
-def position_problems(spec, target_index: int, evaluator: SceneEvaluator) -> list[PositionProblem]:
-    """One problem per N of the scene for one target."""
-    target = spec.targets[target_index].point
-    return [
-        PositionProblem(spec.design_variables(n), target, spec.state, evaluator, target_index)
-        for n in spec.n_units
-    ]
-
-
-def solve_position_target(
-    spec, target_index: int, evaluator: SceneEvaluator, *, exhaustive: bool = False
-) -> TargetResult:
-    """Meet one target of a position scene (and its front or weighted sum when asked).
-
-    Parameters
-    ----------
-    spec : SceneSpec
-    target_index : int
-    evaluator : SceneEvaluator
-    exhaustive : bool
-        Refine from every N even after the target is met (the front needs every N where the
-        target is reachable).
+    ``met`` are refinements that met the target (of every N where it was met), ``rungs`` the
+    tip tolerances (mm, ascending) and ``max_iter`` the SLSQP iterations per rung. The front
+    grows from the :data:`FRONT_STARTS` stiffest of ``met``, rung to rung. Each rung is
+    answered by the stiffest of *all* designs evaluated with their stiffness on the way (every
+    SLSQP iterate, line-search point and derivative stencil point is an exact evaluation), not
+    only by the end point of its own SLSQP run; so a looser rung is never less stiff than a
+    tighter one.
     """
-    counts0 = dict(evaluator.counts)
-    wall0 = evaluator.wall_s
-    problems = position_problems(spec, target_index, evaluator)
-    settings = spec.optimiser
-    stiff_scene = spec.kind == "position_stiffness"
-    goal = GOAL_FRACTION * spec.tolerance
-    candidates = _candidates(problems, spec, evaluator)
-    starts = {
-        p.n_units: _distinct_starts(ev, settings.starts_per_n)
-        for p, ev in zip(problems, candidates, strict=True)
-    }
-    best_candidate = {
-        p.n_units: float(np.min(ev.objective)) for p, ev in zip(problems, candidates, strict=True)
-    }
-    order = sorted(range(len(problems)), key=lambda i: best_candidate[problems[i].n_units])
-    result = TargetResult(
-        target_index=target_index,
-        target=spec.targets[target_index].point,
-        best=None,
-        reachable=False,
-        per_n={n: v for n, v in best_candidate.items()},
-    )
-    reached_n: set[int] = set()
-    # Rounds: first a short refinement from the best start of every N (most reachable targets
-    # are met there), then that refinement continued with the full budget from the N nearest
-    # the target first, then the further starts.
-    quick = max(8, settings.max_iter // 5)
-    plan = [(0, quick, False), (0, settings.max_iter, True)]
-    plan += [(k, settings.max_iter, False) for k in range(1, settings.starts_per_n)]
-    last: dict[int, ResidualRefinement] = {}
-    for start, budget, resume in plan:
-        if resume:
-            order = sorted(order, key=lambda i: result.per_n[problems[i].n_units])
-        for i in order:
-            problem, ev = problems[i], candidates[i]
-            n = problem.n_units
-            if n in reached_n or start >= len(starts[n]):
-                continue
-            z0 = last[n].z if resume and n in last else ev.z[starts[n][start]]
-            run = refine_residual(problem, z0, goal=goal, max_iter=budget)
-            if not resume and budget < settings.max_iter and goal < run.objective <= PROMISING:
-                # Converging on this N: finish here rather than after the other N.
-                run = refine_residual(problem, run.z, goal=goal, max_iter=settings.max_iter)
-            if resume and n in last:  # the continued run replaces the short one
-                slot = next(j for j, r in enumerate(result.starts) if r is last[n])
-                result.starts[slot] = run
-            else:
-                result.starts.append(run)
-            last[n] = run
-            result.per_n[n] = min(result.per_n[n], run.objective)
-            if result.best is None or run.objective < result.best.objective:
-                result.best = run
-            if run.objective <= spec.tolerance:
-                reached_n.add(n)
-                if not exhaustive:
-                    break
-        if reached_n and not exhaustive:
-            break
-    result.reachable = result.best is not None and result.best.objective <= spec.tolerance
-    if not result.reachable:
-        # The nearest tip of any evaluated design (derivative stencils included).
-        problem = min(problems, key=lambda p: p.evaluator.best_seen(p)[0])
-        objective, z = problem.evaluator.best_seen(problem)
-        if z is not None and (result.best is None or objective < result.best.objective):
-            ev = problem.evaluate(z[None, :], purpose="nearest")
-            result.best = ResidualRefinement(problem, z, ev, float(ev.objective[0]), 0, False)
-        for p in problems:
-            result.per_n[p.n_units] = min(result.per_n[p.n_units], p.evaluator.best_seen(p)[0])
-    if result.best is None:  # no design had the targeted state: report the best candidate
-        i = order[0]
-        j = int(np.argmin(candidates[i].objective))
-        result.best = ResidualRefinement(
-            problems[i],
-            candidates[i].z[j],
-            candidates[i],
-            float(candidates[i].objective[j]),
-            0,
-            False,
-        )
-    if stiff_scene and result.reachable:
-        result.front = _front(spec, result, reached_n)
-    if stiff_scene and spec.weights is not None and result.best is not None:
-        # From the best design of every N and from every rung of the front: the weighted
-        # optimum lies on the front's side of the trade-off.
-        seeds = [(r.problem, r.z) for r in _best_per_n(result.starts)]
-        seeds += [(p.problem, p.z) for p in result.front if p.z is not None]
-        runs = [
-            refine_residual(problem, z, goal=0.0, max_iter=settings.max_iter, weights=spec.weights)
-            for problem, z in seeds
-        ]
-        result.weighted = min(runs, key=lambda r: _weighted(r, spec.weights))
-    result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
-    result.wall_s = evaluator.wall_s - wall0
-    return result
-
-
-def _weighted(run: ResidualRefinement, weights: tuple[float, float]) -> float:
-    k = run.evaluation.stiffness[0]
-    return weights[0] * run.objective + weights[1] / k**2 if np.isfinite(k) else np.inf
-
-
-def _best_per_n(runs: Sequence[ResidualRefinement]) -> list[ResidualRefinement]:
-    best: dict[int, ResidualRefinement] = {}
-    for r in runs:
-        n = r.problem.n_units
-        if n not in best or r.objective < best[n].objective:
-            best[n] = r
-    return list(best.values())
-
-
-def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
-    """Stiffness against tip tolerance, from every N where the target was met.
-
-    Each rung is answered by the stiffest of *all* designs evaluated with their stiffness on
-    the way (every SLSQP iterate, line-search point and derivative stencil point is an exact
-    evaluation), not only by the end point of its own SLSQP run; so a looser rung is never less
-    stiff than a tighter one.
-    """
-    met = [run for run in result.starts if run.objective <= spec.tolerance]
     # The front grows from the stiffest exact solutions (one stiffness solve each).
     stiffness = [
         float(r.problem.evaluate(r.z[None, :], purpose="front", stiffness=True).stiffness[0])
@@ -507,7 +403,7 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
     order = np.argsort(-np.nan_to_num(np.array(stiffness), nan=-np.inf))
     met = [met[i] for i in order[:FRONT_STARTS]]
     problems = {id(run.problem): run.problem for run in met}
-    front = [FrontPoint(tol, None, None, np.inf, -np.inf) for tol in spec.front]
+    front = [FrontPoint(tol, None, None, np.inf, -np.inf) for tol in rungs]
     if not met:
         return front
     evaluators = {id(p.evaluator): p.evaluator for p in problems.values()}
@@ -518,8 +414,8 @@ def _front(spec, result: TargetResult, reached_n: set[int]) -> list[FrontPoint]:
             archives.update(stack.enter_context(evaluator.archiving(mine)))
         for run in met:
             z = run.z
-            for tol in spec.front:
-                z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=spec.optimiser.max_iter)
+            for tol in rungs:
+                z_new, _ = maximise_stiffness(run.problem, z, tol, max_iter=max_iter)
                 if z_new is not None:
                     z = z_new
     for key, problem in problems.items():

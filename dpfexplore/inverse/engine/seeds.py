@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,12 +28,13 @@ from ...lookup.index import LookupIndex
 from ...lookup.query import designs_of
 from ...lookup.store import open_index
 from ...model.design import DesignBatch
+from ...model.variables import DesignVariables
 from ...model.version import MODEL_VERSION
 from ...sweep.storage.datasets import dataset_info
 from ..evaluation import SceneEvaluator
-from ..problem import Evaluation, PositionProblem
+from .problem import Evaluation
 
-__all__ = ["SeedSet", "open_seeds", "seed_candidates"]
+__all__ = ["SeedSet", "SeedableProblem", "open_seeds", "seed_candidates"]
 
 #: Tip columns the seeds are looked up by.
 _COLUMNS = ("tip_x", "tip_y")
@@ -64,6 +66,20 @@ class SeedSet:
 _OPEN: dict[tuple[str, str], SeedSet] = {}
 
 
+class SeedableProblem(Protocol):
+    """What seeding needs of a problem: a tip target of one state, in a box of variables."""
+
+    variables: DesignVariables
+    #: Tip ``(x, y)`` the problem drives its state to, mm.
+    target: NDArray
+    #: The targeted state (an integer, unit 1 the most significant bit).
+    state: int
+    dim: int
+
+    @property
+    def n_units(self) -> int: ...  # noqa: D102
+
+
 def open_seeds(dataset: str | Path, n_units: tuple[int, ...] = ()) -> SeedSet:
     """The :class:`SeedSet` of a dataset, opened once per process and content checksum.
 
@@ -90,7 +106,7 @@ def open_seeds(dataset: str | Path, n_units: tuple[int, ...] = ()) -> SeedSet:
 
 
 def seed_candidates(
-    problems: list[PositionProblem], dataset: str | Path, per_n: int, evaluator: SceneEvaluator
+    problems: list[SeedableProblem], dataset: str | Path, per_n: int, evaluator: SceneEvaluator
 ) -> list[Evaluation | None]:
     """Per problem (one per N), up to ``per_n`` dataset designs nearest its target.
 

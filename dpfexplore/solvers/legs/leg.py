@@ -47,7 +47,6 @@ on (:meth:`dpfexplore.model.design.Design.in_fitted_range`), as the walker's low
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -57,6 +56,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..._kernels.lattice import unpack_nodes
+from ...io.toml_fields import known_keys, read_toml
 from ...model import status as st
 from ...model.constants_set import ConstantsSet
 from ...model.design import Design
@@ -183,9 +183,9 @@ class Leg:
         A ``constants = "FILE"`` design key (in ``[defaults]`` or a section's design) is
         relative to ``base``, the leg file's folder.
         """
-        _known("top level", document, {"leg", "defaults", "phase", "section"})
+        known_keys(document, "top level", {"leg", "defaults", "phase", "section"})
         head = dict(document.get("leg", {}))
-        _known("[leg]", head, _LEG_KEYS)
+        known_keys(head, "[leg]", _LEG_KEYS)
         if "t_end" not in head:
             raise ValueError("leg.t_end: missing (s)")
         defaults = dict(document.get("defaults", {}))
@@ -200,7 +200,7 @@ class Leg:
             where = f"section[{i + 1}]"
             if not isinstance(table, Mapping):
                 raise ValueError(f"{where}: must be a table")
-            _known(where, table, _SECTION_KEYS)
+            known_keys(table, where, _SECTION_KEYS)
             for key in ("phase", "design"):
                 if key not in table:
                     raise ValueError(f"{where}.{key}: missing")
@@ -258,16 +258,8 @@ class Leg:
         return np.linspace(0.0, float(self.t_end), self.n_samples)
 
 
-def _known(where: str, table: Mapping[str, Any], known: set[str]) -> None:
-    if not isinstance(table, Mapping):
-        raise ValueError(f"{where}: must be a table")
-    for key in table:
-        if key not in known:
-            raise ValueError(f"{where}.{key}: unknown key; known: {', '.join(sorted(known))}")
-
-
 def _phase(where: str, table: Any) -> PressureProfile:
-    _known(where, table, _PHASE_KEYS)
+    known_keys(table, where, _PHASE_KEYS)
     kinds = [k for k in ("tau", "pulses", "profile") if k in table]
     if len(kinds) != 1:
         raise ValueError(f"{where}: give exactly one of tau (with P0), pulses or profile")
@@ -291,12 +283,7 @@ def _phase(where: str, table: Any) -> PressureProfile:
 def load_leg(path: str | Path) -> Leg:
     """Read a leg file (module docstring); ``ValueError`` naming the key for a bad one."""
     path = Path(path)
-    try:
-        with path.open("rb") as fh:
-            document = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML ({exc})") from None
-    leg = Leg.from_dict(document, base=path.parent)
+    leg = Leg.from_dict(read_toml(path), base=path.parent)
     return leg if leg.name else replace(leg, name=path.stem)
 
 

@@ -2,8 +2,18 @@
 
 Modules
 -------
+spec
+    The ``[gripper]`` table (:class:`~.spec.GripperSpec`).
+problem
+    :class:`~.problem.GripperProblem`: apertures of the grasp states through the base transform.
 solve
     :func:`~.solve.solve_gripper`: apertures per state, stiffness, the metastable tip unit.
 windows
     Pressure windows of each state from snap pressures.
+report
+    :class:`~.report.GripperResult`: the verified gripper; ``gripper.toml`` and figures.
+summary
+    The text summary of the result.
+kind
+    The scene's record.
 """

@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,19 +43,74 @@ from ....solvers.dynamics.simulate import simulate
 from ...engine.optimiser import (
     ResidualRefinement,
     TargetResult,
-    _distinct_starts,
+    distinct_starts,
     latin_candidates,
     maximise_stiffness,
     refine_residual,
 )
+from ...engine.problem import Evaluation
 from ...evaluation import SceneEvaluator
-from ...problem import Evaluation, GripperProblem
-from ...spec import GripperSpec
-from .windows import pressure_windows, window_widths
+from ...spec import SceneSpec
+from .problem import GripperProblem
+from .spec import GripperSpec
+from .windows import PressureWindows, pressure_windows, window_widths
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["ALPHA_BISTABLE", "gripper_problem", "metastability", "solve_gripper"]
+__all__ = [
+    "ALPHA_BISTABLE",
+    "GripperTargetResult",
+    "Metastability",
+    "gripper_problem",
+    "metastability",
+    "solve_gripper",
+]
+
+
+class Metastability(TypedDict):
+    """A full-model run of the scene's pulse (:func:`metastability`).
+
+    ``ok``: the tip unit reset, after at least ``min_reset_s``, and alone; ``reset_time_s`` its
+    reset time (s, ``inf`` never, NaN never inverted); ``status`` the run's; ``final_state``;
+    ``classes`` of every unit; ``others_stay_inverted``.
+    """
+
+    ok: bool
+    reset_time_s: float
+    status: str
+    final_state: str
+    classes: list[str | None]
+    others_stay_inverted: bool
+
+
+class Finalist(TypedDict):
+    """A stiffened finalist's stiffness (N/mm), metastability and whether its windows hold."""
+
+    stiffness: float
+    checks: Metastability
+    windows_ok: bool
+
+
+@dataclass
+class GripperTargetResult(TargetResult):
+    """The optimiser's result for the gripper, with the checks of the chosen finalist.
+
+    Attributes
+    ----------
+    metastability : Metastability or empty
+        The chosen finalist's pulse run (empty when no finalist met the apertures).
+    alpha_band : [low, high] or None
+        The tip unit's isolated-dome ``α`` band of the last stiffening round.
+    windows : PressureWindows or empty
+        The best design's pressure windows (:func:`.windows.pressure_windows`).
+    finalists : list of Finalist
+    """
+
+    metastability: Metastability | dict = field(default_factory=dict)
+    alpha_band: list[float] | None = None
+    windows: PressureWindows | dict = field(default_factory=dict)
+    finalists: list[Finalist] = field(default_factory=list)
+
 
 #: Isolated-dome bistability limit (MODEL.md §4).
 ALPHA_BISTABLE = 1.0 / 9.0
@@ -63,9 +120,9 @@ _ROUNDS = 6
 _THETA_GRID = 721
 
 
-def gripper_problem(spec, evaluator: SceneEvaluator) -> GripperProblem:
+def gripper_problem(spec: SceneSpec[GripperSpec], evaluator: SceneEvaluator) -> GripperProblem:
     """The gripper problem of a scene."""
-    return GripperProblem(spec.design_variables(spec.n_units[0]), spec.gripper, evaluator)
+    return GripperProblem(spec.design_variables(spec.n_units[0]), spec.kind_spec, evaluator)
 
 
 def _best_base(problem: GripperProblem, ev: Evaluation) -> NDArray:
@@ -164,7 +221,7 @@ def _window_constraints(problem: GripperProblem, evaluator: SceneEvaluator) -> l
     ]
 
 
-def metastability(design: Design, g: GripperSpec, evaluator: SceneEvaluator) -> dict:
+def metastability(design: Design, g: GripperSpec, evaluator: SceneEvaluator) -> Metastability:
     """Full-model run of the scene's pulse: the tip unit must reset late enough, and alone."""
     profile = PressureProfile.pulse(g.pulse_P0, g.pulse_tau)
     run = simulate(design, profile, t_end=g.pulse_t_end, stop_when_reset=True, n_samples=0)
@@ -184,32 +241,34 @@ def metastability(design: Design, g: GripperSpec, evaluator: SceneEvaluator) -> 
     }
 
 
-def windows_ok(windows: dict, min_window_kPa: float) -> bool:
+def windows_ok(windows: PressureWindows, min_window_kPa: float) -> bool:
     """Every targeted state met in order, each window at least ``min_window_kPa`` wide."""
     return bool(windows.get("in_order")) and all(
         w is not None and w[1] - w[0] >= min_window_kPa for w in windows["windows"]
     )
 
 
-def solve_gripper(spec, target_index: int, evaluator: SceneEvaluator) -> TargetResult:
+def solve_gripper(
+    spec: SceneSpec[GripperSpec], target_index: int, evaluator: SceneEvaluator
+) -> GripperTargetResult:
     """Design the multi-aperture gripper of a scene (see the module docstring)."""
     counts0 = dict(evaluator.counts)
     wall0 = evaluator.wall_s
-    g = spec.gripper
+    g = spec.kind_spec
     settings = spec.optimiser
     problem = gripper_problem(spec, evaluator)
     zf = latin_candidates(problem.n_finger, settings.candidates_per_n, spec.seed)
     candidates = _screen(problem, zf)
     tol = g.aperture_tol
     goal = (1e-3 * tol) ** 2
-    result = TargetResult(
+    result = GripperTargetResult(
         target_index=0,
         target=tuple(g.apertures),
         best=None,
         reachable=False,
         per_n={problem.n_units: float(np.min(candidates.objective))},
     )
-    for i in _distinct_starts(candidates, settings.starts_per_n):
+    for i in distinct_starts(candidates, settings.starts_per_n):
         run = refine_residual(problem, candidates.z[i], goal=goal, max_iter=settings.max_iter)
         result.starts.append(run)
         if result.best is None or run.objective < result.best.objective:
@@ -233,21 +292,19 @@ def solve_gripper(spec, target_index: int, evaluator: SceneEvaluator) -> TargetR
     if pool:
         best = max(pool, key=lambda f: f["stiffness"])
         result.best = best["refinement"]
-        result.extra = {
-            "metastability": best["checks"],
-            "alpha_band": best["band"],
-            "windows": best["windows"],
-            "finalists": [
-                {"stiffness": f["stiffness"], "checks": f["checks"], "windows_ok": f["windows_ok"]}
-                for f in finalists
-            ],
-        }
+        result.metastability = best["checks"]
+        result.alpha_band = best["band"]
+        result.windows = best["windows"]
+        result.finalists = [
+            Finalist(stiffness=f["stiffness"], checks=f["checks"], windows_ok=f["windows_ok"])
+            for f in finalists
+        ]
     result.reachable = result.best is not None and bool(
         np.max(np.abs(np.nan_to_num(result.best.evaluation.residual[0], nan=np.inf))) <= tol
     )
-    if result.best is not None and "windows" not in result.extra:
+    if result.best is not None and not pool:
         design = problem.designs(np.atleast_2d(result.best.z)).design(0)
-        result.extra["windows"] = pressure_windows(design, g.states, evaluator)
+        result.windows = pressure_windows(design, g.states, evaluator)
     result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
     result.wall_s = evaluator.wall_s - wall0
     return result
@@ -275,7 +332,7 @@ def _next_band(a_lo: float, a_hi: float) -> tuple[float, float]:
 
 
 def _stiffen(
-    problem: GripperProblem, run: ResidualRefinement, evaluator: SceneEvaluator, spec
+    problem: GripperProblem, run: ResidualRefinement, evaluator: SceneEvaluator, spec: SceneSpec
 ) -> dict:
     """Maximise the activated state's stiffness from an aperture solution; simulate the result."""
     g = problem.spec

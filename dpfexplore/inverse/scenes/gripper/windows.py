@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from itertools import pairwise
+from typing import TypedDict
 
 import numpy as np
 
@@ -30,20 +31,32 @@ from ....model.design import Design
 from ....solvers.snap.continuation import snap_pressures
 from ...evaluation import SceneEvaluator
 
-__all__ = ["METHOD", "pressure_windows", "window_widths"]
+__all__ = ["METHOD", "PressureWindows", "pressure_windows", "window_widths"]
 
 #: How the windows are computed (reported with them).
 METHOD = "quasi-static continuation with release (dpfexplore.solvers.snap.continuation)"
 
 
+class PressureWindows(TypedDict):
+    """The pressure windows of a design's grasp states (:func:`pressure_windows`), kPa."""
+
+    computed: bool
+    method: str
+    unit_pressures_kPa: list[float | None]
+    sequence: list[str]
+    windows: list[list[float] | None]
+    in_order: bool
+    note: str
+
+
 def pressure_windows(
     design: Design, states: Sequence[str], evaluator: SceneEvaluator, *, P_max: float = 1.0
-) -> dict:
+) -> PressureWindows:
     """Windows ``[P_enter, P_leave]`` (kPa) from which a slow release leaves each of ``states``.
 
     Returns
     -------
-    dict
+    PressureWindows
         ``"computed"`` (the continuation reached ``P_max``), ``"method"``,
         ``"unit_pressures_kPa"`` (first inversion of every unit on the rising ramp; None where
         not by ``P_max``), ``"sequence"`` (the states the rising ramp visits), ``"windows"``

@@ -13,5 +13,11 @@ front
 solve
     :func:`~.solve.solve_pickplace`: targets and fronts.
 report
-    The timing scenes' reports and figures.
+    Verified result records; the result TOMLs.
+figures
+    The report's figures: reset map, objective history, difference front.
+summary
+    The text summary of the results.
+kind
+    The scene's record.
 """

@@ -14,24 +14,47 @@ picks one of them when weights are given.
 from __future__ import annotations
 
 import math
+from typing import TypedDict
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from ....model.design import Design
 from ...engine.roots import finite_log, root_on_line
 from ...evaluation import SceneEvaluator
+from ...spec import SceneSpec
 from .problem import ResetProblem
-from .screen import Screen, check_design
+from .screen import DesignCheck, Screen, check_design
+from .spec import PickPlaceSpec
 
-__all__ = ["FRONT_LINES", "solve_difference"]
+__all__ = ["FRONT_LINES", "DifferencePoint", "solve_difference"]
+
+
+class DifferencePoint(TypedDict):
+    """The best design of one line of ``t``: box point, design, its two full-model runs.
+
+    ``checks`` under the scene's pulse and the second profile; ``ok`` both admissible with
+    resets within the cap; ``difference`` ``RT_2 - RT_1`` (s); ``stiffness`` of the grasp
+    state (N/mm).
+    """
+
+    z: list[float]
+    design: Design
+    checks: list[DesignCheck]
+    ok: bool
+    difference: float
+    stiffness: float
+
 
 #: Lines of ``t`` of the difference front.
 FRONT_LINES = 8
 
 
-def solve_difference(spec, index: int, evaluator: SceneEvaluator, screen: Screen) -> dict:
+def solve_difference(
+    spec: SceneSpec[PickPlaceSpec], index: int, evaluator: SceneEvaluator, screen: Screen
+) -> dict:
     """The front of the difference objective (module docstring) from a complete screening."""
-    p = spec.pickplace
+    p = spec.kind_spec
     d = p.difference
     problem = ResetProblem(spec, evaluator, target_index=index)
     v1, v2 = screen.ev.value, screen.second.value
@@ -140,7 +163,7 @@ def solve_difference(spec, index: int, evaluator: SceneEvaluator, screen: Screen
     }
 
 
-def _non_dominated(points: list[dict]) -> list[dict]:
+def _non_dominated(points: list[DifferencePoint]) -> list[DifferencePoint]:
     """Points not beaten in both difference and stiffness, by difference descending."""
     out = [
         q

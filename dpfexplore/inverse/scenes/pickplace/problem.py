@@ -1,6 +1,7 @@
 """The pick-and-place problem: box points ``(H, t)`` to reset times, grasp stiffness and brackets.
 
-:class:`ResetProblem` is the pick-and-place scene's :class:`~dpfexplore.inverse.problem.Problem`
+:class:`ResetProblem` is the pick-and-place scene's
+:class:`~dpfexplore.inverse.engine.problem.Problem`
 (one height variable, usually the tied ``H_5 = H_6``, and ``t``). Its static part (the grasp
 state's tip stiffness) goes through the problem interface (``requests``/``finish``); its dynamic
 part through :meth:`ResetProblem.resets`, which runs the reduced model for screening or the full
@@ -38,9 +39,10 @@ from ....solvers.dynamics.common import (
     CLASS_MONOSTABLE,
     CLASS_NAMES,
 )
+from ...engine.problem import Evaluation, Problem
 from ...engine.roots import LOG_INF
 from ...evaluation import SceneEvaluator
-from ...problem import Evaluation, Problem
+from ...spec import SceneSpec
 from .spec import PickPlaceSpec, PulseSpec
 
 __all__ = [
@@ -163,9 +165,11 @@ class ResetProblem(Problem):
     #: recorded by the reset runs.
     records_objective = False
 
-    def __init__(self, spec, evaluator: SceneEvaluator, target_index: int = 0) -> None:
+    def __init__(
+        self, spec: SceneSpec[PickPlaceSpec], evaluator: SceneEvaluator, target_index: int = 0
+    ) -> None:
         self.spec = spec
-        self.p: PickPlaceSpec = spec.pickplace
+        self.p: PickPlaceSpec = spec.kind_spec
         self.variables = spec.design_variables(spec.n_units[0])
         self.dim = self.variables.n_variables
         self.evaluator = evaluator

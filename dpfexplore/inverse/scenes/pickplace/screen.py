@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,10 +22,38 @@ from numpy.typing import NDArray
 from ....model.design import Design
 from ....solvers.dynamics.common import CLASS_METASTABLE
 from ...evaluation import SceneEvaluator
+from ...spec import SceneSpec
 from .problem import ResetEval, ResetProblem, screening_method
-from .spec import PulseSpec
+from .spec import PickPlaceSpec, PulseSpec
 
-__all__ = ["Screen", "check_design", "reachable_range", "screen_pickplace", "second_screen"]
+__all__ = [
+    "DesignCheck",
+    "Screen",
+    "check_design",
+    "reachable_range",
+    "screen_pickplace",
+    "second_screen",
+]
+
+
+class DesignCheck(TypedDict):
+    """A design run alone in the full model to the horizon (:func:`check_design`).
+
+    ``reset_times`` of every unit (s; ``inf`` never reset, NaN never inverted), their
+    ``classes``, the ``final_state`` and ``status`` of the run, ``value`` the scene's objective
+    reset time (s), ``admissible`` (hold units bistable, objective defined), ``objective_unit``
+    (1-based; 0 none), the run's ``atol`` (mm) and ``t_end`` (s).
+    """
+
+    reset_times: NDArray
+    classes: list[str | None]
+    final_state: str
+    status: str
+    value: float
+    admissible: bool
+    objective_unit: int
+    atol: float
+    t_end: float
 
 
 @dataclass
@@ -57,8 +86,8 @@ class Screen:
         return bool(np.all(self.screened))
 
 
-def _grid(spec) -> tuple[NDArray, tuple[int, int]]:
-    p = spec.pickplace
+def _grid(spec: SceneSpec[PickPlaceSpec]) -> tuple[NDArray, tuple[int, int]]:
+    p = spec.kind_spec
     zt = np.linspace(0.0, 1.0, p.grid_t)
     zh = np.linspace(0.0, 1.0, p.grid_H)
     z = np.column_stack([np.tile(zh, p.grid_t), np.repeat(zt, p.grid_H)])
@@ -86,7 +115,9 @@ def _fill(full: ResetEval, rows: NDArray, part: ResetEval) -> None:
     full.extra["methods"][rows] = part.extra.get("methods", part.method)
 
 
-def screen_pickplace(spec, evaluator: SceneEvaluator, *, complete: bool = False) -> Screen:
+def screen_pickplace(
+    spec: SceneSpec[PickPlaceSpec], evaluator: SceneEvaluator, *, complete: bool = False
+) -> Screen:
     """The screening of a scene (cached on the evaluator: computed once per run).
 
     The first call screens the grid rows inside the fast model's trained domain (all rows when
@@ -96,7 +127,7 @@ def screen_pickplace(spec, evaluator: SceneEvaluator, *, complete: bool = False)
     screen = evaluator.cache.get("pickplace-screen")
     if screen is None:
         started = time.perf_counter()
-        p = spec.pickplace
+        p = spec.kind_spec
         problem = ResetProblem(spec, evaluator, target_index=-1)
         z, shape = _grid(spec)
         method, note = screening_method(p.screening, p.pulse)
@@ -131,12 +162,12 @@ def screen_pickplace(spec, evaluator: SceneEvaluator, *, complete: bool = False)
     return screen
 
 
-def second_screen(spec, evaluator: SceneEvaluator) -> Screen:
+def second_screen(spec: SceneSpec[PickPlaceSpec], evaluator: SceneEvaluator) -> Screen:
     """The complete screening with the difference objective's second profile screened too."""
     screen = screen_pickplace(spec, evaluator, complete=True)
     if screen.second is None:
         started = time.perf_counter()
-        p = spec.pickplace
+        p = spec.kind_spec
         method, _ = screening_method(p.screening, p.difference.pulse)
         screen.second = screen.problem.resets(
             screen.ev.z,
@@ -150,7 +181,7 @@ def second_screen(spec, evaluator: SceneEvaluator) -> Screen:
     return screen
 
 
-def reachable_range(spec, evaluator: SceneEvaluator) -> dict:
+def reachable_range(spec: SceneSpec[PickPlaceSpec], evaluator: SceneEvaluator) -> dict[str, Any]:
     """The range of reset times over the whole box (completes the screening; cached)."""
     screen = screen_pickplace(spec, evaluator, complete=True)
     if screen.ranges is None:
@@ -163,7 +194,7 @@ def reachable_range(spec, evaluator: SceneEvaluator) -> dict:
 
 def check_design(
     problem: ResetProblem, design: Design, *, pulse: PulseSpec | None = None, atol: float
-) -> dict:
+) -> DesignCheck:
     """Full-model run of a design to the horizon at ``atol``: reset times, classes, objective."""
     from ....solvers.dynamics.common import CLASS_NAMES
 
@@ -185,9 +216,11 @@ def check_design(
     }
 
 
-def _reachable_range(spec, screen: Screen, evaluator: SceneEvaluator) -> dict:
+def _reachable_range(
+    spec: SceneSpec[PickPlaceSpec], screen: Screen, evaluator: SceneEvaluator
+) -> dict[str, Any]:
     """Range of the objective reset over admissible, metastable-objective screening designs."""
-    ev, p = screen.ev, spec.pickplace
+    ev, p = screen.ev, spec.kind_spec
     problem = screen.problem
     n = ev.reset.shape[1]
     rows = np.arange(len(ev.z))

@@ -3,12 +3,12 @@
 The variables are one height (the tied ``H_5 = H_6``) and ``t``; the objective reset time (the
 scene's unit, by default the last non-hold unit to reset: the object is released) is smooth
 along lines of constant ``t`` except at class changes, and diverges at the bistable edge
-(:mod:`.reset_problem`). Finite differences of the full model are noisy at the integrator's
+(:mod:`.problem`). Finite differences of the full model are noisy at the integrator's
 tolerance there, so the optimiser here does not use them: it brackets and roots.
 
 Method
 ------
-1. **Screening** (:mod:`.pickplace_screen`, once per scene run, shared by its targets): a grid
+1. **Screening** (:mod:`.screen`, once per scene run, shared by its targets): a grid
    of ``grid.t`` lines of constant ``t`` with ``grid.H`` heights each; the fast reset model on the
    rows of its trained domain (where its trained scene is the scene's pulse), the release model
    on the others only when needed, the grasp stiffness by the statics. It also gives the
@@ -28,7 +28,7 @@ Method
    Brent on ``t`` for the second unit's time between lines of opposite error, or the smallest
    error near the best line when the two level curves run side by side (they nearly do for the
    paper's finger). Inside the fitted range first among the answers within the tolerance.
-4. **Difference of two profiles** (``difference``, :mod:`.pickplace_front`): the front of
+4. **Difference of two profiles** (``difference``, :mod:`.front`): the front of
    ``RT_2 - RT_1`` against the grasp stiffness, and the paper's weighted sum.
 
 Only the full model's values are reported; every reported design is re-simulated alone.
@@ -38,20 +38,24 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass, field
 from itertools import pairwise
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq, minimize_scalar
 
-from ...engine.optimiser import TargetResult
+from ....model.design import Design
 from ...engine.roots import grow_bracket, root_on_line
 from ...evaluation import SceneEvaluator
-from .front import solve_difference
+from ...spec import SceneSpec
+from .front import DifferencePoint, solve_difference
 from .problem import Bracket, ResetProblem, line_brackets
-from .screen import Screen, check_design, screen_pickplace, second_screen
+from .screen import DesignCheck, Screen, check_design, screen_pickplace, second_screen
+from .spec import PickPlaceSpec
 
-__all__ = ["SEARCH_FRACTION", "solve_pickplace"]
+__all__ = ["SEARCH_FRACTION", "Attempt", "PickPlaceOutcome", "solve_pickplace"]
 
 logger = logging.getLogger(__name__)
 
@@ -64,6 +68,65 @@ SEARCH_FRACTION = 0.1
 #: ``|log(reset / target)|`` at or above this marks an end that diverged (bistable) or went
 #: negative (:data:`dpfexplore.inverse.engine.roots.LOG_INF` is 50).
 _DIVERGED = 40.0
+
+
+class Attempt(TypedDict, total=False):
+    """A design tried for a target: box point, design, its full-model check and error.
+
+    ``error`` is the relative error of the objective reset time (the largest of the two units'
+    for a unit target, with ``unit_errors``); ``root_evaluations`` the runs that found it;
+    ``bracket`` the screening bracket it closed (None: the nearest screening design).
+    """
+
+    z: list[float]
+    design: Design
+    check: DesignCheck
+    error: float
+    unit_errors: list[float]
+    root_evaluations: int | dict
+    bracket: Bracket | None
+
+
+@dataclass
+class PickPlaceOutcome:
+    """What the search found for one result row of a pick-and-place scene (before verification).
+
+    Attributes
+    ----------
+    target_index : int
+    kind : str
+        ``"target"``, ``"unit_target"`` or ``"difference"``.
+    target : float, list of float or None
+        The target reset time (s), the unit targets' times, or None (difference).
+    best : Attempt, DifferencePoint or None
+    reachable : bool
+    attempts : list of Attempt
+    brackets : int
+        Brackets (or two-unit solutions) found.
+    units : list of int or None
+        The unit target's units (1-based).
+    front, lines : list of DifferencePoint
+        The difference front and every line's optimum.
+    weighted : DifferencePoint or None
+    counts : dict of str to int
+        Evaluations of this result by kind.
+    wall_s : float
+        Seconds spent on this result.
+    """
+
+    target_index: int
+    kind: str
+    target: float | list[float] | None
+    best: Attempt | DifferencePoint | None
+    reachable: bool
+    attempts: list[Attempt] = field(default_factory=list)
+    brackets: int = 0
+    units: list[int] | None = None
+    front: list[DifferencePoint] = field(default_factory=list)
+    lines: list[DifferencePoint] = field(default_factory=list)
+    weighted: DifferencePoint | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+    wall_s: float = 0.0
 
 
 # ----------------------------------------------------------------------------- one target
@@ -88,8 +151,10 @@ def _brackets(screen: Screen, target: float, prefer_fitted: bool) -> list[Bracke
     )
 
 
-def _solve_target(spec, index: int, evaluator: SceneEvaluator, screen: Screen) -> dict:
-    p = spec.pickplace
+def _solve_target(
+    spec: SceneSpec[PickPlaceSpec], index: int, evaluator: SceneEvaluator, screen: Screen
+) -> dict:
+    p = spec.kind_spec
     target = p.targets[index]
     problem = ResetProblem(spec, evaluator, target_index=index)
     brackets = _brackets(screen, target, p.prefer_fitted)
@@ -198,7 +263,7 @@ def _close_bracket(
     return x, {"surrogate": n_sur, "full": len(full_cache)}
 
 
-def _nearest(problem: ResetProblem, screen: Screen, target: float) -> dict | None:
+def _nearest(problem: ResetProblem, screen: Screen, target: float) -> Attempt | None:
     """The screening design nearest the target (log scale), verified in the full model."""
     f = np.abs(screen.ev.log_ratio(target))
     if not np.any(np.isfinite(f)):
@@ -238,8 +303,10 @@ def _line_estimate(f1: NDArray, f2: NDArray, zh: NDArray) -> tuple[float, float]
     return None
 
 
-def _solve_units(spec, index: int, evaluator: SceneEvaluator, screen: Screen) -> dict:
-    p = spec.pickplace
+def _solve_units(
+    spec: SceneSpec[PickPlaceSpec], index: int, evaluator: SceneEvaluator, screen: Screen
+) -> dict:
+    p = spec.kind_spec
     goal = p.unit_targets[index - len(p.targets)]
     (u1, u2), (t1, t2) = goal.units, goal.reset
     problem = ResetProblem(spec, evaluator, target_index=index)
@@ -385,35 +452,43 @@ def _finite_or(v: float, outer, ga: float, gb: float, a: float, b: float) -> flo
 # ----------------------------------------------------------------------------- solver
 
 
-def solve_pickplace(spec, target_index: int, evaluator: SceneEvaluator) -> TargetResult:
+def solve_pickplace(
+    spec: SceneSpec[PickPlaceSpec], target_index: int, evaluator: SceneEvaluator
+) -> PickPlaceOutcome:
     """One result of a pick-and-place scene: a target, a pair of unit targets, or the front.
 
     Result ``i`` is target ``i`` for ``i < len(targets)``, then the unit targets, then the
-    difference objective. The outcome is in ``TargetResult.extra`` (read by
+    difference objective (read by
     :func:`dpfexplore.inverse.scenes.pickplace.report.pickplace_report`).
     """
     counts0 = dict(evaluator.counts)
     wall0 = evaluator.wall_s
-    p = spec.pickplace
+    p = spec.kind_spec
     if target_index < len(p.targets):
-        outcome = _solve_target(spec, target_index, evaluator, screen_pickplace(spec, evaluator))
+        found = _solve_target(spec, target_index, evaluator, screen_pickplace(spec, evaluator))
     elif target_index < len(p.targets) + len(p.unit_targets):
-        outcome = _solve_units(
+        found = _solve_units(
             spec, target_index, evaluator, screen_pickplace(spec, evaluator, complete=True)
         )
     else:
-        outcome = solve_difference(spec, target_index, evaluator, second_screen(spec, evaluator))
-    best = outcome["best"]
+        found = solve_difference(spec, target_index, evaluator, second_screen(spec, evaluator))
+    best = found["best"]
     reachable = best is not None and (
-        best.get("ok", False) if outcome["kind"] == "difference" else best["error"] <= p.tolerance
+        best.get("ok", False) if found["kind"] == "difference" else best["error"] <= p.tolerance
     )
-    result = TargetResult(
+    outcome = PickPlaceOutcome(
         target_index=target_index,
-        target=outcome["target"],
-        best=None,
+        kind=found["kind"],
+        target=found["target"],
+        best=best,
         reachable=bool(reachable),
-        extra=outcome,
+        attempts=found.get("attempts", []),
+        brackets=found.get("brackets", 0),
+        units=found.get("units"),
+        front=found.get("front", []),
+        lines=found.get("lines", []),
+        weighted=found.get("weighted"),
     )
-    result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
-    result.wall_s = evaluator.wall_s - wall0
-    return result
+    outcome.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
+    outcome.wall_s = evaluator.wall_s - wall0
+    return outcome

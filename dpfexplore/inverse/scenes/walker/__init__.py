@@ -17,5 +17,9 @@ action
 solve
     :func:`~.solve.solve_walker`: front and middle legs from the zones and action units.
 report
-    The walker report and its figures.
+    Verified leg records; the leg files and figures.
+summary
+    The text summary of the legs.
+kind
+    The scene's record.
 """

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from ....model.design import Design
 from ....solvers.dynamics.common import CLASS_MONOSTABLE
 from ...engine.roots import finite_log, root_on_line
+from .legs import Requirement
 from .legs import requirement as _req
 from .search import SCAN as _SCAN
 from .search import SearchBase
@@ -207,7 +208,7 @@ class ActionSearch(SearchBase):
         walk = self.leg(purple, green, action, self.walk_phases())
         return out + self.walking_requirements(walk, self.monostable(), kind)
 
-    def walking_requirements(self, walk, mono, kind: str) -> list[dict]:
+    def walking_requirements(self, walk, mono, kind: str) -> list[Requirement]:
         """Requirements of the whole leg ``walk`` at the walking gait.
 
         Its stride against the monostable leg's ``mono`` and, for a front leg, its action unit
@@ -266,7 +267,7 @@ class ActionSearch(SearchBase):
 
     def action_requirements(
         self, check: dict, p_inv: NDArray, kind: str, purple_max: float = math.nan
-    ) -> list[dict]:
+    ) -> list[Requirement]:
         """Requirements of a front or middle leg's action section (verified run, pressures).
 
         ``purple_max``: the highest inversion pressure of the purple zone (MPa, front legs).

@@ -10,14 +10,29 @@ composes the tip path (:mod:`dpfexplore.solvers.legs.kinematics`); :func:`requir
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
+from typing import Any, TypedDict
 
 from ....model.design import Design
 from ....model.pressure import PressureProfile
 from ....solvers.legs.kinematics import compose, tip_node
 from ....solvers.legs.leg import Leg, LegResult, SectionRun, section_nodes, simulate_section
 
-__all__ = ["LegComposer", "requirement", "violation"]
+__all__ = ["LegComposer", "Requirement", "requirement", "violation"]
+
+
+class Requirement(TypedDict):
+    """One requirement of a zone: its text, the verified value and bound, whether it is met.
+
+    The text names the units of the value and bound (s, MPa).
+    """
+
+    zone: str
+    requirement: str
+    value: Any
+    bound: Any
+    met: bool
 
 
 class LegComposer:
@@ -125,12 +140,12 @@ class LegComposer:
         return self.sections["monostable"]
 
 
-def requirement(zone: str, text: str, value, bound, met) -> dict:
+def requirement(zone: str, text: str, value, bound, met) -> Requirement:
     """One requirement: its zone, text, value, bound and whether it is met."""
     return {"zone": zone, "requirement": text, "value": value, "bound": bound, "met": bool(met)}
 
 
-def violation(requirements: list[dict]) -> float:
+def violation(requirements: Sequence[Requirement]) -> float:
     """How far a design is from meeting every requirement: 0 when all are met.
 
     Each unmet numeric requirement adds its shortfall relative to its bound, each unmet class

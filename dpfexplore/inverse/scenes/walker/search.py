@@ -17,6 +17,7 @@ from ....model.design import Design, DesignBatch
 from ....model.pressure import PressureProfile
 from ....solvers.dynamics.common import CLASS_NAMES
 from ...evaluation import SceneEvaluator
+from ...spec import SceneSpec
 from .inversion import inversion_method, unit_inversion_pressures
 from .legs import LegComposer
 from .spec import WalkerSpec
@@ -37,9 +38,9 @@ def _code(name: str | None) -> int:
 class SearchBase(LegComposer):
     """One scene run's sections and the runs its searches are made of."""
 
-    def __init__(self, spec, evaluator: SceneEvaluator) -> None:
+    def __init__(self, spec: SceneSpec[WalkerSpec], evaluator: SceneEvaluator) -> None:
         self.spec = spec
-        self.w: WalkerSpec = spec.walker
+        self.w: WalkerSpec = spec.kind_spec
         self.req = self.w.requirements
         self.gait = self.w.gait
         self.evaluator = evaluator

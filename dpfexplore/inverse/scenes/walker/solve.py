@@ -3,7 +3,7 @@
 A leg is three sections (:mod:`dpfexplore.solvers.legs.leg`): the purple zone (two units, phase 1),
 the green zone (one unit, phase 2) and the action section (the action unit, then bistable units
 that stay flat while walking; phase 2). The scene is a gait and what each zone must do
-(:class:`~dpfexplore.inverse.scenes.timing_spec.WalkerRequirements`); the variables are each
+(:class:`~dpfexplore.inverse.scenes.walker.spec.WalkerRequirements`); the variables are each
 section's heights and thickness. Each requirement involves one section under one phase, so each
 section is designed alone, simulated only under the phase that moves it; the leg is composed only to
 measure the stride (the extent of the tip path) and draw the gait.
@@ -43,14 +43,18 @@ simulated and composed, and the monostable leg at the same gait gives the stride
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 from ....model.design import DesignBatch
-from ...engine.optimiser import TargetResult
+from ....solvers.legs.leg import LegResult
 from ...evaluation import SceneEvaluator
+from ...spec import SceneSpec
 from .action import ActionSearch
-from .legs import violation
+from .legs import Requirement, violation
+from .spec import WalkerSpec
 from .zones import ZoneSearch
 
-__all__ = ["WalkerSearch", "search_of", "solve_walker", "violation"]
+__all__ = ["LegOutcome", "WalkerSearch", "search_of", "solve_walker", "violation"]
 
 
 class WalkerSearch(ZoneSearch, ActionSearch):
@@ -62,60 +66,106 @@ class WalkerSearch(ZoneSearch, ActionSearch):
     """
 
 
-def search_of(spec, evaluator: SceneEvaluator) -> WalkerSearch:
+@dataclass
+class LegOutcome:
+    """What the search found for one leg of a walker scene (before its report).
+
+    Attributes
+    ----------
+    target_index : int
+    kind : str
+        ``"front"`` or ``"middle"``.
+    purple, green, action : dict
+        The zones' and the action unit's searches (:class:`~.zones.ZoneSearch`,
+        :class:`~.action.ActionSearch`): the chosen section (``best``; the green zone's is the
+        record itself) with its verification run, inversion pressures (MPa) and requirements,
+        and the candidates.
+    inversion_method : str
+    reachable : bool
+        A leg was composed and meets every requirement.
+    walk, monostable, turn : LegResult or None
+        The leg at the walking gait, the monostable leg at the same gait, the front leg at the
+        turning gait.
+    requirements : list of Requirement
+    stride_ratio : float or None
+        The leg's stride over the monostable leg's.
+    timing : dict of str to LegResult
+        The runs of the timing diagrams (``walk``, and ``turn`` for a front leg).
+    counts : dict of str to int
+    wall_s : float
+    """
+
+    target_index: int
+    kind: str
+    purple: dict
+    green: dict
+    action: dict
+    inversion_method: str
+    reachable: bool = False
+    walk: LegResult | None = None
+    monostable: LegResult | None = None
+    turn: LegResult | None = None
+    requirements: list[Requirement] = field(default_factory=list)
+    stride_ratio: float | None = None
+    timing: dict[str, LegResult] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=dict)
+    wall_s: float = 0.0
+
+
+def search_of(spec: SceneSpec[WalkerSpec], evaluator: SceneEvaluator) -> WalkerSearch:
     """The scene run's search (one per evaluator, shared by its legs)."""
     if "walker" not in evaluator.cache:
         evaluator.cache["walker"] = WalkerSearch(spec, evaluator)
     return evaluator.cache["walker"]
 
 
-def solve_walker(spec, target_index: int, evaluator: SceneEvaluator) -> TargetResult:
+def solve_walker(
+    spec: SceneSpec[WalkerSpec], target_index: int, evaluator: SceneEvaluator
+) -> LegOutcome:
     """Design one leg of the scene (``legs[target_index]``: front or middle)."""
     counts0 = dict(evaluator.counts)
     wall0 = evaluator.wall_s
-    kind = spec.walker.legs[target_index]
+    kind = spec.kind_spec.legs[target_index]
     search = search_of(spec, evaluator)
     purple, green = search.purple(), search.green()
     action = search.front_action() if kind == "front" else search.middle_action()
-    extra = {
-        "kind": kind,
-        "purple": purple,
-        "green": green,
-        "action": action,
-        "inversion_method": search.method,
-    }
+    out = LegOutcome(
+        target_index=target_index,
+        kind=kind,
+        purple=purple,
+        green=green,
+        action=action,
+        inversion_method=search.method,
+    )
     ok = purple["best"] is not None and action["best"] is not None
     if ok:
         designs = (purple["best"]["design"], green["design"], action["best"]["design"])
         walk = search.leg(*designs, search.walk_phases())
         mono = search.monostable()
-        extra["walk"], extra["monostable"] = walk, mono
+        out.walk, out.monostable = walk, mono
         if kind == "front":
-            extra["turn"] = search.leg(*designs, search.turn_phases())
-        extra["requirements"] = (
+            out.turn = search.leg(*designs, search.turn_phases())
+        out.requirements = (
             purple["best"]["requirements"]
             + green["requirements"]
             + action["best"]["requirements"]
             + search.walking_requirements(walk, mono, kind)
         )
-        extra["stride_ratio"] = search.stride_ratio(walk, mono)
+        out.stride_ratio = search.stride_ratio(walk, mono)
         cycles = search.gait.cycles
         t_diag = search.gait.period * cycles + 2.0
-        extra["timing"] = {"walk": search.leg(*designs, search.walk_phases(cycles), t_end=t_diag)}
+        out.timing = {"walk": search.leg(*designs, search.walk_phases(cycles), t_end=t_diag)}
         if kind == "front":
-            extra["timing"]["turn"] = search.leg(*designs, search.turn_phases(cycles), t_end=t_diag)
-    reachable = ok and all(r["met"] for r in extra.get("requirements", []))
+            out.timing["turn"] = search.leg(*designs, search.turn_phases(cycles), t_end=t_diag)
+    out.reachable = bool(ok and all(r["met"] for r in out.requirements))
     if ok:  # the leg's objective in the history: 0 once every requirement is met
         evaluator.record(
             DesignBatch.from_designs([designs[0]]),
             target=target_index,
             purpose="result",
             section="leg",
-            objective=violation(extra["requirements"]),
+            objective=violation(out.requirements),
         )
-    result = TargetResult(
-        target_index=target_index, target=(kind,), best=None, reachable=bool(reachable), extra=extra
-    )
-    result.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
-    result.wall_s = evaluator.wall_s - wall0
-    return result
+    out.counts = {k: evaluator.counts[k] - counts0.get(k, 0) for k in evaluator.counts}
+    out.wall_s = evaluator.wall_s - wall0
+    return out

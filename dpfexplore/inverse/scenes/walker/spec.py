@@ -1,32 +1,69 @@
 """Scene file of the walker-leg scene: the ``[walker]`` table (MODEL.md §10).
 
-The file format, with every key and its default, is in :mod:`dpfexplore.inverse.scenes.timing_spec`.
-Every problem is one :class:`~dpfexplore.inverse.spec_fields.SceneSpecError` whose one-line
-message starts with the dotted key. Times in s, pressures in MPa, lengths in mm.
+The ``[scene]`` table is read by :mod:`dpfexplore.inverse.scene_file`; the scene has no
+``[variables]`` table (each section's are in ``[walker.variables]``). As there, every problem is
+one :class:`~dpfexplore.inverse.scene_file.SceneSpecError` whose one-line message starts with
+the dotted key. Times in s, pressures in MPa, lengths in mm::
+
+    [scene]
+    kind = "walker_leg"
+    material = "cheetah-95a"
+    [walker]
+    leg = "walker-leg"             # base leg (example name or leg file): sections purple, green,
+                                   # action, composition, fixed design keys
+    monostable_leg = "walker-leg"  # the comparison leg, run at the scene's gait
+    legs = ["front", "middle"]
+    [walker.gait]
+    walk_pressure = 0.2            # both phases while walking
+    turn_pressure = 0.35           # phase 2 raised for one cycle: front legs turn
+    phase1 = [0.0, 0.1, 1.1, 1.2]  # tau of phase 1 (purple zone)
+    phase2 = [1.1, 1.2, 2.2, 2.3]  # tau of phase 2 (green zone and action section)
+    period = 3.0                   # phase 1 repeats after this
+    t_end = 5.0                    # tip path of one cycle
+    cycles = 2                     # cycles in the timing diagram
+    [walker.variables]             # per section: H (one bound for all its free units) and t
+    purple = {H = {min = 1.8, max = 3.2}, t = {min = 0.55, max = 0.7}}
+    green = {H = {min = 1.4, max = 2.6}, t = 1.0}
+    action = {H = {min = 2.5, max = 4.2}, t = {min = 0.9, max = 1.0}}   # the action unit only
+    [walker.requirements]
+    pressure_margin_kPa = 10.0
+    purple_reset = [1.0, 1.8]      # s after phase 1 ends: lifted through phase 2's hold, down
+                                   # before phase 1 rises again
+    purple_aim = [1.25, 1.55]      # root-finding aims of units 1 and 2 (inside the window)
+    green_class = "monostable"
+    front_action_min_reset = 3.0   # s after the raised phase 2 ends: a full gait cycle
+    front_action_aim = 3.6
+    middle_action_max_reset = 0.05 # monostable
+    min_stride_ratio = 1.5         # over the monostable leg at the same gait
+    [walker.search]
+    t_lines = 4                    # values of t tried per section
+    atol = 1e-5                    # mm: full model inside the root finding
+    verify_atol = 1e-7             # mm: full model of every reported design
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
+from ....io.toml_fields import (
+    check_keys,
+    integer_in,
+    interval,
+    numbers,
+    positive_number,
+    string,
+    table,
+)
 from ....model.pressure import PressureProfile
 from ....model.variables import DesignVariables
 from ....solvers.legs.leg import Leg, load_leg
-from ...spec_fields import (
-    SceneSpecError,
-    _keys,
-    _numbers,
-    _positive,
-    _range,
-    _string,
-    _table,
-)
-from ..timing_fields import integer as _integer
+from ...scene_file import SceneSpecError
+from ...spec import SceneCommon
 
 __all__ = [
     "LEG_KINDS",
@@ -121,12 +158,16 @@ class WalkerSpec:
     t_lines: int = 4
     atol: float = 1e-5
     verify_atol: float = 1e-7
-    extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
     @property
     def n_results(self) -> int:
         """One result row per designed leg."""
         return len(self.legs)
+
+    @property
+    def n_units(self) -> tuple[int]:
+        """The scene's numbers of units: the widest section of the leg."""
+        return (max(s.design.n_units for s in self.leg.sections),)
 
 
 def _leg(value: Any, where: str) -> tuple[Leg, str]:
@@ -155,11 +196,11 @@ def _leg(value: Any, where: str) -> tuple[Leg, str]:
 def _section_variables(value: Any, where: str, design, role: str) -> DesignVariables:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{where} = {value!r}: must be a table {{H, t}}")
-    _keys(value, where, required=("H",), optional=("t",))
+    check_keys(value, where, required=("H",), optional=("t",))
 
-    def bound(v: Any, key: str):
+    def section_bound(v: Any, key: str):
         if isinstance(v, Mapping):
-            return _range(v, key)
+            return interval(v, key)
         if (
             isinstance(v, bool)
             or not isinstance(v, (int, float))
@@ -168,8 +209,8 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
             raise SceneSpecError(f"{key} = {v!r}: give a number or {{min, max}}")
         return float(v)
 
-    H = bound(value["H"], f"{where}.H")
-    t = bound(value.get("t", design.t), f"{where}.t")
+    H = section_bound(value["H"], f"{where}.H")
+    t = section_bound(value.get("t", design.t), f"{where}.t")
     n = design.n_units
     heights = [H, *design.H[1:]] if role == "action" else [H] * n
     try:
@@ -190,12 +231,12 @@ def _section_variables(value: Any, where: str, design, role: str) -> DesignVaria
         raise SceneSpecError(f"{where}: {exc}") from None
 
 
-def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
-    """The ``[walker]`` table (module docstring) -> ``{"walker": WalkerSpec, "n_units": ...}``."""
+def parse_walker(data: Mapping[str, Any], common: SceneCommon) -> WalkerSpec:
+    """The ``[walker]`` table (module docstring) -> :class:`WalkerSpec`."""
     if "walker" not in data:
         raise SceneSpecError("walker: missing [walker] table")
-    w = _table(data, "walker")
-    _keys(
+    w = table(data, "walker")
+    check_keys(
         w,
         "walker",
         required=("gait", "variables"),
@@ -204,7 +245,7 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
     leg, source = _leg(w.get("leg", "walker-leg"), "walker.leg")
     mono, mono_source = _leg(w.get("monostable_leg", "walker-leg"), "walker.monostable_leg")
     # The scene's material and constants set: every section of both legs.
-    scene = {"E": fields["E"], "nu": fields["nu"], "constants": fields["constants"]}
+    scene = {"E": common.E, "nu": common.nu, "constants": common.constants}
     leg = replace(
         leg, sections=tuple(replace(s, design=s.design.replace(**scene)) for s in leg.sections)
     )
@@ -219,16 +260,16 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
         or len(set(legs)) != len(legs)
     ):
         raise SceneSpecError(f"walker.legs = {legs!r}: distinct entries of {', '.join(LEG_KINDS)}")
-    g = _table(w, "gait")
+    g = table(w, "gait")
     where = "walker.gait"
-    _keys(
+    check_keys(
         g,
         where,
         required=("walk_pressure", "phase1", "phase2", "period"),
         optional=("turn_pressure", "t_end", "cycles"),
     )
-    walk = _positive(g, where, "walk_pressure", 0.2)
-    turn = _positive(g, where, "turn_pressure", walk)
+    walk = positive_number(g, where, "walk_pressure", 0.2)
+    turn = positive_number(g, where, "turn_pressure", walk)
     if "front" in legs and turn <= walk:
         raise SceneSpecError(
             f"{where}.turn_pressure = {turn}: must be above walk_pressure = "
@@ -236,25 +277,25 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
         )
     phases = []
     for key in ("phase1", "phase2"):
-        tau = _numbers(g[key], f"{where}.{key}", length=4, unit="s")
+        tau = numbers(g[key], f"{where}.{key}", length=4, unit="s")
         if tau[0] < 0 or any(b < a for a, b in pairwise(tau)):
             raise SceneSpecError(f"{where}.{key} = {list(tau)}: need 0 <= τ1 <= τ2 <= τ3 <= τ4")
         phases.append((tau[0], tau[1], tau[2], tau[3]))
-    period = _positive(g, where, "period", 3.0)
+    period = positive_number(g, where, "period", 3.0)
     if period < max(phases[0][3], phases[1][3]) - min(phases[0][0], phases[1][0]):
         raise SceneSpecError(f"{where}.period = {period}: shorter than one cycle of both phases")
-    t_end = _positive(g, where, "t_end", max(phases[0][3], phases[1][3]) + 2.0)
+    t_end = positive_number(g, where, "t_end", max(phases[0][3], phases[1][3]) + 2.0)
     if t_end < max(phases[0][3], phases[1][3]):
         raise SceneSpecError(f"{where}.t_end = {t_end}: before the phases end")
-    cycles = _integer(g, where, "cycles", 2, 1, 20)
+    cycles = integer_in(g, where, "cycles", default=2, low=1, high=20)
     gait = GaitSpec(walk, turn, phases[0], phases[1], period, t_end, cycles)
     try:
         for number in (1, 2):
             gait.phase(number, cycles=cycles, raised_first=True)
     except ValueError as exc:
         raise SceneSpecError(f"{where}: {exc}") from None
-    v = _table(w, "variables")
-    _keys(v, "walker.variables", required=LEG_ROLES, optional=())
+    v = table(w, "variables")
+    check_keys(v, "walker.variables", required=LEG_ROLES, optional=())
     variables = {
         role: _section_variables(
             v[role], f"walker.variables.{role}", leg.section(role).design, role
@@ -265,8 +306,8 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
     search = w.get("search", {})
     if not isinstance(search, Mapping):
         raise SceneSpecError(f"walker.search = {search!r}: must be a table")
-    _keys(search, "walker.search", required=(), optional=("t_lines", "atol", "verify_atol"))
-    spec = WalkerSpec(
+    check_keys(search, "walker.search", required=(), optional=("t_lines", "atol", "verify_atol"))
+    return WalkerSpec(
         leg=leg,
         leg_source=source,
         monostable_leg=mono,
@@ -275,12 +316,10 @@ def parse_walker(data: Mapping[str, Any], fields: dict[str, Any]) -> dict[str, A
         gait=gait,
         variables=variables,
         requirements=requirements,
-        t_lines=_integer(search, "walker.search", "t_lines", 4, 1, 100),
-        atol=_positive(search, "walker.search", "atol", 1e-5),
-        verify_atol=_positive(search, "walker.search", "verify_atol", 1e-7),
+        t_lines=integer_in(search, "walker.search", "t_lines", default=4, low=1, high=100),
+        atol=positive_number(search, "walker.search", "atol", 1e-5),
+        verify_atol=positive_number(search, "walker.search", "verify_atol", 1e-7),
     )
-    n_max = max(s.design.n_units for s in leg.sections)
-    return {"walker": spec, "n_units": (n_max,)}
 
 
 def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
@@ -288,7 +327,7 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{where} = {value!r}: must be a table")
     names = WalkerRequirements.__dataclass_fields__
-    _keys(value, where, required=(), optional=tuple(names))
+    check_keys(value, where, required=(), optional=tuple(names))
     base = WalkerRequirements(
         front_action_min_reset=gait.period, front_action_aim=1.2 * gait.period
     )
@@ -300,9 +339,9 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
         "middle_action_max_reset",
         "min_stride_ratio",
     ):
-        out[key] = _positive(value, where, key, getattr(base, key), allow_zero=True)
+        out[key] = positive_number(value, where, key, getattr(base, key), allow_zero=True)
     for key in ("purple_reset", "purple_aim"):
-        pair = _numbers(
+        pair = numbers(
             value.get(key, list(getattr(base, key))), f"{where}.{key}", length=2, unit="s"
         )
         if any(v <= 0 for v in pair):
@@ -321,7 +360,7 @@ def _requirements(value: Any, gait: GaitSpec) -> WalkerRequirements:
             f"{where}.front_action_aim = {out['front_action_aim']}: below "
             f"front_action_min_reset = {out['front_action_min_reset']}"
         )
-    green = _string(value, where, "green_class", base.green_class)
+    green = string(value, where, "green_class", default=base.green_class)
     if green not in ("monostable", "metastable", "any"):
         raise SceneSpecError(f"{where}.green_class = {green!r}: monostable, metastable or any")
     out["green_class"] = green

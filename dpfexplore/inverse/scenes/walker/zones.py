@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from ....solvers.dynamics.common import CLASS_METASTABLE, CLASS_MONOSTABLE
 from ...engine.roots import finite_log, grow_bracket, root_on_line
+from .legs import Requirement
 from .legs import requirement as _req
 from .search import SCAN as _SCAN
 from .search import STEP as _STEP
@@ -143,7 +144,7 @@ class ZoneSearch(SearchBase):
             H2 = inner(H1)
         return None if H2 is None else (H1, H2, t)
 
-    def purple_requirements(self, check: dict, p_inv: NDArray) -> list[dict]:
+    def purple_requirements(self, check: dict, p_inv: NDArray) -> list[Requirement]:
         """Requirements of the purple zone on a verified run and its inversion pressures."""
         req, g = self.req, self.gait
         low, high = req.purple_reset
@@ -236,7 +237,7 @@ class ZoneSearch(SearchBase):
         self.sections["green"] = out
         return out
 
-    def green_requirements(self, check: dict, p_inv: NDArray) -> list[dict]:
+    def green_requirements(self, check: dict, p_inv: NDArray) -> list[Requirement]:
         """Requirements of the green zone on a verified run and its inversion pressure."""
         req, g = self.req, self.gait
         cls = check["classes"][0]

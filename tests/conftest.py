@@ -10,10 +10,28 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import HealthCheck, settings
 
 from dpfexplore.model.design import Design
 
 REFERENCE = Path(__file__).parent / "data" / "reference"
+
+# Property tests draw the same examples on every run and every machine (derandomize: the draws
+# follow from each test's source), so a run's verdict never rests on luck; examples found by
+# random search are pinned in the tests with @example. No example database (a clone has none,
+# and replaying one machine's failures would make runs differ). No deadline and no too_slow
+# check: both time the machine, whose load is not the code's. Search at random with
+# ``pytest --hypothesis-profile=explore`` (failures are then kept in .hypothesis/).
+settings.register_profile(
+    "deterministic",
+    derandomize=True,
+    database=None,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+    print_blob=True,
+)
+settings.register_profile("explore", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("deterministic")
 
 #: The process compiling kernel groups ahead of the tests that need them (``compile_ahead.py``).
 _COMPILE_AHEAD: subprocess.Popen | None = None

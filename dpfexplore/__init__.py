@@ -45,12 +45,13 @@ Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 
 from __future__ import annotations
 
-from importlib import import_module
+import importlib
 
 #: Public name -> the module that defines it. Imported on first use (PEP 562), so that
 #: ``import dpfexplore`` (and every ``dpfexplore`` command's start-up) does not load Numba,
 #: SciPy and pandas before they are needed. The package body itself imports nothing but
-#: ``importlib`` (already loaded by Python): Ctrl-C can then not land inside it.
+#: ``importlib``, already loaded by Python and without a from-list (which would run importlib's
+#: Python code): it runs before ``__main__`` can catch a Ctrl-C, so it must stay this short.
 _EXPORTS = {
     "Design": ".model.design",
     "DesignBatch": ".model.design",
@@ -128,7 +129,7 @@ def __getattr__(name: str) -> object:
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'dpfexplore' has no attribute {name!r}")
-    value = getattr(import_module(module, __name__), name)
+    value = getattr(importlib.import_module(module, __name__), name)
     globals()[name] = value  # later look-ups skip this function
     return value
 

@@ -10,37 +10,51 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import HealthCheck, settings
 
 from dpfexplore.model.design import Design
 
 REFERENCE = Path(__file__).parent / "data" / "reference"
 
-#: The process compiling kernel groups ahead of the tests that need them (``compile_ahead.py``).
-_COMPILE_AHEAD: subprocess.Popen | None = None
+# Property tests draw the same examples on every run and every machine (derandomize: the draws
+# follow from each test's source), so a run's verdict never rests on luck; examples found by
+# random search are pinned in the tests with @example. No example database (a clone has none,
+# and replaying one machine's failures would make runs differ). No deadline and no too_slow
+# check: both time the machine, whose load is not the code's. Search at random with
+# ``pytest --hypothesis-profile=explore`` (failures are then kept in .hypothesis/).
+settings.register_profile(
+    "deterministic",
+    derandomize=True,
+    database=None,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+    print_blob=True,
+)
+settings.register_profile("explore", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("deterministic")
 
 
 def pytest_sessionstart(session):
-    """On a cold Numba cache, compile the late groups in a second process (``compile_ahead.py``).
+    """Compile the kernels before any test, on every core (``compile_ahead.py``).
 
-    Off with ``DPFEXPLORE_NO_COMPILE_AHEAD=1``; a warm cache starts nothing.
+    Runs in the process that starts the pytest-xdist workers, before it starts them, so that the
+    workers only load cached machine code; in a worker it only serialises the cache access of
+    what a test compiles itself. A warm cache starts nothing; nor does
+    ``DPFEXPLORE_NO_COMPILE_AHEAD=1`` (each test then compiles what it needs).
     """
-    global _COMPILE_AHEAD
-    if os.environ.get("DPFEXPLORE_NO_COMPILE_AHEAD"):
+    import compile_ahead
+
+    compile_ahead.serialise_cache_access()
+    if hasattr(session.config, "workerinput") or os.environ.get("DPFEXPLORE_NO_COMPILE_AHEAD"):
         return
-    from dpfexplore.solvers.compilation import KERNEL_GROUPS, uncompiled
-
-    if uncompiled(KERNEL_GROUPS):
-        _COMPILE_AHEAD = subprocess.Popen(
-            [sys.executable, str(Path(__file__).with_name("compile_ahead.py"))],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-
-
-def pytest_sessionfinish(session, exitstatus):
-    if _COMPILE_AHEAD is not None and _COMPILE_AHEAD.poll() is None:
-        _COMPILE_AHEAD.kill()
-        _COMPILE_AHEAD.wait()
+    if not compile_ahead.groups_missing():
+        return
+    script = str(Path(__file__).with_name("compile_ahead.py"))
+    for phase in compile_ahead.PLAN:
+        lanes = [subprocess.Popen([sys.executable, script, *steps]) for steps in phase]
+        failed = [lane.args for lane in lanes if lane.wait() != 0]
+        if failed:
+            raise pytest.UsageError(f"compiling the kernels failed: {failed}")
 
 
 GRIPPER = dict(

@@ -53,13 +53,14 @@ def dataset(tmp_path_factory):
 def commands(tmp_path, dataset):
     """(name, argv writing ``out``, check of a complete result)."""
 
+    # the readers run in this process: the same code as a command's, without a start-up each
     def designs_readable(out):
         files = sorted(out.glob("*.toml"))
         assert files
-        assert run(["states", str(files[0])], tmp_path).returncode == 0
+        assert main(["states", str(files[0])]) == 0
 
     def surrogate_readable(out):
-        assert run(["surrogate", "report", str(out)], tmp_path).returncode == 0
+        assert main(["surrogate", "report", str(out)]) == 0
 
     return [
         ("design", ["design", str(scene(tmp_path, 2)), "--force"], designs_readable),
@@ -92,11 +93,13 @@ def test_a_killed_command_leaves_the_previous_or_the_new_result(which, tmp_path,
     name, argv, readable = commands(tmp_path, dataset)[which]
     out = tmp_path / "out"
     full = [*argv, str(out)] if argv[-1] in ("--write", "--out") else [*argv, "--out", str(out)]
-    assert run(full, tmp_path).returncode in (0, 1)  # 1: a target not met is still a result
-    started = time.perf_counter()  # timed warm: a first run may have compiled kernels
-    done = run(full, tmp_path)
-    took = time.perf_counter() - started
-    assert done.returncode in (0, 1), done.stderr
+    for _ in range(2):  # timed warm: the session compiled the kernels, or this first run does
+        started = time.perf_counter()
+        done = run(full, tmp_path)
+        took = time.perf_counter() - started
+        assert done.returncode in (0, 1), done.stderr  # 1: a target not met is still a result
+        if "compiling the" not in done.stderr:
+            break
     verify_result_dir(out)
     for fraction in (0.35, 0.75, 1.05):
         killed_after(full, tmp_path, fraction * took)

@@ -95,6 +95,43 @@ def test_ctrl_c_during_start_up_is_one_line(delay, tmp_path):
         assert len(said) == 1 and said[0].endswith("interrupted"), err
 
 
+#: Run ``python -m dpfexplore --version`` under a profile hook and print each Python function that
+#: starts with a ``dpfexplore`` frame on the stack before the CLI's SIGINT handler is installed.
+_BEFORE_THE_GUARD = """
+import _signal, runpy, sys
+calls = []
+def profile(frame, event, arg):
+    if event == "c_call" and arg is _signal.signal:
+        sys.setprofile(None)
+        print("\\n".join(calls))
+        raise SystemExit(0)
+    f = frame
+    while event == "call" and f is not None and "/dpfexplore/" not in f.f_code.co_filename:
+        f = f.f_back
+    if event == "call" and f is not None:
+        calls.append(frame.f_code.co_filename.rpartition("/")[2] + ":" + frame.f_code.co_name)
+sys.argv = ["dpfexplore", "--version"]
+sys.setprofile(profile)
+runpy._run_module_as_main("dpfexplore")
+"""
+
+
+def test_nothing_runs_in_the_package_before_the_ctrl_c_guard():
+    # Python's default handler raises KeyboardInterrupt at the next call or frame entry after the
+    # signal, with a traceback through the package while a package frame is on the stack. The
+    # test above samples start-up at a few moments; this one sees every call deterministically:
+    # before the guard, only the two module bodies and run() (definitions, microseconds), never
+    # an import that runs Python code (signal.py with enum: about a millisecond).
+    done = subprocess.run(
+        [sys.executable, "-c", _BEFORE_THE_GUARD], capture_output=True, text=True, check=True
+    )
+    assert done.stdout.splitlines() == [
+        "__init__.py:<module>",
+        "__main__.py:<module>",
+        "__main__.py:run",
+    ]
+
+
 def test_start_up_loads_no_numba():
     code = (
         "import sys, dpfexplore\n"

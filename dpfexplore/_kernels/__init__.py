@@ -5,8 +5,8 @@ Arguments that travel together reach a kernel as one named record: the lattice
 pressure knots (``PressureKnots``), the model of motion (``Physics``, ``MotionModel``), and what a
 kernel writes (``StateRows``, ``ResetRows``, ``RunRecord``, ...). Records are
 ``collections.namedtuple`` classes of arrays and scalars defined at module level in
-:mod:`.records` (or beside the one family that uses them: :mod:`.snap_records`,
-:mod:`.shell_records`): Numba compiles them as structs at no run-time cost, and ``cache=True``
+:mod:`.records` (or beside the one family that uses them: :mod:`.snap.records`,
+:mod:`.shell.records`): Numba compiles them as structs at no run-time cost, and ``cache=True``
 finds a record's type again in a later process through its importable class. The Python callers
 build them with scalars of a fixed type, so one record type is one compiled signature; a kernel
 unpacks a record by name or position at its top, and the ``prange`` entry points and their
@@ -17,10 +17,10 @@ Python pays for typing its arguments, and Numba types a named tuple in Python, f
 where a plain tuple of arrays is typed by its C fast path: the row kernels' four records took
 2.9 µs to dispatch against 0.7 µs as plain tuples (one-row call, `docs/decisions.md`). The
 entry points that every :func:`~dpfexplore.solvers.statics.solve_batch` call enters
-(:func:`.tables.design_tables`, :func:`.batch.solve_rows` and
-:func:`.sensitivity_batch.solve_rows_sensitivities` with their serial twins) therefore take
+(:func:`.tables.design_tables.design_tables`, :func:`.statics.batch.solve_rows` and
+:func:`.sensitivity.batch.solve_rows_sensitivities` with their serial twins) therefore take
 each record as a plain tuple of its fields, in the record's order, and name it on entry
-(``DesignTable(*designs)``, :func:`.batch.name_row_records`); the callers write the record's
+(``DesignTable(*designs)``, :func:`.statics.batch.name_row_records`); the callers write the record's
 name beside the tuple. Kernels entered once per long computation (integrators, continuation,
 the shell's path) take the named records themselves.
 

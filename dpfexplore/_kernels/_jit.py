@@ -46,20 +46,25 @@ def _kernel_sources_digest() -> str:
         "validation.py",
     )
     extra = [model / name for name in names]
-    for path in [*sorted(_KERNELS_DIR.glob("*.py")), *extra]:
-        digest.update(path.name.encode())
+    for path in [*sorted(_KERNELS_DIR.rglob("*.py")), *extra]:
+        digest.update(path.relative_to(_KERNELS_DIR.parent).as_posix().encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
 
 
 def _cache_dirs() -> list[Path]:
-    """Where Numba caches the kernels: beside the sources, or under ``NUMBA_CACHE_DIR``."""
-    dirs = [_KERNELS_DIR / "__pycache__"]
+    """Where Numba caches the kernels: beside the sources, or under ``NUMBA_CACHE_DIR``.
+
+    One folder per package of kernels (Numba keeps a cache beside each source file).
+    """
+    packages = sorted({path.parent for path in _KERNELS_DIR.rglob("*.py")})
+    dirs = [package / "__pycache__" for package in packages]
     if numba.config.CACHE_DIR:
         from numba.core.caching import _CacheLocator
 
-        subpath = _CacheLocator.get_suitable_cache_subpath(str(_KERNELS_DIR / "lattice.py"))
-        dirs.append(Path(numba.config.CACHE_DIR) / subpath)
+        for package in packages:
+            subpath = _CacheLocator.get_suitable_cache_subpath(str(package / "__init__.py"))
+            dirs.append(Path(numba.config.CACHE_DIR) / subpath)
     return dirs
 
 

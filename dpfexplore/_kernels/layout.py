@@ -17,8 +17,8 @@ from __future__ import annotations
 from ._jit import kernel
 
 #: The physical columns of the per-unit table, by name, in order: the derivative table of
-#: :mod:`.tables` has one row per physical column, at its index. A constants set's quantity that
-#: the table holds as it is names its column here
+#: :mod:`.tables.design_tables` has one row per physical column, at its index. A constants set's
+#: quantity that the table holds as it is names its column here
 #: (:attr:`dpfexplore.model.quantities.SetForm.column`).
 PHYSICAL_COLUMNS = ("p", "k_b", "alpha", "d", "k_lim", "k_post", "k_t")
 #: Segment length ``p = U_L + t_ch + U_sep`` (mm): rest length of the unit's dome and layer.

@@ -9,7 +9,7 @@ scalars of a fixed type (``float`` tolerances, ``int`` counts), so one record ty
 compiled signature.
 
 Records shared by the statics and the dynamics kernels live here; a record that only one family
-of kernels uses may live beside those kernels (:mod:`.snap_records`, :mod:`.shell_records`).
+of kernels uses may live beside those kernels (:mod:`.snap.records`, :mod:`.shell.records`).
 """
 
 from __future__ import annotations
@@ -42,14 +42,14 @@ PressureKnots = namedtuple("PressureKnots", ["t", "p"])
 Physics = namedtuple("Physics", ["eta", "eta_iso", "mass_per_unit"])
 
 #: A point of an equilibrium branch and its tangent: ``y`` = ``(x, p)`` and ``t``, both of shape
-#: (4N - 1,) (:mod:`.continuation`).
+#: (4N - 1,) (:mod:`.snap.continuation`).
 BranchPoint = namedtuple("BranchPoint", ["y", "t"])
 
 #: A bracket of an event along a branch step: arclengths ``s_lo`` < ``s_hi`` and the event's
-#: values ``g_lo``, ``g_hi`` there (opposite signs) (:func:`.continuation.locate`).
+#: values ``g_lo``, ``g_hi`` there (opposite signs) (:func:`.snap.continuation.locate`).
 Bracket = namedtuple("Bracket", ["s_lo", "g_lo", "s_hi", "g_hi"])
 
-#: A fitted ensemble of regression trees as flat arrays (:mod:`.trees`): per node the
+#: A fitted ensemble of regression trees as flat arrays (:mod:`.reset.trees`): per node the
 #: ``feature`` tested (int64), its ``threshold``, the children ``left``, ``right`` (int64; -1 at
 #: a leaf) and the leaf ``value``; each tree's first node in ``roots`` (int64); the ``bias``.
 TreeArrays = namedtuple(
@@ -69,9 +69,9 @@ DesignArrays = namedtuple(
 #: :data:`DesignArrays`).
 SharedParams = namedtuple("SharedParams", ["t", "t_lim", "E", "nu", "r_b", "t_ch"])
 
-#: What :func:`.tables.design_tables` writes: the ``status`` code (int8, ``(n,)``), the per-unit
-#: ``table`` ``(n, MAX_UNITS, N_COLS)``, the segment heights ``h`` ``(n,)``, the clamped reaches
-#: ``no_contact`` (bool, ``(n, MAX_UNITS)``) and the derivative table ``dtab``
+#: What :func:`.tables.design_tables.design_tables` writes: the ``status`` code (int8, ``(n,)``),
+#: the per-unit ``table`` ``(n, MAX_UNITS, N_COLS)``, the segment heights ``h`` ``(n,)``, the
+#: clamped reaches ``no_contact`` (bool, ``(n, MAX_UNITS)``) and the derivative table ``dtab``
 #: ``(n, MAX_UNITS, N_DCONST, N_DPARAM)`` (or ``(0, 0, 0, 0)``: skipped).
 TableOutputs = namedtuple("TableOutputs", ["status", "table", "h", "no_contact", "dtab"])
 
@@ -84,32 +84,32 @@ DesignTable = namedtuple("DesignTable", ["unit_params", "h", "n_units", "status"
 RowPlan = namedtuple("RowPlan", ["design", "state", "want_stiffness", "want_min_eig"])
 
 #: What the row kernels write per row: ``out`` ``(n_rows, N_OUT)`` (columns ``OUT_*`` of
-#: :mod:`.states`), ``status`` (int8), ``found`` (int64), ``n_iter`` (int32) and ``shapes``
+#: :mod:`.statics.states`), ``status`` (int8), ``found`` (int64), ``n_iter`` (int32) and ``shapes``
 #: ``(n_rows, 4·MAX_UNITS - 2)`` or ``(n_rows, 0)`` (the minimum's free coordinates,
 #: NaN-padded, or nothing).
 StateRows = namedtuple("StateRows", ["out", "status", "found", "n_iter", "shapes"])
 
 #: The derivative tables ``dtab`` ``(n, MAX_UNITS, N_DCONST, N_DPARAM)`` of a batch
-#: (:func:`.tables.design_tables`) and its Young's moduli ``E`` (MPa, ``(n,)``).
+#: (:func:`.tables.design_tables.design_tables`) and its Young's moduli ``E`` (MPa, ``(n,)``).
 DesignDerivatives = namedtuple("DesignDerivatives", ["dtab", "E"])
 
 #: What the sensitivity rows write: ``sens`` ``(n_rows, N_SENS, 3·MAX_UNITS + 3)`` (rows
-#: ``SENS_*`` of :mod:`.sensitivity`) and ``dxs`` ``(n_rows, 4·MAX_UNITS - 2, 3·MAX_UNITS + 3)``
-#: or ``(0, 0, 0)`` (skipped).
+#: ``SENS_*`` of :mod:`.sensitivity.states`) and ``dxs`` ``(n_rows, 4·MAX_UNITS - 2, 3·MAX_UNITS +
+#: 3)`` or ``(0, 0, 0)`` (skipped).
 SensitivityRows = namedtuple("SensitivityRows", ["sens", "dxs"])
 
 #: The nodes ``a``, ``c``, ``b`` (int) of a torsional spring on the angle ``a-c-b`` (arms
-#: ``c→a`` and ``c→b``; :mod:`.sensitivity`).
+#: ``c→a`` and ``c→b``; :mod:`.sensitivity.states`).
 Angle = namedtuple("Angle", ["a", "c", "b"])
 
-#: A torsional spring's arms at a point (:mod:`.sensitivity`): the arm vectors ``vax, vay``
+#: A torsional spring's arms at a point (:mod:`.sensitivity.states`): the arm vectors ``vax, vay``
 #: (``c→a``) and ``vbx, vby`` (``c→b``) in mm, the deviation ``delta`` (rad) and the gradients
 #: ``∇φ`` of both arms, ``gax, gay`` and ``gbx, gby`` (1/mm).
 TorsionArms = namedtuple(
     "TorsionArms", ["vax", "vay", "vbx", "vby", "delta", "gax", "gay", "gbx", "gby"]
 )
 
-#: The design parameter of a tangent (:func:`.sensitivity.tangent`): its ``kind`` (column
+#: The design parameter of a tangent (:func:`.sensitivity.states.tangent`): its ``kind`` (column
 #: ``DP_*`` of the derivative table), its ``unit`` (1-based, or -1 for the shared ``t`` and
 #: ``t_lim``) and the units ``k_lo .. k_hi`` whose springs it touches (1-based, inclusive).
 TangentParameter = namedtuple("TangentParameter", ["kind", "unit", "k_lo", "k_hi"])
@@ -118,22 +118,22 @@ TangentParameter = namedtuple("TangentParameter", ["kind", "unit", "k_lo", "k_hi
 
 #: What the equations of motion of one design read: its lattice ``unit_params``, ``h``, the
 #: pressure profile's knots ``knot_t``, ``knot_p`` and the model array ``phys`` (``PHYS_*`` of
-#: :mod:`.dynamics`).
+#: :mod:`.dynamics.motion`).
 MotionModel = namedtuple("MotionModel", ["unit_params", "h", "knot_t", "knot_p", "phys"])
 
 #: Scratch of the right-hand side and its Jacobians: node positions ``pos`` and node velocities
 #: ``vel`` of shape ``(2N + 2, 2)``, and ``work`` of shape ``(4N - 2,)``; ``pos`` holds the node
-#: positions on return (:mod:`.dynamics`).
+#: positions on return (:mod:`.dynamics.motion`).
 MotionScratch = namedtuple("MotionScratch", ["pos", "vel", "work"])
 
-#: What a Rosenbrock step start fills (:func:`.integrators_rosenbrock.step_start`): the residual
+#: What a Rosenbrock step start fills (:func:`.dynamics.rosenbrock.step_start`): the residual
 #: ``res`` and ``ft = ∂R/∂t`` of shape ``(4N - 2,)``, ``jac = ∂R/∂x`` and the damping matrix
 #: ``cmat`` of shape ``(4N - 2, 4N - 2)``.
 StepStart = namedtuple("StepStart", ["res", "jac", "cmat", "ft"])
 
 #: What a run writes: samples ``x_out`` ``(n_samples, 4N - 2)`` at the times ``t_out``, the
 #: per-unit record ``unit_rec`` ``(N, N_REC)``, the ``event_log`` ``(capacity, 3)`` and the
-#: ``stats`` counters (int64, ``(N_STATS,)``) (:mod:`.events`).
+#: ``stats`` counters (int64, ``(N_STATS,)``) (:mod:`.dynamics.events`).
 RunRecord = namedtuple("RunRecord", ["t_out", "x_out", "unit_rec", "event_log", "stats"])
 
 #: One accepted step, as the event location reads it: its start ``t0`` and length ``h`` (s),
@@ -142,9 +142,9 @@ RunRecord = namedtuple("RunRecord", ["t_out", "x_out", "unit_rec", "event_log", 
 AcceptedStep = namedtuple("AcceptedStep", ["t0", "h", "x0", "xd0", "x1", "xd1"])
 
 #: What the release integrator writes beside the state: the per-unit record ``unit_rec``
-#: ``(N, N_REC)``, the ``stats`` counters (:mod:`.events`), the per-unit event diagnostics
+#: ``(N, N_REC)``, the ``stats`` counters (:mod:`.dynamics.events`), the per-unit event diagnostics
 #: ``unit_diag`` ``(N, N_RELEASE_DIAG)`` and the static-check ``counters`` (int64, ``(2,)``)
-#: (:mod:`.release`).
+#: (:mod:`.reset.release`).
 ReleaseRecord = namedtuple("ReleaseRecord", ["unit_rec", "stats", "unit_diag", "counters"])
 
 #: What the reset-time batches write per design: the run's ``status`` and ``final_state``
@@ -157,7 +157,7 @@ ResetRows = namedtuple(
 #: What the fast reset model writes per design: ``status``, ``final_state`` ``(n,)``;
 #: ``reset``, ``snap_back`` (s), ``unit_class`` ``(n, MAX_UNITS)``; ``unit_diag``
 #: ``(n, MAX_UNITS, N_UNIT_DIAG)`` and ``design_diag`` ``(n, N_DESIGN_DIAG)``
-#: (:mod:`.fast_reset`). One design's slices, without ``status`` and ``final_state``, are a
+#: (:mod:`.reset.fast_reset`). One design's slices, without ``status`` and ``final_state``, are a
 #: :data:`FastResetUnits`.
 FastResetRows = namedtuple(
     "FastResetRows",

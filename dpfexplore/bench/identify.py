@@ -111,10 +111,10 @@ def _baseline(curves) -> tuple[float, np.ndarray, np.ndarray]:
 
 def _table_build(n: int, repeats: int, seed: int) -> dict:
     """The constants of ``n`` domes: a set's general path against the compiled paper forms."""
-    from .._kernels.closed_form_loops import paper_forms, paper_tables, set_forms
     from .._kernels.layout import COL_KB, N_COLS
     from .._kernels.records import DesignArrays, TableOutputs
-    from .._kernels.tables import design_tables, empty_derivative_table
+    from .._kernels.tables.design_tables import design_tables, empty_derivative_table
+    from .._kernels.tables.form_loops import paper_forms, paper_tables, set_forms
     from ..model.constants_set import DEFAULT
     from ..model.design import DesignBatch
     from ..model.domain import MAX_UNITS

@@ -123,7 +123,7 @@ class NumpyLattice:
         return float(energy), g[free].ravel()
 
     def geometric_guess(self, state: int, c: float = 1.0) -> NDArray:
-        """The paper's geometric guess (MODEL.md §6), as in :mod:`dpfexplore._kernels.states`."""
+        """The paper's geometric guess (MODEL.md §6), as in :mod:`dpfexplore._kernels.statics`."""
         n = self.n_units
         pos = np.empty((2 * n + 2, 2))
         phi, lx, ly = 0.0, 0.0, self.h

@@ -191,9 +191,9 @@ def bench_size(
     n_units: int, n_designs: int, n_reference: int, seed: int, passes: int = 5, repeats: int = 20
 ) -> dict:
     """Sensitivities of one finger size: kernel costs, the finite-difference baseline, errors."""
-    from .._kernels.batch import solve_repeatedly
     from .._kernels.records import Lattice
-    from .._kernels.sensitivity_batch import sensitivities_repeatedly
+    from .._kernels.sensitivity.batch import sensitivities_repeatedly
+    from .._kernels.statics.batch import solve_repeatedly
     from ..solvers.lattice import design_kernel_tables
     from ..solvers.sensitivities import OUTPUTS
     from ..solvers.statics import DEFAULT_OPTIONS, SolverOptions, find_state, state_string
@@ -309,8 +309,8 @@ def _interleaved(calls: dict, rounds: int = 40, min_time: float = 0.005) -> dict
 
 def _row_kernel(tables, states, *, sensitivities: bool, shape_derivatives: bool = False):
     """The serial row kernel :func:`solve_batch` runs, on prepared arrays, as a callable."""
-    from .._kernels.batch import solve_rows_serial
-    from .._kernels.sensitivity_batch import solve_rows_sensitivities_serial
+    from .._kernels.sensitivity.batch import solve_rows_sensitivities_serial
+    from .._kernels.statics.batch import solve_rows_serial
     from ..model.domain import MAX_UNITS
     from ..solvers.statics import DEFAULT_OPTIONS
 

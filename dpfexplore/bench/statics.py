@@ -128,7 +128,7 @@ def _scipy_solve(lattice, params, state: int):
     """
     from scipy.optimize import minimize
 
-    from .._kernels.states import inversion_state
+    from .._kernels.statics.states import inversion_state
 
     x0 = lattice.geometric_guess(state, 1.0)
     res = minimize(
@@ -191,8 +191,8 @@ def _per_design_times(batch, n_units: int, passes: int = 5, repeats: int = 20) -
     median over the passes, so that a burst of load from another tenant of the shared machine
     (which can last the half second one pass takes) inflates one pass, not the figure.
     """
-    from .._kernels.batch import solve_repeatedly
     from .._kernels.records import Lattice
+    from .._kernels.statics.batch import solve_repeatedly
     from ..solvers.lattice import lattice_params
     from ..solvers.statics import DEFAULT_OPTIONS
 

@@ -11,9 +11,9 @@ that are nonsense outside that domain.
 
 Each closed form is written once, as a ``*_form`` function of plain arithmetic (no NumPy calls),
 so that the same source serves NumPy arrays here and the Numba kernels that build the kernel
-tables (:mod:`dpfexplore._kernels.tables`) on scalars, with bit-identical results. Numba's
-``register_jitable`` leaves each a plain Python function for NumPy callers and lets jitted code
-compile it inline. Their derivatives with respect to the design parameters
+tables (:mod:`dpfexplore._kernels.tables.design_tables`) on scalars, with bit-identical results.
+Numba's ``register_jitable`` leaves each a plain Python function for NumPy callers and lets jitted
+code compile it inline. Their derivatives with respect to the design parameters
 (:func:`constant_derivatives`) are written the same way, for the design sensitivities.
 """
 

@@ -70,7 +70,7 @@ def unit_in_domain(H, U_L, r_b):
     """Whether one unit lies in the physical domain: ``H <= r_b`` and ``H < U_L`` (mm).
 
     The scalar form of :func:`outside_domain`, compiled into the kernel that validates and
-    packs batches (:mod:`dpfexplore._kernels.tables`) and run as Python by ``Design``.
+    packs batches (:mod:`dpfexplore._kernels.tables.design_tables`) and run as Python by ``Design``.
     """
     return H <= r_b and H < U_L
 

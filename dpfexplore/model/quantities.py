@@ -9,7 +9,7 @@ STATE_OUTPUT_NAMES.index("tip_x")``) costs nothing at run time.
 :data:`STATE_OUTPUTS`
     The outputs of a stable state (MODEL.md §7), one record per column. A record's position is
     its index in the kernels' per-state output vector (``OUT_*`` and ``N_OUT`` of
-    :mod:`dpfexplore._kernels.states`); the table gives the columns of
+    :mod:`dpfexplore._kernels.statics.states`); the table gives the columns of
     :func:`~dpfexplore.solvers.statics.solve_batch` (in this order), the field of
     :class:`~dpfexplore.solvers.statics.StateResult` that holds each (checked when that module
     is imported), the sweep dataset's columns with their Arrow type, unit and description
@@ -23,16 +23,16 @@ STATE_OUTPUT_NAMES.index("tip_x")``) costs nothing at run time.
     :class:`~dpfexplore.model.constants_set.ConstantsSet` (checked when that module is
     imported), the keys of a set file, what :meth:`ConstantsSet.evaluate` returns, the physical
     checks of :meth:`ConstantsSet.check`, the kernel-table column a quantity fills as it is
-    and the rows of its derivatives (:mod:`dpfexplore._kernels.tables`), and the targets of an
-    identification (:func:`dpfexplore.identification.identify.identify`) with the source of
-    their per-curve values.
+    and the rows of its derivatives (:mod:`dpfexplore._kernels.tables.design_tables`), and the
+    targets of an identification (:func:`dpfexplore.identification.identify.identify`) with the
+    source of their per-curve values.
 
 Adding a per-state output column
     1. A :class:`StateOutput` row in :data:`STATE_OUTPUTS` (name, unit, description; the
        :class:`StateResult` field that holds it). The dataset column, its Arrow type and
        metadata, ``solve_batch``'s column, the kernel index and the lookup follow.
     2. Its computation: ``OUT_NAME = STATE_OUTPUT_NAMES.index("name")`` and the line that
-       writes ``out[OUT_NAME]`` in ``state_outputs`` (:mod:`dpfexplore._kernels.states`).
+       writes ``out[OUT_NAME]`` in ``state_outputs`` (:mod:`dpfexplore._kernels.statics.states`).
     3. Its field in :class:`~dpfexplore.solvers.statics.StateResult` (with its docstring
        line); importing :mod:`dpfexplore.solvers.statics` fails, naming it, until it is there.
     4. Its line in the schema table of ``docs/guide/sweeps.md``.
@@ -54,10 +54,10 @@ Adding a closed form to a constants set
     3. Its computation: the kernel-table column it fills (a name in
        ``PHYSICAL_COLUMNS`` of :mod:`dpfexplore._kernels.layout`) and the lattice terms that
        read it (:mod:`dpfexplore._kernels.lattice`, and its design derivatives in
-       :mod:`dpfexplore._kernels.sensitivity`); a quantity from which a column is computed
+       :mod:`dpfexplore._kernels.sensitivity.states`); a quantity from which a column is computed
        (as the reach ``d`` from ``tip_dis``) is computed in ``_unit_row`` and
-       ``_derivative_rows`` of :mod:`dpfexplore._kernels.tables`. For identification, the
-       per-curve value: a :class:`~dpfexplore.identification.spring_fit.CurveFit` field
+       ``_derivative_rows`` of :mod:`dpfexplore._kernels.tables.design_tables`. For identification,
+       the per-curve value: a :class:`~dpfexplore.identification.spring_fit.CurveFit` field
        (``source="fit"``) or a column of the curve table (``source="curve"``,
        :mod:`dpfexplore.identification.curves`), and its place in the synthetic curves
        (:mod:`dpfexplore.identification.synthetic`).

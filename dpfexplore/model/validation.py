@@ -3,9 +3,9 @@
 :func:`problems` checks padded batch arrays with NumPy and names each bad design's first
 problem; :func:`geometry_status` and :func:`constants_status` are the same rules for one design
 in plain arithmetic, compiled inline by the kernel that packs batches
-(:mod:`dpfexplore._kernels.tables`) and run as Python by :func:`status_code` (a :class:`Design`
-checks itself with it). The rules, in order: ``N`` in 1..MAX_UNITS, finite positive lengths and
-``E``, ``0 <= nu < 0.5`` (``INVALID_INPUT``); the physical domain of
+(:mod:`dpfexplore._kernels.tables.design_tables`) and run as Python by :func:`status_code` (a
+:class:`Design` checks itself with it). The rules, in order: ``N`` in 1..MAX_UNITS, finite positive
+lengths and ``E``, ``0 <= nu < 0.5`` (``INVALID_INPUT``); the physical domain of
 :mod:`dpfexplore.model.domain` (``OUTSIDE_DOMAIN``); ``k_b > 0`` and ``0 < alpha < 1`` under
 the constants set (``INVALID_CONSTANTS``).
 """
@@ -149,8 +149,8 @@ def geometry_status(n_units, H, U_L, U_sep, shared):
     ``H``, ``U_L``, ``U_sep``: sequences of at least ``n_units`` values (mm); ``shared``: the
     design's ``(t, t_lim, E, nu, r_b, t_ch)`` (:data:`SHARED_FIELDS`; ``SharedParams`` in the
     kernels). ``OK``, ``INVALID_INPUT`` or ``OUTSIDE_DOMAIN``. The kernel that packs batches
-    (:mod:`dpfexplore._kernels.tables`) runs this and checks the constants on the table rows it
-    computes anyway, evaluating each closed form once.
+    (:mod:`dpfexplore._kernels.tables.design_tables`) runs this and checks the constants on the
+    table rows it computes anyway, evaluating each closed form once.
     """
     t, t_lim, E, nu, r_b, t_ch = shared
     if not 1 <= n_units <= MAX_UNITS:

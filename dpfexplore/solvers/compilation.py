@@ -29,9 +29,13 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable
 
-from .._kernels import batch, dynamics_batch, reduced, sensitivity_batch, shell_path
-from .._kernels import snap as ksnap
 from .._kernels._jit import is_cached
+from .._kernels.dynamics import batch as dynamics_batch
+from .._kernels.reset import reduced
+from .._kernels.sensitivity import batch as sensitivity_batch
+from .._kernels.shell import path as shell_path
+from .._kernels.snap import walk as ksnap
+from .._kernels.statics import batch
 
 __all__ = ["COMPILE_CPU_S", "KERNEL_GROUPS", "announce", "compile_notice", "uncompiled"]
 

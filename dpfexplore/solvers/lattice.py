@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._kernels import layout as lay
-from .._kernels import tables as ktables
+from .._kernels.tables import design_tables as ktables
 from ..model.constants import (
     POST_STIFFNESS_FACTOR,
     DomeAnalysis,
@@ -208,8 +208,8 @@ class KernelTables(NamedTuple):
     no_contact : ndarray of bool, shape (n, MAX_UNITS)
         Units whose reach ``d`` is clamped.
     derivatives : ndarray of shape (n, MAX_UNITS, N_DCONST, N_DPARAM) or (0, 0, 0, 0)
-        Derivatives of the constants in the design parameters (:mod:`dpfexplore._kernels.tables`),
-        when asked for.
+        Derivatives of the constants in the design parameters
+        (:mod:`dpfexplore._kernels.tables.design_tables`), when asked for.
     """
 
     status: NDArray

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .._kernels import sensitivity as ksens
+from .._kernels.sensitivity import states as ksens
 from ..model.domain import MAX_UNITS
 from ..model.variables import SENSITIVITY_PER_UNIT, SENSITIVITY_SHARED, parameter_names
 

@@ -34,15 +34,15 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from .._kernels import states as kstates
-from .._kernels.batch import solve_rows, solve_rows_serial
 from .._kernels.layout import n_free, n_nodes
 from .._kernels.records import NewtonControls
-from .._kernels.sensitivity import N_SENS, n_parameters
-from .._kernels.sensitivity_batch import (
+from .._kernels.sensitivity.batch import (
     solve_rows_sensitivities,
     solve_rows_sensitivities_serial,
 )
+from .._kernels.sensitivity.states import N_SENS, n_parameters
+from .._kernels.statics import states as kstates
+from .._kernels.statics.batch import solve_rows, solve_rows_serial
 from ..model.design import Design, DesignBatch
 from ..model.domain import MAX_UNITS
 from ..model.formatting import num
@@ -493,7 +493,7 @@ def find_state(
     options: SolverOptions | None = None,
     sensitivities: bool = False,
 ) -> StateResult:
-    """Search the stable state ``state`` of one design (see :mod:`dpfexplore._kernels.states`).
+    """Search the stable state ``state`` of one design (see :mod:`dpfexplore._kernels.statics`).
 
     Returns the requested minimum when it exists (``status == OK``); otherwise the state it
     collapses to, with ``status == COLLAPSED``. With ``sensitivities=True`` the result carries

@@ -17,7 +17,7 @@ from numbers import Real
 
 import numpy as np
 
-from .._kernels.shell_records import ShellGeometry
+from .._kernels.shell.records import ShellGeometry
 
 __all__ = ["check_inputs", "n_unknowns", "reference_meridian", "reference_unknowns", "shell"]
 
@@ -71,7 +71,7 @@ def reference_meridian(H: float, r_b: float, n_elements: int, grading: float = 0
 def shell(
     H: float, t: float, r_b: float, E: float, nu: float, n_elements: int, grading: float = 0.0
 ) -> ShellGeometry:
-    """The kernels' :class:`~dpfexplore._kernels.shell_records.ShellGeometry` of one dome.
+    """The kernels' :class:`~dpfexplore._kernels.shell.records.ShellGeometry` of one dome.
 
     Every reference quantity is that of the polygon itself (chord lengths, chord slopes,
     frustum areas), so the discrete reference state is exactly strain-free.

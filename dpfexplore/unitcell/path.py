@@ -30,8 +30,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from .._kernels.shell_path import equilibrate_free
-from .._kernels.shell_records import ShellGeometry
+from .._kernels.shell.path import equilibrate_free
+from .._kernels.shell.records import ShellGeometry
 
 __all__ = [
     "GhostState",
@@ -216,7 +216,7 @@ def find_zero_force_states(
     displacement control (index 0 at both ends), the full Hessian is positive definite exactly
     when the Schur complement ``dF/dδ`` is, i.e. when the force rises through zero.
     """
-    from .._kernels.shell import assemble
+    from .._kernels.shell.energy import assemble
 
     states: list[ZeroForceState] = []
     for i in range(2, force.size):

@@ -2,8 +2,8 @@
 
 :func:`unit_cell_curve` traces the equilibrium path of a pinned spherical cap whose apex is
 pushed toward inversion, through every fold, with the geometrically exact, shear-rigid
-axisymmetric shell of :mod:`dpfexplore._kernels.shell` (the formulation, its checks and what it
-neglects: ``docs/guide/unitcell.md``). :class:`UnitCellRun` holds the path;
+axisymmetric shell of :mod:`dpfexplore._kernels.shell.energy` (the formulation, its checks and what
+it neglects: ``docs/guide/unitcell.md``). :class:`UnitCellRun` holds the path;
 :meth:`UnitCellRun.to_frame` is the table ``dpfexplore identify fit`` reads.
 """
 
@@ -17,9 +17,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from .._kernels import shell_path
-from .._kernels.shell import assemble, nodes
-from .._kernels.shell_records import PathControls
+from .._kernels.shell import path as shell_path
+from .._kernels.shell.energy import assemble, nodes
+from .._kernels.shell.records import PathControls
 from ..solvers.compilation import announce
 from .geometry import check_inputs, reference_unknowns, shell
 from .path import (
@@ -41,7 +41,7 @@ DEFAULT_ELEMENTS = 128
 #: Default travel, in dome heights: past the inverted zero-force state (about 2 H).
 DEFAULT_TRAVEL = 2.2
 #: Largest continuation step, as a fraction of the travel (weighted arclength,
-#: :mod:`dpfexplore._kernels.shell_path`): a simple dome takes 150-250 steps.
+#: :mod:`dpfexplore._kernels.shell.path`): a simple dome takes 150-250 steps.
 DEFAULT_STEP = 1.0 / 60.0
 
 _STATUS = {

@@ -254,7 +254,7 @@ def test_solve_batch_alone_is_not_told_of_kernels_it_never_runs(monkeypatch):
     # the node positions of find_state's results are compiled only when asked for; a process
     # that only calls solve_batch on single designs must not announce a compilation while every
     # kernel it runs is cached
-    from dpfexplore._kernels import states as kstates
+    from dpfexplore._kernels.statics import states as kstates
     from dpfexplore.solvers import compilation
 
     monkeypatch.setattr(compilation, "_SETTLED", set())

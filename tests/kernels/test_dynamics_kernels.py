@@ -8,11 +8,10 @@ from conftest import GRIPPER, PICKPLACE, read_reference
 from hypothesis import given, settings
 from hypothesis import strategies as hs
 
-from dpfexplore._kernels import dynamics as kd
-from dpfexplore._kernels.dense_lu import LATTICE_HALF_BANDWIDTH, lu_factor, lu_solve
-from dpfexplore._kernels.dynamics_batch import rest_state
-from dpfexplore._kernels.integrators_explicit import DP_A, DP_B, DP_C, DP_E
-from dpfexplore._kernels.integrators_rosenbrock import (
+from dpfexplore._kernels.dynamics import motion as kd
+from dpfexplore._kernels.dynamics.batch import rest_state
+from dpfexplore._kernels.dynamics.explicit import DP_A, DP_B, DP_C, DP_E
+from dpfexplore._kernels.dynamics.rosenbrock import (
     RODAS4_A,
     RODAS4_ALPHA,
     RODAS4_B,
@@ -20,7 +19,8 @@ from dpfexplore._kernels.integrators_rosenbrock import (
     RODAS4_GAMMA,
     RODAS4_GAMMA_SUM,
 )
-from dpfexplore._kernels.linalg import band_matvec_add
+from dpfexplore._kernels.linalg.banded_lu import LATTICE_HALF_BANDWIDTH, lu_factor, lu_solve
+from dpfexplore._kernels.linalg.cholesky import band_matvec_add
 from dpfexplore._kernels.records import MotionModel, MotionScratch
 from dpfexplore.model.design import Design
 from dpfexplore.solvers.dynamics.simulate import PressureProfile

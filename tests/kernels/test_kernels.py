@@ -19,14 +19,14 @@ from dpfexplore._kernels.lattice import (
     lattice_gradient,
     lattice_hessian,
 )
-from dpfexplore._kernels.linalg import (
+from dpfexplore._kernels.linalg.cholesky import (
     block_size,
     block_start,
     cholesky,
     cholesky_solve,
     n_blocks,
 )
-from dpfexplore._kernels.states import geometric_guess
+from dpfexplore._kernels.statics.states import geometric_guess
 from dpfexplore.bench.numpy_model import NumpyLattice
 from dpfexplore.model.design import Design
 from dpfexplore.solvers.lattice import lattice_params

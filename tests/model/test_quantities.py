@@ -15,8 +15,8 @@ from model_helpers import FINGER
 
 from dpfexplore import Design, find_state
 from dpfexplore._kernels import layout as lay
-from dpfexplore._kernels import states as kstates
-from dpfexplore._kernels import tables as ktables
+from dpfexplore._kernels.statics import states as kstates
+from dpfexplore._kernels.tables import design_tables as ktables
 from dpfexplore.model import closed_form, constants_set
 from dpfexplore.model.constants_set import DEFAULT, ConstantsSet
 from dpfexplore.model.design import DesignBatch

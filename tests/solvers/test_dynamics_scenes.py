@@ -9,8 +9,8 @@ import pytest
 from conftest import PICKPLACE, read_reference
 from scipy.optimize import brentq, curve_fit
 
-from dpfexplore._kernels.dynamics import ETA_INTERNAL, ETA_ISO, node_mass
-from dpfexplore._kernels.dynamics_batch import rest_state
+from dpfexplore._kernels.dynamics.batch import rest_state
+from dpfexplore._kernels.dynamics.motion import ETA_INTERNAL, ETA_ISO, node_mass
 from dpfexplore._kernels.lattice import lattice_energy, unpack_nodes
 from dpfexplore._kernels.layout import COL_KT
 from dpfexplore.model import status as st
@@ -138,7 +138,7 @@ def test_slowest_relaxation_of_the_pick_and_place_finger():
     """
     from scipy.linalg import eigh
 
-    from dpfexplore._kernels.dynamics import damping_matrix
+    from dpfexplore._kernels.dynamics.motion import damping_matrix
     from dpfexplore._kernels.lattice import lattice_hessian
     from dpfexplore.solvers.statics import find_state
 

@@ -15,10 +15,17 @@ import pytest
 import scipy.optimize as so
 from conftest import reference_reset_times
 
-from dpfexplore._kernels import dynamics as kd
-from dpfexplore._kernels.events import CTRL_H_INIT, CTRL_H_MAX, N_REC, N_STATS, REC_LAST_DOWN
+from dpfexplore._kernels.dynamics import motion as kd
+from dpfexplore._kernels.dynamics.events import (
+    CTRL_H_INIT,
+    CTRL_H_MAX,
+    N_REC,
+    N_STATS,
+    REC_LAST_DOWN,
+)
 from dpfexplore._kernels.layout import COL_ALPHA, COL_U_INV
-from dpfexplore._kernels.loaded_state import (
+from dpfexplore._kernels.records import MotionModel, MotionScratch, ReleaseRecord
+from dpfexplore._kernels.reset.loaded_state import (
     FTOL,
     MAX_ITER,
     MAX_MOVE,
@@ -28,9 +35,8 @@ from dpfexplore._kernels.loaded_state import (
     loaded_state,
     newton_scratch,
 )
-from dpfexplore._kernels.newton import workspace
-from dpfexplore._kernels.records import MotionModel, MotionScratch, ReleaseRecord
-from dpfexplore._kernels.release import release_rodas3, release_workspace
+from dpfexplore._kernels.reset.release import release_rodas3, release_workspace
+from dpfexplore._kernels.statics.newton import workspace
 from dpfexplore.model import status as st
 from dpfexplore.model.design import Design, DesignBatch
 from dpfexplore.solvers.dynamics import fast_reset as fr

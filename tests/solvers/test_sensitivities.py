@@ -23,15 +23,15 @@ from dpfexplore._kernels.records import (
     SensitivityRows,
     TangentParameter,
 )
-from dpfexplore._kernels.sensitivity import (
+from dpfexplore._kernels.sensitivity.states import (
     N_SENS,
     design_sensitivities,
     tangent,
     third_derivative_contraction,
     workspace,
 )
-from dpfexplore._kernels.states import geometric_guess
-from dpfexplore._kernels.tables import DP_T, DP_TLIM, N_DPARAM
+from dpfexplore._kernels.statics.states import geometric_guess
+from dpfexplore._kernels.tables.design_tables import DP_T, DP_TLIM, N_DPARAM
 from dpfexplore.model.constants import (
     DERIVATIVE_PARAMETERS,
     constant_derivatives,

@@ -18,7 +18,7 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from dpfexplore import Design, DesignBatch, PressureProfile, simulate
-from dpfexplore._kernels import continuation as kcont
+from dpfexplore._kernels.snap import continuation as kcont
 from dpfexplore.cli import main
 from dpfexplore.model.constants import dome_force
 from dpfexplore.model.status import Status
@@ -108,7 +108,7 @@ def test_jacobian_is_the_derivative_of_the_residual_and_not_symmetric(which, gri
 
 @pytest.mark.parametrize("singular", [False, True])
 def test_bordered_lu_solves_banded_systems_with_a_border_even_where_k_is_singular(singular):
-    from dpfexplore._kernels.bordered_lu import bordered_factor, bordered_solve
+    from dpfexplore._kernels.linalg.bordered_lu import bordered_factor, bordered_solve
 
     rng = np.random.default_rng(11)
     band = 7
@@ -314,7 +314,7 @@ def test_crossings_change_the_label_without_moving_the_shape():
     for e in crossing:
         (unit,) = e.inverted or e.reverted
         u = np.empty(seq.design.n_units)
-        from dpfexplore._kernels.events import margins
+        from dpfexplore._kernels.dynamics.events import margins
 
         margins(e.x_before, params.unit_params, u)
         assert abs(u[unit - 1]) < 1e-9  # exactly on the threshold
@@ -357,7 +357,7 @@ def test_every_branch_point_is_stable_no_flutter(gripper, gripper_up):
 
 def _path_shapes(seq):
     """Equilibria at the path's pressures, polished from the nearest recorded shapes."""
-    from dpfexplore._kernels.reduced import loaded_equilibrium
+    from dpfexplore._kernels.reset.reduced import loaded_equilibrium
 
     params = lattice_params(seq.design)
     shapes = []

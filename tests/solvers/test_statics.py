@@ -12,9 +12,9 @@ from model_helpers import height_for_alpha
 from dpfexplore import Design, DesignBatch, Status, enumerate_states, find_state, solve_batch
 from dpfexplore._kernels import layout as lay
 from dpfexplore._kernels.lattice import lattice_hessian
-from dpfexplore._kernels.newton import minimize, workspace
 from dpfexplore._kernels.records import Lattice, NewtonControls
-from dpfexplore._kernels.states import (
+from dpfexplore._kernels.statics.newton import minimize, workspace
+from dpfexplore._kernels.statics.states import (
     HOLD_AT_MINIMA,
     HOLD_PAST_BARRIER,
     N_OUT,

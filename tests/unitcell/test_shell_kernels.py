@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dpfexplore._kernels.shell import BAND, assemble
-from dpfexplore._kernels.shell_linalg import band_lu, band_lu_solve, negative_pivots
+from dpfexplore._kernels.linalg.band_storage import band_lu, band_lu_solve, negative_pivots
+from dpfexplore._kernels.shell.energy import BAND, assemble
 from dpfexplore.unitcell.geometry import reference_unknowns, shell
 
 

@@ -16,8 +16,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._kernels import events as kev
-from ..._kernels.dynamics_batch import (
+from ..._kernels.dynamics import events as kev
+from ..._kernels.dynamics.batch import (
     CLASS_BISTABLE,
     CLASS_METASTABLE,
     CLASS_MONOSTABLE,

@@ -2,9 +2,9 @@
 
 ``reset_times_batch(..., method="fast")`` (:mod:`.dynamics`) runs this. Per design:
 
-1. **Core** (:mod:`dpfexplore._kernels.fast_reset`): the loading is not integrated. Which domes
-   snap through and the loaded equilibrium at the end of the hold come from statics
-   (:mod:`dpfexplore._kernels.loaded_state`); the release ramp and the creep after it are
+1. **Core** (:mod:`dpfexplore._kernels.reset.fast_reset`): the loading is not integrated. Which
+   domes snap through and the loaded equilibrium at the end of the hold come from statics
+   (:mod:`dpfexplore._kernels.reset.loaded_state`); the release ramp and the creep after it are
    integrated (overdamped Rodas3 at a loose tolerance), stopping once no crossing can follow.
    Why the release is integrated at all: after the pressure goes, the finger uncurls along its
    slowest mode (~1 /s) and that motion carries each metastable dome to the fold where its
@@ -37,9 +37,11 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._kernels import dynamics as kdyn
-from ..._kernels.events import CTRL_H_INIT, CTRL_H_MAX
-from ..._kernels.fast_reset import (
+from ..._kernels.dynamics import motion as kdyn
+from ..._kernels.dynamics.events import CTRL_H_INIT, CTRL_H_MAX
+from ..._kernels.layout import COL_ALPHA
+from ..._kernels.records import FastResetRows, LatticeBatch, Physics, PressureKnots
+from ..._kernels.reset.fast_reset import (
     DD_LOAD_MARGIN,
     DD_STEPS,
     N_DESIGN_DIAG,
@@ -50,9 +52,7 @@ from ..._kernels.fast_reset import (
     UD_U_LOAD,
     fast_reset_batch,
 )
-from ..._kernels.layout import COL_ALPHA
-from ..._kernels.records import FastResetRows, LatticeBatch, Physics, PressureKnots
-from ..._kernels.release import UD_EVENT_ERROR, UD_EVENT_STEP
+from ..._kernels.reset.release import UD_EVENT_ERROR, UD_EVENT_STEP
 from ...model import status as st
 from ...model.design import DesignBatch
 from ...model.domain import MAX_UNITS

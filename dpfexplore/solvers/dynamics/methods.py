@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..._kernels.integrator_ids import INTEGRATOR_DOPRI5, INTEGRATOR_RODAS4
+from ..._kernels.dynamics.ids import INTEGRATOR_DOPRI5, INTEGRATOR_RODAS4
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "MethodInfo"]
 

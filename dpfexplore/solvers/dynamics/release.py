@@ -1,7 +1,7 @@
 """Reduced models of the reset time, with their errors against the full lattice.
 
 The release model (``method="release"``)
-    :mod:`dpfexplore._kernels.reduced`: the loading integrated at a loose tolerance (it only
+    :mod:`dpfexplore._kernels.reset.reduced`: the loading integrated at a loose tolerance (it only
     has to get the inversion pattern right), the state at the start of the release replaced by
     the loaded equilibrium that Newton reaches from it (the end of a long hold), the release
     integrated at the requested tolerance (overdamped Rodas4). It keeps every coordinate of the
@@ -22,9 +22,9 @@ from __future__ import annotations
 
 from numpy.typing import NDArray
 
-from ..._kernels import dynamics as kdyn
+from ..._kernels.dynamics import motion as kdyn
 from ..._kernels.records import LatticeBatch, Physics, PressureKnots, ResetRows
-from ..._kernels.reduced import release_batch
+from ..._kernels.reset.reduced import release_batch
 from ...model.design import Design, DesignBatch
 from .common import METHODS, check_horizon, run_reset_batch
 

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..._kernels.records import TreeArrays
-from ..._kernels.trees import tree_ensemble_predict
+from ..._kernels.reset.trees import tree_ensemble_predict
 from ...io.files import atomic_write
 from ...model.constants_set import DEFAULT, ConstantsSet
 from ...model.version import MODEL_VERSION
@@ -74,7 +74,7 @@ FEATURES = (
 
 @dataclass(frozen=True)
 class TreeEnsemble:
-    """A sum of regression trees in flat arrays (see :mod:`dpfexplore._kernels.trees`).
+    """A sum of regression trees in flat arrays (see :mod:`dpfexplore._kernels.reset.trees`).
 
     Attributes
     ----------

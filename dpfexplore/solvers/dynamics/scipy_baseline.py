@@ -2,7 +2,7 @@
 
 Used by the tests and ``dpfexplore bench dynamics`` as the reference our integrators are
 measured against, and reachable as ``simulate(..., method="radau")``. The right-hand side and
-the analytic Jacobian are the project's kernels (:mod:`dpfexplore._kernels.dynamics`), so the
+the analytic Jacobian are the project's kernels (:mod:`dpfexplore._kernels.dynamics.motion`), so the
 baseline differs from our integrators only in the integration: SciPy's Radau IIA (order 5,
 simplified Newton) with its own error control and event location (``brentq`` on the dense
 output). The profile's knots split the run into segments, so no step straddles a kink of P(t).
@@ -20,9 +20,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import lu_factor, lu_solve
 
-from ..._kernels import dynamics as kdyn
-from ..._kernels import events as kev
-from ..._kernels.dynamics_batch import rest_state
+from ..._kernels.dynamics import events as kev
+from ..._kernels.dynamics import motion as kdyn
+from ..._kernels.dynamics.batch import rest_state
 from ..._kernels.records import MotionModel, MotionScratch
 from ...model import status as st
 from ...model.design import Design

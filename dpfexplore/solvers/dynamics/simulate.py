@@ -1,6 +1,6 @@
 """Dynamics of the damped lattice under pressure: snap-through, snap-back and reset times.
 
-The equations of motion are MODEL.md §8 (kernels in :mod:`dpfexplore._kernels.dynamics`):
+The equations of motion are MODEL.md §8 (kernels in :mod:`dpfexplore._kernels.dynamics.motion`):
 lumped masses, the paper's damping on every two-node spring, isotropic drag and pressure on
 the chamber faces following the faces, driven by a piecewise-linear :class:`PressureProfile`.
 
@@ -8,7 +8,7 @@ Methods (``method=``)
 ---------------------
 ``"rodas4"`` (default)
     Full second-order model, Rodas4 Rosenbrock method on the analytic Jacobian
-    (:mod:`dpfexplore._kernels.integrators_rosenbrock`). Stiffly accurate and L-stable, so the
+    (:mod:`dpfexplore._kernels.dynamics.rosenbrock`). Stiffly accurate and L-stable, so the
     ~1e-5 s velocity relaxation costs nothing; ~300 steps for the 15 s pick-and-place scene.
 ``"rodas4-overdamped"``
     Inertia dropped (``C(x) ẋ = F_ext - ∇E``) by the same kernel with zero mass (an index-1
@@ -37,7 +37,7 @@ Events and outputs
 Each unit's threshold is its barrier ``u_barrier`` (``u = 3/4`` where ``α ≥ 1/9``, MODEL.md
 §6). Crossings are located on the dense output, not at step ends. Snap-through is a unit's
 first upward crossing, snap-back its last downward one; reset time, unit class and final state
-follow :mod:`dpfexplore._kernels.dynamics_batch` (reset time measured from the profile's last
+follow :mod:`dpfexplore._kernels.dynamics.batch` (reset time measured from the profile's last
 knot ``τ_end``; ``inf`` when still inverted at ``t_end``, with ``horizon = t_end - τ_end``).
 
 Every run returns a status (:class:`dpfexplore.model.status.Status`); step and time caps make sure
@@ -53,9 +53,9 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._kernels import dynamics as kdyn
-from ..._kernels import events as kev
-from ..._kernels.dynamics_batch import integrate, reset_times_kernel, rest_state
+from ..._kernels.dynamics import events as kev
+from ..._kernels.dynamics import motion as kdyn
+from ..._kernels.dynamics.batch import integrate, reset_times_kernel, rest_state
 from ..._kernels.records import (
     LatticeBatch,
     MotionModel,
@@ -149,8 +149,8 @@ def simulate(
         Cap on step attempts; past it the run stops with ``Status.STEP_LIMIT``.
     stop_when_reset : bool
         Stop once past the profile with every inverted unit reset and no threshold crossing
-        for ``SETTLE_TIME`` (1 s, :mod:`dpfexplore._kernels.events`: a dome pushed back over
-        its threshold by a neighbour's snap is still followed); the samples after that are
+        for ``SETTLE_TIME`` (1 s, :mod:`dpfexplore._kernels.dynamics.events`: a dome pushed back
+        over its threshold by a neighbour's snap is still followed); the samples after that are
         NaN. Speeds up reset-time evaluation.
     event_capacity : int
         Crossings kept in ``events`` (all are counted).
@@ -296,7 +296,7 @@ def reset_times_batch(
 ) -> dict[str, NDArray]:
     """Reset times of many designs under one profile, evaluated in parallel.
 
-    Rows run in a Numba ``prange`` loop (:func:`dpfexplore._kernels.dynamics_batch.
+    Rows run in a Numba ``prange`` loop (:func:`dpfexplore._kernels.dynamics.batch.
     reset_times_kernel`): everything per row is compiled, ``nogil`` code, so there is nothing
     for Python threads to add, and the parallel region is one call with no per-row
     dispatch. Rows differ in cost by 10x or more (bistable designs run to the horizon,

@@ -13,10 +13,10 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._kernels import snap as ksnap
-from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, MASS_PER_UNIT
+from ..._kernels.dynamics.motion import ETA_INTERNAL, ETA_ISO, MASS_PER_UNIT
 from ..._kernels.records import LatticeBatch, Physics
-from ..._kernels.snap_records import BatchLanding, Ramp, SnapRows
+from ..._kernels.snap import walk as ksnap
+from ..._kernels.snap.records import BatchLanding, Ramp, SnapRows
 from ...model import status as st
 from ...model.design import DesignBatch
 from ...model.domain import MAX_UNITS

@@ -9,11 +9,11 @@
 What "a slow ramp" means
     The quasi-static limit: the pressure rises so slowly that the finger is always at rest on an
     equilibrium branch ``R(x, P) = ∇E(x) - P f(x) = 0`` (MODEL.md §8 with the velocities zero),
-    followed by pseudo-arclength continuation (:mod:`dpfexplore._kernels.continuation`). Under a
-    real ramp of rate ``r`` the finger lags: a smooth crossing by ``O(r)``, a snap by ``O(r^(2/3))``
-    (the slow passage through the saddle-node's ghost), so slow-ramp simulations converge to these
-    pressures as the ramp slows (``tests/solvers/test_snap.py`` and ``dpfexplore bench snap``
-    measure it).
+    followed by pseudo-arclength continuation (:mod:`dpfexplore._kernels.snap.continuation`). Under
+    a real ramp of rate ``r`` the finger lags: a smooth crossing by ``O(r)``, a snap by
+    ``O(r^(2/3))`` (the slow passage through the saddle-node's ghost), so slow-ramp simulations
+    converge to these pressures as the ramp slows (``tests/solvers/test_snap.py`` and ``dpfexplore
+    bench snap`` measure it).
 Events
     A *snap* happens where the branch folds (a real eigenvalue of the non-symmetric Jacobian
     ``K = H - P J_p`` crosses zero): the finger must leave the branch. A *crossing* is a unit's
@@ -66,14 +66,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._kernels import continuation as kcont
-from ..._kernels import events as kevents
-from ..._kernels import snap as ksnap
-from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, damping_matrix, node_mass
-from ..._kernels.dynamics_batch import rest_state
+from ..._kernels.dynamics import events as kevents
+from ..._kernels.dynamics.batch import rest_state
+from ..._kernels.dynamics.motion import ETA_INTERNAL, ETA_ISO, damping_matrix, node_mass
 from ..._kernels.layout import n_free
 from ..._kernels.records import Lattice
-from ..._kernels.snap_records import Landing, Releases, RisingWalk, WalkOutputs
+from ..._kernels.snap import continuation as kcont
+from ..._kernels.snap import walk as ksnap
+from ..._kernels.snap.records import Landing, Releases, RisingWalk, WalkOutputs
 from ...model import status as st
 from ...model.design import Design
 from ..compilation import announce
@@ -310,7 +310,7 @@ def snap_pressures(
     kick : float, mm, optional
         First displacement of a landing along the fold's null direction; by default 0.1 mm, or
         less if that would move a dome by more than its reach
-        (:func:`dpfexplore._kernels.landing.default_kick`).
+        (:func:`dpfexplore._kernels.snap.landing.default_kick`).
     verify : bool
         Re-check every landing with the eigenvalues of the linearised motion (dense LAPACK,
         ~0.1-1 ms each); a landing that fails makes the status ``UNSTABLE``.

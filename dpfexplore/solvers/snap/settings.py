@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._kernels.dynamics import ETA_INTERNAL, ETA_ISO, node_mass
+from ..._kernels.dynamics.motion import ETA_INTERNAL, ETA_ISO, node_mass
 from ...model.domain import MAX_UNITS
 from ...model.pressure import MAX_PRESSURE
 from ..dynamics.common import METHODS, controls

@@ -1,0 +1,18 @@
+"""The damped lattice in time: equations of motion, integrators, events, batches (Numba).
+
+Modules
+-------
+motion
+    Right-hand side of the damped lattice under pressure and its Jacobians (MODEL.md §8).
+events
+    Solver controls, dense output, threshold crossings, early stop: what every integrator
+    shares.
+rosenbrock
+    Rodas4 on the analytic Jacobian (full and overdamped models).
+explicit
+    Dormand-Prince 5(4).
+batch
+    One simulation from rest, its per-unit summary, and the ``prange`` batch over designs.
+ids
+    Ids of the integrators, in a module without Numba.
+"""

@@ -48,8 +48,6 @@ JIT_DECORATORS = {"kernel", "batch_kernel", "njit", "jit", "register_jitable"}
 MAX_KERNEL_PARAMETERS = 8
 MAX_MODULE_LINES = 600
 MAX_FLAT_MODULES = 15
-#: ``_kernels`` is one compilation unit for the cache digest (its package docstring says why).
-WIDE_PACKAGES = {"_kernels"}
 
 
 def _decorator_name(node: ast.expr) -> str | None:
@@ -99,6 +97,6 @@ def test_no_package_holds_more_than_15_flat_modules():
     wide = {}
     for package in PACKAGE.rglob("__init__.py"):
         modules = [p for p in package.parent.glob("*.py") if p.name != "__init__.py"]
-        if len(modules) > MAX_FLAT_MODULES and package.parent.name not in WIDE_PACKAGES:
+        if len(modules) > MAX_FLAT_MODULES:
             wide[str(package.parent.relative_to(ROOT))] = len(modules)
     assert not wide, wide

@@ -29,15 +29,20 @@ constants such as ``RISING``, ``MAX_ITER``), never Python literals: Numba types 
 as ``Literal[int](value)`` and compiles the callee once more for each literal value it meets, so
 ``follow(..., 1, ...)`` and ``follow(..., -1, ...)`` would be two compilations of the same code.
 
-The package stays one flat folder of modules although it holds more than the ~15 modules
-the other packages keep to: :mod:`._jit` keys the whole on-disk Numba cache to one digest of
-this folder's sources (a kernel inlines its callees, so an edit anywhere may change any
-compiled kernel), and sub-packages would only hide that they are one compilation unit.
+One sub-package per family of kernels, named by what it computes, and at the top the modules
+every family reads. Imports between the families point one way: ``linalg`` and ``tables``
+import no other family; ``statics``, ``dynamics`` and ``shell`` build on ``linalg`` (and the
+lattice); ``sensitivity`` on ``statics`` and ``tables``; ``reset`` on ``statics`` and
+``dynamics``; ``snap`` on ``dynamics`` and ``reset``. A kernel inlines its callees, so an edit
+of one module can change kernels compiled in another: the on-disk cache is keyed to a digest
+of every source the kernels compile (:mod:`._jit`), and a stale cache is cleared before
+anything loads.
 
 Modules
 -------
 _jit
-    The project's one JIT policy (``cache=True``, ``nogil``, ``parallel`` only on batch kernels).
+    The project's one JIT policy (``cache=True``, ``nogil``, ``parallel`` only on batch
+    kernels), and the on-disk cache kept in step with the sources.
 records
     The named records kernels take and fill (lattices, controls, knots, physics, outputs).
 layout
@@ -45,43 +50,28 @@ layout
 lattice
     Energy, analytic gradient and analytic Hessian of the spring lattice (MODEL.md §5).
 linalg
-    Small dense Cholesky factorisation and solves used by the Newton solver.
-newton
-    Globalised Newton minimisation with a caller-set tolerance and iteration cap.
+    Block-tridiagonal Cholesky, banded LU with threshold pivoting, bordered banded LU, and
+    band-storage LU with an inertia count (the shell).
 tables
     Status codes, per-unit tables and their derivative tables of a batch of designs, in one
-    compiled pass over a constants set (``model.constants_set``) and the beam constants.
-states
-    Geometric guess, stable-state search and per-state outputs (MODEL.md §6-§7).
-batch
-    ``prange`` entry points evaluating many designs on the kernels above (and their serial
-    twins for small batches).
-sensitivity, sensitivity_batch
-    Design sensitivities of a stable state by the implicit function theorem (forward-mode
-    tangent assembly, third-derivative contraction), and their batch entry points.
+    compiled pass over a constants set (``model.constants_set``) and the beam constants; the
+    closed forms over many domes (``bench identify``).
+statics
+    Newton minimisation, stable-state search, per-state outputs (MODEL.md §6-§7) and the
+    ``prange`` batch entry points with their serial twins.
+sensitivity
+    Design sensitivities of a stable state by the implicit function theorem, and their batch
+    entry points.
 dynamics
-    Right-hand side of the damped lattice under pressure (MODEL.md §8) and its Jacobians.
-dense_lu
-    Banded LU with partial pivoting for the (unsymmetric) stage matrices of the integrators.
-integrators_rosenbrock, integrators_explicit
-    Rodas4 (full and overdamped models) and Dormand-Prince 5(4), with step and time caps.
-events
-    Dense-output event location: snap-through, snap-back and reset times.
-reduced
-    The release model: a cheaper reset-time model with its error measured.
-dynamics_batch
-    ``prange`` entry point for reset times of many designs.
-bordered_lu, continuation, landing, snap, snap_steps, snap_records
-    Equilibrium branches under a slow pressure ramp (bordered banded LU, pseudo-arclength
-    continuation, folds, crossings), landings after a snap by the equations of motion, and
-    the snap pressures of one design or many (``prange``): the walk, its step's stages, and
-    its output layout and records.
-shell, shell_linalg, shell_path, shell_records
+    The equations of motion under pressure (MODEL.md §8) and their Jacobians, the integrators
+    (Rodas4, Dormand-Prince 5(4)), events, and the ``prange`` batch of reset times.
+reset
+    The release and fast reset models: reset times without integrating the whole pulse.
+snap
+    Snap pressures under a slow pressure ramp: pseudo-arclength continuation, folds, landings
+    after a snap, the walk over one design or many (``prange``).
+shell
     The unit-cell shell model of one dome (:mod:`dpfexplore.unitcell`): energy, gradient and
-    exact Hessian of the discretised meridian, banded LU with an inertia count, the
-    continuation of its equilibrium path under apex displacement control, and the records they
-    pass (the shell's geometry, the path's controls, scratch and points).
-closed_form_loops
-    The closed forms of many domes, by a constants set and by the paper's compiled forms
-    (``bench identify``).
+    exact Hessian of the discretised meridian, and its equilibrium path under apex
+    displacement control.
 """

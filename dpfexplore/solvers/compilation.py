@@ -1,7 +1,7 @@
 """Which kernels a command needs, whether they are compiled yet, and a notice when they are not.
 
 Numba compiles each kernel on its first call and keeps the machine code in its cache
-(:mod:`dpfexplore._kernels._jit`), so only the first run after an install (or an edit of the
+(:mod:`dpfexplore._kernels._cache`), so only the first run after an install (or an edit of the
 kernels) compiles. That first run is slow and would otherwise be silent: the CLI prints
 :func:`compile_notice` before it starts, and the Python API (:func:`announce`, called by the
 solvers before their kernels) logs it once per process as a WARNING on the ``dpfexplore`` logger,
@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable
 
-from .._kernels._jit import is_cached
+from .._kernels._cache import is_cached
 from .._kernels.dynamics import batch as dynamics_batch
 from .._kernels.reset import reduced
 from .._kernels.sensitivity import batch as sensitivity_batch

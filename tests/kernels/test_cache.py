@@ -1,0 +1,113 @@
+"""The kernel cache's digest covers every source the kernels compile, and only those."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from dpfexplore._kernels._cache import KERNELS_DIR, clear_stale, kernel_sources, sources_digest
+
+PACKAGE = KERNELS_DIR.parent
+
+
+def _write(root: Path, files: dict[str, str]) -> None:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+
+
+def _package(tmp_path: Path) -> Path:
+    """A package ``pkg`` laid out as dpfexplore: kernels importing model/, and a cli/ beside."""
+    _write(
+        tmp_path,
+        {
+            "pkg/__init__.py": "",
+            "pkg/_kernels/__init__.py": '"""Kernels."""\n',
+            "pkg/_kernels/_jit.py": "import numba\n",
+            "pkg/_kernels/family/__init__.py": "",
+            "pkg/_kernels/family/a.py": "from ...model import forms\nfrom .. import _jit\n",
+            "pkg/model/__init__.py": "from .status import OK\n",
+            "pkg/model/forms.py": "import numpy as np\n\nfrom .status import OK\n",
+            "pkg/model/status.py": "OK = 0\n",
+            "pkg/model/unused.py": "X = 1\n",
+            "pkg/cli/__init__.py": "",
+            "pkg/cli/main.py": "from ..model import forms\n",
+        },
+    )
+    return tmp_path / "pkg" / "_kernels"
+
+
+def _names(kernels: Path) -> set[str]:
+    top = kernels.parent.parent
+    return {path.relative_to(top).as_posix() for path in kernel_sources(kernels)}
+
+
+def test_the_sources_are_the_kernels_and_what_they_import(tmp_path):
+    kernels = _package(tmp_path)
+    assert _names(kernels) == {
+        "pkg/_kernels/__init__.py",
+        "pkg/_kernels/_jit.py",
+        "pkg/_kernels/family/__init__.py",
+        "pkg/_kernels/family/a.py",
+        "pkg/model/forms.py",
+        "pkg/model/status.py",
+    }
+
+
+def test_a_module_a_kernel_starts_to_import_changes_the_digest(tmp_path):
+    kernels = _package(tmp_path)
+    before = sources_digest(kernels)
+    _write(tmp_path, {"pkg/model/new_form.py": "def form(x):\n    return 2.0 * x\n"})
+    assert sources_digest(kernels) == before  # not imported by any kernel yet
+    _write(tmp_path, {"pkg/model/forms.py": "from .new_form import form\nfrom .status import OK\n"})
+    imported = sources_digest(kernels)
+    assert imported != before
+    _write(tmp_path, {"pkg/model/new_form.py": "def form(x):\n    return 3.0 * x\n"})
+    assert sources_digest(kernels) != imported  # an edit of it counts from now on
+    # a module imported by a new kernel module, absolutely, as a name of its package
+    _write(
+        tmp_path,
+        {
+            "pkg/_kernels/family/b.py": "import pkg.model.unused\nfrom pkg.model import OK\n",
+        },
+    )
+    assert {"pkg/model/unused.py", "pkg/model/__init__.py"} <= _names(kernels)
+
+
+def test_a_module_no_kernel_imports_leaves_the_digest_alone(tmp_path):
+    kernels = _package(tmp_path)
+    before = sources_digest(kernels)
+    _write(tmp_path, {"pkg/cli/main.py": "from ..model import forms, status\nX = 2\n"})
+    _write(tmp_path, {"pkg/model/unused.py": "X = 2\n", "pkg/cli/extra.py": "Y = 1\n"})
+    assert sources_digest(kernels) == before
+
+
+def test_the_digest_covers_the_model_the_kernels_compile_and_not_the_front_ends():
+    names = {path.relative_to(PACKAGE).as_posix() for path in kernel_sources()}
+    assert {p.relative_to(PACKAGE).as_posix() for p in KERNELS_DIR.rglob("*.py")} <= names
+    model = {name for name in names if name.startswith("model/")}
+    assert {
+        "model/status.py",
+        "model/limits.py",
+        "model/domain.py",
+        "model/quantities.py",
+        "model/constants.py",
+        "model/closed_form.py",
+        "model/validation.py",
+    } <= model
+    outside = {name.split("/")[0] for name in names} - {"_kernels", "model", "io", "numerics"}
+    assert not outside, outside
+
+
+def test_a_stale_cache_is_cleared_and_a_current_one_kept(tmp_path):
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    (cache / "lattice.assemble-10.py311.nbi").write_bytes(b"index")
+    (cache / "lattice.assemble-10.py311.1.nbc").write_bytes(b"code")
+    (cache / "lattice.cpython-311.pyc").write_bytes(b"bytecode")
+    assert clear_stale("digest-1", [cache]) == 2
+    assert [p.name for p in cache.iterdir() if p.suffix in {".nbi", ".nbc"}] == []
+    assert (cache / "lattice.cpython-311.pyc").exists()
+    (cache / "lattice.assemble-10.py311.nbi").write_bytes(b"index")
+    assert clear_stale("digest-1", [cache]) == 0  # marked current: kept
+    assert clear_stale("digest-2", [cache]) == 1

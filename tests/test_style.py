@@ -42,9 +42,11 @@ def test_few_fmt_skip_markers():
 
 # Issue 18's layout rules, kept by the suite rather than by a one-off read.
 PACKAGE = ROOT / "dpfexplore"
-#: Decorators that make a Numba function: the project's policy (``kernel``, ``batch_kernel``)
-#: and Numba's own names, in case a module bypasses the policy.
-JIT_DECORATORS = {"kernel", "batch_kernel", "njit", "jit", "register_jitable"}
+#: Decorators that make a Numba function: the project's policy (``kernel``, ``batch_kernel``,
+#: ``jitable``) and Numba's own names, in case a module bypasses the policy.
+JIT_DECORATORS = {"kernel", "batch_kernel", "jitable", "njit", "jit", "register_jitable"}
+#: The tuple in which a module of ``model/`` lists the plain functions kernels compile inline.
+COMPILED_INLINE = "COMPILED_INLINE"
 MAX_KERNEL_PARAMETERS = 8
 MAX_MODULE_LINES = 600
 MAX_FLAT_MODULES = 15
@@ -58,13 +60,31 @@ def _decorator_name(node: ast.expr) -> str | None:
     return node.id if isinstance(node, ast.Name) else None
 
 
+def _compiled_inline(tree: ast.Module) -> set[str]:
+    """Names a module lists in its ``COMPILED_INLINE`` tuple (compiled by the kernels)."""
+    names = set()
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(
+            isinstance(t, ast.Name) and t.id == COMPILED_INLINE for t in node.targets
+        ):
+            names |= {e.id for e in getattr(node.value, "elts", ()) if isinstance(e, ast.Name)}
+    return names
+
+
 def _jitted_functions() -> dict[str, int]:
-    """``module:function`` -> number of parameters, for every JIT-decorated function."""
+    """``module:function`` -> number of parameters, for every function Numba compiles.
+
+    JIT-decorated functions, and the plain functions a module lists in ``COMPILED_INLINE`` (the
+    kernels compile those: ``dpfexplore/_kernels/tables/model_forms.py``).
+    """
     found = {}
     for path in sorted(PACKAGE.rglob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-            if isinstance(node, ast.FunctionDef) and any(
-                _decorator_name(d) in JIT_DECORATORS for d in node.decorator_list
+        tree = ast.parse(path.read_text(), filename=str(path))
+        inline = _compiled_inline(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef) and (
+                any(_decorator_name(d) in JIT_DECORATORS for d in node.decorator_list)
+                or node.name in inline
             ):
                 a = node.args
                 count = len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)
@@ -76,6 +96,7 @@ def test_the_kernel_finder_sees_the_kernels():
     # Guards the rule below against a finder that silently finds nothing.
     names = {key.split(":")[1] for key in _jitted_functions()}
     assert {"minimize", "follow", "set_constants_block"} <= names
+    assert {"k_t_form", "constant_derivatives_form", "geometry_status"} <= names
     assert len(names) > 100
 
 
@@ -100,3 +121,31 @@ def test_no_package_holds_more_than_15_flat_modules():
         if len(modules) > MAX_FLAT_MODULES:
             wide[str(package.parent.relative_to(ROOT))] = len(modules)
     assert not wide, wide
+
+
+def _imported_modules(tree: ast.Module) -> set[str]:
+    """Top-level names of the modules ``tree`` imports, anywhere in it (absolute imports)."""
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            found.add(node.module.split(".")[0])
+    return found
+
+
+def test_the_model_imports_no_numba():
+    # model/ says what a finger is; the kernels compile its plain functions (COMPILED_INLINE)
+    numba = {
+        str(path.relative_to(ROOT))
+        for path in (PACKAGE / "model").rglob("*.py")
+        if "numba" in _imported_modules(ast.parse(path.read_text(), filename=str(path)))
+    }
+    assert not numba, numba
+
+
+def test_the_numba_finder_sees_numba_imports():
+    # Guards the rule above against a finder that silently finds nothing.
+    tree = ast.parse((PACKAGE / "_kernels" / "_jit.py").read_text())
+    assert "numba" in _imported_modules(tree)
+    assert "numba" in _imported_modules(ast.parse("def f():\n    from numba import njit\n"))

@@ -1,7 +1,7 @@
 """The project's one JIT policy.
 
-Every Numba function in :mod:`dpfexplore._kernels` is decorated through :func:`kernel` or
-:func:`batch_kernel`, so the options live in one place:
+Every Numba function in :mod:`dpfexplore._kernels` is decorated through :func:`kernel`,
+:func:`batch_kernel` or :func:`jitable`, so the options live in one place:
 
 * ``cache=True`` everywhere: compiled machine code is written next to the sources and reused by
   later processes (sweep workers load it instead of compiling). Several processes writing the
@@ -13,6 +13,11 @@ Every Numba function in :mod:`dpfexplore._kernels` is decorated through :func:`k
 * No ``fastmath``: it has not been shown to leave results within tolerance (the dome energy near
   the saddle-node bifurcation is a difference of nearly equal terms), so it stays off.
 * No object mode: ``njit`` fails loudly instead of falling back.
+* :func:`jitable` (Numba's ``register_jitable``) for plain-arithmetic functions that NumPy code
+  runs as Python too: the closed forms and validation rules of :mod:`dpfexplore.model`, which
+  imports no Numba (:mod:`.tables.model_forms` compiles them), and the constants set's
+  evaluation (:mod:`.tables.set_forms`). Each is compiled inline into every kernel that calls
+  it, with Numba's default options, and has no cache of its own.
 
 Importing this module first clears cached kernels compiled from other versions of the sources
 (:func:`._cache.invalidate_stale_cache`), so a kernel decorated here never loads stale code.
@@ -21,6 +26,7 @@ Importing this module first clears cached kernels compiled from other versions o
 from __future__ import annotations
 
 import numba
+from numba.extending import register_jitable
 
 from ._cache import invalidate_stale_cache
 
@@ -43,3 +49,12 @@ def batch_kernel(func=None, /, **overrides):
     if func is None:
         return lambda f: numba.njit(**options)(f)
     return numba.njit(**options)(func)
+
+
+def jitable(func):
+    """Let kernels compile ``func`` inline; called from Python it stays the plain function.
+
+    Returns ``func`` itself (Numba's ``register_jitable``): it must be plain arithmetic and
+    calls to other functions the kernels can compile.
+    """
+    return register_jitable(func)

@@ -11,7 +11,7 @@ the grid points (median, max). The goal: 1,000 curves fitted and selected in at 
 
 Second part, the cost of running on a constants set: ``k_b``, ``alpha`` and the reach of a
 million domes evaluated by the general path of every kernel table (the paper's set read as
-data, :func:`~dpfexplore.model.closed_form.set_constants_block`) against the paper's forms
+data, :func:`~dpfexplore._kernels.tables.set_forms.set_constants_block`) against the paper's forms
 compiled as plain arithmetic, side by side (medians of interleaved runs, compile apart), with
 their largest difference; then the whole kernel-table build of a batch, the set's against the
 same build with the compiled paper forms, and ``kernel_tables`` as users call it.

@@ -10,10 +10,10 @@ coefficients of the authors' implementation, which the paper prints rounded. The
 that are nonsense outside that domain.
 
 Each closed form is written once, as a ``*_form`` function of plain arithmetic (no NumPy calls),
-so that the same source serves NumPy arrays here and the Numba kernels that build the kernel
-tables (:mod:`dpfexplore._kernels.tables.design_tables`) on scalars, with bit-identical results.
-Numba's ``register_jitable`` leaves each a plain Python function for NumPy callers and lets jitted
-code compile it inline. Their derivatives with respect to the design parameters
+so that the same source serves NumPy arrays here and, on scalars, the Numba kernels that build
+the kernel tables, with bit-identical results: the kernels compile the functions listed in
+:data:`COMPILED_INLINE` inline (:mod:`dpfexplore._kernels.tables.model_forms`); this module
+imports no Numba. Their derivatives with respect to the design parameters
 (:func:`constant_derivatives`) are written the same way, for the design sensitivities.
 """
 
@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba.extending import register_jitable
 from numpy.typing import ArrayLike, NDArray
 
 #: Unit-cell size per dome base radius, ``UC = 3 r_b`` (MODEL.md §2).
@@ -41,7 +40,6 @@ def dome_radius(H: ArrayLike, r_b: ArrayLike) -> NDArray:
     return radius_form(np.asarray(H, dtype=float), np.asarray(r_b, dtype=float))
 
 
-@register_jitable
 def radius_form(H, r_b):
     """``R`` of :func:`dome_radius` (plain arithmetic, see the module docstring)."""
     return (H * H + r_b * r_b) / (2.0 * H)
@@ -61,7 +59,6 @@ def dome_stiffness(E: ArrayLike, H: ArrayLike, t: ArrayLike, R: ArrayLike) -> ND
     return kb_form(E, H, t, R)
 
 
-@register_jitable
 def kb_form(E, H, t, R):
     """``k_b`` of :func:`dome_stiffness` (plain arithmetic)."""
     # Powers by multiplication: ``**`` with float exponents costs a pow() call per entry.
@@ -97,7 +94,6 @@ def dome_alpha(H: ArrayLike, t: ArrayLike, R: ArrayLike) -> NDArray:
     return alpha_form(H, t, R)
 
 
-@register_jitable
 def alpha_form(H, t, R):
     """``α`` of :func:`dome_alpha` (plain arithmetic)."""
     H2 = H * H
@@ -153,7 +149,6 @@ TIP_PER_THICKNESS = 0.2565
 TIP_PER_HEIGHT = 2.1425
 
 
-@register_jitable
 def reach_raw_form(H, t, U_sep, t_ch):
     """The closed form of ``d`` before the clamp (mm)."""
     return (TIP_PER_THICKNESS * t + TIP_PER_HEIGHT * H) - H - U_sep - t_ch / 2.0 - t / 2.0
@@ -170,7 +165,6 @@ def limiting_layer_stiffness(
     return k_lim_form(E, t_lim, r_b, U_L, t, t_ch)
 
 
-@register_jitable
 def k_lim_form(E, t_lim, r_b, U_L, t, t_ch):
     """``k_lim`` of :func:`limiting_layer_stiffness` (plain arithmetic)."""
     return E * t_lim * (UNIT_CELL_PER_BASE_RADIUS * r_b) / (U_L + t + t_ch)
@@ -198,7 +192,6 @@ def torsion_stiffness(
     return k_t_form(*args)
 
 
-@register_jitable
 def k_t_form(E, t_lim, nu, r_b, U_sep, t, t_ch):
     """``k_t`` of :func:`torsion_stiffness` (plain arithmetic)."""
     # t_lim³ by multiplication, not ``**``: NumPy's and libm's pow differ in the last bit.
@@ -211,7 +204,6 @@ def segment_height(r_b: ArrayLike, t_lim: ArrayLike, t: ArrayLike) -> NDArray:
     return segment_height_form(*(np.asarray(a, dtype=float) for a in (r_b, t_lim, t)))
 
 
-@register_jitable
 def segment_height_form(r_b, t_lim, t):
     """``h`` of :func:`segment_height` (plain arithmetic)."""
     return UNIT_CELL_PER_BASE_RADIUS * r_b / 2.0 + t_lim + t
@@ -252,7 +244,6 @@ REACH_PER_HEIGHT = 2.1425 - 1.0
 REACH_PER_THICKNESS = 0.2565 - 0.5
 
 
-@register_jitable
 def _ipow(x, n):
     """``x**n`` for a small integer ``n`` by multiplication (identical in NumPy and Numba)."""
     result = 1.0 + 0.0 * x
@@ -262,7 +253,6 @@ def _ipow(x, n):
     return result
 
 
-@register_jitable
 def _monomial_partials(terms, H, t, R):
     """Partial derivatives in ``H``, ``t`` and ``R`` of ``Σ c H^a t^b R^e`` over ``terms``."""
     d_H = 0.0 * H
@@ -276,7 +266,6 @@ def _monomial_partials(terms, H, t, R):
     return d_H, d_t, d_R
 
 
-@register_jitable
 def constant_derivatives_form(H, U_L, U_sep, shared):
     """Derivatives of a unit's constants in its design parameters (the chain of MODEL.md §3).
 
@@ -327,6 +316,22 @@ def constant_derivatives_form(H, U_L, U_sep, shared):
         dkt_dtlim,
     )
 
+
+#: The functions of this module that the kernels compile inline
+#: (:mod:`dpfexplore._kernels.tables.model_forms`): plain arithmetic on scalars or arrays, calling
+#: only each other.
+COMPILED_INLINE = (
+    radius_form,
+    kb_form,
+    alpha_form,
+    reach_raw_form,
+    k_lim_form,
+    k_t_form,
+    segment_height_form,
+    _ipow,
+    _monomial_partials,
+    constant_derivatives_form,
+)
 
 #: Parameters of :func:`constant_derivatives`, in the order of the sensitivities.
 DERIVATIVE_PARAMETERS = ("H", "U_L", "U_sep", "t", "t_lim")

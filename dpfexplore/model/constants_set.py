@@ -157,7 +157,7 @@ class ConstantsSet:
 
         One entry per row of :data:`~dpfexplore.model.quantities.SET_FORMS` (its quantity).
         ``E`` in MPa; all arguments broadcast. The arithmetic of the kernels
-        (:func:`.closed_form.set_constants_block`).
+        (:func:`dpfexplore._kernels.tables.set_forms.set_constants_block`).
         """
         H, t, r_b, E = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (H, t, r_b, E)))
         R = (H * H + r_b * r_b) / (2.0 * H)
@@ -170,9 +170,9 @@ class ConstantsSet:
     def dome(self, E: float, H: float, t: float, r_b: float) -> tuple[float, float]:
         """``(k_b, alpha)`` of one dome in plain Python floats (N/mm, --).
 
-        The arithmetic of the kernels (:func:`.closed_form.set_constants_block`) term by term, so
-        the numbers are theirs bit for bit; for checking one design without NumPy's per-call
-        cost.
+        The arithmetic of the kernels
+        (:func:`dpfexplore._kernels.tables.set_forms.set_constants_block`) term by term, so the
+        numbers are theirs bit for bit; for checking one design without NumPy's per-call cost.
         """
         R = (H * H + r_b * r_b) / (2.0 * H)
         powers1, powers3 = float_powers(t / H), float_powers(H / R)

@@ -41,7 +41,6 @@ Fitted range (flagged, never rejected)
 from __future__ import annotations
 
 import numpy as np
-from numba.extending import register_jitable
 from numpy.typing import NDArray
 
 from .limits import MAX_UNITS  # re-exported: defined where front ends need no Numba
@@ -65,7 +64,6 @@ def active_units(n_units: NDArray) -> NDArray[np.bool_]:
     return np.arange(MAX_UNITS)[None, :] < n_units[:, None]
 
 
-@register_jitable
 def unit_in_domain(H, U_L, r_b):
     """Whether one unit lies in the physical domain: ``H <= r_b`` and ``H < U_L`` (mm).
 
@@ -73,6 +71,11 @@ def unit_in_domain(H, U_L, r_b):
     packs batches (:mod:`dpfexplore._kernels.tables.design_tables`) and run as Python by ``Design``.
     """
     return H <= r_b and H < U_L
+
+
+#: The functions of this module that the kernels compile inline
+#: (:mod:`dpfexplore._kernels.tables.model_forms`).
+COMPILED_INLINE = (unit_in_domain,)
 
 
 def outside_domain(

@@ -19,11 +19,11 @@ STATE_OUTPUT_NAMES.index("tip_x")``) costs nothing at run time.
     The closed forms a constants set holds (MODEL.md §3, §11), one record per form. A record's
     position is its row in the kernels' closed-form tables (``FORM_*`` and ``N_FORMS`` of
     :mod:`dpfexplore.model.closed_form`; its partials in ``H`` and ``t`` are rows ``2 i`` and
-    ``2 i + 1`` of ``DomeBlock.partials``). The table gives the fields of
-    :class:`~dpfexplore.model.constants_set.ConstantsSet` (checked when that module is
-    imported), the keys of a set file, what :meth:`ConstantsSet.evaluate` returns, the physical
-    checks of :meth:`ConstantsSet.check`, the kernel-table column a quantity fills as it is
-    and the rows of its derivatives (:mod:`dpfexplore._kernels.tables.design_tables`), and the
+    ``2 i + 1`` of ``DomeBlock.partials``, :mod:`dpfexplore._kernels.tables.set_forms`). The table
+    gives the fields of :class:`~dpfexplore.model.constants_set.ConstantsSet` (checked when that
+    module is imported), the keys of a set file, what :meth:`ConstantsSet.evaluate` returns, the
+    physical checks of :meth:`ConstantsSet.check`, the kernel-table column a quantity fills as it
+    is and the rows of its derivatives (:mod:`dpfexplore._kernels.tables.design_tables`), and the
     targets of an identification (:func:`dpfexplore.identification.identify.identify`) with the
     source of their per-curve values.
 
@@ -273,8 +273,9 @@ SET_FORM_NAMES: tuple[str, ...] = tuple(f.name for f in SET_FORMS)
 def scaled(scale: int, value: Any, H: Any, t: Any, R: Any, E: Any) -> Any:
     """A quantity from its form's ``value`` (floats or NumPy arrays; mm, MPa).
 
-    The arithmetic of the kernels (:func:`~dpfexplore.model.closed_form.set_constants_block`)
-    in the same order, so the two agree bit for bit.
+    The arithmetic of the kernels
+    (:func:`~dpfexplore._kernels.tables.set_forms.set_constants_block`) in the same order, so the
+    two agree bit for bit.
     """
     if scale == SCALE_STIFFNESS:
         return E * (t * t) / R * value

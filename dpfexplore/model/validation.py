@@ -16,7 +16,6 @@ import math
 from collections.abc import Mapping
 
 import numpy as np
-from numba.extending import register_jitable
 from numpy.typing import NDArray
 
 from . import status as st
@@ -137,12 +136,10 @@ def problems(
     return code, message
 
 
-@register_jitable
 def _positive(v):
     return math.isfinite(v) and v > 0.0
 
 
-@register_jitable
 def geometry_status(n_units, H, U_L, U_sep, shared):
     """Status code of one design's inputs and geometry (all of :func:`status_code` but constants).
 
@@ -170,12 +167,16 @@ def geometry_status(n_units, H, U_L, U_sep, shared):
     return st.OK
 
 
-@register_jitable
 def constants_status(k_b, alpha):
     """``OK`` where a unit's ``k_b`` and ``alpha`` make sense, else ``INVALID_CONSTANTS``."""
     if math.isfinite(k_b) and math.isfinite(alpha) and k_b > 0.0 and 0.0 < alpha < 1.0:
         return st.OK
     return st.INVALID_CONSTANTS
+
+
+#: The functions of this module that the kernels compile inline
+#: (:mod:`dpfexplore._kernels.tables.model_forms`): the rules for one design, in plain Python.
+COMPILED_INLINE = (_positive, geometry_status, constants_status)
 
 
 def status_code(n_units, H, U_L, U_sep, shared, constants: ConstantsSet):

@@ -15,7 +15,7 @@ from model_helpers import FINGER, other_set
 
 from dpfexplore import Design, find_state
 from dpfexplore._kernels import layout as lay
-from dpfexplore.model.closed_form import DOME_BLOCK
+from dpfexplore._kernels.tables.set_forms import DOME_BLOCK
 from dpfexplore.model.constants_set import (
     DEFAULT,
     ClosedForm,

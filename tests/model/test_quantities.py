@@ -17,6 +17,7 @@ from dpfexplore import Design, find_state
 from dpfexplore._kernels import layout as lay
 from dpfexplore._kernels.statics import states as kstates
 from dpfexplore._kernels.tables import design_tables as ktables
+from dpfexplore._kernels.tables import set_forms
 from dpfexplore.model import closed_form, constants_set
 from dpfexplore.model.constants_set import DEFAULT, ConstantsSet
 from dpfexplore.model.design import DesignBatch
@@ -44,7 +45,7 @@ def test_the_kernel_indices_are_the_rows_of_the_tables():
     assert kstates.OUT_BEND == STATE_OUTPUT_NAMES.index("bend_angle")
     assert statics.OUTPUT_COLUMNS == {name: i for i, name in enumerate(STATE_OUTPUT_NAMES)}
     assert closed_form.N_FORMS == len(SET_FORMS)
-    assert closed_form.N_SET_PARTIALS == 2 * len(SET_FORMS)
+    assert set_forms.N_SET_PARTIALS == 2 * len(SET_FORMS)
     assert closed_form.FORM_ALPHA == SET_FORM_NAMES.index("alpha")
     for form, column in zip(SET_FORMS, ktables.FORM_COLUMNS, strict=True):
         want = -1 if form.column is None else lay.PHYSICAL_COLUMNS.index(form.column)

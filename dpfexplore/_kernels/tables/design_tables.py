@@ -25,29 +25,15 @@ import math
 import numpy as np
 
 from ...model import status as st
-from ...model.closed_form import (
-    FORM_ALPHA,
-    FORM_K_HAT,
-    FORM_TIP_RATIO,
-    N_FORMS,
-    block_size,
-    dome_block,
-    set_constants_block,
-    set_terms,
-)
+from ...model.closed_form import FORM_ALPHA, FORM_K_HAT, FORM_TIP_RATIO, N_FORMS
 from ...model.constants import (
     ALPHA_BISTABLE,
     NO_CONTACT_REACH,
     POST_STIFFNESS_FACTOR,
     U_INVERSION_WITHOUT_BARRIER,
-    constant_derivatives_form,
-    k_lim_form,
-    k_t_form,
-    segment_height_form,
 )
 from ...model.domain import MAX_UNITS
 from ...model.quantities import SET_FORMS
-from ...model.validation import constants_status, geometry_status
 from .._jit import kernel
 from ..layout import (
     COL_D,
@@ -64,6 +50,15 @@ from ..layout import (
     PHYSICAL_COLUMNS,
 )
 from ..records import DesignArrays, SharedParams, TableOutputs
+from .model_forms import (
+    constant_derivatives_form,
+    constants_status,
+    geometry_status,
+    k_lim_form,
+    k_t_form,
+    segment_height_form,
+)
+from .set_forms import block_size, dome_block, set_constants_block, set_terms
 
 #: Rows of the derivative table: the kernel table's physical columns ``COL_P..COL_KT`` (same
 #: indices, :data:`.layout.PHYSICAL_COLUMNS`), then the segment height ``h``.
@@ -128,7 +123,7 @@ def _derivative_rows(H, U_L, U_sep, shared, partials, contact, dtab):
     """Fill one unit's derivative table ``(N_DCONST, N_DPARAM)`` (MODEL.md §3 chain rule).
 
     The constants set's quantities through their own derivatives in ``H`` and ``t``,
-    ``partials`` (the unit's column of :attr:`~dpfexplore.model.closed_form.DomeBlock.partials`,
+    ``partials`` (the unit's column of :attr:`~.set_forms.DomeBlock.partials`,
     rows ``2 FORM_*`` and ``2 FORM_* + 1``), into the rows of their columns
     (:data:`FORM_COLUMNS`), and the reach through those of ``tip_dis``; ``contact`` is 0 where
     the reach is clamped (a constant there, so its derivatives vanish). Other arguments as
@@ -266,7 +261,7 @@ def design_tables(designs, forms, out):
     """Status, kernel table and (on request) derivative table of every design of a batch.
 
     The domes' constants are evaluated a block of designs at a time
-    (:func:`~dpfexplore.model.closed_form.set_constants_block`), then each design's rows filled.
+    (:func:`~.set_forms.set_constants_block`), then each design's rows filled.
 
     ``designs`` and ``out`` are plain tuples of their records' fields, in order (:mod:`.records`;
     package docstring, "Records at the entry points").

@@ -1,9 +1,9 @@
 """Closed forms over many domes, two ways: the paper's compiled forms and a constants set.
 
 Used by ``dpfexplore bench identify`` to put the cost of evaluating a set's constants (the
-general path every kernel table takes, :func:`dpfexplore.model.closed_form.set_constants_block`)
-side by side with the paper's forms compiled as plain arithmetic
-(:mod:`dpfexplore.model.constants`), on the same domes, and to measure how far apart their
+general path every kernel table takes, :func:`.set_forms.set_constants_block`) side by side with
+the paper's forms compiled as plain arithmetic (:mod:`dpfexplore.model.constants`, compiled by
+:mod:`.model_forms`), on the same domes, and to measure how far apart their
 numbers are: per dome (:func:`set_forms` against :func:`paper_forms`) and in the whole build of
 a batch's kernel tables (:func:`.tables.design_tables.design_tables` against :func:`paper_tables`,
 the same build with the compiled paper forms in place of the set).
@@ -13,26 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...model.closed_form import (
-    DOME_BLOCK,
-    FORM_ALPHA,
-    FORM_K_HAT,
-    FORM_TIP_RATIO,
-    N_FORMS,
-    dome_block,
-    set_constants_block,
-    set_terms,
-)
-from ...model.constants import (
-    TIP_PER_HEIGHT,
-    TIP_PER_THICKNESS,
-    alpha_form,
-    kb_form,
-    radius_form,
-    reach_raw_form,
-)
+from ...model.closed_form import FORM_ALPHA, FORM_K_HAT, FORM_TIP_RATIO, N_FORMS
+from ...model.constants import TIP_PER_HEIGHT, TIP_PER_THICKNESS
 from .._jit import kernel
 from .design_tables import batch_block_size, fill_designs, gather_domes
+from .model_forms import alpha_form, kb_form, radius_form, reach_raw_form
+from .set_forms import DOME_BLOCK, dome_block, set_constants_block, set_terms
 
 
 @kernel

@@ -7,6 +7,8 @@ motion
 events
     Solver controls, dense output, threshold crossings, early stop: what every integrator
     shares.
+stepping
+    The step driver every integrator runs: step cap, early stop, knots, rejections, step sizes.
 rosenbrock
     Rodas4 on the analytic Jacobian (full and overdamped models).
 explicit

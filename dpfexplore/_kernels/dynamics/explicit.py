@@ -13,12 +13,14 @@ Coefficients: Dormand & Prince (1980), the pair of Hairer, Nørsett & Wanner's D
 step-size control (PI controller with ``β = 0.04``). The last stage is the first of the next
 step (FSAL), so the slopes at both step ends are free for the Hermite dense output. The error
 norm is on the positions only, as in :mod:`.dynamics.rosenbrock`; instability of the
-velocities shows in the positions within a step or two and is rejected there.
+velocities shows in the positions within a step or two and is rejected there. The loop around
+the step is the step driver of :mod:`.dynamics.stepping`.
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -32,24 +34,16 @@ from .events import (
     CTRL_ATOL,
     CTRL_H_INIT,
     CTRL_H_MAX,
-    CTRL_H_MIN,
-    CTRL_MAX_STEPS,
     CTRL_RTOL,
-    CTRL_STOP_WHEN_RESET,
-    CTRL_TAU_END,
     STAT_FACTOR,
-    STAT_REJECTED,
     STAT_RHS,
-    STAT_STEPS,
-    STAT_STOPPED_EARLY,
-    clip_to_knot,
     error_norm,
     init_record,
     process_step,
     record_initial_samples,
-    settled_reset,
 )
 from .motion import PHYS_ETA, PHYS_ETA_ISO, PHYS_MASS, damping_matrix, force_residual
+from .stepping import step_driver, stop_when_reset
 
 DP_C = np.array([0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0])
 DP_A = np.array(
@@ -114,6 +108,113 @@ def _slope(y, t, n, model, scratch, cmat, piv, out):
     return 0
 
 
+#: Dormand-Prince's workspace (:func:`dopri5`): the model, controls and record it was given, the
+#: right-hand side's scratch, the overdamped model's damping matrix ``cmat`` and pivots
+#: ``piv``, the stages ``k`` (N_DP_STAGES, 2 (4N - 2)), the state ``y`` (the caller's), a
+#: stage's point ``y_stage`` and the step's end ``y_new`` (2 (4N - 2),), the error estimate
+#: ``err_vec`` (4N - 2,) and the event margins ``g0``, ``g1`` (N,).
+Dopri5Work = namedtuple(
+    "Dopri5Work",
+    "model ctrl record scratch cmat piv k y y_stage y_new err_vec g0 g1",
+)
+
+
+@kernel(inline="always")
+def _dopri5_attempt(work, t, step, retry):
+    """One Dormand-Prince step of ``step`` s from ``(t, y)`` into ``y_new``: ``(ok, err)``.
+
+    ``k[0]`` holds the slope at the step start (FSAL); the last stage is the fifth-order
+    solution. A failed overdamped slope (singular damping matrix) or a non-finite error fails
+    the attempt.
+    """
+    model, ctrl, record, scratch, cmat, piv, k, y, y_stage, y_new, err_vec, _, _ = work
+    stats = record.stats
+    n = err_vec.shape[0]
+    dim = 2 * n if model.phys[PHYS_MASS] > 0.0 else n
+    ok = True
+    for s in range(1, N_DP_STAGES):
+        for i in range(dim):
+            acc = y[i]
+            for j in range(s):
+                acc += step * DP_A[s, j] * k[j, i]
+            y_stage[i] = acc
+        if _slope(
+            y_stage,
+            t + DP_C[s] * step,
+            n,
+            model,
+            scratch,
+            cmat,
+            piv,
+            k[s],
+        ):
+            ok = False
+            break
+        stats[STAT_RHS] += 1
+    if dim == n:
+        stats[STAT_FACTOR] += N_DP_STAGES - 1
+    err = math.inf
+    if ok:
+        # y_stage holds the last stage = the fifth-order solution (FSAL).
+        for i in range(dim):
+            y_new[i] = y_stage[i]
+        for i in range(n):
+            e = 0.0
+            for s in range(N_DP_STAGES):
+                e += DP_E[s] * k[s, i]
+            err_vec[i] = step * e
+        err = error_norm(err_vec, y, y_new, n, ctrl[CTRL_RTOL], ctrl[CTRL_ATOL])
+    return math.isfinite(err), err
+
+
+@kernel(inline="always")
+def _dopri5_accept(work, t, step, err):
+    """Record the accepted step and move to its end; its last stage is the next one's first."""
+    model, _, record, _, _, _, k, y, _, y_new, err_vec, g0, g1 = work
+    n = err_vec.shape[0]
+    if not model.phys[PHYS_MASS] > 0.0:  # overdamped: y holds x, and ẋ for the dense output
+        # ẋ at both ends for the dense output: k[0] and the FSAL stage k[6].
+        for i in range(n):
+            y_new[n + i] = k[N_DP_STAGES - 1, i]
+    process_step(
+        AcceptedStep(t, step, y[:n], y[n:], y_new[:n], y_new[n:]),
+        g0,
+        g1,
+        model.unit_params,
+        record,
+    )
+    for i in range(2 * n):
+        y[i] = y_new[i]
+    for i in range(2 * n):
+        k[0, i] = k[N_DP_STAGES - 1, i]
+
+
+@kernel(inline="always")
+def _dopri5_accepted_factor(err, step, h_acc, err_acc, last_rejected):
+    """DOPRI5's PI controller (``β = 0.04``); the previous error counts as at least 1e-4."""
+    err_old = max(err_acc, 1e-4)
+    fac = _SAFETY * max(err, 1e-10) ** (-0.2 + 0.75 * _BETA) * err_old**_BETA
+    fac = min(_FAC_MAX, max(_FAC_MIN, fac))
+    if last_rejected:
+        fac = min(fac, 1.0)
+    return fac
+
+
+@kernel(inline="always")
+def _dopri5_rejected_factor(err):
+    """The retry's step over a rejected one (no less than a fifth)."""
+    return max(_FAC_MIN, _SAFETY * err ** (-0.2 + 0.75 * _BETA))
+
+
+_dopri5_steps = step_driver(
+    stop_when_reset,
+    _dopri5_attempt,
+    _dopri5_accept,
+    _dopri5_accepted_factor,
+    _dopri5_rejected_factor,
+)
+
+
 @kernel
 def dopri5(y, t0, t_end, model, ctrl, record):
     """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
@@ -125,118 +226,35 @@ def dopri5(y, t0, t_end, model, ctrl, record):
     t_out, x_out, unit_rec, _, stats = record
     n_units = unit_params.shape[0]
     n = n_free(n_units)
-    dim = 2 * n if phys[PHYS_MASS] > 0.0 else n
-    rtol = ctrl[CTRL_RTOL]
-    atol = ctrl[CTRL_ATOL]
-    h_max = ctrl[CTRL_H_MAX]
-    h_min = ctrl[CTRL_H_MIN]
-    max_steps = int(ctrl[CTRL_MAX_STEPS])
-    tau_end = ctrl[CTRL_TAU_END]
-    stop_when_reset = ctrl[CTRL_STOP_WHEN_RESET] > 0.0
-
-    pos = np.empty((n_nodes(n_units), 2))
-    vel = np.empty((n_nodes(n_units), 2))
-    work = np.empty(n)
-    cmat = np.empty((n, n))
-    piv = np.empty(n, dtype=np.int64)
-    k = np.zeros((N_DP_STAGES, 2 * n))
-    y_stage = np.zeros(2 * n)
-    y_new = np.zeros(2 * n)
-    err_vec = np.empty(n)
-    g0 = np.empty(n_units)
-    g1 = np.empty(n_units)
-
-    scratch = MotionScratch(pos, vel, work)
-    if _slope(y, t0, n, model, scratch, cmat, piv, k[0]):
+    scratch = MotionScratch(
+        np.empty((n_nodes(n_units), 2)), np.empty((n_nodes(n_units), 2)), np.empty(n)
+    )
+    work = Dopri5Work(
+        model,
+        ctrl,
+        record,
+        scratch,
+        np.empty((n, n)),
+        np.empty(n, dtype=np.int64),
+        np.zeros((N_DP_STAGES, 2 * n)),
+        y,
+        np.zeros(2 * n),
+        np.zeros(2 * n),
+        np.empty(n),
+        np.empty(n_units),
+        np.empty(n_units),
+    )
+    k = work.k
+    if _slope(y, t0, n, model, scratch, work.cmat, work.piv, k[0]):
         return st.DEGENERATE_GEOMETRY
-    init_record(y[:n], t0, unit_params, unit_rec, stats, g0)
+    init_record(y[:n], t0, unit_params, unit_rec, stats, work.g0)
     record_initial_samples(t0, y[:n], t_out, x_out, stats)
     stats[STAT_RHS] = 1
-    if dim == n:
+    if not phys[PHYS_MASS] > 0.0:
         for i in range(n):
             y[n + i] = k[0, i]
-
-    t = t0
     step = ctrl[CTRL_H_INIT]
     if step <= 0.0:
         step = 1e-7
-    step = min(step, h_max)
-    err_old = 1e-4
-    last_rejected = False
-    while t < t_end:
-        if stats[STAT_STEPS] + stats[STAT_REJECTED] >= max_steps:
-            return st.STEP_LIMIT
-        if stop_when_reset and t >= tau_end and settled_reset(unit_rec, t, tau_end):
-            stats[STAT_STOPPED_EARLY] = 1
-            return st.OK
-        step, t_stop, lands = clip_to_knot(t, step, knot_t, t_end)
-        if step < h_min:
-            return st.NOT_CONVERGED
-        ok = True
-        for s in range(1, N_DP_STAGES):
-            for i in range(dim):
-                acc = y[i]
-                for j in range(s):
-                    acc += step * DP_A[s, j] * k[j, i]
-                y_stage[i] = acc
-            if _slope(
-                y_stage,
-                t + DP_C[s] * step,
-                n,
-                model,
-                scratch,
-                cmat,
-                piv,
-                k[s],
-            ):
-                ok = False
-                break
-            stats[STAT_RHS] += 1
-        if dim == n:
-            stats[STAT_FACTOR] += N_DP_STAGES - 1
-        err = math.inf
-        if ok:
-            # y_stage holds the last stage = the fifth-order solution (FSAL).
-            for i in range(dim):
-                y_new[i] = y_stage[i]
-            for i in range(n):
-                e = 0.0
-                for s in range(N_DP_STAGES):
-                    e += DP_E[s] * k[s, i]
-                err_vec[i] = step * e
-            err = error_norm(err_vec, y, y_new, n, rtol, atol)
-        if not math.isfinite(err):
-            stats[STAT_REJECTED] += 1
-            step *= 0.25
-            last_rejected = True
-            continue
-        if err <= 1.0:
-            if dim == n:
-                # ẋ at both ends for the dense output: k[0] and the FSAL stage k[6].
-                for i in range(n):
-                    y_new[n + i] = k[N_DP_STAGES - 1, i]
-            process_step(
-                AcceptedStep(t, step, y[:n], y[n:], y_new[:n], y_new[n:]),
-                g0,
-                g1,
-                unit_params,
-                record,
-            )
-            t = t_stop if lands else t + step
-            for i in range(2 * n):
-                y[i] = y_new[i]
-            for i in range(2 * n):
-                k[0, i] = k[N_DP_STAGES - 1, i]
-            stats[STAT_STEPS] += 1
-            fac = _SAFETY * max(err, 1e-10) ** (-0.2 + 0.75 * _BETA) * err_old**_BETA
-            fac = min(_FAC_MAX, max(_FAC_MIN, fac))
-            if last_rejected:
-                fac = min(fac, 1.0)
-            err_old = max(err, 1e-4)
-            last_rejected = False
-            step = min(step * fac, h_max)
-        else:
-            stats[STAT_REJECTED] += 1
-            step *= max(_FAC_MIN, _SAFETY * err ** (-0.2 + 0.75 * _BETA))
-            last_rejected = True
-    return st.OK
+    step = min(step, ctrl[CTRL_H_MAX])
+    return _dopri5_steps(work, t0, t_end, step, ctrl, knot_t, stats)

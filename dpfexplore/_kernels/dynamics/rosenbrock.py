@@ -31,15 +31,16 @@ Cost per step
     one factorisation and six solves follow. A rejected step retries from the same point with
     the same Jacobian.
 
-Shared with the release integrator (:mod:`.reset.release`, Rodas3)
-    The consistent start (:func:`consistent_velocity`), the Jacobian pass at the step start
-    (:func:`step_start`), the step-size controller (:func:`accepted_step_factor`) and, from
-    :mod:`.dynamics.events`, knot landing, error norm and dense output. The stage loop itself is
-    written out in each integrator: as a shared function taking its ~30 scratch arrays it made
-    Rodas4 4 % slower (medians of interleaved runs, ``rodas4`` and ``rodas4-overdamped`` on
-    40 designs; Numba counts references to every array argument on each call, and a separate
-    function also hides from the compiler that the arrays do not overlap), and the release's
-    is the zero-mass case with one more stage at the step start.
+Shared with the other integrators
+    The loop around the step (step cap, early stop, knots, rejections, the controller's memory)
+    is the step driver of :mod:`.dynamics.stepping`; this module gives it the Rodas4 step
+    (:func:`_rodas4_attempt`, compiled inline into :func:`rodas4`), the acceptance
+    (:func:`accept_step`) and the step-size rules. The release integrator
+    (:mod:`.reset.release`, Rodas3) also shares the consistent start
+    (:func:`consistent_velocity`), the Jacobian pass at the step start (:func:`step_start`), the
+    controller (:func:`accepted_step_factor`) and the acceptance; its stage loop is Rodas4's for
+    zero mass with one more stage at the step start, written out there (``docs/decisions.md``,
+    "One step driver").
 
 Error control
     On the positions only (mixed ``atol`` mm / ``rtol``): events and outputs depend only on
@@ -52,6 +53,7 @@ Error control
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -66,23 +68,14 @@ from .events import (
     CTRL_ATOL,
     CTRL_H_INIT,
     CTRL_H_MAX,
-    CTRL_H_MIN,
-    CTRL_MAX_STEPS,
     CTRL_RTOL,
-    CTRL_STOP_WHEN_RESET,
-    CTRL_TAU_END,
     STAT_FACTOR,
-    STAT_REJECTED,
     STAT_RHS,
-    STAT_STEPS,
-    STAT_STOPPED_EARLY,
-    clip_to_knot,
     error_norm,
     init_record,
     pressure_slope,
     process_step,
     record_initial_samples,
-    settled_reset,
 )
 from .motion import (
     PHYS_ETA,
@@ -94,6 +87,7 @@ from .motion import (
     pressure_at,
     residual_and_jacobian,
 )
+from .stepping import step_driver, stop_when_reset
 
 # Rodas4 in the transformed form of Hairer & Wanner's RODAS code:
 #   (M/(hγ) - J) K_i = f(t + α_i h, y + Σ_j A_ij K_j) + M Σ_j C_ij K_j / h + γ_i h ∂f/∂t,
@@ -229,6 +223,143 @@ def accepted_step_factor(err, step, h_acc, err_acc, expo, fac_max, last_rejected
     return fac
 
 
+#: Rodas4's workspace (:func:`rodas4`): the model, controls and record it was given, the
+#: right-hand side's scratch and the step start's :class:`~.records.StepStart`; the stage
+#: matrix ``smat`` with its Cholesky factor ``low`` or LU pivots ``piv``, the stage residuals
+#: ``res``, the stages ``kx``, ``kv`` (N_STAGES, 4N - 2), a stage's point ``yx``, ``yv`` and
+#: right-hand sides ``rx``, ``rv``; the state ``x``, ``v`` (views into the caller's ``y``), the
+#: step's end ``x_new``, ``v_new`` and the event margins ``g0``, ``g1`` (N,).
+Rodas4Work = namedtuple(
+    "Rodas4Work",
+    "model ctrl record scratch start smat low piv res kx kv yx yv rx rv x v x_new v_new g0 g1",
+)
+
+
+@kernel(inline="always")
+def _rodas4_attempt(work, t, step, retry):
+    """One Rodas4 step of ``step`` s from ``(t, x, v)`` into ``x_new``, ``v_new``: ``(ok, err)``.
+
+    The Jacobian pass at the step start is done once per point: a retry (``retry``, after a
+    rejection) only changes the step size.
+    """
+    (model, ctrl, record, scratch, start, smat, low, piv, res, kx, kv, yx, yv, rx, rv) = work[:15]
+    x, v, x_new, v_new = work.x, work.v, work.x_new, work.v_new
+    _, _, knot_t, knot_p, phys = model
+    res0, jac, cmat, ft = start
+    stats = record.stats
+    n = x.shape[0]
+    mass = phys[PHYS_MASS]
+    # Jacobian at (t, x, v): S = m/(hγ)² + C/(hγ) + H + D - P_J. A rejected step retries
+    # from the same point, so only the step size changes.
+    if not retry:
+        step_start(x, v, t, step, model, scratch, start)
+        stats[STAT_RHS] += 1
+    hg = step * RODAS4_GAMMA
+    inv_hg = 1.0 / hg
+    diag_m = mass * inv_hg * inv_hg
+    for i in range(n):
+        for j in range(n):
+            smat[i, j] = cmat[i, j] * inv_hg - jac[i, j]
+        smat[i, i] += diag_m
+    stats[STAT_FACTOR] += 1
+    # Without pressure at t the matrix is symmetric (P_J is the only non-symmetric part),
+    # and mostly positive definite: the block Cholesky then takes a quarter of the LU's
+    # time and its solves a third. Where it fails, the banded LU decides.
+    symmetric = pressure_at(t, knot_t, knot_p) == 0.0
+    use_cholesky = symmetric and cholesky(smat, 0.0, low, n)
+    ok = use_cholesky or lu_factor(smat, n, piv, BAND) == 0
+    err = math.inf
+    if ok:
+        inv_step = 1.0 / step
+        for s in range(N_STAGES):
+            # stage point y + Σ A_sj K_j and Σ C_sj K_j / h, one earlier stage at a time
+            for i in range(n):
+                yx[i] = x[i]
+                yv[i] = v[i]
+                rx[i] = 0.0
+                rv[i] = 0.0
+            for j in range(s):
+                a_sj = RODAS4_A[s, j]
+                c_sj = RODAS4_C[s, j] * inv_step
+                kx_j = kx[j]
+                kv_j = kv[j]
+                for i in range(n):
+                    yx[i] += a_sj * kx_j[i]
+                    yv[i] += a_sj * kv_j[i]
+                    rx[i] += c_sj * kx_j[i]
+                    rv[i] += c_sj * kv_j[i]
+            for i in range(n):
+                rx[i] += yv[i]
+                rv[i] *= mass
+            if s == 0:  # the step start itself (α_1 = 0)
+                for i in range(n):
+                    res[i] = res0[i]
+            else:
+                t_stage = t + RODAS4_ALPHA[s] * step
+                force_residual(yx, yv, t_stage, model, scratch, res)
+                stats[STAT_RHS] += 1
+            gam_h = RODAS4_GAMMA_SUM[s] * step
+            for i in range(n):
+                rv[i] += res[i] + gam_h * ft[i]
+            # right-hand side r_v + (m/(hγ) + C) r_x, then k_v = k_x/(hγ) - r_x
+            kx_s = kx[s]
+            for i in range(n):
+                kx_s[i] = rv[i] + mass * inv_hg * rx[i]
+            band_matvec_add(cmat, rx, n, BAND, kx_s)
+            if use_cholesky:
+                cholesky_solve(low, kx[s], kx[s], n)
+            else:
+                lu_solve(smat, n, piv, kx[s], BAND)
+            for i in range(n):
+                kv[s, i] = kx[s, i] * inv_hg - rx[i]
+        for i in range(n):
+            bx = x[i]
+            bv = v[i]
+            for s in range(N_STAGES):
+                bx += RODAS4_B[s] * kx[s, i]
+                bv += RODAS4_B[s] * kv[s, i]
+            x_new[i] = bx
+            v_new[i] = bv
+        err = error_norm(kx[N_STAGES - 1], x, x_new, n, ctrl[CTRL_RTOL], ctrl[CTRL_ATOL])
+        ok = math.isfinite(err)
+        for i in range(n):
+            if not (math.isfinite(x_new[i]) and math.isfinite(v_new[i])):
+                ok = False
+    return ok, err
+
+
+@kernel(inline="always")
+def accept_step(work, t, step, err):
+    """Record the accepted step ``(t, x, v) → (t + step, x_new, v_new)`` and move to its end.
+
+    ``work`` needs the fields ``model``, ``record``, ``x``, ``v``, ``x_new``, ``v_new``, ``g0``
+    and ``g1`` (as :data:`Rodas4Work`).
+    """
+    x, v, x_new, v_new = work.x, work.v, work.x_new, work.v_new
+    accepted = AcceptedStep(t, step, x, v, x_new, v_new)
+    process_step(accepted, work.g0, work.g1, work.model.unit_params, work.record)
+    for i in range(x.shape[0]):
+        x[i] = x_new[i]
+        v[i] = v_new[i]
+
+
+@kernel(inline="always")
+def _rodas4_accepted_factor(err, step, h_acc, err_acc, last_rejected):
+    """:func:`accepted_step_factor` with Rodas4's exponent (order 3 + 1) and largest change."""
+    return accepted_step_factor(err, step, h_acc, max(1e-2, err_acc), 0.25, _FAC_MAX, last_rejected)
+
+
+@kernel(inline="always")
+def _rodas4_rejected_factor(err):
+    """The retry's step over a rejected one: ``err^-1/4``, no less than :data:`FAC_MIN`."""
+    return max(FAC_MIN, SAFETY * err**-0.25)
+
+
+_rodas4_steps = step_driver(
+    stop_when_reset, _rodas4_attempt, accept_step, _rodas4_accepted_factor, _rodas4_rejected_factor
+)
+
+
 @kernel
 def rodas4(y, t0, t_end, model, ctrl, record):
     """Integrate from ``t0`` to ``t_end`` (s) in place in ``y = [x, v]``; returns a status.
@@ -250,177 +381,49 @@ def rodas4(y, t0, t_end, model, ctrl, record):
         ``(m, 4N - 2)``) receiving the positions; the event records and counters
         ``unit_rec``, ``event_log``, ``stats`` (:mod:`.dynamics.events`).
     """
-    unit_params, _, knot_t, knot_p, phys = model
+    unit_params, _, knot_t, _, phys = model
     t_out, x_out, unit_rec, _, stats = record
     n_units = unit_params.shape[0]
     n = n_free(n_units)
-    mass = phys[PHYS_MASS]
-    rtol = ctrl[CTRL_RTOL]
-    atol = ctrl[CTRL_ATOL]
-    h_max = ctrl[CTRL_H_MAX]
-    h_min = ctrl[CTRL_H_MIN]
-    max_steps = int(ctrl[CTRL_MAX_STEPS])
-    tau_end = ctrl[CTRL_TAU_END]
-    stop_when_reset = ctrl[CTRL_STOP_WHEN_RESET] > 0.0
-
-    pos = np.empty((n_nodes(n_units), 2))
-    vel = np.empty((n_nodes(n_units), 2))
-    work = np.empty(n)
-    res = np.empty(n)  # stage residuals
-    smat = np.empty((n, n))
-    jac = np.empty((n, n))  # ∂R/∂x at the step start
-    res0 = np.empty(n)  # R at the step start: the first stage's right-hand side
-    low = np.empty((n, n))
     cmat = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
-    kx = np.empty((N_STAGES, n))
-    kv = np.empty((N_STAGES, n))
-    yx = np.empty(n)
-    yv = np.empty(n)
-    rx = np.empty(n)
-    rv = np.empty(n)
-    ft = np.empty(n)
-    x_new = np.empty(n)
-    v_new = np.empty(n)
-    g0 = np.empty(n_units)
-    g1 = np.empty(n_units)
     x = y[:n]
     v = y[n:]
-    scratch = MotionScratch(pos, vel, work)
-    start = StepStart(res0, jac, cmat, ft)
-
-    if mass == 0.0:
+    scratch = MotionScratch(
+        np.empty((n_nodes(n_units), 2)), np.empty((n_nodes(n_units), 2)), np.empty(n)
+    )
+    start = StepStart(np.empty(n), np.empty((n, n)), cmat, np.empty(n))
+    if phys[PHYS_MASS] == 0.0:
         if consistent_velocity(x, t0, model, scratch, cmat, piv, v) != 0:
             return st.DEGENERATE_GEOMETRY
+    g0 = np.empty(n_units)
     init_record(x, t0, unit_params, unit_rec, stats, g0)
     record_initial_samples(t0, x, t_out, x_out, stats)
-
-    t = t0
+    work = Rodas4Work(
+        model,
+        ctrl,
+        record,
+        scratch,
+        start,
+        np.empty((n, n)),
+        np.empty((n, n)),
+        piv,
+        np.empty(n),
+        np.empty((N_STAGES, n)),
+        np.empty((N_STAGES, n)),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        x,
+        v,
+        np.empty(n),
+        np.empty(n),
+        g0,
+        np.empty(n_units),
+    )
     step = ctrl[CTRL_H_INIT]
     if step <= 0.0:
         step = 1e-6
-    step = min(step, h_max)
-    last_rejected = False
-    fresh = False  # jac, cmat and res0 belong to the current (t, x, v)
-    h_acc = 0.0  # last accepted step and its error, for the predictive controller
-    err_acc = 1.0
-    while t < t_end:
-        if stats[STAT_STEPS] + stats[STAT_REJECTED] >= max_steps:
-            return st.STEP_LIMIT
-        if stop_when_reset and t >= tau_end and settled_reset(unit_rec, t, tau_end):
-            stats[STAT_STOPPED_EARLY] = 1
-            return st.OK
-        step, t_stop, lands = clip_to_knot(t, step, knot_t, t_end)
-        if step < h_min:
-            return st.NOT_CONVERGED
-
-        # Jacobian at (t, x, v): S = m/(hγ)² + C/(hγ) + H + D - P_J. A rejected step retries
-        # from the same point, so only the step size changes.
-        if not fresh:
-            step_start(
-                x,
-                v,
-                t,
-                step,
-                model,
-                scratch,
-                start,
-            )
-            stats[STAT_RHS] += 1
-            fresh = True
-        hg = step * RODAS4_GAMMA
-        inv_hg = 1.0 / hg
-        diag_m = mass * inv_hg * inv_hg
-        for i in range(n):
-            for j in range(n):
-                smat[i, j] = cmat[i, j] * inv_hg - jac[i, j]
-            smat[i, i] += diag_m
-        stats[STAT_FACTOR] += 1
-        # Without pressure at t the matrix is symmetric (P_J is the only non-symmetric part),
-        # and mostly positive definite: the block Cholesky then takes a quarter of the LU's
-        # time and its solves a third. Where it fails, the banded LU decides.
-        symmetric = pressure_at(t, knot_t, knot_p) == 0.0
-        use_cholesky = symmetric and cholesky(smat, 0.0, low, n)
-        ok = use_cholesky or lu_factor(smat, n, piv, BAND) == 0
-
-        if ok:
-            inv_step = 1.0 / step
-            for s in range(N_STAGES):
-                # stage point y + Σ A_sj K_j and Σ C_sj K_j / h, one earlier stage at a time
-                for i in range(n):
-                    yx[i] = x[i]
-                    yv[i] = v[i]
-                    rx[i] = 0.0
-                    rv[i] = 0.0
-                for j in range(s):
-                    a_sj = RODAS4_A[s, j]
-                    c_sj = RODAS4_C[s, j] * inv_step
-                    kx_j = kx[j]
-                    kv_j = kv[j]
-                    for i in range(n):
-                        yx[i] += a_sj * kx_j[i]
-                        yv[i] += a_sj * kv_j[i]
-                        rx[i] += c_sj * kx_j[i]
-                        rv[i] += c_sj * kv_j[i]
-                for i in range(n):
-                    rx[i] += yv[i]
-                    rv[i] *= mass
-                if s == 0:  # the step start itself (α_1 = 0)
-                    for i in range(n):
-                        res[i] = res0[i]
-                else:
-                    t_stage = t + RODAS4_ALPHA[s] * step
-                    force_residual(yx, yv, t_stage, model, scratch, res)
-                    stats[STAT_RHS] += 1
-                gam_h = RODAS4_GAMMA_SUM[s] * step
-                for i in range(n):
-                    rv[i] += res[i] + gam_h * ft[i]
-                # right-hand side r_v + (m/(hγ) + C) r_x, then k_v = k_x/(hγ) - r_x
-                kx_s = kx[s]
-                for i in range(n):
-                    kx_s[i] = rv[i] + mass * inv_hg * rx[i]
-                band_matvec_add(cmat, rx, n, BAND, kx_s)
-                if use_cholesky:
-                    cholesky_solve(low, kx[s], kx[s], n)
-                else:
-                    lu_solve(smat, n, piv, kx[s], BAND)
-                for i in range(n):
-                    kv[s, i] = kx[s, i] * inv_hg - rx[i]
-            for i in range(n):
-                bx = x[i]
-                bv = v[i]
-                for s in range(N_STAGES):
-                    bx += RODAS4_B[s] * kx[s, i]
-                    bv += RODAS4_B[s] * kv[s, i]
-                x_new[i] = bx
-                v_new[i] = bv
-            err = error_norm(kx[N_STAGES - 1], x, x_new, n, rtol, atol)
-            ok = math.isfinite(err)
-            for i in range(n):
-                if not (math.isfinite(x_new[i]) and math.isfinite(v_new[i])):
-                    ok = False
-        if not ok:
-            stats[STAT_REJECTED] += 1
-            step *= 0.25
-            last_rejected = True
-            continue
-
-        if err <= 1.0:
-            process_step(AcceptedStep(t, step, x, v, x_new, v_new), g0, g1, unit_params, record)
-            t = t_stop if lands else t + step
-            for i in range(n):
-                x[i] = x_new[i]
-                v[i] = v_new[i]
-            fresh = False
-            stats[STAT_STEPS] += 1
-            fac = accepted_step_factor(err, step, h_acc, err_acc, 0.25, _FAC_MAX, last_rejected)
-            h_acc = step
-            err_acc = max(1e-2, err)
-            last_rejected = False
-            step = min(step * fac, h_max)
-        else:
-            stats[STAT_REJECTED] += 1
-            fac = max(FAC_MIN, SAFETY * err**-0.25)
-            step *= fac
-            last_rejected = True
-    return st.OK
+    step = min(step, ctrl[CTRL_H_MAX])
+    return _rodas4_steps(work, t0, t_end, step, ctrl, knot_t, stats)

@@ -8,6 +8,21 @@ Jacobian is that band with one row replaced by a unit row (the local parametrisa
 Storage: element ``(i, j)`` of a matrix with lower/upper bandwidths ``kl, ku`` lives at
 ``w[i, j - i + kl]``; ``w`` has ``2 kl + ku + 1`` columns, room for the fill that row
 interchanges bring (LAPACK's ``gbtrf`` keeps the same fill, column-wise).
+
+Why not the lattice's banded LU (:mod:`.linalg.banded_lu`)
+    Both factor a banded matrix, but not the same matrices. The shell's have hundreds of rows
+    (two unknowns per node of a meridian of 128 elements by default, more on finer meshes), so
+    they are stored as bands: the lattice's dense ``m x m`` storage, right for its at most 46
+    rows, would cost ``m²`` memory and zeroing per factorisation here. The rule differs too:
+    above the parameter's unit row the continuation's Jacobian holds the Hessian's rows shifted
+    up by one, so its diagonal carries the Hessian's sub-diagonal and is not dominant, the
+    premise of the lattice's threshold pivoting; this LU takes the largest entry of each column
+    (partial pivoting, LAPACK's rule), whose fill the band storage holds anyway. Either LU in
+    the other's place would change the unit-cell curves or the lattice's results in their last
+    bits.
+Why the inertia count eliminates without pivoting
+    :func:`negative_pivots` does another job: the signs of the pivots of a symmetric matrix
+    (Sylvester's law of inertia), which any row interchange would spoil.
 """
 
 from __future__ import annotations

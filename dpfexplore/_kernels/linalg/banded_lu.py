@@ -23,6 +23,12 @@ Why reciprocal pivots and column-oriented back substitution
     and :func:`lu_solve` subtracts each solved entry from the rows above at once (independent
     updates). Together with the narrower ``U`` this made Rodas4 on the pick-and-place finger
     about 7 % faster than the partial-pivoting, row-oriented version (same results).
+One rule for the lattice's LUs
+    The continuation's bordered LU (:mod:`.linalg.bordered_lu`) factors the same band with a
+    border row and column by the same rule: both choose a pivot with :func:`column_max` and
+    :func:`threshold_pivot` and eliminate with :func:`eliminate_row` (compiled inline, so
+    neither pays a call). The shell's LU (:mod:`.linalg.band_storage`) does the same job on
+    other matrices and stays apart: it says why.
 """
 
 from __future__ import annotations
@@ -39,6 +45,48 @@ LATTICE_HALF_BANDWIDTH = 7
 PIVOT_THRESHOLD = 0.1
 
 
+@kernel(inline="always")
+def column_max(a, k, first, end, big, p):
+    """The largest ``|a[i, k]|`` of rows ``first..end-1`` if above ``big``, and its row.
+
+    Starts from ``(big, p)``; the first of equal entries wins.
+    """
+    for i in range(first, end):
+        v = abs(a[i, k])
+        if v > big:
+            big = v
+            p = i
+    return big, p
+
+
+@kernel(inline="always")
+def threshold_pivot(diag, big, p, k):
+    """The pivot row of column ``k``: ``k`` unless ``|a_kk| = diag < PIVOT_THRESHOLD · big``.
+
+    ``big`` is the largest candidate's magnitude, in row ``p``. Returns -1 if it is zero or not
+    finite (the matrix is singular to working precision).
+    """
+    if not (big > 0.0) or not math.isfinite(big):
+        return -1
+    if diag >= PIVOT_THRESHOLD * big:
+        return k
+    return p
+
+
+@kernel(inline="always")
+def eliminate_row(row_i, row_k, k, inv, end):
+    """Row ``i`` minus its multiple of pivot row ``k`` in columns ``k+1..end-1``.
+
+    ``inv`` is the reciprocal pivot; the multiplier is stored in ``row_i[k]`` and returned.
+    """
+    lik = row_i[k] * inv
+    row_i[k] = lik
+    if lik != 0.0:
+        for j in range(k + 1, end):
+            row_i[j] -= lik * row_k[j]
+    return lik
+
+
 @kernel
 def lu_factor(a, n, piv, band):
     """Factor the leading ``n x n`` block of ``a`` in place (``P A = L U``, unit lower ``L``).
@@ -52,17 +100,10 @@ def lu_factor(a, n, piv, band):
     for k in range(n):
         last_row = min(n, k + band + 1)
         diag = abs(a[k, k])
-        p = k
-        big = diag
-        for i in range(k + 1, last_row):
-            v = abs(a[i, k])
-            if v > big:
-                big = v
-                p = i
-        if not (big > 0.0) or not math.isfinite(big):
+        big, p = column_max(a, k, k + 1, last_row, diag, k)
+        p = threshold_pivot(diag, big, p, k)
+        if p < 0:
             return 1
-        if diag >= PIVOT_THRESHOLD * big:
-            p = k
         piv[k] = p
         row_k = a[k]
         if p != k:
@@ -76,12 +117,7 @@ def lu_factor(a, n, piv, band):
         inv = 1.0 / row_k[k]
         row_k[k] = inv
         for i in range(k + 1, last_row):
-            row_i = a[i]
-            lik = row_i[k] * inv
-            row_i[k] = lik
-            if lik != 0.0:
-                for j in range(k + 1, end):
-                    row_i[j] -= lik * row_k[j]
+            eliminate_row(a[i], row_k, k, inv, end)
     return 0
 
 

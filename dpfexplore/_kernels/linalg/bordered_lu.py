@@ -22,17 +22,14 @@ from __future__ import annotations
 import math
 
 from .._jit import kernel
-from .banded_lu import PIVOT_THRESHOLD
+from .banded_lu import column_max, eliminate_row, threshold_pivot
 
 
 @kernel(inline="always")
 def _eliminate(row_i, row_k, k, inv, col_end, last, pivot_last):
     """Row ``i`` minus its multiple of pivot row ``k`` (columns up to ``col_end`` and ``last``)."""
-    lik = row_i[k] * inv
-    row_i[k] = lik
+    lik = eliminate_row(row_i, row_k, k, inv, col_end)
     if lik != 0.0:
-        for j in range(k + 1, col_end):
-            row_i[j] -= lik * row_k[j]
         row_i[last] -= lik * pivot_last
 
 
@@ -51,21 +48,11 @@ def bordered_factor(a, m, piv, band):
         dense = k >= dense_from
         band_end = last if dense else min(last, k + band + 1)  # band rows k..band_end-1
         diag = abs(a[k, k])
-        p = k
-        big = diag
-        for i in range(k + 1, band_end):
-            v = abs(a[i, k])
-            if v > big:
-                big = v
-                p = i
-        v = abs(a[last, k])
-        if v > big:
-            big = v
-            p = last
-        if not (big > 0.0) or not math.isfinite(big):
+        big, p = column_max(a, k, k + 1, band_end, diag, k)
+        big, p = column_max(a, k, last, m, big, p)  # the border row
+        p = threshold_pivot(diag, big, p, k)
+        if p < 0:
             return 1
-        if diag >= PIVOT_THRESHOLD * big:
-            p = k
         piv[k] = p
         if p == last and not dense:
             dense_from = k

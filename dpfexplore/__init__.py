@@ -28,12 +28,12 @@ lookup
     Nearest designs of a dataset for target outputs, polished and verified by the exact model.
 surrogates
     Learned models of the exact model with their measured errors; the fast reset model's training.
-identification
-    From unit-cell curves to spring constants: per-curve fits, closed forms selected by grouped
-    RFECV, saved as constants sets.
 unitcell
     One dome unit's curve from its geometry and material (the shell model), the data source of
     identification.
+identification
+    From unit-cell curves to spring constants: per-curve fits, closed forms selected by grouped
+    RFECV, saved as constants sets.
 inverse
     Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
     scene kind.

@@ -13,7 +13,7 @@ Neither side is tuned to the other.
 
 Reproduce the record and the figure::
 
-    python -m dpfexplore.unitcell.compare_paper  # 7 × 6 grid, 128 elements; see --help
+    python -m dpfexplore.identification.compare_paper  # 7 × 6 grid, 128 elements; see --help
 """
 
 from __future__ import annotations
@@ -29,11 +29,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..identification.features import feature_curves_from_frame, fit_features
-from ..identification.spring_fit import fit_curve
 from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import DEFAULT
-from .shell import DEFAULT_ELEMENTS, unit_cell_curve
+from ..unitcell.shell import DEFAULT_ELEMENTS, unit_cell_curve
+from .features import feature_curves_from_frame, fit_features
+from .spring_fit import fit_curve
 
 __all__ = [
     "PAPER_BOX",
@@ -260,15 +260,15 @@ def identify_sweep(directory: str | Path, *, name: str):
     ``k̂`` and ``α`` come from every trusted fit (monostable shells included: their ghost gives
     a metastable ``α``); ``tip_dis`` exists for the domes with a stable inverted rest and for
     the monostable ones with a ghost (its travel: the rest merges into it at the bistable edge,
-    :mod:`.path`), so its closed form is selected on those (the sweep's ``curves.parquet``
-    leaves the column out when one dome lacks it), and the set's domain is theirs. Flagged fits
-    are left out and counted in the notes.
+    :mod:`dpfexplore.unitcell.path`), so its closed form is selected on those (the sweep's
+    ``curves.parquet`` leaves the column out when one dome lacks it), and the set's domain is
+    theirs. Flagged fits are left out and counted in the notes.
 
     Returns
     -------
     Identification
     """
-    from ..identification.identify import Identification, identify
+    from .identify import Identification, identify
 
     directory = Path(directory)
     table = pd.read_parquet(directory / "curves.parquet")
@@ -333,7 +333,7 @@ def _jsonable(value):
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Trace the grid, write the record (JSON) and the figure; print the summary."""
-    parser = argparse.ArgumentParser(prog="python -m dpfexplore.unitcell.compare_paper")
+    parser = argparse.ArgumentParser(prog="python -m dpfexplore.identification.compare_paper")
     parser.add_argument("--n-H", type=int, default=7, help="grid points in H over [3, 5] mm")
     parser.add_argument("--n-t", type=int, default=6, help="grid points in t over [0.5, 1] mm")
     parser.add_argument("--elements", type=int, default=DEFAULT_ELEMENTS)
@@ -349,7 +349,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--name", default="shell-extended", help="name of the --extended set")
     args = parser.parse_args(argv)
     if args.extended is not None:
-        from ..identification.report import _report, format_report, save_identification
+        from .report import _report, format_report, save_identification
 
         result = identify_sweep(args.extended, name=args.name)
         out = Path("results") / "constants" / args.name
@@ -368,7 +368,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     record = {
         "what": "shell model (dpfexplore.unitcell, features fit) against the paper's closed "
         "forms (DEFAULT set) over the paper's box; neither tuned to the other",
-        "command": "python -m dpfexplore.unitcell.compare_paper "
+        "command": "python -m dpfexplore.identification.compare_paper "
         f"--n-H {args.n_H} --n-t {args.n_t} --elements {args.elements} "
         f"--json {args.json} --plot {args.plot}",
         "settings": {

@@ -16,7 +16,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from dpfexplore.solvers.fitted_range import fitted_range
 from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm
 from matplotlib.figure import Figure
 
@@ -141,7 +140,7 @@ def hit_target(m, target: float):
         "reset": last,
         "classes": classes,
         "holds": holds,
-        "fitted": fitted_range(finger(mid, t))[0],
+        "fitted": finger(mid, t).in_fitted_range,
     }, found
 
 

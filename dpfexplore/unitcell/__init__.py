@@ -24,7 +24,8 @@ sweep, sweep_chunks
     files committed with their checksums, their manifest, the merge.
 solid_check, solid_mesh, solid_materials, solid_report
     The independent cross-check: the dome as a 2-D axisymmetric solid with scikit-fem (the
-    ``crosscheck`` extra), its mesh, material laws and the comparison report.
+    ``crosscheck`` extra), its mesh, material laws and the comparison at matching apex travel
+    (``scripts/unitcell_solid_check.py`` writes the record).
 """
 
 from .path import ZeroForceState

@@ -277,7 +277,7 @@ def identify_sweep(directory: str | Path, *, name: str):
     tips = {f"d{int(i):06d}": v for i, v in zip(designs["design"], designs["tip_dis"], strict=True)}
     if not set(tips) >= set(table["curve"].astype(str)):
         raise ValueError(f"{directory}: curves.parquet and designs.parquet do not match")
-    # a sweep written before monostable domes had a ghost holds rests only
+    # a designs.parquet without tip_kind holds rests only
     kind = (
         designs["tip_kind"]
         if "tip_kind" in designs

@@ -42,7 +42,7 @@ the 2-core benchmark machine, an AMD EPYC; a synthetic index of 1,000,000 rows o
 tip_y`` in 100 chunks, a 41 MB file): **about 45 ms per million indexed rows** for every check
 above (the SHA-256 of the arrays about 23 ms of it, the shape, range and order checks the
 rest), on top of about 20 ms to read the arrays from the file (page cache); loading the whole
-index, trees included, took 0.40 s.
+index, trees included, 0.40 s.
 
 The trees are not saved - :class:`scipy.spatial.cKDTree` has no serialised form short of
 pickle - but rebuilt on load: 0.2-0.3 s for the 650,000 indexed rows of a million-row dataset,

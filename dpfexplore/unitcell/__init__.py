@@ -1,4 +1,4 @@
-"""Unit-cell mechanics: one dome unit's curve from its geometry and material (issue 21).
+"""Unit-cell mechanics: one dome unit's curve from its geometry and material.
 
 The data source of identification (MODEL.md §11): a geometrically exact, shear-rigid
 axisymmetric shell model of a pinned spherical cap, loaded by apex displacement control through

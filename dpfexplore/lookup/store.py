@@ -56,6 +56,8 @@ import json
 import logging
 import re
 import time
+import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
@@ -188,9 +190,20 @@ def _read_file(path: Path) -> tuple[Any, dict[str, NDArray]]:
             arrays = {name: np.asarray(data[name]) for name, _, _, _ in ARRAYS}
     except FileNotFoundError:
         raise
-    # A cache file may hold anything (BadZipFile, KeyError, ValueError, OSError, EOFError,
-    # zlib.error, ...): every failure to read it means the same thing, rebuild it.
-    except Exception as exc:
+    # A cache file may hold any bytes: what np.load, zipfile and zlib raise for them (a bad
+    # zip or member, a truncated or corrupt stream, an unsupported compression method, a
+    # header claiming an array too large to allocate) and what the checks above raise all
+    # mean the same thing: rebuild it.
+    except (
+        OSError,
+        EOFError,
+        ValueError,
+        KeyError,
+        NotImplementedError,
+        MemoryError,
+        zipfile.BadZipFile,
+        zlib.error,
+    ) as exc:
         reason = f"it is unreadable ({type(exc).__name__}: {_one_line(exc)})"
         raise UnreadableIndexError(f"{path}: lookup index rejected: {reason}", reason) from exc
     return meta, arrays

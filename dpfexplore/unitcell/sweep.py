@@ -37,8 +37,10 @@ message, initial stiffness, first fold, ``tip_dis`` and ``tip_kind``: the invert
 travel, or a monostable dome's ghost's) are merged from the verified chunks and, last,
 ``DIR/manifest.json`` is written. ``identify`` takes ``tip_dis`` for every curve or for none, so
 ``curves.parquet`` leaves the column out when some dome has neither a rest nor a ghost
-(``designs.parquet`` keeps it, and the manifest counts them). A geometry that fails is a row
-with its status and message; it never stops the sweep.
+(``designs.parquet`` keeps it, and the manifest counts them). A geometry that is refused
+(``invalid``) or fails numerically (``error``) is a row with its status and message; it never
+stops the sweep. Any other error is a bug: its chunk fails with the traceback logged, the
+others are committed, and the sweep ends incomplete (:class:`SweepIncomplete`).
 
 A directory written by an older dpfexplore, whose chunk files have no manifest to verify them
 against, is refused in one line: give a new directory, or remove its ``chunks`` folder to

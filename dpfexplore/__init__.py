@@ -2,14 +2,18 @@
 
 The model is the spring lattice of Osorio et al., "Embodying Control in Soft Multistable Grippers
 from Morphofunctional Co-design", as specified in MODEL.md. The packages form a pipeline, listed
-here in its order; each imports only the ones before it:
+here in its order; each imports only the ones before it (``numerics``, ``io`` and ``examples``,
+the bottom, import nothing else of the package; ``tests/test_layout.py`` holds the order and
+checks it):
 
 numerics
     NumPy building blocks with no model knowledge (the one central-difference routine, the one
     local refiner).
-io
+io, examples
     Shared I/O of every stage that writes: atomic files, one writer per directory, chunk files
-    committed through a manifest with checksums, result directories complete or absent.
+    committed through a manifest with checksums, result directories complete or absent, the one
+    TOML field reader of every input file; the shipped example files (designs and legs, TOML),
+    found by name.
 model
     Designs and their validation, closed-form spring constants and constants sets, pressure
     profiles, status codes, design variables as a map of the unit box.
@@ -28,17 +32,23 @@ lookup
     Nearest designs of a dataset for target outputs, polished and verified by the exact model.
 surrogates
     Learned models of the exact model with their measured errors; the fast reset model's training.
-identification
-    From unit-cell curves to spring constants: per-curve fits, closed forms selected by grouped
-    RFECV, saved as constants sets.
 unitcell
     One dome unit's curve from its geometry and material (the shell model), the data source of
     identification.
+identification
+    From unit-cell curves to spring constants: per-curve fits, closed forms selected by grouped
+    RFECV, saved as constants sets.
 inverse
     Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
     scene kind.
 bench, cli
-    The benchmarks and the ``dpfexplore`` command, on top of everything.
+    The benchmarks and the ``dpfexplore`` command (``__main__``: ``python -m dpfexplore``), on
+    top of everything.
+
+Where the three everyday changes go (``docs/layout.md`` lists the files): a new scene kind is one
+package under ``inverse/scenes/`` and one entry of ``SCENE_KINDS`` (:mod:`.inverse.kinds`); a
+new per-state output column and a new closed form of a constants set are each one row of a table
+in :mod:`.model.quantities` plus its computation (the module's docstring has both recipes).
 
 Units throughout: mm, N, MPa, tonne, s (energy N·mm, stiffness N/mm).
 """

@@ -1,4 +1,4 @@
-"""Groundwork for the pick-and-place scene (issue 14): reset times over (H_5 = H_6, t).
+"""The pick-and-place scene's groundwork: reset times over (H_5 = H_6, t), and designs on them.
 
 The paper's six-unit finger (MODEL.md §9: H_1..H_4 = 4.0, 4.5, 5.0, 5.0, U_sep = 1, U_L = 6,
 t_lim = 1, E = 26) with the two tip units tied, ``H_5 = H_6 = h``, under the implementation's
@@ -16,7 +16,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from dpfexplore.solvers.fitted_range import fitted_range
 from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm
 from matplotlib.figure import Figure
 
@@ -141,7 +140,7 @@ def hit_target(m, target: float):
         "reset": last,
         "classes": classes,
         "holds": holds,
-        "fitted": fitted_range(finger(mid, t))[0],
+        "fitted": finger(mid, t).in_fitted_range,
     }, found
 
 

@@ -1,4 +1,4 @@
-"""Groundwork for the walker-leg scene (issue 14): heights that are metastable in this model.
+"""The walker-leg scene's groundwork: heights that are metastable in this model, and legs.
 
 The implementation's leg (MODEL.md §10; ``dpfexplore/examples/walker-leg.toml``): U_L = 6.5,
 U_sep = 1, t_lim = 1, E = 26; phase 1 (purple zone) P0 at tau = 0, 0.1, 1.1, 1.2 s, phase 2
@@ -15,7 +15,7 @@ own dome thickness t here (each is its own finger). Three maps over (H, t):
 * then legs built from what the maps allow, simulated with ``simulate_leg``, their stride
   against the implementation's legs at the same gait.
 
-Requirements used (issue 14's wording, made concrete): the purple zone keeps the leg lifted
+Requirements used (the scene's, made concrete): the purple zone keeps the leg lifted
 until the other phase has actuated: both units invert at the walking pressure and the first to
 reset does so >= 1.0 s after phase 1 ends (phase 2's release starts 1.0 s after it); a front
 leg's action unit resets >= 2.2 s after its phase ends (a full gait cycle: phase 1 repeats every

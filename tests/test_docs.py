@@ -1,4 +1,4 @@
-"""The documentation site builds with warnings as errors (issue 22).
+"""The documentation site builds with warnings as errors.
 
 One Sphinx build into a temporary folder: every docstring of the API reference, the Markdown
 pages, the benchmarks page generated from ``results/reports/bench-*.json`` and the gallery, whose

@@ -1,4 +1,4 @@
-"""The formatter and the linter decide the layout (issue 18): CI fails on unformatted code."""
+"""The formatter and the linter decide the layout: CI fails on unformatted code."""
 
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ def test_few_fmt_skip_markers():
     assert markers <= 5
 
 
-# Issue 18's layout rules, kept by the suite rather than by a one-off read.
+# The layout rules, kept by the suite rather than by a one-off read.
 PACKAGE = ROOT / "dpfexplore"
 #: Decorators that make a Numba function: the project's policy (``kernel``, ``batch_kernel``,
 #: ``jitable``) and Numba's own names, in case a module bypasses the policy.

@@ -1,4 +1,4 @@
-"""The tutorial notebook (docs/tutorial.ipynb) runs from top to bottom (issue 22)."""
+"""The tutorial notebook (docs/tutorial.ipynb) runs from top to bottom."""
 
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ REPORTS = Path("results") / "reports"
 
 # ----------------------------------------------------------------------------- option types
 # argparse ``type=`` callables: a bad value is refused by the parser in one line, before any
-# benchmark work (``--units 0`` was a ZeroDivisionError, a misspelt material a KeyError).
+# benchmark work (``--units 0``, a misspelt material).
 
 
 def count(low: int = 1) -> Callable[[str], int]:

@@ -54,7 +54,6 @@ SCENES = {
 }
 #: Objective a black-box method receives for a design whose targeted state does not exist, mm².
 PENALTY = 1.0e3
-THRESHOLDS = (0.5, 1e-6)
 
 
 def register(subparsers) -> None:
@@ -145,7 +144,7 @@ def _json_name(text: str) -> str:
 # ----------------------------------------------------------------------------- baselines
 
 
-def _position_objective(problems, target_point):
+def _position_objective(problems):
     """Black-box objective of (N, z) on the exact evaluator (one design per call)."""
 
     def f(n: int, z: np.ndarray) -> float:
@@ -236,12 +235,7 @@ def bench_position(spec, index: int, material: str, args) -> dict:
         try:
             evaluator = SceneEvaluator(max(spec.n_units))
             problems = {p.n_units: p for p in position_problems(spec, index, evaluator)}
-            runner(
-                problems,
-                _position_objective(problems, spec.kind_spec.targets[index].point),
-                budget,
-                args.seed,
-            )
+            runner(problems, _position_objective(problems), budget, args.seed)
             methods[name] = _summary(evaluator, paper, mine["evals"], mine["wall_s"])
         except ImportError as exc:
             methods[name] = {"error": f"not installed ({exc.name}): pip install -e '.[baselines]'"}

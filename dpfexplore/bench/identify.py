@@ -26,7 +26,7 @@ import numpy as np
 
 from ._common import REPORTS, count, emit, machine_info
 
-#: Seconds the whole identification of 1,000 curves may take on one core (issue 20).
+#: Seconds the whole identification of 1,000 curves may take on one core (the goal).
 GOAL_S = 10.0
 
 

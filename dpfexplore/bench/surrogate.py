@@ -8,10 +8,10 @@ by ``design_id``, at most 100,000 training designs): held-out tip error per N of
 that learns per-unit quantities and composes them exactly), the accuracy of the status
 classifiers (gradient-boosted trees; the chain's rigid unit-cell rule), and the time per
 prediction on one core, batched and single, beside the exact model (``solve_batch``) on the
-same held-out designs. The issue's goals: tip median <= 0.05 mm and
-p95 <= 0.3 mm, classifier >= 99 %, <= 100,000 training designs.
+same held-out designs. The goals (:data:`dpfexplore.surrogates.goals.GOALS`): tip median
+<= 0.05 mm and p95 <= 0.3 mm, classifier >= 99 %, <= 100,000 training designs.
 
-The fast reset-time model (issue 12 §2) reports under ``reset_model``; see
+The fast reset-time model reports under ``reset_model``; see
 :func:`reset_model_section`.
 """
 
@@ -75,7 +75,7 @@ def register(subparsers) -> None:
 
 
 def reset_model_section(designs: int = 500) -> dict[str, Any]:
-    """Figures of the fast reset-time model (issue 12 §2) on held-out designs.
+    """Figures of the fast reset-time model on held-out designs.
 
     ``{"reset_model": {"us_per_design", "median_rel_err", "p95_rel_err", "max_rel_err",
     "class_agreement", "coverage_90", "fallback_rate", ...}}`` from

@@ -36,7 +36,7 @@ import numpy as np
 
 from ._common import REPORTS, count, emit, fresh_process_timings, machine_info
 
-#: The paper's model time per design (Table sim_time), s; the issue's figure for the job.
+#: The paper's model time per design (Table sim_time), s: the figure the job is measured against.
 PAPER_SECONDS_PER_DESIGN = 0.66
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 COMPARED = ("tip_x", "tip_y", "curvature", "stiffness", "energy")

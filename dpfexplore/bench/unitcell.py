@@ -8,7 +8,7 @@ envelope (relative to its largest energy), of the first fold's travel and of ``t
 goal: one curve of ~200 steps in at most 1 s at the converged mesh (128 elements). Compile time
 in a fresh process with an empty Numba cache, and the cache load, are measured apart.
 
-With ``--grid N``, the issue's grid goal: about ``N`` geometries of the box (an ``H`` x ``t``
+With ``--grid N``, the grid goal: about ``N`` geometries of the box (an ``H`` x ``t``
 grid, ``r_b`` 5 mm, ``E`` 26 MPa) traced by the unit-cell sweep
 (:func:`~dpfexplore.unitcell.sweep.run_unitcell_sweep`, ``--workers`` processes, Parquet
 included) into a temporary directory: wall time from start to manifest, and the statuses. The
@@ -28,9 +28,9 @@ import numpy as np
 
 from ._common import NOT_MEASURED, REPORTS, compile_line, emit, fresh_process_timings, machine_info
 
-#: Seconds one curve may take at the default mesh (issue 21).
+#: Seconds one curve may take at the default mesh (the goal, docs/decisions.md).
 GOAL_S = 1.0
-#: Seconds a 1,000-curve grid may take on 2 cores (issue 21).
+#: Seconds a 1,000-curve grid may take on 2 cores (the goal).
 GRID_GOAL_S = 600.0
 #: The box's corners and centre.
 DOMES = ((3.0, 0.5), (3.0, 1.0), (5.0, 0.5), (5.0, 1.0), (4.0, 0.75))

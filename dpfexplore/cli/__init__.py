@@ -3,7 +3,9 @@
 Thin by design: each command module parses its arguments, calls the public API and returns an
 exit code (0 success, 1 failure of the computation, 2 bad input, 130 interrupted). Command
 modules register themselves through ``register(subparsers)``; :data:`COMMAND_MODULES` lists
-them.
+them, one module per command named after it (``sweep`` also holds ``query`` and
+``plot-space``); :mod:`.support` holds what they share (one-line errors and tolerant streams,
+help screens, naming a design or a constants set).
 
 What every command gets from :func:`main`:
 

@@ -185,6 +185,7 @@ def _report(args: argparse.Namespace) -> int:
 
 def _read_designs(path: Path):
     import pandas as pd
+    import pyarrow as pa
 
     from ..sweep.storage.store import StoreError, read_results
 
@@ -197,7 +198,7 @@ def _read_designs(path: Path):
         raise UsageError(f"{path}: no such file")
     try:
         frame = pd.read_parquet(path)
-    except Exception as exc:  # pyarrow raises several types for a file that is not Parquet
+    except (OSError, ValueError, pa.ArrowException) as exc:  # a file that is not Parquet
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise UsageError(f"{path}: not a Parquet file of designs ({message})") from None
     if "n_units" not in frame.columns:

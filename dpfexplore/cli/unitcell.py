@@ -1,4 +1,4 @@
-"""``dpfexplore unitcell``: one dome unit's curve from its geometry and material (issue 21).
+"""``dpfexplore unitcell``: one dome unit's curve from its geometry and material.
 
 * ``unitcell curve --H 3 --t 0.83 [--r-b 5 --E 26 --nu 0.35] [--travel MAX] [--json]
   [--plot FILE.png] [--out FILE.csv|.parquet]``: the equilibrium path of a pinned spherical cap

@@ -19,4 +19,7 @@ report
     Saving, reading and printing an identification; two sets side by side on units.
 compare
     Two sets side by side on whole fingers: states, tips, stiffness, reset times.
+compare_paper
+    The shell's spring constants (the features fit) beside the paper's closed forms over its box,
+    and a constants set from a ``unitcell sweep`` (how ``shell-extended`` was identified).
 """

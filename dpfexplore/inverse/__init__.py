@@ -1,5 +1,9 @@
 """Inverse design: from what a finger must do to verified designs.
 
+A new scene kind is one package under ``scenes/`` and one entry of
+:data:`~.kinds.SCENE_KINDS`; nothing else changes (the recipe, with an example kind:
+``docs/guide/scenes.md``, "Adding a scene kind").
+
 kinds
     :data:`~.kinds.SCENE_KINDS`: one record per scene kind, listed in one literal table, and
     :func:`load_scene` / :func:`parse_scene`.

@@ -137,19 +137,6 @@ def _half_written_and_old(path: Path) -> bool:
         return False
 
 
-def acquire(out: str | Path) -> dict:
-    """Take the lock of sweep directory ``out`` (created if absent); returns our holder record.
-
-    Raises
-    ------
-    LockHeld
-        If a live process (or a process on another host) holds it.
-    """
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    return acquire_file(out / LOCK_NAME, f"--out {out}: another sweep is using this directory")
-
-
 def acquire_file(path: Path, busy: str) -> dict:
     """Take the lock file ``path``; ``busy`` starts the refusal message. Returns our holder.
 
@@ -190,11 +177,6 @@ def acquire_file(path: Path, busy: str) -> dict:
         aside.unlink(missing_ok=True)
         logger.warning("took over a stale lock %s (%s)", path, describe(holder))
     raise LockHeld(f"{busy}: could not take the lock {path} (contended)")
-
-
-def release(out: str | Path, me: dict) -> None:
-    """Remove ``out``'s lock if it is still ours."""
-    release_file(Path(out) / LOCK_NAME, me)
 
 
 def release_file(path: Path, me: dict) -> None:

@@ -1,4 +1,4 @@
-"""Fields of TOML-shaped mappings: the one reader of job, scene and leg files.
+"""Fields of TOML-shaped mappings: the one reader of job, scene, leg and unit-cell job files.
 
 Each reader takes a table (a mapping from a parsed TOML document), the dotted path of that
 table (``where``, e.g. ``"space.variables"``; ``""`` for the top level) and a key, checks the
@@ -7,8 +7,9 @@ starts with the dotted key and says what a well-formed value looks like, e.g.
 ``space.variables.H.min = 6.0: greater than max = 5.0``. A file format's entry point reports
 them as its own error class (:func:`reported_as`): ``JobSpecError`` for jobs
 (:mod:`dpfexplore.sweep.job_file`), ``SceneSpecError`` for scenes
-(:mod:`dpfexplore.inverse.scene_file`); legs (:mod:`dpfexplore.solvers.legs.leg`) and design
-files (:func:`dpfexplore.model.design.load_design`) raise them as they are.
+(:mod:`dpfexplore.inverse.scene_file`); legs (:mod:`dpfexplore.solvers.legs.leg`), unit-cell jobs
+(:mod:`dpfexplore.unitcell.sweep`) and design files (:func:`dpfexplore.model.design.load_design`)
+raise them as they are.
 
 Where two formats word the same check differently, each wording has its reader, so that every
 message a user sees keeps its text:
@@ -18,6 +19,8 @@ jobs                       :func:`integer`, :func:`positive`, :func:`choice`
 scenes                     :func:`integer_in`, :func:`positive_number`, :func:`bound`,
                            :func:`interval`, :func:`numbers`, :func:`plain`
 legs                       :func:`known_keys`
+unit-cell jobs             :func:`check_keys`, :func:`table`, :func:`integer`,
+                           :func:`positive`, :func:`numbers` (``one=True``)
 jobs and scenes            :func:`check_keys`, :func:`table`, :func:`string`,
                            :func:`boolean`
 every file                 :func:`read_toml`
@@ -275,12 +278,18 @@ def bound(value: Any, where: str) -> float | tuple[float, float]:
     return float(value)
 
 
-def numbers(value: Any, where: str, *, length: int | None, unit: str) -> tuple[float, ...]:
-    """A list of finite numbers (of ``length`` entries, when given) in ``unit``."""
-    if not isinstance(value, list) or not all(_number(v) and math.isfinite(v) for v in value):
-        raise FieldError(
-            f"{where} = {value!r}: need a list of finite numbers" + (f" ({unit})" if unit else "")
-        )
+def numbers(
+    value: Any, where: str, *, length: int | None, unit: str, one: bool = False
+) -> tuple[float, ...]:
+    """A list of finite numbers (of ``length`` entries, when given) in ``unit``.
+
+    With ``one``, a single number stands for the list of it (``3.0`` reads as ``(3.0,)``).
+    """
+    items = [value] if one and not isinstance(value, list) else value
+    if not isinstance(items, list) or not all(_number(v) and math.isfinite(v) for v in items):
+        need = "a number or a list of finite numbers" if one else "a list of finite numbers"
+        raise FieldError(f"{where} = {value!r}: need {need}" + (f" ({unit})" if unit else ""))
+    value = items
     if length is not None and len(value) != length:
         raise FieldError(f"{where} = {value!r}: need {length} numbers, got {len(value)}")
     return tuple(float(v) for v in value)

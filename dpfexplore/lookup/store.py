@@ -42,7 +42,7 @@ the 2-core benchmark machine, an AMD EPYC; a synthetic index of 1,000,000 rows o
 tip_y`` in 100 chunks, a 41 MB file): **about 45 ms per million indexed rows** for every check
 above (the SHA-256 of the arrays about 23 ms of it, the shape, range and order checks the
 rest), on top of about 20 ms to read the arrays from the file (page cache); loading the whole
-index, trees included, took 0.40 s.
+index, trees included, 0.40 s.
 
 The trees are not saved - :class:`scipy.spatial.cKDTree` has no serialised form short of
 pickle - but rebuilt on load: 0.2-0.3 s for the 650,000 indexed rows of a million-row dataset,
@@ -56,6 +56,8 @@ import json
 import logging
 import re
 import time
+import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
@@ -188,9 +190,20 @@ def _read_file(path: Path) -> tuple[Any, dict[str, NDArray]]:
             arrays = {name: np.asarray(data[name]) for name, _, _, _ in ARRAYS}
     except FileNotFoundError:
         raise
-    # A cache file may hold anything (BadZipFile, KeyError, ValueError, OSError, EOFError,
-    # zlib.error, ...): every failure to read it means the same thing, rebuild it.
-    except Exception as exc:
+    # A cache file may hold any bytes: what np.load, zipfile and zlib raise for them (a bad
+    # zip or member, a truncated or corrupt stream, an unsupported compression method, a
+    # header claiming an array too large to allocate) and what the checks above raise all
+    # mean the same thing: rebuild it.
+    except (
+        OSError,
+        EOFError,
+        ValueError,
+        KeyError,
+        NotImplementedError,
+        MemoryError,
+        zipfile.BadZipFile,
+        zlib.error,
+    ) as exc:
         reason = f"it is unreadable ({type(exc).__name__}: {_one_line(exc)})"
         raise UnreadableIndexError(f"{path}: lookup index rejected: {reason}", reason) from exc
     return meta, arrays

@@ -39,7 +39,7 @@ U_L_1..U_L_N, U_sep_1..U_sep_N, t, t_lim, E``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import pairwise
 
@@ -495,21 +495,6 @@ class DesignVariables:
             value = float(getattr(self, name))
             return value, value
         raise ValueError(f"parameter = {parameter!r}: unknown; known: {self.parameters}")
-
-    @classmethod
-    def from_mapping(cls, n_units: int, data: Mapping) -> DesignVariables:
-        """Build from a TOML-shaped mapping with this class's field names as keys."""
-        known = {
-            f
-            for f in cls.__dataclass_fields__
-            if not f.startswith("_") and f not in ("n_units", "constants")
-        }
-        for key in data:
-            if key not in known:
-                raise ValueError(
-                    f"{key} = {data[key]!r}: unknown variable key; known: {sorted(known)}"
-                )
-        return cls(n_units=n_units, **dict(data))
 
 
 def _height_bounds(value, n_units: int) -> list[tuple[float, float]]:

@@ -5,7 +5,6 @@ Plain arrays and DataFrames in (the history written by ``dpfexplore design``), A
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -211,7 +210,3 @@ def plot_gripper(
         ax.autoscale()
     fig.suptitle("Gripper in its targeted states (dashed: object)")
     return fig
-
-
-def _finite(value) -> float:
-    return float(value) if value is not None and math.isfinite(float(value)) else math.nan

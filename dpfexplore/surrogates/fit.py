@@ -119,7 +119,7 @@ class SurrogateSet:
 def _check_unit_counts(designs: pd.DataFrame) -> None:
     """Refuse rows whose ``n_units`` is not a whole number of units from 1 to ``MAX_UNITS``.
 
-    The estimators cast it to an integer: 3.7 units was predicted as a 3-unit finger and
+    The estimators cast it to an integer: 3.7 units would be predicted as a 3-unit finger and
     flagged in range.
     """
     if "n_units" not in designs.columns:

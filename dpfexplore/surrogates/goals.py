@@ -1,6 +1,7 @@
 """The surrogates' goals on held-out designs, and the verdict in plain sentences.
 
-:data:`GOALS` are issue 12's (tip error in mm, classifier accuracy, training designs);
+:data:`GOALS` are what a surrogate must reach to stand in for the exact model (tip error in mm,
+classifier accuracy, training designs; docs/decisions.md);
 :func:`goals_of` checks a fit's report against them, on all held-out designs and on the worst N;
 :func:`verdict` says whether any surrogate is faster than the exact model, and at what error.
 """
@@ -16,7 +17,7 @@ from .data import TIP
 
 __all__ = ["GOALS", "goals_of", "verdict"]
 
-#: Issue 12's goals on held-out designs of the paper's box: tip error (mm), classifier accuracy,
+#: The goals on held-out designs of the paper's box: tip error (mm), classifier accuracy,
 #: training designs.
 GOALS = {
     "tip_median_mm": 0.05,
@@ -29,7 +30,7 @@ GOALS = {
 def goals_of(
     report: Mapping[str, Any], best: pd.Series, by_n: pd.DataFrame, headline: str
 ) -> dict[str, Any]:
-    """The issue's goals on all held-out designs, and on the worst N (``n_units`` says which)."""
+    """The goals on all held-out designs, and on the worst N (``n_units`` says which)."""
     goals: dict[str, Any] = {}
     if headline == TIP:
         for stat in ("median", "p95"):

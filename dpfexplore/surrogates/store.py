@@ -31,6 +31,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..io.commits import StoreError
 from ..io.files import file_sha256
 from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.version import MODEL_VERSION, package_versions
@@ -288,7 +289,7 @@ def check_compatible(
     if dataset is not None:
         try:
             actual = dataset_fingerprint(dataset)
-        except Exception as exc:
+        except (StoreError, OSError, ValueError) as exc:  # not a sweep directory, unreadable
             raise SurrogateLoadError(f"dataset {dataset}: {exc}") from None
         wanted = meta.get("dataset", {}).get("fingerprint", {})
         for key in ("job_fingerprint", "model_version", "chunks_sha256"):

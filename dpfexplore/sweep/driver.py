@@ -200,7 +200,7 @@ def check_output(
             f"--out {out}: not empty and not a sweep directory (no {store.MANIFEST}){hint}"
         )
     manifest = store.read_manifest(out)
-    # Datasets from before constants sets were recorded hold the paper's set (the only one).
+    # A manifest that records no constants set is of the paper's set.
     recorded = {"constants": _paper_set_entry(), **manifest.result_defining}
     key = spec.first_difference(recorded)
     if key is not None:

@@ -98,7 +98,7 @@ def _load(out: Path, path: str, spec: JobSpec, schema: pa.Schema) -> _Candidate 
     data = store.read_file_buffer(out / path)
     try:
         table = pq.read_table(pa.BufferReader(data))
-    except Exception as exc:  # any decoding failure means the file is damaged
+    except (pa.ArrowException, OSError) as exc:  # pyarrow's errors: the file is damaged
         return f"unreadable ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})"
     identity = store.chunk_identity(table)
     if identity is None:

@@ -1,4 +1,4 @@
-"""Unit-cell mechanics: one dome unit's curve from its geometry and material (issue 21).
+"""Unit-cell mechanics: one dome unit's curve from its geometry and material.
 
 The data source of identification (MODEL.md §11): a geometrically exact, shear-rigid
 axisymmetric shell model of a pinned spherical cap, loaded by apex displacement control through
@@ -22,12 +22,10 @@ sweep, sweep_chunks
     Many geometries (a grid or a Latin hypercube) on the sweep engines (worker processes or a
     Dask cluster) into the identification table; resumable. Its chunks: what one computes, its
     files committed with their checksums, their manifest, the merge.
-compare_paper
-    The shell's spring constants (``identify``'s features fit) beside the paper's closed forms
-    over its box, and the extended constants set packaged as ``shell-extended``.
 solid_check, solid_mesh, solid_materials, solid_report
     The independent cross-check: the dome as a 2-D axisymmetric solid with scikit-fem (the
-    ``crosscheck`` extra), its mesh, material laws and the comparison report.
+    ``crosscheck`` extra), its mesh, material laws and the comparison at matching apex travel
+    (``scripts/unitcell_solid_check.py`` writes the record).
 """
 
 from .path import ZeroForceState

@@ -1,4 +1,4 @@
-"""Closed forms the shell model is checked against (MODEL.md §11, issue 21 §3).
+"""Closed forms the shell model is checked against (MODEL.md §11).
 
 * :func:`plate_stiffness`: a simply supported (pinned) circular plate under a central point load
   (Timoshenko & Woinowsky-Krieger, *Theory of Plates and Shells*, §19):

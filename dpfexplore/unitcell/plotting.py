@@ -10,6 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..model.constants import dome_energy, dome_force
 from .shell import UnitCellRun
 
 __all__ = ["plot_energy", "plot_force", "plot_meridians"]
@@ -50,10 +51,8 @@ def plot_force(run: UnitCellRun, ax=None, *, spring: tuple[float, float, float] 
     ax = _axes(ax)
     _by_branch(run, run.force, ax, "shell (dashed: unstable)")
     if spring is not None:
-        from ..identification.spring_fit import spring_force
-
         x = np.linspace(0.0, run.displacement.max(), 300)
-        ax.plot(x, spring_force(x, *spring), "k:", lw=1.5, label="fitted spring law")
+        ax.plot(x, dome_force(x, *spring), "k:", lw=1.5, label="fitted spring law")
     for state in run.zero_force_states:
         ax.plot(state.displacement, 0.0, "o" if state.stable else "x", color="k", ms=5)
     ax.axhline(0.0, color="0.7", lw=0.8)
@@ -70,9 +69,7 @@ def plot_energy(run: UnitCellRun, ax=None, *, spring: tuple[float, float, float]
     grid = np.linspace(0.0, run.displacement.max(), 400)
     ax.plot(grid, run.energy_envelope(grid), color="0.3", lw=3, alpha=0.3, label="lower envelope")
     if spring is not None:
-        from ..identification.spring_fit import spring_energy
-
-        ax.plot(grid, spring_energy(grid, *spring), "k:", lw=1.5, label="fitted spring law")
+        ax.plot(grid, dome_energy(grid, *spring), "k:", lw=1.5, label="fitted spring law")
     ax.set_xlabel("apex travel δ / mm")
     ax.set_ylabel("strain energy / N·mm")
     ax.legend(fontsize=8)

@@ -1,4 +1,4 @@
-"""One dome unit under apex displacement control: the shell model's curve (issue 21).
+"""One dome unit under apex displacement control: the shell model's curve.
 
 :func:`unit_cell_curve` traces the equilibrium path of a pinned spherical cap whose apex is
 pushed toward inversion, through every fold, with the geometrically exact, shear-rigid

@@ -1,4 +1,4 @@
-"""An independent discretisation of one dome unit: a 2-D axisymmetric solid (issue 21 §3).
+"""An independent discretisation of one dome unit: a 2-D axisymmetric solid.
 
 The cross-check of the shell model (:mod:`dpfexplore.unitcell.shell`): the same pinned spherical
 cap, meshed through its thickness and solved as a geometrically nonlinear axisymmetric solid
@@ -352,7 +352,7 @@ def _lowest_eigenvalue(K: sp.csr_matrix) -> float:
 
 
 #: BLAS on one thread: the model's dense work (banded Cholesky of a few hundred unknowns) is far
-#: too small to share, and on a loaded machine idle BLAS threads made it 4-15 times slower.
+#: too small to share, and idle BLAS threads slow it 4-15 times on a loaded machine.
 _ONE_BLAS_THREAD = threadpool_limits.wrap(limits=1, user_api="blas")
 
 

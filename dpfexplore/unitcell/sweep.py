@@ -37,8 +37,10 @@ message, initial stiffness, first fold, ``tip_dis`` and ``tip_kind``: the invert
 travel, or a monostable dome's ghost's) are merged from the verified chunks and, last,
 ``DIR/manifest.json`` is written. ``identify`` takes ``tip_dis`` for every curve or for none, so
 ``curves.parquet`` leaves the column out when some dome has neither a rest nor a ghost
-(``designs.parquet`` keeps it, and the manifest counts them). A geometry that fails is a row
-with its status and message; it never stops the sweep.
+(``designs.parquet`` keeps it, and the manifest counts them). A geometry that is refused
+(``invalid``) or fails numerically (``error``) is a row with its status and message; it never
+stops the sweep. Any other error is a bug: its chunk fails with the traceback logged, the
+others are committed, and the sweep ends incomplete (:class:`SweepIncomplete`).
 
 A directory written by an older dpfexplore, whose chunk files have no manifest to verify them
 against, is refused in one line: give a new directory, or remove its ``chunks`` folder to
@@ -51,8 +53,7 @@ import hashlib
 import itertools
 import json
 import logging
-import math
-import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -62,6 +63,7 @@ import numpy as np
 from ..io.commits import MANIFEST, StoreError, read_json, remove_leftovers
 from ..io.files import atomic_write
 from ..io.lock import sweep_lock
+from ..io.toml_fields import FieldError, check_keys, integer, numbers, positive, read_toml, table
 from ..sweep.engines import DaskEngine, Engine, LocalEngine
 from ..sweep.work import ChunkFailure
 from .sweep_chunks import (
@@ -84,7 +86,10 @@ logger = logging.getLogger(__name__)
 
 PARAMETERS = ("H", "t", "r_b", "E", "nu")
 _DEFAULTS = {"r_b": 5.0, "E": 26.0, "nu": 0.35}
+_UNITS = {"H": "mm", "t": "mm", "r_b": "mm", "E": "MPa", "nu": ""}
 _OPTIONS = {"n_elements": 128, "travel": 2.2, "chunk": 8, "max_steps": 3000}
+#: Bounds of the integer options (``n_elements`` as :func:`~.shell.unit_cell_curve` takes it).
+_INTEGER_OPTIONS = {"n_elements": (4, 5000), "chunk": (1, 1_000_000), "max_steps": (1, 10_000_000)}
 
 
 @dataclass(frozen=True)
@@ -113,72 +118,90 @@ class UnitCellJob:
         return digest.hexdigest()
 
 
-def _values(table: dict, name: str, where: str) -> list[float]:
+def _values(table: Mapping[str, Any], where: str, name: str) -> tuple[float, ...]:
+    """``table[name]`` (or its default): a finite number or a non-empty list of them."""
     value = table.get(name, _DEFAULTS.get(name))
-    if value is None:
-        raise ValueError(f"{where}.{name}: missing (give a list of values)")
-    values = value if isinstance(value, list) else [value]
-    if not values or not all(
-        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in values
-    ):
-        raise ValueError(f"{where}.{name}={value!r}: must be a number or a list of numbers")
-    return [float(v) for v in values]
+    values = numbers(value, f"{where}.{name}", length=None, unit=_UNITS[name], one=True)
+    if not values:
+        raise FieldError(f"{where}.{name} = []: need at least one number")
+    return values
 
 
-def job_from_dict(source: dict[str, Any]) -> UnitCellJob:
-    """A job from its TOML tables (module docstring); ``ValueError`` naming the bad entry."""
-    unknown = set(source) - {"grid", "lhs", "options"}
-    if unknown:
-        raise ValueError(f"unknown table(s) {', '.join(sorted(unknown))}: use grid or lhs, options")
+def _bounds(table: Mapping[str, Any], name: str) -> tuple[float, float]:
+    """``lhs.NAME``: ``[low, high]`` with ``low <= high``, or one number (fixed)."""
+    values = _values(table, "lhs", name)
+    low, high = (values * 2)[:2]
+    if len(values) > 2 or high < low:
+        raise FieldError(f"lhs.{name} = {list(values)!r}: give [low, high] with low <= high")
+    return low, high
+
+
+def _options(source: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``[options]`` table over the defaults :data:`_OPTIONS`."""
+    options = dict(_OPTIONS)
+    if "options" not in source:
+        return options
+    given = table(source, "options")
+    check_keys(given, "options", optional=tuple(_OPTIONS))
+    for key in given:
+        if key == "travel":
+            options[key] = positive(given, "options", key, "dome heights")
+        else:
+            low, high = _INTEGER_OPTIONS[key]
+            options[key] = integer(given, "options", key, low=low, high=high)
+    return options
+
+
+def job_from_dict(source: Mapping[str, Any]) -> UnitCellJob:
+    """A job from its TOML tables (module docstring).
+
+    Raises
+    ------
+    dpfexplore.io.toml_fields.FieldError
+        A ``ValueError`` whose one-line message names the dotted key, e.g.
+        ``lhs.H = [2.0, 1.0]: give [low, high] with low <= high``.
+    """
+    check_keys(source, "", optional=("grid", "lhs", "options"))
     if ("grid" in source) == ("lhs" in source):
-        raise ValueError("give exactly one of [grid] or [lhs]")
+        raise FieldError("give exactly one of [grid] or [lhs]")
     if "grid" in source:
-        grid = source["grid"]
-        columns = [_values(grid, name, "grid") for name in PARAMETERS]
+        grid = table(source, "grid")
+        check_keys(grid, "grid", required=("H", "t"), optional=PARAMETERS[2:])
+        columns = [_values(grid, "grid", name) for name in PARAMETERS]
         geometries = np.array(list(itertools.product(*columns)), dtype=float)
     else:
         from scipy.stats import qmc
 
-        lhs = source["lhs"]
-        n, seed = lhs.get("n"), lhs.get("seed", 0)
-        if not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= 1_000_000:
-            raise ValueError(f"lhs.n={n!r}: must be an integer between 1 and 1e6")
-        if not isinstance(seed, int) or isinstance(seed, bool):
-            raise ValueError(f"lhs.seed={seed!r}: must be an integer")
-        bounds = []
-        for name in PARAMETERS:
-            values = _values(lhs, name, "lhs")
-            low, high = (values * 2)[:2] if len(values) == 1 else values[:2]
-            if len(values) > 2 or high < low:
-                raise ValueError(f"lhs.{name}={values!r}: give [low, high] with low <= high")
-            bounds.append((low, high))
+        lhs = table(source, "lhs")
+        check_keys(lhs, "lhs", required=("n", "H", "t"), optional=("seed", *PARAMETERS[2:]))
+        n = integer(lhs, "lhs", "n", low=1, high=1_000_000)
+        seed = integer(lhs, "lhs", "seed", low=0, high=(1 << 63) - 1) if "seed" in lhs else 0
+        bounds = [_bounds(lhs, name) for name in PARAMETERS]
         unit = qmc.LatinHypercube(d=len(PARAMETERS), seed=seed).random(n)
         low, high = np.array(bounds).T
         geometries = low + unit * (high - low)
-    options = dict(_OPTIONS)
-    for key, value in source.get("options", {}).items():
-        if key not in _OPTIONS:
-            raise ValueError(f"options.{key}: unknown (one of {', '.join(_OPTIONS)})")
-        kind = float if key == "travel" else int
-        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-            raise ValueError(f"options.{key}={value!r}: must be a positive number")
-        options[key] = kind(value)
-    return UnitCellJob(geometries, options, source)
+    return UnitCellJob(geometries, _options(source), dict(source))
 
 
 def read_job(path: str | Path) -> UnitCellJob:
-    """Read a job file (TOML); ``ValueError`` in one line naming the file and the entry."""
+    """Read a job file (TOML).
+
+    Raises
+    ------
+    dpfexplore.io.toml_fields.FieldError
+        A ``ValueError`` in one line naming the file and the entry.
+    """
     path = Path(path)
     try:
-        source = tomllib.loads(path.read_text())
+        source = read_toml(path)
     except FileNotFoundError:
-        raise ValueError(f"{path}: no such file") from None
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ValueError(f"{path}: cannot read ({str(exc).splitlines()[0]})") from None
+        raise FieldError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FieldError(f"{path}: cannot read ({getattr(exc, 'strerror', None) or exc})") from None
     try:
         return job_from_dict(source)
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
+    except FieldError as exc:
+        raise FieldError(f"{path}: {exc}") from None
 
 
 class SweepIncomplete(RuntimeError):

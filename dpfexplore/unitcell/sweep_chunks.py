@@ -167,7 +167,7 @@ def _trace_chunk(rows, options: dict) -> tuple[list, list]:
         except ValueError as exc:
             designs.append({**record, "status": "invalid", "message": str(exc)})
             continue
-        except Exception as exc:  # one bad geometry never stops the sweep
+        except ArithmeticError as exc:  # a numerical failure of this geometry is its row only
             designs.append({**record, "status": "error", "message": f"{type(exc).__name__}: {exc}"})
             continue
         designs.append(

@@ -51,12 +51,12 @@ def test_latin_hypercube_is_scaled_into_its_bounds():
     "source, match",
     [
         ({}, "exactly one"),
-        ({"grid": {"H": [3.0], "t": "x"}}, r"grid\.t="),
+        ({"grid": {"H": [3.0], "t": "x"}}, r"grid\.t = "),
         ({"grid": {"H": [3.0]}}, r"grid\.t: missing"),
-        ({"lhs": {"n": 0, "H": [1, 2], "t": [0.5, 1]}}, r"lhs\.n="),
-        ({"lhs": {"n": 5, "H": [2, 1], "t": [0.5, 1]}}, r"lhs\.H="),
+        ({"lhs": {"n": 0, "H": [1, 2], "t": [0.5, 1]}}, r"lhs\.n = "),
+        ({"lhs": {"n": 5, "H": [2, 1], "t": [0.5, 1]}}, r"lhs\.H = "),
         ({"grid": {"H": [3.0], "t": [1.0]}, "options": {"steps": 3}}, r"options\.steps"),
-        ({"grid": {"H": [3.0], "t": [1.0]}, "extra": {}}, "unknown table"),
+        ({"grid": {"H": [3.0], "t": [1.0]}, "extra": {}}, r"extra = \{\.\.\.\}: unknown key"),
     ],
 )
 def test_bad_jobs_name_the_entry(source, match):

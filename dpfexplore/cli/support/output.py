@@ -63,8 +63,8 @@ def ensure_streams() -> None:
 class TolerantStream:
     """A standard stream whose lost reader is never the command's problem.
 
-    ``dpfexplore design ... 2>&1 | head -1`` used to stop at the second line (a
-    ``BrokenPipeError`` in a progress message) and exit 0 having written nothing. Writes that
+    A reader that goes away (``dpfexplore design ... 2>&1 | head -1``) must not stop the
+    command at its next progress line (a ``BrokenPipeError``) with nothing written. Writes that
     fail because the reader went away are dropped (the descriptor is pointed at /dev/null, see
     :func:`discard`); everything else is the wrapped stream's.
     """

@@ -2,8 +2,10 @@
 
 Modules
 -------
-common
-    Methods, controls, results and the batch runner shared by the dynamics front ends.
+common, methods
+    Controls, results, unit classes and the batch runner shared by the dynamics front ends; the
+    integration methods by name, their tolerances and step caps (what the CLI offers without
+    importing Numba).
 scipy_baseline
     The trusted baseline: the same equations through ``scipy.integrate.solve_ivp``.
 release

@@ -207,7 +207,7 @@ class ResetModel:
         Training record: designs, seeds, reference tolerance, metrics, versions, date.
     constants : dict
         ``{"name", "fingerprint"}`` of the constants set the training designs ran on (the
-        paper's for models saved before sets were recorded); the model answers for designs of
+        paper's for a model file that records none); the model answers for designs of
         that set only (:meth:`check_constants`).
     """
 

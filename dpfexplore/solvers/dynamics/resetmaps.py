@@ -36,8 +36,6 @@ __all__ = ["ResetMapSpec", "reset_time_maps"]
 
 logger = logging.getLogger(__name__)
 
-MAPS = ("H", "t", "hold")
-
 
 @dataclass(frozen=True)
 class ResetMapSpec:

@@ -68,7 +68,7 @@ class DatasetInfo:
         The committed chunks' manifest records, in the order of :attr:`chunks`.
     constants : dict
         ``{"name", "fingerprint"}`` of the constants set the rows were computed under (the
-        paper's for datasets written before sets were recorded).
+        paper's for a dataset whose manifest records none).
     """
 
     root: Path

@@ -37,7 +37,6 @@ from ....solvers.dynamics.common import (
     CLASS_BISTABLE,
     CLASS_METASTABLE,
     CLASS_MONOSTABLE,
-    CLASS_NAMES,
 )
 from ...engine.problem import Evaluation, Problem
 from ...engine.roots import LOG_INF
@@ -142,10 +141,6 @@ class ResetEval:
         out = np.where(np.isposinf(r), _LOG_INF, out)
         out = np.where(np.isfinite(r) & (r <= 0), -_LOG_INF, out)
         return np.where(ok, out, np.nan)
-
-    def class_names(self, i: int) -> list[str | None]:
-        """Class names of row ``i``."""
-        return [CLASS_NAMES[int(c)] for c in self.classes[i]]
 
 
 class ResetProblem(Problem):

@@ -1,4 +1,4 @@
-"""The shell model's spring constants beside the paper's closed forms (issue 21 §3).
+"""The shell model's spring constants beside the paper's closed forms over the paper's box.
 
 Over a grid of the paper's box (``H ∈ [3, 5]``, ``t ∈ [0.5, 1]``, ``r_b = 5``, ``E = 26``,
 ``ν = 0.35``) every dome's curve is traced (:func:`~dpfexplore.unitcell.unit_cell_curve`), its
@@ -11,29 +11,27 @@ those of its closed forms (:data:`dpfexplore.model.constants_set.DEFAULT`); the 
 bistable ``α < 1/9``, metastable ``α < 1/3``, else monostable (:mod:`dpfexplore.model.constants`).
 Neither side is tuned to the other.
 
-Reproduce the record and the figure::
-
-    python -m dpfexplore.unitcell.compare_paper  # 7 × 6 grid, 128 elements; see --help
+:func:`identify_sweep` makes a constants set from a ``unitcell sweep`` directory the same way
+(how the packaged ``shell-extended`` was identified). The record and figure
+``results/reports/unitcell-vs-paper.{json,png}`` and that set are written by
+``scripts/unitcell_vs_paper.py`` (``--help``).
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import logging
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..identification.features import feature_curves_from_frame, fit_features
-from ..identification.spring_fit import fit_curve
 from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import DEFAULT
-from .shell import DEFAULT_ELEMENTS, unit_cell_curve
+from ..unitcell.shell import unit_cell_curve
+from .features import feature_curves_from_frame, fit_features
+from .spring_fit import fit_curve
 
 __all__ = [
     "PAPER_BOX",
@@ -260,15 +258,15 @@ def identify_sweep(directory: str | Path, *, name: str):
     ``k̂`` and ``α`` come from every trusted fit (monostable shells included: their ghost gives
     a metastable ``α``); ``tip_dis`` exists for the domes with a stable inverted rest and for
     the monostable ones with a ghost (its travel: the rest merges into it at the bistable edge,
-    :mod:`.path`), so its closed form is selected on those (the sweep's ``curves.parquet``
-    leaves the column out when one dome lacks it), and the set's domain is theirs. Flagged fits
-    are left out and counted in the notes.
+    :mod:`dpfexplore.unitcell.path`), so its closed form is selected on those (the sweep's
+    ``curves.parquet`` leaves the column out when one dome lacks it), and the set's domain is
+    theirs. Flagged fits are left out and counted in the notes.
 
     Returns
     -------
     Identification
     """
-    from ..identification.identify import Identification, identify
+    from .identify import Identification, identify
 
     directory = Path(directory)
     table = pd.read_parquet(directory / "curves.parquet")
@@ -279,7 +277,7 @@ def identify_sweep(directory: str | Path, *, name: str):
     tips = {f"d{int(i):06d}": v for i, v in zip(designs["design"], designs["tip_dis"], strict=True)}
     if not set(tips) >= set(table["curve"].astype(str)):
         raise ValueError(f"{directory}: curves.parquet and designs.parquet do not match")
-    # a sweep written before monostable domes had a ghost holds rests only
+    # a designs.parquet without tip_kind holds rests only
     kind = (
         designs["tip_kind"]
         if "tip_kind" in designs
@@ -317,85 +315,3 @@ def identify_sweep(directory: str | Path, *, name: str):
     )
     constants.check()
     return Identification(constants, main_fit.fits, selections, main_fit.alpha_spread_over_E, notes)
-
-
-def _jsonable(value):
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Trace the grid, write the record (JSON) and the figure; print the summary."""
-    parser = argparse.ArgumentParser(prog="python -m dpfexplore.unitcell.compare_paper")
-    parser.add_argument("--n-H", type=int, default=7, help="grid points in H over [3, 5] mm")
-    parser.add_argument("--n-t", type=int, default=6, help="grid points in t over [0.5, 1] mm")
-    parser.add_argument("--elements", type=int, default=DEFAULT_ELEMENTS)
-    parser.add_argument("--json", type=Path, default=Path("results/reports/unitcell-vs-paper.json"))
-    parser.add_argument("--plot", type=Path, default=Path("results/reports/unitcell-vs-paper.png"))
-    parser.add_argument(
-        "--extended",
-        type=Path,
-        default=None,
-        help="instead: identify a set from this unitcell sweep directory (features fit) and "
-        "save it under results/constants/NAME",
-    )
-    parser.add_argument("--name", default="shell-extended", help="name of the --extended set")
-    args = parser.parse_args(argv)
-    if args.extended is not None:
-        from ..identification.report import _report, format_report, save_identification
-
-        result = identify_sweep(args.extended, name=args.name)
-        out = Path("results") / "constants" / args.name
-        save_identification(result, out, plot=True, force=True)
-        print(format_report(_report(result)))
-        print(f"saved to {out}")
-        return 0
-    H_values = np.linspace(*PAPER_BOX["H"], args.n_H)
-    t_values = np.linspace(*PAPER_BOX["t"], args.n_t)
-    start = time.perf_counter()
-    frame = compare_grid(H_values, t_values, n_elements=args.elements)
-    elapsed = time.perf_counter() - start
-    summary = summarise(frame)
-    from importlib.metadata import version
-
-    record = {
-        "what": "shell model (dpfexplore.unitcell, features fit) against the paper's closed "
-        "forms (DEFAULT set) over the paper's box; neither tuned to the other",
-        "command": "python -m dpfexplore.unitcell.compare_paper "
-        f"--n-H {args.n_H} --n-t {args.n_t} --elements {args.elements} "
-        f"--json {args.json} --plot {args.plot}",
-        "settings": {
-            "H": [float(v) for v in H_values],
-            "t": [float(v) for v in t_values],
-            "r_b": PAPER_BOX["r_b"],
-            "E": PAPER_BOX["E"],
-            "nu": PAPER_BOX["nu"],
-            "n_elements": args.elements,
-            "constants": DEFAULT.name,
-        },
-        "elapsed_s": elapsed,
-        "versions": {name: version(name) for name in ("dpfexplore", "numpy", "scipy")},
-        "summary": summary,
-        "units": frame.to_dict("records"),
-    }
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.json.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(_jsonable(record), indent=1) + "\n")
-    tmp.replace(args.json)
-    fig = plot_maps(frame)
-    args.plot.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(args.plot, dpi=130)
-    print(json.dumps(_jsonable(summary), indent=1))
-    print(f"{len(frame)} units in {elapsed:.1f} s; wrote {args.json} and {args.plot}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

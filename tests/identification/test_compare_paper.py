@@ -6,7 +6,7 @@ import matplotlib
 import pandas as pd
 import pytest
 
-from dpfexplore.unitcell.compare_paper import classify, compare_grid, plot_maps, summarise
+from dpfexplore.identification.compare_paper import classify, compare_grid, plot_maps, summarise
 
 matplotlib.use("Agg")
 
@@ -64,7 +64,7 @@ def test_classes(alpha, kind):
 
 
 def test_a_set_from_a_small_sweep(tmp_path):
-    from dpfexplore.unitcell.compare_paper import identify_sweep
+    from dpfexplore.identification.compare_paper import identify_sweep
     from dpfexplore.unitcell.sweep import job_from_dict, run_unitcell_sweep
 
     # H = 1.1, t = 1: a low thick dome with no inverted rest (its ghost gives alpha)

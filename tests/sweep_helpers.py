@@ -15,6 +15,7 @@ import time
 
 import cloudpickle
 import numpy as np
+import psutil
 import pyarrow as pa
 
 from dpfexplore._kernels import layout as lay
@@ -166,3 +167,15 @@ class CrashingEvaluator(UnitConstantsEvaluator):
         if batch.n_units[0] == self.n_units:
             os.abort()
         return super().__call__(batch)
+
+
+def spawned_workers() -> list[psutil.Process]:
+    """This process's live spawned children (earlier tests may leave zombies: not ours)."""
+    found = []
+    for child in psutil.Process().children():
+        try:
+            if "spawn_main" in " ".join(child.cmdline()):
+                found.append(child)
+        except (psutil.ZombieProcess, psutil.NoSuchProcess, psutil.AccessDenied):
+            continue
+    return found

@@ -14,8 +14,8 @@ serial twins take the same records.
 
 Records at the entry points. Inside compiled code a record costs nothing, but a call from
 Python pays for typing its arguments, and Numba types a named tuple in Python, field by field,
-where a plain tuple of arrays is typed by its C fast path: the row kernels' four records took
-2.9 µs to dispatch against 0.7 µs as plain tuples (one-row call, `docs/decisions.md`). The
+where a plain tuple of arrays is typed by its C fast path, several times faster for the row
+kernels' records (measured: `docs/decisions.md`). The
 entry points that every :func:`~dpfexplore.solvers.statics.solve_batch` call enters
 (:func:`.tables.design_tables.design_tables`, :func:`.statics.batch.solve_rows` and
 :func:`.sensitivity.batch.solve_rows_sensitivities` with their serial twins) therefore take

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import psutil
 import pytest
+from sweep_helpers import spawned_workers
 
 from dpfexplore.io.commits import commit_file
 from dpfexplore.sweep.engines import LocalEngine
@@ -98,28 +99,16 @@ def test_a_failing_chunk_is_reported_alone(tmp_path, processes):
     assert len(outcomes) == len(TASKS)
 
 
-def _spawned_workers() -> list[psutil.Process]:
-    """This process's live spawned children (earlier tests may leave zombies: not ours)."""
-    found = []
-    for child in psutil.Process().children():
-        try:
-            if "spawn_main" in " ".join(child.cmdline()):
-                found.append(child)
-        except (psutil.ZombieProcess, psutil.NoSuchProcess, psutil.AccessDenied):
-            continue
-    return found
-
-
 def test_close_after_an_interruption_ends_the_worker_processes(tmp_path):
     # Every chunk after the first takes a minute: closing after the first must not wait for them.
     work = SquaresWork(str(tmp_path), write_in_parent=True, seconds=60.0)
     engine = LocalEngine(processes=2)
-    before = {p.pid for p in _spawned_workers()}
+    before = {p.pid for p in spawned_workers()}
     engine.start(work)
     outcomes = engine.run(work, TASKS)
     first = next(outcomes)
     assert first.path == TASKS[0].path
-    workers = [p for p in _spawned_workers() if p.pid not in before]
+    workers = [p for p in spawned_workers() if p.pid not in before]
     assert len(workers) == 2
     started = time.perf_counter()
     engine.close()  # as the caller's finally does on Ctrl-C

@@ -8,8 +8,8 @@ import logging
 import time
 
 import pandas as pd
-import psutil
 import pytest
+from sweep_helpers import spawned_workers
 
 from dpfexplore.cli import main
 from dpfexplore.io.commits import StoreError
@@ -120,8 +120,7 @@ def test_an_interrupted_sweep_keeps_its_chunks_and_resumes(tmp_path, reference, 
     assert time.perf_counter() - started < 60.0
     assert len(chunk_manifest(out)["chunks"]) == 1
     assert not (out / LOCK_NAME).exists() and not (out / "manifest.json").exists()
-    workers_left = [p for p in psutil.Process().children() if "spawn_main" in " ".join(p.cmdline())]
-    assert not workers_left
+    assert not spawned_workers()
     seen = []
     run_unitcell_sweep(job, out, workers=workers, progress=lambda d, t: seen.append(d))
     assert sorted(seen) == [2, 3]  # the committed chunk was kept

@@ -61,8 +61,8 @@ MAX_ITER = 12
 DELTA = np.int64(0)
 FIRST_FREE = np.int64(1)
 # assemble's ``want`` stays a literal on purpose (2: the Hessian, 0: the energy alone): each
-# level compiles its own assembly without the other levels' branches. Passing int64 instead
-# saved about 6 s of the group's first compile but made every path about 5 % slower.
+# level compiles its own assembly without the other levels' branches (an int64 compiles once,
+# faster, but leaves every level's branches in every path).
 
 #: Status codes of :func:`follow`.
 REACHED = 0

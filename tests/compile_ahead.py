@@ -16,7 +16,6 @@ them: one process at a time writes it, and nobody reads it while a process write
 
 from __future__ import annotations
 
-import dataclasses
 import fcntl
 import hashlib
 import sys
@@ -27,13 +26,12 @@ from pathlib import Path
 #: an earlier phase has not compiled (checked by compiling each lane alone on the cache the
 #: earlier phases left, and comparing the cache files each wrote): the statics family and the
 #: dynamics family both sit on "states" (the lattice); "snap" lands a snapped finger with the
-#: dynamics family's integrator and loaded state; the shell shares nothing. Batches read back
-#: from Parquet (``designs_from_rows``) carry read-only unit counts, another type for Numba:
-#: the statics compile again for them. The benchmarks time their own loops over the kernels.
+#: dynamics family's integrator and loaded state; the shell shares nothing. The benchmarks time
+#: their own loops over the kernels.
 PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
     (("states",), ("unit-cell shell",)),
     (("statics", "sensitivities", "sensitivities batch"), ("dynamics", "reset", "release")),
-    (("snap", "snap batch"), ("fast reset", "read-only counts", "benchmarks")),
+    (("snap", "snap batch"), ("fast reset", "benchmarks")),
 )
 
 
@@ -67,8 +65,6 @@ def _steps() -> dict:
     from dpfexplore.unitcell.shell import unit_cell_curve
 
     finger = load_design(example_path("gripper"))
-    counts = tiny_batch().n_units.copy()
-    counts.setflags(write=False)
     pulse = PressureProfile.pulse(0.7, (0.0, 1.0, 5.0, 5.1))
     batch = DesignBatch.from_designs([finger])
     many = tiny_batch().take(np.zeros(128, dtype=np.int64))  # past the serial twins' 64 rows
@@ -83,7 +79,6 @@ def _steps() -> dict:
         "reset": lambda: reset_times_batch(batch, pulse, t_end=6.0),
         "release": lambda: reset_times_batch(batch, pulse, t_end=6.0, method="release"),
         "fast reset": compile_fast_reset,
-        "read-only counts": lambda: warm_up(dataclasses.replace(tiny_batch(), n_units=counts)),
         "benchmarks": _benchmarks,
         "unit-cell shell": lambda: unit_cell_curve(3.0, 0.8, max_steps=20),
     }

@@ -33,7 +33,7 @@ from pathlib import Path
 
 from .commits import StoreError
 
-__all__ = ["LOCK_NAME", "LockHeld", "file_lock", "read_lock", "sweep_lock"]
+__all__ = ["LOCK_NAME", "LockHeld", "file_lock", "read_lock", "remove_if_empty", "sweep_lock"]
 
 LOCK_NAME = ".dpfexplore-lock"
 
@@ -224,3 +224,11 @@ def sweep_lock(out: str | Path) -> Iterator[dict]:
     out.mkdir(parents=True, exist_ok=True)
     with file_lock(out / LOCK_NAME, f"--out {out}: another sweep is using this directory") as me:
         yield me
+
+
+def remove_if_empty(out: str | Path) -> None:
+    """Remove directory ``out`` if it holds nothing (the lock's directory of a refused sweep)."""
+    try:
+        Path(out).rmdir()
+    except OSError:
+        pass

@@ -320,10 +320,13 @@ class DesignBatch:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "constants", _constants_set(self.constants))
+        # Writable arrays (copied only when not): Numba types a read-only array (one read back
+        # from Parquet, say) as another type and would compile every kernel again for it.
         n = np.asarray(self.n_units).shape[0]
-        object.__setattr__(self, "n_units", np.asarray(self.n_units, dtype=np.int64).reshape(n))
+        counts = np.asarray(self.n_units, dtype=np.int64).reshape(n)
+        object.__setattr__(self, "n_units", np.require(counts, requirements="W"))
         for name in PER_UNIT_FIELDS:
-            arr = np.asarray(getattr(self, name), dtype=np.float64)
+            arr = np.require(np.asarray(getattr(self, name), dtype=np.float64), requirements="W")
             if arr.shape != (n, MAX_UNITS):
                 raise ValueError(
                     f"{name}: batch array has shape {arr.shape}, need {(n, MAX_UNITS)}"

@@ -40,7 +40,7 @@ from pathlib import Path
 import pyarrow as pa
 
 from ..io.files import TEMP_SUFFIX
-from ..io.lock import LOCK_NAME, LockHeld, sweep_lock
+from ..io.lock import LOCK_NAME, LockHeld, remove_if_empty, sweep_lock
 from ..model.constants_set import DEFAULT
 from ..model.version import MODEL_VERSION, package_versions
 from .chunks import (
@@ -350,15 +350,8 @@ def run_sweep(
             return _run_locked(spec, out, resume, engine, evaluator, chunk_size, progress, started)
     except StoreError:
         if created:  # bad input writes nothing: remove the directory the lock created
-            _remove_if_empty(out)
+            remove_if_empty(out)
         raise
-
-
-def _remove_if_empty(out: Path) -> None:
-    try:
-        out.rmdir()
-    except OSError:
-        pass
 
 
 def _run_locked(spec, out, resume, engine, evaluator, chunk_size, progress, started):

@@ -62,7 +62,7 @@ import numpy as np
 
 from ..io.commits import MANIFEST, StoreError, read_json, remove_leftovers
 from ..io.files import atomic_write
-from ..io.lock import sweep_lock
+from ..io.lock import remove_if_empty, sweep_lock
 from ..io.toml_fields import FieldError, check_keys, integer, numbers, positive, read_toml, table
 from ..sweep.engines import DaskEngine, Engine, LocalEngine
 from ..sweep.work import ChunkFailure
@@ -288,15 +288,8 @@ def run_unitcell_sweep(
             return _run_locked(job, out, runner, progress)
     except ValueError:
         if created:  # bad input writes nothing: remove the directory the lock created
-            _remove_if_empty(out)
+            remove_if_empty(out)
         raise
-
-
-def _remove_if_empty(out: Path) -> None:
-    try:
-        out.rmdir()
-    except OSError:
-        pass
 
 
 def _marked_fingerprint(out: Path) -> str | None:

@@ -105,3 +105,23 @@ def test_a_batch_flags_bad_rows_without_raising():
     assert bad.design(0) == good
     with pytest.raises(ValueError):
         bad.design(1)
+
+
+def test_a_batch_of_read_only_arrays_holds_writable_copies():
+    # Arrays read back from Parquet are read-only, another array type for Numba: a batch holds
+    # writable ones, so that the kernels compiled for sampled designs serve read-back ones too.
+    fields = {
+        name: getattr(DesignBatch.from_designs([Design(**GOOD)] * 3), name)
+        for name in DesignBatch.ARRAY_FIELDS
+    }
+    for array in fields.values():
+        array.setflags(write=False)
+    batch = DesignBatch(**fields)
+    for name in DesignBatch.ARRAY_FIELDS:
+        assert getattr(batch, name).flags.writeable, name
+        assert np.array_equal(getattr(batch, name), fields[name], equal_nan=True), name
+    assert not fields["n_units"].flags.writeable  # the caller's arrays are left as they were
+    writable = DesignBatch.from_designs([Design(**GOOD)])
+    assert (
+        DesignBatch(**{n: getattr(writable, n) for n in DesignBatch.ARRAY_FIELDS}).H is writable.H
+    )

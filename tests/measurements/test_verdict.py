@@ -13,12 +13,14 @@ import pytest
 from model_helpers import other_set
 
 from dpfexplore.cli import main
-from dpfexplore.measurements.verdict import failed_summary, record_verdict
+from dpfexplore.measurements.verdict import failed_summary, record_verdict, verdict_of
 from dpfexplore.model.constants_set import (
     DEFAULT,
     PACKAGED_DIR,
     ConstantsSetError,
+    find_constants_set,
     load_constants_set,
+    packaged_sets,
 )
 
 SHELL = PACKAGED_DIR / "shell-extended.json"
@@ -130,3 +132,24 @@ def test_design_refuses_a_failed_set_unless_allowed(tmp_path, capsys, monkeypatc
     monkeypatch.setattr(design_module, "run_design", ran)
     with pytest.raises(Ran):  # past the refusal, into the solve
         main([*argv, "--allow-unvalidated"])
+
+
+def test_every_packaged_set_carries_its_current_verdict():
+    # Main never ships a set that silently mispredicts: each packaged set's file records the
+    # verdict validate() gives today on the packaged measurements. After changing a set (or the
+    # measurements), record it again: dpfexplore validate --constants NAME --record
+    assert packaged_sets()
+    for name in packaged_sets():
+        constants = find_constants_set(name)
+        assert constants.validation is not None, f"{name}: no verdict recorded"
+        want = json.loads(json.dumps(verdict_of(constants).to_dict()))
+        got = dict(constants.validation)
+        assert got.pop("limits_mm") == pytest.approx(want.pop("limits_mm"), rel=1e-9)
+        assert got == want, f"{name}: its recorded verdict is stale"
+
+
+def test_shell_extended_is_marked_failing():
+    shell = find_constants_set("shell-extended")
+    summary = failed_summary(shell)
+    assert summary is not None and "held 0/5 NinjaFlex 85A, 0/8 Cheetah 95A" in summary
+    assert shell.fingerprint == json.loads(SHELL.read_text())["fingerprint"]

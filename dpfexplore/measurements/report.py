@@ -163,8 +163,8 @@ def summary_line(validation: Validation) -> str:
         total = sum(s.fingers for s in mine)
         errors = [abs(r - 1) for s in mine for r in s.stiffness_ratios]
         text = f"{name!r}: mean tip distance {distances or '-'}; held {held}/{total}"
-        if errors:
-            text += f"; stiffness within {max(errors):.0%}"
+        if errors:  # a bound: rounded up
+            text += f"; stiffness within {math.ceil(100 * max(errors) - 1e-9):d}%"
         try:
             text += "" if validation.verdict(name).passes else " (FAILS the goal)"
         except KeyError:

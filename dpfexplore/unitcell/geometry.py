@@ -35,7 +35,9 @@ from .._kernels.shell.records import ShellGeometry
 __all__ = [
     "CLAMP",
     "EDGES",
+    "WALL_PER_RADIUS",
     "Plate",
+    "cell_plate",
     "check_inputs",
     "n_unknowns",
     "plate_elements",
@@ -81,6 +83,21 @@ class Plate:
         if thickness >= radius:
             raise ValueError(f"plate thickness={thickness!r}: must be below its radius")
         return Plate(radius, thickness, self.edge)
+
+
+#: The chamber wall's thickness per base radius in the paper's unit cell (``t_ch = 1`` mm at
+#: ``r_b = 5`` mm, MODEL.md §2).
+WALL_PER_RADIUS = 0.2
+
+
+def cell_plate(r_b: float) -> Plate:
+    """The paper's unit cell's plate scaled with ``r_b``: :func:`square_plate` of ``t_ch = r_b/5``.
+
+    At ``r_b = 5`` mm this is the face of the paper's cell (``UC = 15``, ``t_ch = 1`` mm); a
+    dome of another base radius sits in the geometrically similar cell, so that the reach per
+    height depends on ``t/H`` and ``H/R`` alone, as the closed forms assume.
+    """
+    return square_plate(r_b, WALL_PER_RADIUS * r_b, "pinned")
 
 
 def square_plate(r_b: float = 5.0, t_ch: float = 1.0, edge: str = "pinned") -> Plate:

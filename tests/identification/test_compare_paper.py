@@ -70,7 +70,7 @@ def test_a_set_from_a_small_sweep(tmp_path):
     # H = 1.1, t = 1: a low thick dome with no inverted rest (its ghost gives alpha)
     grid = {"H": [1.1, 2.5, 3.0, 3.5, 4.0, 5.0], "t": [0.6, 1.0], "r_b": [5.0]}
     run_unitcell_sweep(job_from_dict({"grid": grid, "options": {"chunk": 12}}), tmp_path)
-    result = identify_sweep(tmp_path, name="small")
+    result = identify_sweep(tmp_path, name="small", method="features")
     constants = result.constants
     constants.check()
     assert constants.provenance["settings"]["fit"] == "features"

@@ -46,7 +46,8 @@ import pandas as pd
 from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import minimize_scalar
 
-from ..model.constants_set import DEFAULT
+from ..model.closed_form import ClosedForm
+from ..model.constants_set import DEFAULT, ConstantsSet
 from ..unitcell.reach import reach_variants
 from ..unitcell.shell import UnitCellRun
 from .compare_paper import PAPER_BOX, classify
@@ -54,6 +55,8 @@ from .features import curve_features, fit_features
 from .states import _curve_barrier, _law, _law_barrier, fit_states, states_curves_from_frame
 
 __all__ = [
+    "FINGER_CASES",
+    "box_set",
     "compact_units",
     "curve_definitions",
     "fit_recipes",
@@ -321,6 +324,67 @@ def compact_units(frame: pd.DataFrame) -> dict[str, dict]:
                 entry[f"{row['model']}: {row['recipe']}"] = [g(row["k_b"]), g(row["alpha"])]
         out[f"{H:.6g}, {t:.6g}"] = entry
     return out
+
+
+#: The per-dome constants put on the printed fingers: (label, recipe or None for the paper's
+#: k_b and α, tip model or None for the paper's tip_dis).
+FINGER_CASES = (
+    ("paper's k_b, α; cap's tip", None, "cap pinned"),
+    ("paper's k_b, α; cell's tip", None, "square pinned"),
+    ("features; cap's tip", "cap pinned: features (slope)", "cap pinned"),
+    ("features; cell's tip", "cap pinned: features (slope)", "square pinned"),
+    ("full, energy+force; cell's tip", "cap pinned: full, energy+force", "square pinned"),
+    ("to fold, relative; cell's tip", "cap pinned: to_fold, relative", "square pinned"),
+    ("barrier; cell's tip", "cap pinned: barrier", "square pinned"),
+    ("states; cap's tip", "cap pinned: states", "cap pinned"),
+    ("states; cell's tip", "cap pinned: states", "square pinned"),
+    ("states; hinge two-unit tip", "cap pinned: states", "two-unit, hinge"),
+    ("states 2:1; cell's tip", "cap pinned: states 2:1", "square pinned"),
+    ("states 1:2; cell's tip", "cap pinned: states 1:2", "square pinned"),
+    ("square plate's states; its tip", "square pinned: states", "square pinned"),
+)
+
+
+def box_set(units: dict[str, dict], name: str, recipe: str | None, tip: str | None):
+    """A constants set from the record's per-dome values over the paper's box.
+
+    Each form a full cubic in ``π1 = t/H``, ``π3 = H/R`` (16 terms) least-squared on the grid's
+    domes; ``recipe`` (a ``"plate: recipe"`` key of :func:`compact_units`) gives ``k_b`` and
+    ``α``, ``tip`` (a tip model) ``tip_dis``; None keeps the paper's form. The domain is the
+    paper's box. Raises :class:`~dpfexplore.model.constants_set.ConstantsSetError` when the set
+    is unphysical there (a recipe whose ``α`` leaves ``(0, 1)``).
+    """
+    exponents = tuple((a, b) for a in range(4) for b in range(4))
+    keys = list(units)
+    H = np.array([float(k.split(",")[0]) for k in keys])
+    t = np.array([float(k.split(",")[1]) for k in keys])
+    r_b, E = PAPER_BOX["r_b"], PAPER_BOX["E"]
+    R = (H**2 + r_b**2) / (2 * H)
+    library = np.column_stack([(t / H) ** a * (H / R) ** b for a, b in exponents])
+
+    def form(values):
+        values = np.asarray(values, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"{name}: a dome without a value")
+        coefficients = np.linalg.lstsq(library, values, rcond=None)[0]
+        return ClosedForm(exponents, tuple(float(c) for c in coefficients))
+
+    def column(key, i):
+        return [np.nan if units[k][key][i] is None else units[k][key][i] for k in keys]
+
+    k_hat = DEFAULT.k_hat if recipe is None else form(np.array(column(recipe, 0)) * R / (E * t * t))
+    alpha = DEFAULT.alpha if recipe is None else form(column(recipe, 1))
+    tip_ratio = DEFAULT.tip_ratio if tip is None else form(np.array(column(f"tip: {tip}", 0)) / H)
+    constants = ConstantsSet(
+        name=name,
+        k_hat=k_hat,
+        alpha=alpha,
+        tip_ratio=tip_ratio,
+        domain={"H": PAPER_BOX["H"], "t": PAPER_BOX["t"], "r_b": (r_b, r_b), "E": (5.0, 40.0)},
+        provenance={"method": f"dpfexplore.identification.causes.box_set: {recipe}; tip {tip}"},
+    )
+    constants.check()
+    return constants
 
 
 def run_grid(n_H: int = 7, n_t: int = 6, *, n_elements: int | None = None) -> pd.DataFrame:

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from dpfexplore.identification.causes import (
     DATA,
+    FINGER_CASES,
     WEIGHTS,
+    box_set,
     curve_definitions,
     fit_recipes,
     least_squares_quartic,
@@ -16,6 +21,7 @@ from dpfexplore.identification.causes import (
     unit_rows,
 )
 from dpfexplore.identification.spring_fit import spring_energy, spring_force
+from dpfexplore.model.constants_set import DEFAULT, ConstantsSetError
 from dpfexplore.unitcell import unit_cell_curve
 from dpfexplore.unitcell.reach import hinge_stiffness
 
@@ -63,3 +69,24 @@ def test_one_domes_rows_and_their_tables():
     assert tips["two-unit, hinge"]["tip_ratio"][1] < tips["cap pinned"]["tip_ratio"][1]
     states = {row["recipe"]: row for row in summary["fit_recipes"]}["states"]
     assert states["valid"] == 1 and 0.5 < states["k_b_ratio"][1] < 1.0
+
+
+def test_a_box_set_from_the_record_reproduces_its_domes():
+    record = Path(__file__).parents[2] / "results" / "reports" / "unitcell-causes.json"
+    units = json.loads(record.read_text())["units"]
+    constants = box_set(units, "states, cell", "cap pinned: states", "square pinned")
+    for key in ("3, 0.5", "4, 0.8", "5, 1"):
+        H, t = (float(v) for v in key.split(","))
+        values = constants.evaluate(H, t, 5.0, 26.0)
+        k_b, alpha = units[key]["cap pinned: states"]
+        assert float(values["k_b"]) == pytest.approx(k_b, rel=0.02)
+        assert float(values["alpha"]) == pytest.approx(alpha, abs=0.003)
+        assert float(values["tip_dis"]) == pytest.approx(
+            units[key]["tip: square pinned"][0], rel=0.02
+        )
+    # the paper's forms where a case names none; a recipe with alpha <= 0 is refused
+    paper = box_set(units, "paper", None, None)
+    assert paper.k_hat == DEFAULT.k_hat and paper.alpha == DEFAULT.alpha
+    assert {case[1] for case in FINGER_CASES} >= {None, "cap pinned: states"}
+    with pytest.raises(ConstantsSetError):
+        box_set(units, "envelope", "cap pinned: envelope, energy+force", "square pinned")

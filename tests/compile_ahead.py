@@ -31,7 +31,7 @@ from pathlib import Path
 #: from Parquet (``designs_from_rows``) carry read-only unit counts, another type for Numba:
 #: the statics compile again for them. The benchmarks time their own loops over the kernels.
 PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
-    (("states",), ("unit-cell shell",)),
+    (("states",), ("unit-cell shell", "unit-cell contact")),
     (("statics", "sensitivities", "sensitivities batch"), ("dynamics", "reset", "release")),
     (("snap", "snap batch"), ("fast reset", "read-only counts", "benchmarks")),
 )
@@ -64,6 +64,7 @@ def _steps() -> dict:
     from dpfexplore.solvers.dynamics.simulate import PressureProfile
     from dpfexplore.solvers.statics import warm_up
     from dpfexplore.sweep.warmup import tiny_batch
+    from dpfexplore.unitcell.contact import two_unit_rest
     from dpfexplore.unitcell.shell import unit_cell_curve
 
     finger = load_design(example_path("gripper"))
@@ -86,6 +87,7 @@ def _steps() -> dict:
         "read-only counts": lambda: warm_up(dataclasses.replace(tiny_batch(), n_units=counts)),
         "benchmarks": _benchmarks,
         "unit-cell shell": lambda: unit_cell_curve(3.0, 0.8, max_steps=20),
+        "unit-cell contact": lambda: two_unit_rest(3.0, 0.8, gap=1.5, n_elements=16),
     }
 
 

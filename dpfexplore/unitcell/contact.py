@@ -186,9 +186,16 @@ def two_unit_rest(
     if y is None:
         y = reference_unknowns(geom)
         return ContactRest(
-            None, None, False, 0.0, 0.0, False, 0.0, _shape(y, geom),
+            None,
+            None,
+            False,
+            0.0,
+            0.0,
+            False,
+            0.0,
+            _shape(y, geom),
             time.perf_counter() - started,
-        )  # fmt: skip
+        )
     free = float(y[0])
     shape = _shape(y, geom)
     offset = 0.5 * t
@@ -197,9 +204,16 @@ def two_unit_rest(
     if not math.isfinite(gap) or clear <= 0.0:
         membrane, bending = _energy(y, geom)
         return ContactRest(
-            free, free, False, 0.0, 0.0, True, membrane + bending, shape,
+            free,
+            free,
+            False,
+            0.0,
+            0.0,
+            True,
+            membrane + bending,
+            shape,
             time.perf_counter() - started,
-        )  # fmt: skip
+        )
     area = _contact_area(geom.r0, geom.z0)
     modulus = CONTACT_MODULUS * E / t
 
@@ -263,8 +277,9 @@ def _free_rest(geom, H: float, ftol: float, xtol: float) -> NDArray | None:
     of least energy is returned (None if there is none).
     """
     travel = TRAVEL * H
-    piece = _trace(geom, travel, DEFAULT_STEP * travel, 3000, ftol, xtol,
-                   reference_unknowns(geom), 1.0, False)  # fmt: skip
+    piece = _trace(
+        geom, travel, DEFAULT_STEP * travel, 3000, ftol, xtol, reference_unknowns(geom), 1.0, False
+    )
     best, lowest = None, math.inf
     force, ys = piece.force, piece.ys
     for i in range(1, force.size):

@@ -66,12 +66,17 @@ def test_the_law_between_a_stiff_start_and_a_low_barrier_splits_the_difference()
     frame = synthetic_curves([4.0], [0.7], [5.0], [26.0], noise=0.0)
     (curve,) = states_curves_from_frame(frame)
     exact = fit_states(curve)
-    halved = StatesCurve(
-        **{**curve.__dict__, "folded": True, "start_displacement": curve.displacement,
-           "start_energy": curve.energy, "start_force": curve.force,
-           "zero_force": ((3.0, 0.75 * _law_barrier(exact.k_b, exact.alpha, exact.d)),)},
-    )  # fmt: skip
-    fit = fit_states(halved)
+    lowered = StatesCurve(
+        **{
+            **curve.__dict__,
+            "folded": True,
+            "start_displacement": curve.displacement,
+            "start_energy": curve.energy,
+            "start_force": curve.force,
+            "zero_force": ((3.0, 0.75 * _law_barrier(exact.k_b, exact.alpha, exact.d)),),
+        },
+    )
+    fit = fit_states(lowered)
     assert fit.k_b < exact.k_b and fit.alpha > exact.alpha
     # the two relative misfits share the difference: the law's k_b below the slope, its barrier
     # above the one given

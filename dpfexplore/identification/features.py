@@ -190,7 +190,7 @@ class FeatureFit(CurveFit):
 
     @property
     def residuals(self) -> dict[str, float]:
-        """Feature name -> (law − curve) / |curve| (0 up to round-off for the matched ones)."""
+        """Feature name -> ``(law − curve) / abs(curve)`` (0 up to round-off for matched ones)."""
         return {
             k: (self.law[k] - v) / abs(v) if v else float("nan")
             for k, v in self.features.items()

@@ -61,7 +61,7 @@ def test_plot_and_report(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 50_000
     assert "dpfexplore validate --plot fig/v.png --report pages/v.md" in page
     assert "](../fig/v.png)" in page  # linked relative to the page
-    assert "| shell-extended | Cheetah 95A | 0/8 |" in page
+    assert "| shell-extended | Cheetah 95A | 3/8 |" in page
 
 
 def test_own_measurement_file(tmp_path, capsys):

@@ -25,6 +25,9 @@ solvers
     :func:`snap_pressures`, legs: the Python API over the kernels (MODEL.md §6-§10).
 plotting
     ``plot_*(..., ax=None) -> Axes``; imports only model and solvers.
+measurements
+    Printed fingers as data (the paper's ship with the package) and :func:`validate`: how well
+    each constants set predicts them.
 sweep
     Job specs, Latin-hypercube plans, chunked evaluation into Parquet, local and Dask engines;
     ``sweep.storage``, the on-disk side (schema, commits, verified reads).
@@ -90,6 +93,7 @@ _EXPORTS = {
     "snap_pressures_batch": ".solvers.snap.batch",
     "solve_batch": ".solvers.statics",
     "spring_constants": ".solvers.lattice",
+    "validate": ".measurements.validate",
 }
 
 __all__ = [
@@ -120,6 +124,7 @@ __all__ = [
     "snap_pressures_batch",
     "solve_batch",
     "spring_constants",
+    "validate",
 ]
 
 

@@ -8,7 +8,7 @@ stability maps ``results/reports/unitcell-vs-paper.png``::
     .venv/bin/python scripts/unitcell_vs_paper.py   # 7 × 6 grid, 128 elements; see --help
 
 With ``--extended DIR`` it identifies a constants set from the ``dpfexplore unitcell sweep``
-directory ``DIR`` instead (features fit,
+directory ``DIR`` instead (``identify``'s per-curve method unless ``--method``,
 :func:`~dpfexplore.identification.compare_paper.identify_sweep`) and saves it under
 ``results/constants/NAME``: how the packaged ``shell-extended`` was made::
 
@@ -34,6 +34,7 @@ from dpfexplore.identification.compare_paper import (
     plot_maps,
     summarise,
 )
+from dpfexplore.identification.identify import DEFAULT_METHOD
 from dpfexplore.identification.report import (
     format_report,
     read_identification,
@@ -55,9 +56,9 @@ def _jsonable(value):
     return value
 
 
-def _extended(directory: Path, name: str) -> int:
+def _extended(directory: Path, name: str, method: str) -> int:
     """Identify a constants set from a unitcell sweep, save it, print its report."""
-    result = identify_sweep(directory, name=name)
+    result = identify_sweep(directory, name=name, method=method)
     out = Path("results") / "constants" / name
     save_identification(result, out, plot=True, force=True)
     _, report = read_identification(out)
@@ -80,13 +81,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--extended",
         type=Path,
         default=None,
-        help="instead: identify a set from this unitcell sweep directory (features fit) and "
-        "save it under results/constants/NAME",
+        help="instead: identify a set from this unitcell sweep directory and save it under "
+        "results/constants/NAME",
     )
     parser.add_argument("--name", default="shell-extended", help="name of the --extended set")
+    parser.add_argument(
+        "--method",
+        choices=("states", "features", "least_squares"),
+        default=DEFAULT_METHOD,
+        help="per-curve fit of the --extended set (default: identify's)",
+    )
     args = parser.parse_args(argv)
     if args.extended is not None:
-        return _extended(args.extended, args.name)
+        return _extended(args.extended, args.name, args.method)
     H_values = np.linspace(*PAPER_BOX["H"], args.n_H)
     t_values = np.linspace(*PAPER_BOX["t"], args.n_t)
     start = time.perf_counter()
@@ -94,8 +101,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     elapsed = time.perf_counter() - start
     summary = summarise(frame)
     record = {
-        "what": "shell model (dpfexplore.unitcell, features fit) against the paper's closed "
-        "forms (DEFAULT set) over the paper's box; neither tuned to the other",
+        "what": "shell model (dpfexplore.unitcell; states and features fits; the cap's and the "
+        "cell's tip_dis) against the paper's closed forms (DEFAULT set) over the paper's box; "
+        "neither tuned to the other",
         "command": "python scripts/unitcell_vs_paper.py "
         f"--n-H {args.n_H} --n-t {args.n_t} --elements {args.elements} "
         f"--json {args.json} --plot {args.plot}",

@@ -26,12 +26,13 @@ from pathlib import Path
 #: an earlier phase has not compiled (checked by compiling each lane alone on the cache the
 #: earlier phases left, and comparing the cache files each wrote): the statics family and the
 #: dynamics family both sit on "states" (the lattice); "snap" lands a snapped finger with the
-#: dynamics family's integrator and loaded state; the shell shares nothing. The benchmarks time
-#: their own loops over the kernels.
+#: dynamics family's integrator and loaded state; the shell shares nothing with them, and the
+#: unit-cell contact builds on the shell (phase 1). The benchmarks time their own loops over
+#: the kernels.
 PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
     (("states",), ("unit-cell shell",)),
     (("statics", "sensitivities", "sensitivities batch"), ("dynamics", "reset", "release")),
-    (("snap", "snap batch"), ("fast reset", "benchmarks")),
+    (("snap", "snap batch"), ("fast reset", "benchmarks", "unit-cell contact")),
 )
 
 
@@ -62,6 +63,7 @@ def _steps() -> dict:
     from dpfexplore.solvers.dynamics.simulate import PressureProfile
     from dpfexplore.solvers.statics import warm_up
     from dpfexplore.sweep.warmup import tiny_batch
+    from dpfexplore.unitcell.contact import two_unit_rest
     from dpfexplore.unitcell.shell import unit_cell_curve
 
     finger = load_design(example_path("gripper"))
@@ -81,6 +83,7 @@ def _steps() -> dict:
         "fast reset": compile_fast_reset,
         "benchmarks": _benchmarks,
         "unit-cell shell": lambda: unit_cell_curve(3.0, 0.8, max_steps=20),
+        "unit-cell contact": lambda: two_unit_rest(3.0, 0.8, gap=1.5, n_elements=16),
     }
 
 

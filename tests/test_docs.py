@@ -88,3 +88,13 @@ def test_identification_page_shows_the_compare_figure(site):
     image = site / "_images" / "shell-extended-compare.png"
     assert "shell-extended-compare.png" in page
     assert image.exists() and image.stat().st_size > 50_000
+
+
+@pytest.mark.slow
+def test_validation_page_shows_the_report_and_its_figure(site):
+    # results/reports/validation.{md,png} (dpfexplore validate --report --plot), included
+    page = (site / "guide" / "validation.html").read_text(encoding="utf-8")
+    assert "How well it predicts real fingers" in page
+    assert "validation.png" in page and "Per set and material" in page
+    image = site / "_images" / "validation.png"
+    assert image.exists() and image.stat().st_size > 50_000

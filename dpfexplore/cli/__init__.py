@@ -55,6 +55,7 @@ COMMAND_MODULES = (
     "design",
     "identify",
     "unitcell",
+    "validate",
     "bench",
 )
 
@@ -158,18 +159,41 @@ def _run(argv: Sequence[str] | None) -> int:
     handler = SafeStreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, handlers=[handler])
-    # The solvers announce a first compilation once the inputs are checked (solvers.compilation):
-    # shown as the command's own line, like every other notice.
-    compile_log = logging.getLogger("dpfexplore.compile")
+    # The solvers announce a first compilation once the inputs are checked (solvers.compilation),
+    # and reading a constants set that failed validation announces its figures
+    # (model.constants_set): each shown once, as the command's own line, like every notice.
+    notice_logs = [logging.getLogger(name) for name in NOTICE_LOGGERS]
     notices = SafeStreamHandler(sys.stderr)
     notices.setFormatter(logging.Formatter(f"dpfexplore {args.command}: %(message)s"))
-    compile_log.addHandler(notices)
-    compile_log.propagate = False
+    notices.addFilter(_OncePerCommand())
+    for log in notice_logs:
+        log.addHandler(notices)
+        log.propagate = False
     try:
         return _handle(args)
     finally:
-        compile_log.removeHandler(notices)
-        compile_log.propagate = True
+        for log in notice_logs:
+            log.removeHandler(notices)
+            log.propagate = True
+
+
+#: Loggers whose records a command shows as its own lines (``dpfexplore COMMAND: ...``).
+NOTICE_LOGGERS = ("dpfexplore.compile", "dpfexplore.validation")
+
+
+class _OncePerCommand(logging.Filter):
+    """Let each notice through once per command (a set read twice is announced once)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if message in self.seen:
+            return False
+        self.seen.add(message)
+        return True
 
 
 def _handle(args: argparse.Namespace) -> int:

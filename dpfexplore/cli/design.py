@@ -7,6 +7,8 @@ to ``DIR`` (default ``results/<scene name>``): ``summary.json``, ``history.parqu
 TOML per target (``dpfexplore states`` reads it back) and, with ``--plot``, figures.
 
 ``--target-reset T`` replaces a pick-and-place scene's targets with the one reset time ``T``.
+A constants set whose file records that it failed validation against printed fingers
+(``dpfexplore validate --record``) is refused unless ``--allow-unvalidated``.
 
 Exit codes: 0 every target met, 1 some target unreachable or a check failed (the report says
 which, and why), 2 bad input (one line on stderr; nothing written).
@@ -20,7 +22,7 @@ import time
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import add_constants_option
+from .support.inputs import add_constants_option, refuse_failed_set
 from .support.output import json_text
 
 
@@ -59,6 +61,12 @@ def register(subparsers) -> None:
         help="pick-and-place scenes: one target reset time T (s) instead of the scene's targets",
     )
     add_constants_option(parser)
+    parser.add_argument(
+        "--allow-unvalidated",
+        action="store_true",
+        help="design on a constants set whose file records that it failed validation against "
+        "printed fingers (dpfexplore validate); refused otherwise",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -113,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
                 spec = apply(spec, getattr(args, name))
     except (SceneSpecError, ValueError) as exc:
         raise UsageError(str(exc)) from None
+    refuse_failed_set(spec.constants, args.allow_unvalidated)
     out = args.out if args.out is not None else Path("results") / spec.name
     try:  # before the solve: refusing after minutes of work helps nobody
         check_output_dir(out, force=args.force)

@@ -52,10 +52,11 @@ def register(subparsers) -> None:
     )
     fit.add_argument(
         "--method",
-        choices=("least_squares", "features"),
-        default="least_squares",
-        help="per-curve fit: robust least squares over the curve (default), or the law matched "
-        "to its initial slope, inverted rest and that rest's energy (folded shell curves)",
+        choices=("states", "features", "least_squares"),
+        default="states",
+        help="per-curve fit: the law holding the curve's inverted rest, its initial slope and "
+        "barrier balanced (default); the law matched to the initial slope, inverted rest and "
+        "that rest's energy; or robust least squares over the curve",
     )
     fit.add_argument(
         "--allow-flagged", action="store_true", help="leave flagged curve fits out, not refuse"
@@ -125,7 +126,11 @@ def _fit(args: argparse.Namespace) -> int:
     if not 1 <= args.degree <= 5:
         raise UsageError(f"--degree {args.degree}: must be between 1 and 5")
     try:
-        if args.method == "features":
+        if args.method == "states":
+            from ..identification.states import read_states_curves
+
+            curves = read_states_curves(args.table)  # keeps first branches and zero-force states
+        elif args.method == "features":
             from ..identification.features import read_feature_curves
 
             curves = read_feature_curves(args.table)  # keeps each curve's first branch

@@ -2,11 +2,14 @@
 
 Over a grid of the paper's box (``H ∈ [3, 5]``, ``t ∈ [0.5, 1]``, ``r_b = 5``, ``E = 26``,
 ``ν = 0.35``) every dome's curve is traced (:func:`~dpfexplore.unitcell.unit_cell_curve`), its
-table read as ``identify fit --method features`` reads it
-(:func:`~dpfexplore.identification.features.feature_curves_from_frame`) and the spring law
-matched to its features (:func:`~dpfexplore.identification.features.fit_features`): ``k_b`` the
-initial slope, the law's second minimum at the inverted rest, with that rest's energy. The
-shell's ``tip_dis`` is its zero-force inverted apex travel (no contact). The paper's values are
+table read as ``identify fit`` reads it and the spring law fitted two ways: by the unit's states
+(``states_*`` columns, ``identify``'s default, :mod:`dpfexplore.identification.states`: the
+inverted rest matched, initial slope and barrier balanced) and by features (the plain columns,
+:func:`~dpfexplore.identification.features.fit_features`: ``k_b`` the initial slope, the law's
+second minimum at the inverted rest, with that rest's energy). The shell's ``tip_dis`` is its
+zero-force inverted apex travel (no contact); ``cell_tip_dis`` that of the dome set in its unit
+cell's plate (:func:`~dpfexplore.unitcell.geometry.cell_plate`), the reach the packaged set
+takes. The paper's values are
 those of its closed forms (:data:`dpfexplore.model.constants_set.DEFAULT`); the class is
 bistable ``α < 1/9``, metastable ``α < 1/3``, else monostable (:mod:`dpfexplore.model.constants`).
 Neither side is tuned to the other.
@@ -29,9 +32,12 @@ import pandas as pd
 
 from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import DEFAULT
+from ..unitcell.geometry import cell_plate
 from ..unitcell.shell import unit_cell_curve
-from .features import feature_curves_from_frame, fit_features
+from .features import fit_features
+from .identify import DEFAULT_METHOD
 from .spring_fit import fit_curve
+from .states import fit_states, states_curves_from_frame
 
 __all__ = [
     "PAPER_BOX",
@@ -69,9 +75,11 @@ def compare_unit(
 ) -> dict[str, float | str | bool | None]:
     """One dome: the shell's identified constants beside the paper's (module docstring)."""
     run = unit_cell_curve(H, t, r_b, E, nu, n_elements=n_elements)
+    cell = unit_cell_curve(H, t, r_b, E, nu, n_elements=n_elements, plate=cell_plate(r_b))
     frame = run.to_frame()
-    curve = feature_curves_from_frame(frame)[0]
+    curve = states_curves_from_frame(frame)[0]
     fit = fit_features(curve)
+    states = fit_states(curve)
     least = fit_curve(curve)  # the default method on the same table, for contrast
     paper = DEFAULT.evaluate(H, t, r_b, E)
     k_p, a_p, tip_p = (float(paper[k]) for k in ("k_b", "alpha", "tip_dis"))
@@ -113,6 +121,24 @@ def compare_unit(
         row[f"feature_{name}"] = value
     for name, value in fit.residuals.items():
         row[f"residual_{name}"] = value
+    row.update(
+        {
+            "states_k_b": states.k_b,
+            "states_alpha": states.alpha,
+            "states_class": classify(states.alpha),
+            "states_flags": "; ".join(states.flags),
+            "states_k_b_ratio": states.k_b / k_p,
+            "states_alpha_difference": states.alpha - a_p,
+            "states_saddle_energy": states.features.get("saddle_energy"),
+            "cell_tip_dis": cell.tip_dis,
+            "cell_tip_kind": cell.tip_kind,
+            "cell_initial_stiffness": cell.initial_stiffness,
+            "cell_tip_relative": (cell.tip_dis / tip_p - 1) if cell.tip_dis is not None else None,
+        }
+    )
+    row["states_class_agrees"] = row["states_class"] == row["paper_class"]
+    for name, value in states.residuals.items():
+        row[f"states_residual_{name}"] = value
     row["k_b_ratio"] = fit.k_b / k_p
     row["initial_stiffness_ratio"] = run.initial_stiffness / k_p
     row["alpha_difference"] = fit.alpha - a_p
@@ -146,14 +172,50 @@ def _span(values: pd.Series) -> dict[str, float]:
     return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max())}
 
 
+def _rms(values: pd.Series) -> float:
+    v = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
+    return float(np.sqrt(np.nanmean(v**2)))
+
+
+def _log_rms(values: pd.Series) -> float:
+    v = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
+    return float(np.sqrt(np.nanmean(np.log(v) ** 2)))
+
+
 def summarise(frame: pd.DataFrame) -> dict:
     """Ratios, differences, class agreement and the features' residuals over the grid."""
     confusion = (
         frame.groupby(["paper_class", "class"]).size().rename("n").reset_index().to_dict("records")
     )
     disagree = frame.loc[~frame["class_agrees"], ["H", "t", "paper_alpha", "alpha"]]
+    states_disagree = frame.loc[~frame["states_class_agrees"], ["H", "t", "paper_alpha"]]
     return {
         "units": len(frame),
+        "states": {
+            "fits_flagged": int((frame["states_flags"] != "").sum()),
+            "k_b_ratio_shell_over_paper": _span(frame["states_k_b_ratio"]),
+            "k_b_ratio_log_rms": _log_rms(frame["states_k_b_ratio"]),
+            "alpha_shell": _span(frame["states_alpha"]),
+            "alpha_difference_shell_minus_paper": _span(frame["states_alpha_difference"]),
+            "alpha_difference_rms": _rms(frame["states_alpha_difference"]),
+            "alpha_correlation": float(frame["states_alpha"].corr(frame["paper_alpha"])),
+            "class_agreement": {
+                "agree": int(frame["states_class_agrees"].sum()),
+                "of": len(frame),
+                "disagree_at": states_disagree.to_dict("records"),
+            },
+            "slope_residual": _span(frame.get("states_residual_slope", pd.Series(dtype=float))),
+            "saddle_residual": _span(
+                frame.get("states_residual_saddle_energy", pd.Series(dtype=float))
+            ),
+        },
+        "cell_tip": {
+            "relative_to_paper": _span(frame["cell_tip_relative"]),
+            "kinds": frame["cell_tip_kind"].fillna("none").value_counts().to_dict(),
+            "over_H": _span(frame["cell_tip_dis"] / frame["H"]),
+        },
+        "k_b_ratio_log_rms": _log_rms(frame["k_b_ratio"]),
+        "alpha_difference_rms": _rms(frame["alpha_difference"]),
         "fits_flagged": int((frame["flags"] != "").sum()),
         "k_b_ratio_shell_over_paper": _span(frame["k_b_ratio"]),
         "initial_stiffness_over_paper_k_b": _span(frame["initial_stiffness_ratio"]),
@@ -195,11 +257,15 @@ def summarise(frame: pd.DataFrame) -> dict:
     }
 
 
-def plot_maps(frame: pd.DataFrame, *, fig=None):
+def plot_maps(frame: pd.DataFrame, *, recipe: str = "states", fig=None):
     """Stability maps against ``t`` and ``H``: the paper's ``α``, the shell's, ``k_b`` ratio.
 
-    Returns the figure (no file I/O).
+    ``recipe``: whose constants are the shell's, ``"states"`` (``identify``'s default) or
+    ``"features"``. Returns the figure (no file I/O).
     """
+    if recipe not in ("states", "features"):
+        raise ValueError(f"recipe={recipe!r}: must be 'states' or 'features'")
+    prefix = "states_" if recipe == "states" else ""
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm
 
@@ -230,19 +296,19 @@ def plot_maps(frame: pd.DataFrame, *, fig=None):
     axes[0].contour(tt, hh, paper_fine, levels=[ALPHA_BISTABLE], colors="w", linewidths=1.5)
     classes(axes[0], "paper_class")
     axes[0].set_title("paper's closed form: α (white: α = 1/9)")
-    shell_alpha = grid("alpha").to_numpy()
+    shell_alpha = grid(f"{prefix}alpha").to_numpy()
     axes[1].contourf(t_values, H_values, shell_alpha, levels=levels, cmap="viridis", norm=norm)
     if np.nanmin(shell_alpha) < ALPHA_BISTABLE < np.nanmax(shell_alpha):
         axes[1].contour(
             t_values, H_values, shell_alpha, levels=[ALPHA_BISTABLE], colors="w", linewidths=1.5
         )
-    classes(axes[1], "class")
-    axes[1].set_title("shell, features fit: α (markers: class)")
+    classes(axes[1], f"{prefix}class")
+    axes[1].set_title(f"shell, {recipe} fit: α (markers: class)")
     fig.colorbar(image, ax=axes[:2], label="α", shrink=0.9)
-    ratio = grid("k_b_ratio").to_numpy()
+    ratio = grid(f"{prefix}k_b_ratio").to_numpy()
     rmap = axes[2].contourf(t_values, H_values, ratio, levels=12, cmap="magma")
     fig.colorbar(rmap, ax=axes[2], label="k_b shell / k_b paper")
-    axes[2].set_title("k_b: shell initial slope / paper")
+    axes[2].set_title(f"k_b: shell ({recipe} fit) / paper")
     for ax in axes:
         ax.set_xlabel("t (mm)")
         ax.set_xlim(PAPER_BOX["t"][0] - 0.02, PAPER_BOX["t"][1] + 0.02)
@@ -252,13 +318,14 @@ def plot_maps(frame: pd.DataFrame, *, fig=None):
     return fig
 
 
-def identify_sweep(directory: str | Path, *, name: str):
-    """A constants set from a ``unitcell sweep`` directory, by the features fit.
+def identify_sweep(directory: str | Path, *, name: str, method: str = DEFAULT_METHOD):
+    """A constants set from a ``unitcell sweep`` directory, by ``identify``'s per-curve ``method``.
 
     ``k̂`` and ``α`` come from every trusted fit (monostable shells included: their ghost gives
     a metastable ``α``); ``tip_dis`` exists for the domes with a stable inverted rest and for
     the monostable ones with a ghost (its travel: the rest merges into it at the bistable edge,
-    :mod:`dpfexplore.unitcell.path`), so its closed form is selected on those (the sweep's
+    :mod:`dpfexplore.unitcell.path`), in the sweep's ``tip`` model (the cap's own, or the dome
+    set in its unit cell's plate), so its closed form is selected on those (the sweep's
     ``curves.parquet`` leaves the column out when one dome lacks it), and the set's domain is
     theirs. Flagged fits are left out and counted in the notes.
 
@@ -271,8 +338,8 @@ def identify_sweep(directory: str | Path, *, name: str):
     directory = Path(directory)
     table = pd.read_parquet(directory / "curves.parquet")
     designs = pd.read_parquet(directory / "designs.parquet")
-    curves = feature_curves_from_frame(table)
-    main_fit = identify(curves, name=name, method="features", allow_flagged=True)
+    curves = states_curves_from_frame(table)
+    main_fit = identify(curves, name=name, method=method, allow_flagged=True)
     # the sweep names curve i "d{i:06d}" (dpfexplore.unitcell.sweep)
     tips = {f"d{int(i):06d}": v for i, v in zip(designs["design"], designs["tip_dis"], strict=True)}
     if not set(tips) >= set(table["curve"].astype(str)):
@@ -288,16 +355,22 @@ def identify_sweep(directory: str | Path, *, name: str):
     with_tip = table[table["curve"].astype(str).map(tips).notna()]
     with_tip = with_tip.assign(tip_dis=with_tip["curve"].astype(str).map(tips))
     tip_fit = identify(
-        feature_curves_from_frame(with_tip), name=name, method="features", allow_flagged=True
+        states_curves_from_frame(with_tip), name=name, method=method, allow_flagged=True
     )
     selections = {**main_fit.selections, "tip_ratio": tip_fit.selections["tip_ratio"]}
     flagged = sum(not f.ok for f in main_fit.fits)
+    where = (
+        "of the dome set in its unit cell's plate (the sweep's tip = 'cell')"
+        if "cap_tip_dis" in designs
+        else "of the pinned cap"
+    )
     notes = [
-        f"k_hat, alpha: {len(curves) - flagged} of {len(curves)} curves (features fit; "
+        f"k_hat, alpha: {len(curves) - flagged} of {len(curves)} curves ({method} fit; "
         f"{flagged} flagged and left out)",
-        f"tip_ratio: the {with_tip['curve'].nunique()} curves with a tip_dis ({n_ghost} of them "
-        "monostable, by their ghost's travel); the domain is theirs (a dome with neither an "
-        "inverted rest nor a least force past H has no tip_dis and lies outside it)",
+        f"tip_ratio: the {with_tip['curve'].nunique()} curves with a tip_dis {where} "
+        f"({n_ghost} of them monostable, by their ghost's travel); the domain is theirs (a dome "
+        "with neither an inverted rest nor a least force past H has no tip_dis and lies "
+        "outside it)",
     ]
     provenance = {
         **main_fit.constants.provenance,

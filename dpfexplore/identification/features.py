@@ -190,7 +190,7 @@ class FeatureFit(CurveFit):
 
     @property
     def residuals(self) -> dict[str, float]:
-        """Feature name -> (law − curve) / |curve| (0 up to round-off for the matched ones)."""
+        """Feature name -> ``(law − curve) / abs(curve)`` (0 up to round-off for matched ones)."""
         return {
             k: (self.law[k] - v) / abs(v) if v else float("nan")
             for k, v in self.features.items()
@@ -392,9 +392,15 @@ def _solve(feats: CurveFeatures) -> tuple[float, float, float]:
     return quartic_from_features(feats.slope, feats.far_kind, feats.far_displacement, far_value)
 
 
-def fit_features(curve: UnitCellCurve, *, windows: tuple[float, ...] = WINDOWS) -> FeatureFit:
-    """Match the spring law to the features of one curve (module docstring)."""
-    feats = curve_features(curve, windows=windows)
+def fit_features(
+    curve: UnitCellCurve, *, windows: tuple[float, ...] = WINDOWS, ghost: bool = False
+) -> FeatureFit:
+    """Match the spring law to the features of one curve (module docstring).
+
+    With ``ghost``, the far state is the force's least value beyond its peak even where the
+    curve has a rest (a rest that only just touches zero force, next to the bistable edge).
+    """
+    feats = curve_features(curve, windows=windows, ghost=ghost)
     if feats is None:
         return FeatureFit(
             curve=curve.curve,

@@ -1,8 +1,10 @@
 """From unit-cell curves to a constants set: per-curve fits, then closed forms (MODEL.md §11).
 
-:func:`identify` fits the spring law to every curve (``method="least_squares"``, the default:
-:mod:`.spring_fit`; ``method="features"``: the law matched to the curve's initial slope,
-inverted rest and its energy, :mod:`.features`), refuses to build a set
+:func:`identify` fits the spring law to every curve (``method="states"``, the default: the law
+holds the curve's inverted rest and balances its initial slope against its barrier,
+:mod:`.states`; ``method="features"``: the law matched to the curve's initial slope, inverted
+rest and its energy, :mod:`.features`; ``method="least_squares"``: robust least squares over
+the curve, :mod:`.spring_fit`), refuses to build a set
 from flagged fits unless ``allow_flagged``, checks that ``alpha`` does not depend on ``E`` across
 the curves of one geometry (a linear-elastic unit's ``alpha`` and shape cannot), selects the
 closed forms (:mod:`.closed_forms`) and returns the set with its domain (the data's ranges) and
@@ -26,10 +28,21 @@ from .closed_forms import Selection, select_closed_form
 from .curves import CurveError, UnitCellCurve
 from .spring_fit import CurveFit, fit_curve
 
-__all__ = ["METHODS", "Identification", "identify"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "Identification", "identify"]
 
-#: Per-curve fit methods: the robust least squares over the curve, or the law by features.
-METHODS = ("least_squares", "features")
+#: Per-curve fit methods: the law by the unit's states (the default, :mod:`.states`), by
+#: features (:mod:`.features`), or robust least squares over the curve (:mod:`.spring_fit`).
+METHODS = ("states", "features", "least_squares")
+#: The default: the recipe that reproduces the paper's per-dome constants best over its box
+#: (``docs/guide/unitcell.md``, "Against the paper's closed forms").
+DEFAULT_METHOD = "states"
+_METHOD_TEXT = {
+    "states": "per-curve spring law by the unit's states (inverted rest matched; initial slope "
+    "and barrier balanced by least squares)",
+    "features": "per-curve spring law matched to features (initial slope, inverted rest, its "
+    "energy)",
+    "least_squares": "per-curve robust spring-law fits",
+}
 
 
 @dataclass(frozen=True)
@@ -108,7 +121,7 @@ def identify(
     max_relative_rms: float = 0.05,
     allow_flagged: bool = False,
     seed: int = 0,
-    method: str = "least_squares",
+    method: str = DEFAULT_METHOD,
 ) -> Identification:
     """Identify a constants set from unit-cell curves (module docstring).
 
@@ -122,10 +135,14 @@ def identify(
     """
     if method not in METHODS:
         raise ValueError(f"method={method!r}: must be one of {', '.join(METHODS)}")
-    if method == "features":
+    if method == "states":
+        from .states import fit_states
+
+        # the law claims the states, not the path: its relative RMS is reported, not a flag
+        fits = [fit_states(c) for c in curves]
+    elif method == "features":
         from .features import fit_features
 
-        # the law claims the features, not the path: its relative RMS is reported, not a flag
         fits = [fit_features(c) for c in curves]
     else:
         fits = [fit_curve(c, max_relative_rms=max_relative_rms) for c in curves]
@@ -169,15 +186,11 @@ def identify(
         "nu": (float(min(c.nu for c, _ in used)), float(max(c.nu for c, _ in used))),
     }
     provenance: dict[str, Any] = {
-        "method": (
-            "per-curve spring law matched to features (initial slope, inverted rest, its energy)"
-            if method == "features"
-            else "per-curve robust spring-law fits"
-        )
+        "method": _METHOD_TEXT[method]
         + "; closed forms by grouped RFECV with ridge, one-standard-error rule, OLS refit "
         "(dpfexplore.identification)",
         "settings": {
-            **({"fit": method} if method == "features" else {}),
+            **({"fit": method} if method != "least_squares" else {}),
             "degree": degree,
             "selector": selector,
             "n_splits": n_splits,

@@ -1,21 +1,34 @@
-"""Writing files so that a reader sees the old contents or the new, never a mixture.
+"""Writing files so that a reader sees the old contents or the new, never a mixture; bounded reads.
 
 Every stage (constants sets, models, reports, sweeps) writes the same way: to a unique temporary
 file in the target's folder, flushed and fsynced, renamed over the target (atomic on POSIX), and
 the folder fsynced so that the rename survives a crash.
+
+A file a user names is read through :func:`read_bounded`: only a regular file (a FIFO, a device
+or a directory is refused before anything is read, so ``/dev/zero`` or a named pipe never blocks
+or fills memory), and only up to a size the format states.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import stat
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
-__all__ = ["TEMP_SUFFIX", "atomic_write", "atomic_writer", "file_sha256", "fsync_dir"]
+__all__ = [
+    "TEMP_SUFFIX",
+    "BoundedReadError",
+    "atomic_write",
+    "atomic_writer",
+    "file_sha256",
+    "fsync_dir",
+    "read_bounded",
+]
 
 #: Suffix of the temporary files (their names also start with a dot: readers skip them).
 TEMP_SUFFIX = ".tmp"
@@ -71,3 +84,53 @@ def file_sha256(path: str | Path) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+class BoundedReadError(ValueError):
+    """A file :func:`read_bounded` refuses: not a regular file, or larger than its limit."""
+
+
+def read_bounded(path: str | Path, max_bytes: int) -> bytes:
+    """The bytes of the regular file ``path``, at most ``max_bytes`` of them.
+
+    The file's kind and size are checked before it is read (by ``stat``) and again on the open
+    file (it may have been replaced meanwhile); it is opened non-blocking, so a FIFO put in its
+    place never blocks, and read no further than ``max_bytes + 1`` bytes.
+
+    Raises
+    ------
+    BoundedReadError
+        ``PATH: is a directory``, ``PATH: not a regular file (...)``, ``PATH: N bytes, more than
+        the limit of M``.
+    OSError
+        As :func:`os.stat` and :func:`os.open` raise it (missing file, no permission).
+    """
+    path = Path(path)
+    info = os.stat(path)
+    _check_kind(path, info.st_mode, max_bytes, info.st_size)
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    try:
+        info = os.fstat(fd)
+        _check_kind(path, info.st_mode, max_bytes, info.st_size)
+        chunks, size = [], 0
+        while size <= max_bytes:
+            chunk = os.read(fd, max_bytes + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    finally:
+        os.close(fd)
+    if size > max_bytes:  # it grew while read
+        raise BoundedReadError(f"{path}: more than the limit of {max_bytes} bytes")
+    return b"".join(chunks)
+
+
+def _check_kind(path: Path, mode: int, max_bytes: int, size: int) -> None:
+    if stat.S_ISDIR(mode):
+        raise BoundedReadError(f"{path}: is a directory, not a file")
+    if not stat.S_ISREG(mode):
+        kind = "a FIFO" if stat.S_ISFIFO(mode) else "a device or socket"
+        raise BoundedReadError(f"{path}: not a regular file ({kind})")
+    if size > max_bytes:
+        raise BoundedReadError(f"{path}: {size} bytes, more than the limit of {max_bytes}")

@@ -11,9 +11,9 @@ MODEL.md §11), each a sum of monomials ``c · π1^p · π3^q``:
 
 It also records the domain it was fitted on (ranges of ``H/r_b``, ``t/r_b``, ``E``, ``nu``), its
 provenance (how it was made, from what data) and a fingerprint: the SHA-256 of its canonical
-JSON without the fingerprint. :func:`load_constants_set` refuses a file whose fingerprint does not
-match its contents, and a set whose own closed forms give ``k_b <= 0`` or ``alpha`` outside
-``(0, 1)`` inside its claimed domain (:meth:`ConstantsSet.check`).
+JSON without the fingerprint (and without a verdict, :attr:`ConstantsSet.validation`).
+:func:`load_constants_set` refuses a file whose fingerprint does not match its contents, and a
+set whose forms are unphysical inside its claimed domain (:meth:`ConstantsSet.check`).
 
 :data:`DEFAULT` is the paper's closed forms (the implementation's digits) written as such a set;
 :meth:`ConstantsSet.evaluate` reproduces :func:`~dpfexplore.model.constants.dome_stiffness`,
@@ -41,6 +41,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -105,6 +106,8 @@ class ConstantsSet:
         Vertices of the convex hull of the data's ``(H/r_b, t/r_b)`` (counter-clockwise); when
         given, a dome is in the domain only inside it too (the ranges alone would also admit
         the corners of the box the data never reached).
+    validation : dict, optional
+        A verdict against printed fingers (:mod:`dpfexplore.measurements.verdict`); unfingerprinted.
     """
 
     name: str
@@ -114,6 +117,7 @@ class ConstantsSet:
     domain: dict[str, tuple[float, float]]
     provenance: dict[str, Any] = field(default_factory=dict)
     hull: tuple[tuple[float, float], ...] | None = None
+    validation: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for key in self.domain:
@@ -346,8 +350,8 @@ class ConstantsSet:
 
     def to_dict(self) -> dict[str, Any]:
         """The set as JSON-ready data, with its fingerprint."""
-        body = self._body()
-        return {**body, "fingerprint": _fingerprint(body)}
+        body, extra = self._body(), {"validation": self.validation} if self.validation else {}
+        return {**body, "fingerprint": _fingerprint(body), **extra}
 
     @property
     def fingerprint(self) -> str:
@@ -390,7 +394,7 @@ class ConstantsSet:
         for key in ("name", *(form.name for form in SET_FORMS), "domain", "fingerprint"):
             if key not in data:
                 raise ConstantsSetError(f"{source}: missing {key!r}")
-        body = {k: v for k, v in data.items() if k != "fingerprint"}
+        body = {k: v for k, v in data.items() if k not in ("fingerprint", "validation")}
         if _fingerprint(body) != data["fingerprint"]:
             raise ConstantsSetError(
                 f"{source}: its contents do not match its fingerprint (edited or damaged)"
@@ -398,8 +402,9 @@ class ConstantsSet:
         # Same fingerprint, same contents: a set read and checked before is not checked again
         # (the check evaluates its forms over its domain, ~0.5 ms; estimators read their set
         # on every prediction).
+        verdict = _verdict(data.get("validation"), data["fingerprint"], source)
         known = _READ_SETS.get(data["fingerprint"])
-        if known is not None:
+        if known is not None and known.validation == verdict:
             return known
         if not isinstance(data["domain"], Mapping):
             raise ConstantsSetError(f"{source}: domain must be a table of ranges")
@@ -426,6 +431,7 @@ class ConstantsSet:
                 domain=domain,
                 provenance=dict(data.get("provenance") or {}),
                 hull=_hull(data.get("hull"), source),
+                validation=verdict,
             )
         except ConstantsSetError as exc:
             message = str(exc)
@@ -458,6 +464,18 @@ _check_form_fields()
 
 #: Sets :meth:`ConstantsSet.from_dict` has read and checked, by fingerprint (a few at most).
 _READ_SETS: dict[str, ConstantsSet] = {}
+
+
+def _verdict(value: Any, fingerprint: str, source: str) -> dict[str, Any] | None:
+    """A file's ``validation``: a verdict (``passes``, ``summary``) on this very set, or None."""
+    if value is not None and not (
+        isinstance(value, dict)
+        and isinstance(value.get("passes"), bool)
+        and isinstance(value.get("summary"), str)
+        and value.get("set_fingerprint") == fingerprint
+    ):
+        raise ConstantsSetError(f"{source}: validation is not a verdict on this set (re-record it)")
+    return value
 
 
 def _hull(value: Any, source: str) -> tuple[tuple[float, float], ...] | None:
@@ -541,7 +559,10 @@ def load_constants_set(path: str | Path) -> ConstantsSet:
         raise ConstantsSetError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ConstantsSetError(f"{path}: not a constants set (not JSON: {exc})") from None
-    return ConstantsSet.from_dict(data, source=str(path))
+    result = ConstantsSet.from_dict(data, source=str(path))
+    if result.validation is not None and not result.validation["passes"]:
+        logging.getLogger("dpfexplore.validation").warning(result.validation["summary"])
+    return result
 
 
 def _paper_form(terms: Sequence[tuple[float, int, int, int]], *, kb: bool) -> ClosedForm:

@@ -10,5 +10,6 @@ Modules: :mod:`.statics` (finger shapes), :mod:`.dynamics` (time histories, rese
 :mod:`.space` (design-space maps of sweep results), :mod:`.leg` (tip paths of legs), :mod:`.snap`
 (extensions and tip against pressure on a slow ramp), :mod:`.lookup` (the tip region a dataset
 reaches, with a lookup's target and designs), :mod:`.compare` (two constants sets on whole fingers:
-tips, tip stiffness and reset times, ``identify compare --plot``).
+tips, tip stiffness and reset times, ``identify compare --plot``), :mod:`.validation` (printed
+fingers under constants sets, the measured tips marked, ``validate --plot``).
 """

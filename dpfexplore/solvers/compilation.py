@@ -18,7 +18,9 @@ VM of the README's benchmarks (CPU seconds; wall time is longer on a loaded mach
 * ``dynamics``: ``simulate``, ~20 s;
 * ``reset``: ``sweep`` with reset times, ``reset-maps``, batches, ~20 s;
 * ``unit-cell shell``: ``unitcell curve``, ``unit_cell_curve`` (the shell model of one dome),
-  ~27 s (63 s wall on a loaded VM).
+  ~27 s (63 s wall on a loaded VM);
+* ``unit-cell contact``: ``two_unit_rest`` (the dome against its neighbour's wall), ~7 s once
+  ``unit-cell shell`` is compiled.
 
 A group shares most of its code with the others (the lattice assembly, the linear algebra), so
 a second group costs less once the first is compiled.
@@ -33,6 +35,7 @@ from .._kernels._cache import is_cached
 from .._kernels.dynamics import batch as dynamics_batch
 from .._kernels.reset import reduced
 from .._kernels.sensitivity import batch as sensitivity_batch
+from .._kernels.shell import contact as shell_contact
 from .._kernels.shell import path as shell_path
 from .._kernels.snap import walk as ksnap
 from .._kernels.statics import batch
@@ -55,6 +58,7 @@ KERNEL_GROUPS = {
     "sensitivities": (sensitivity_batch.solve_rows_sensitivities_serial,),
     "snap": (ksnap.follow,),
     "unit-cell shell": (shell_path.follow,),
+    "unit-cell contact": (shell_contact.rest_on_wall, shell_contact.polish_on_wall),
 }
 #: Groups this process has announced or found compiled: checked once, never again.
 _SETTLED: set[str] = set()
@@ -68,6 +72,7 @@ COMPILE_CPU_S = {
     "reset": 20,
     "release": 20,
     "unit-cell shell": 27,
+    "unit-cell contact": 7,
 }
 
 

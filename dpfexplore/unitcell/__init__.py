@@ -7,7 +7,8 @@ inversion, every fold followed by continuation.
 Modules
 -------
 geometry
-    Inputs checked once, the reference meridian and the kernels' discretised geometry.
+    Inputs checked once, the reference meridian and the kernels' discretised geometry; the
+    unit cell's plate around the cap (``Plate``, ``cell_plate``).
 shell
     :func:`unit_cell_curve` and its record :class:`UnitCellRun` (``to_frame()`` is the table
     ``identify fit`` reads); :func:`apex_stiffness` for small deflections.
@@ -22,10 +23,15 @@ sweep, sweep_chunks
     Many geometries (a grid or a Latin hypercube) on the sweep engines (worker processes or a
     Dask cluster) into the identification table; resumable. Its chunks: what one computes, its
     files committed with their checksums, their manifest, the merge.
-solid_check, solid_mesh, solid_materials, solid_report
+contact
+    The two-unit run: the dome inverted against its neighbour's wall (rigid or giving way).
+reach
+    The dome's inverted apex travel under each model of its surroundings: the plates, the
+    two-unit runs (:mod:`dpfexplore.identification.causes` sets them beside the paper's).
+solid_check, solid_mesh, solid_materials, solid_report, solid_rest
     The independent cross-check: the dome as a 2-D axisymmetric solid with scikit-fem (the
-    ``crosscheck`` extra), its mesh, material laws and the comparison at matching apex travel
-    (``scripts/unitcell_solid_check.py`` writes the record).
+    ``crosscheck`` extra), its mesh, material laws, the comparison at matching apex travel
+    (``scripts/unitcell_solid_check.py`` writes the record) and its inverted rest.
 """
 
 from .path import ZeroForceState

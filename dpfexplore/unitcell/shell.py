@@ -21,7 +21,7 @@ from .._kernels.shell import path as shell_path
 from .._kernels.shell.energy import assemble, nodes
 from .._kernels.shell.records import PathControls
 from ..solvers.compilation import announce
-from .geometry import check_inputs, reference_unknowns, shell
+from .geometry import Plate, check_inputs, reference_unknowns, shell
 from .path import (
     GhostState,
     PathSamples,
@@ -40,6 +40,9 @@ __all__ = ["DEFAULT_ELEMENTS", "UnitCellRun", "apex_stiffness", "unit_cell_curve
 DEFAULT_ELEMENTS = 128
 #: Default travel, in dome heights: past the inverted zero-force state (about 2 H).
 DEFAULT_TRAVEL = 2.2
+#: Default travel of a dome in its unit cell's plate, in dome heights: the plate's rest lies
+#: further (2.1-2.3 H over the paper's box).
+PLATE_TRAVEL = 2.5
 #: Largest continuation step, as a fraction of the travel (weighted arclength,
 #: :mod:`dpfexplore._kernels.shell.path`): a simple dome takes 150-250 steps.
 DEFAULT_STEP = 1.0 / 60.0
@@ -144,6 +147,9 @@ class UnitCellRun:
         Without an inverted rest: the least force past ``H`` (``dF/dδ = 0``, ``F > 0``), the
         remnant of the lost rest (:mod:`.path`); None when the dome rests inverted or its force
         has no minimum there.
+    plate : Plate or None
+        The unit cell's plate around the cap (:class:`~.geometry.Plate`; ``shapes`` then hold
+        its nodes after the cap's), or None: the cap pinned at ``r_b``.
     """
 
     H: float
@@ -173,6 +179,7 @@ class UnitCellRun:
     tangents: NDArray = field(repr=False)
     gap: int | None = None
     ghost: GhostState | None = None
+    plate: Plate | None = None
 
     @property
     def success(self) -> bool:
@@ -292,6 +299,7 @@ def unit_cell_curve(
     max_steps: int = 3000,
     step: float | None = None,
     grading: float = 0.0,
+    plate: Plate | None = None,
 ) -> UnitCellRun:
     """Trace one dome unit's equilibrium path under apex displacement control.
 
@@ -304,7 +312,8 @@ def unit_cell_curve(
     nu : float
         Poisson ratio.
     travel : float, mm, optional
-        Apex travel at which the trace stops (default ``2.2 H``, past the inverted state).
+        Apex travel at which the trace stops (default ``2.2 H``, past the inverted state;
+        ``2.5 H`` with a ``plate``).
     n_elements : int, optional
         Segments along the meridian (default :data:`DEFAULT_ELEMENTS`).
     max_steps : int
@@ -313,6 +322,9 @@ def unit_cell_curve(
         Largest continuation step in the weighted arclength (default ``travel / 60``).
     grading : float
         Mesh grading toward the apex, in ``[0, 0.9]`` (:mod:`.geometry`); 0 is uniform.
+    plate : Plate, optional
+        Set the cap in the unit cell's plate (:class:`~.geometry.Plate`); default: the cap
+        pinned at ``r_b``, as the paper's unit-cell runs.
 
     Returns
     -------
@@ -328,11 +340,15 @@ def unit_cell_curve(
     H, t, r_b, E, nu = check_inputs(H, t, r_b, E, nu)
     n = _elements(n_elements)
     grading = _grading(grading)
-    travel = DEFAULT_TRAVEL * H if travel is None else _positive("travel", travel)
+    if travel is None:
+        travel = (DEFAULT_TRAVEL if plate is None else PLATE_TRAVEL) * H
+    else:
+        travel = _positive("travel", travel)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
         raise ValueError(f"max_steps={max_steps!r}: must be a positive integer")
     h_max = DEFAULT_STEP * travel if step is None else _positive("step", step)
-    geom = shell(H, t, r_b, E, nu, n, grading)
+    plate = None if plate is None else plate.checked(r_b)
+    geom = shell(H, t, r_b, E, nu, n, grading, plate)
     ftol, xtol = _tolerances(H, t, E)
     _announce()
     started = time.perf_counter()
@@ -362,13 +378,14 @@ def unit_cell_curve(
         )
     branch, work = np.concatenate(branch), np.concatenate(work)
     count = force.size
-    shapes = np.empty((count, n + 1, 2))
-    r, z = np.empty(n + 1), np.empty(n + 1)
+    n_all = geom.r0.size - 1  # the cap's segments and the plate's
+    shapes = np.empty((count, n_all + 1, 2))
+    r, z = np.empty(n_all + 1), np.empty(n_all + 1)
     for i in range(count):
         nodes(ys[i], geom, r, z)
         shapes[i, :, 0], shapes[i, :, 1] = r, z
     steps = np.diff(ys, axis=0)
-    weighted = np.sqrt(steps[:, 0] ** 2 + np.sum(steps[:, 1:] ** 2, axis=1) / (n - 1))
+    weighted = np.sqrt(steps[:, 0] ** 2 + np.sum(steps[:, 1:] ** 2, axis=1) / (n_all - 1))
     rests = [s for s in zero if s.stable and s.displacement > H]
     ghost, tip, tip_kind = None, None, None
     if rests:
@@ -411,6 +428,7 @@ def unit_cell_curve(
         tangents=ts,
         gap=main.force.size - 1 if len(pieces) > 1 else None,
         ghost=ghost,
+        plate=plate,
     )
 
 
@@ -500,14 +518,16 @@ def apex_stiffness(
     *,
     n_elements: int | None = None,
     grading: float = 0.0,
+    plate: Plate | None = None,
 ) -> float:
     """Small-deflection apex stiffness ``dF/dδ`` (N/mm) of the undeformed dome.
 
-    ``H = 0`` is allowed: the pinned circular plate. Same discretisation as
+    ``H = 0`` is allowed: the pinned circular plate. Same discretisation (and ``plate``) as
     :func:`unit_cell_curve`.
     """
     H, t, r_b, E, nu = check_inputs(H, t, r_b, E, nu, allow_flat=True)
-    geom = shell(H, t, r_b, E, nu, _elements(n_elements), _grading(grading))
+    plate = None if plate is None else plate.checked(r_b)
+    geom = shell(H, t, r_b, E, nu, _elements(n_elements), _grading(grading), plate)
     ftol, xtol = _tolerances(max(H, t), t, E)
     _announce()
     return _trace(geom, 1.0, 0.01, 0, ftol, xtol, reference_unknowns(geom), 1.0, False).stiffness

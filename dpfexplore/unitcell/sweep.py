@@ -17,6 +17,7 @@ A job (TOML) names the geometries, as a grid or a Latin hypercube, and the run's
     travel = 2.2                # in dome heights
     chunk = 8                   # geometries per chunk file
     max_steps = 3000
+    tip = "cap"                 # or "cell": tip_dis from the dome in its unit cell's plate
 
 :func:`run_unitcell_sweep` traces every geometry with :func:`~.shell.unit_cell_curve` on the
 finger sweeps' engines (:mod:`dpfexplore.sweep.engines`): ``workers`` local processes, or a Dask
@@ -42,6 +43,14 @@ travel, or a monostable dome's ghost's) are merged from the verified chunks and,
 stops the sweep. Any other error is a bug: its chunk fails with the traceback logged, the
 others are committed, and the sweep ends incomplete (:class:`SweepIncomplete`).
 
+With ``tip = "cell"`` every dome is traced a second time set in its unit cell's plate (the
+square face of side ``3 r_b`` and thickness ``r_b/5``, 1 mm at ``r_b = 5``: the paper's
+proportions, :func:`~.geometry.cell_plate`; its outer edge pinned), and that run's inverted
+rest (or ghost) is the dome's ``tip_dis`` and ``tip_kind`` (the cap's own are kept as
+``cap_tip_dis`` and ``cap_tip_kind``): the reach of the paper's two-unit runs, whose units sat in
+their chambers, with the neighbour clear of the dome (the unit-cell guide, "The inverted apex
+travel"). The curves stay the cap's: the paper's unit-cell runs pinned the cap at its base.
+
 A directory written by an older dpfexplore, whose chunk files have no manifest to verify them
 against, is refused in one line: give a new directory, or remove its ``chunks`` folder to
 recompute it there.
@@ -63,7 +72,16 @@ import numpy as np
 from ..io.commits import MANIFEST, StoreError, read_json, remove_leftovers
 from ..io.files import atomic_write
 from ..io.lock import remove_if_empty, sweep_lock
-from ..io.toml_fields import FieldError, check_keys, integer, numbers, positive, read_toml, table
+from ..io.toml_fields import (
+    FieldError,
+    check_keys,
+    choice,
+    integer,
+    numbers,
+    positive,
+    read_toml,
+    table,
+)
 from ..sweep.engines import DaskEngine, Engine, LocalEngine
 from ..sweep.work import ChunkFailure
 from .sweep_chunks import (
@@ -90,6 +108,9 @@ _UNITS = {"H": "mm", "t": "mm", "r_b": "mm", "E": "MPa", "nu": ""}
 _OPTIONS = {"n_elements": 128, "travel": 2.2, "chunk": 8, "max_steps": 3000}
 #: Bounds of the integer options (``n_elements`` as :func:`~.shell.unit_cell_curve` takes it).
 _INTEGER_OPTIONS = {"n_elements": (4, 5000), "chunk": (1, 1_000_000), "max_steps": (1, 10_000_000)}
+#: Where a dome's ``tip_dis`` comes from (``options.tip``): its own pinned cap's inverted rest
+#: (``"cap"``, the default), or the cap set in its unit cell's plate (``"cell"``).
+TIPS = ("cap", "cell")
 
 
 @dataclass(frozen=True)
@@ -101,7 +122,8 @@ class UnitCellJob:
     geometries : ndarray of shape (n, 5)
         ``H, t, r_b`` (mm), ``E`` (MPa), ``nu`` per geometry.
     options : dict
-        ``n_elements``, ``travel`` (in dome heights), ``chunk``, ``max_steps``.
+        ``n_elements``, ``travel`` (in dome heights), ``chunk``, ``max_steps``; ``tip`` when
+        the job gives it.
     source : dict
         The job as read (recorded in ``job.json``).
     """
@@ -142,9 +164,11 @@ def _options(source: Mapping[str, Any]) -> dict[str, Any]:
     if "options" not in source:
         return options
     given = table(source, "options")
-    check_keys(given, "options", optional=tuple(_OPTIONS))
+    check_keys(given, "options", optional=(*_OPTIONS, "tip"))
     for key in given:
-        if key == "travel":
+        if key == "tip":  # a choice, recorded only when given (older jobs keep their print)
+            options[key] = choice(given, "options", key, TIPS)
+        elif key == "travel":
             options[key] = positive(given, "options", key, "dome heights")
         else:
             low, high = _INTEGER_OPTIONS[key]

@@ -170,23 +170,61 @@ def _trace_chunk(rows, options: dict) -> tuple[list, list]:
         except ArithmeticError as exc:  # a numerical failure of this geometry is its row only
             designs.append({**record, "status": "error", "message": f"{type(exc).__name__}: {exc}"})
             continue
-        designs.append(
-            {
-                **record,
-                "status": run.status,
-                "message": run.message,
-                "steps": run.n_steps,
-                "seconds": run.elapsed,
-                "initial_stiffness": run.initial_stiffness,
-                "first_fold": float(run.folds[0]) if run.folds.size else math.nan,
-                "tip_dis": math.nan if run.tip_dis is None else run.tip_dis,
-                "tip_kind": run.tip_kind or "",
-                "bistable": run.bistable,
-            }
-        )
+        row = {
+            **record,
+            "status": run.status,
+            "message": run.message,
+            "steps": run.n_steps,
+            "seconds": run.elapsed,
+            "initial_stiffness": run.initial_stiffness,
+            "first_fold": float(run.folds[0]) if run.folds.size else math.nan,
+            "tip_dis": math.nan if run.tip_dis is None else run.tip_dis,
+            "tip_kind": run.tip_kind or "",
+            "bistable": run.bistable,
+        }
+        tip = run.tip_dis
+        if options.get("tip", "cap") == "cell":
+            tip, kind, status = _cell_tip(run, options)
+            row["cap_tip_dis"], row["cap_tip_kind"] = row["tip_dis"], row["tip_kind"]
+            row["tip_dis"] = math.nan if tip is None else tip
+            row["tip_kind"], row["cell_status"] = kind, status
+        designs.append(row)
         if run.status in ("reached", "partial"):
-            frames.append(run.to_frame(curve=f"d{index:06d}"))
+            frame = run.to_frame(curve=f"d{index:06d}")
+            if tip is None:
+                frame = frame.drop(columns="tip_dis", errors="ignore")
+            else:
+                frame["tip_dis"] = tip
+            frames.append(frame)
     return frames, designs
+
+
+def _cell_tip(run, options: dict) -> tuple[float | None, str, str]:
+    """The dome's inverted travel set in its unit cell's plate: ``(tip_dis, tip_kind, status)``.
+
+    ``tip_dis`` is None (kind "") when the cell has neither a rest nor a ghost, or its run
+    failed (``status`` says how).
+    """
+    from .geometry import cell_plate
+    from .shell import PLATE_TRAVEL, unit_cell_curve
+
+    try:
+        cell = unit_cell_curve(
+            run.H,
+            run.t,
+            run.r_b,
+            run.E,
+            run.nu,
+            plate=cell_plate(run.r_b),
+            travel=max(options["travel"], PLATE_TRAVEL) * run.H,
+            n_elements=options["n_elements"],
+            max_steps=options["max_steps"],
+        )
+    except Exception as exc:  # one bad geometry never stops the sweep
+        return None, "", f"error: {type(exc).__name__}: {exc}"
+    if cell.tip_dis is None:
+        return None, "", cell.status
+    return float(cell.tip_dis), str(cell.tip_kind), cell.status
 
 
 def parquet_bytes(frame: pd.DataFrame) -> bytes:

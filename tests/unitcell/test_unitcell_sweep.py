@@ -90,3 +90,25 @@ def test_a_dask_cluster_traces_the_same_curves_as_this_process(tmp_path):
     pd.testing.assert_frame_equal(a, b)
     with pytest.raises(ValueError, match="engine"):
         run_unitcell_sweep(job, tmp_path / "x", engine="ray")
+
+
+def test_the_cell_tip_option_takes_tip_dis_from_the_dome_in_its_plate(tmp_path):
+    from dpfexplore.unitcell import unit_cell_curve
+    from dpfexplore.unitcell.geometry import cell_plate
+
+    source = {"grid": {"H": [4.0], "t": [0.75]}, "options": {"n_elements": 48, "tip": "cell"}}
+    job = job_from_dict(source)
+    assert job.options["tip"] == "cell"
+    # a job without the option keeps its fingerprint (the option is recorded only when given)
+    plain = job_from_dict({"grid": {"H": [4.0], "t": [0.75]}, "options": {"n_elements": 48}})
+    assert "tip" not in plain.options
+    run_unitcell_sweep(job, tmp_path / "sw")
+    designs = pd.read_parquet(tmp_path / "sw" / "designs.parquet")
+    cell = unit_cell_curve(4.0, 0.75, plate=cell_plate(5.0), n_elements=48)
+    assert designs["tip_dis"][0] == pytest.approx(cell.tip_dis, rel=1e-9)
+    assert designs["tip_kind"][0] == "rest" and designs["cell_status"][0] == "reached"
+    assert designs["cap_tip_dis"][0] < designs["tip_dis"][0]  # the plate lets it reach further
+    (curve,) = read_curves(tmp_path / "sw" / "curves.parquet")
+    assert curve.tip_dis == pytest.approx(cell.tip_dis, rel=1e-9)
+    with pytest.raises(ValueError, match=r"options\.tip = 'wall': must be one of cap, cell"):
+        job_from_dict({**source, "options": {"tip": "wall"}})

@@ -2,6 +2,8 @@
 
 Modules
 -------
+contact
+    A flat wall in the shell's way: penalty contact and the state resting against it.
 energy
     Energy, gradient and exact Hessian of the discretised axisymmetric shell.
 path

@@ -20,7 +20,9 @@ reference polygon's own areas, so the discrete reference state is exactly strain
 Apex (node 0): on the axis (``r = 0``), its tangent horizontal by symmetry: a mirrored ghost
 segment gives ``κ_s = 2 (a_0 - a0_0) / ℓ0_0`` and, in the limit ``r → 0``, ``κ_θ = κ_s``.
 Edge (node ``N``): position fixed, rotation free; its area carries the hoop bending at zero
-meridional moment, ``D/2 (1 - ν²) κ_θ²`` (``κ_s`` eliminated by ``M_s = 0``).
+meridional moment, ``D/2 (1 - ν²) κ_θ²`` (``κ_s`` eliminated by ``M_s = 0``). An elastic edge
+adds ``k_edge/2 (a_{N-1} - a0_{N-1})²``, a rotational spring (N·mm/rad, the whole ring) on the
+last segment's slope: 0 is the pinned edge, a large value a clamped one.
 
 Unknowns ``y`` (length ``m = 2N - 1``): ``y[0] = δ``, the apex travel (``z_0 = z0_0 - δ``), then
 ``(r_k, z_k)`` of nodes ``1..N-1`` at ``y[2k-1], y[2k]``. The Hessian is banded (a node's bending
@@ -235,16 +237,24 @@ def assemble(y, geom, grad, band, want):
         _pair_term(i - 1, AnglePartials(uu, uv, huu, huv, hvv), ja, ha, gl, hl, want)
         _scatter(i - 1, 3, gl, hl, n, grad, band, want)
 
-    # Bending at the edge: hoop curvature from the last segment's slope, M_s = 0.
+    # Bending at the edge: hoop curvature from the last segment's slope, M_s = 0; an elastic
+    # edge (k_edge > 0) adds a rotational spring on the last segment's turning.
     rr = geom.r0[n]
     sa = math.sin(ang[n - 1])
     ca = math.cos(ang[n - 1])
     kt = (sa - math.sin(geom.a0[n - 1])) / rr
     w = geom.area[n] * D * (1.0 - nu * nu)
     bending += 0.5 * w * kt * kt
+    kr = geom.k_edge
+    turn = ang[n - 1] - geom.a0[n - 1]
+    if kr != 0.0:
+        bending += 0.5 * kr * turn * turn
     if want >= 1:
         u1 = w * kt * ca / rr
         u2 = w * (ca * ca / (rr * rr) - kt * sa / rr)
+        if kr != 0.0:
+            u1 += kr * turn
+            u2 += kr
         _angle_term(n - 1, u1, u2, ja, ha, gl, hl, want)
         _scatter(n - 1, 2, gl, hl, n, grad, band, want)
     return membrane, bending

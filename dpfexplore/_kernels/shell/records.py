@@ -17,11 +17,20 @@ from collections import namedtuple
 
 #: The reference polygon and the material, all the kernels need of one shell.
 #: ``r0, z0, area, s0, beta0, sa0`` per node (``N + 1``); ``l0, a0, rm0, wm`` per segment (``N``);
-#: ``C`` (N/mm), ``D`` (N·mm), ``nu``.
+#: ``C`` (N/mm), ``D`` (N·mm), ``nu``; ``k_edge`` (N·mm/rad), the rotational stiffness of the
+#: whole edge ring against the last segment's turning (0, the default: pinned).
 ShellGeometry = namedtuple(
     "ShellGeometry",
-    ["r0", "z0", "l0", "a0", "rm0", "wm", "area", "s0", "beta0", "sa0", "C", "D", "nu"],
+    ["r0", "z0", "l0", "a0", "rm0", "wm", "area", "s0", "beta0", "sa0", "C", "D", "nu", "k_edge"],
+    defaults=(0.0,),
 )
+
+#: A flat wall across the axis on the side the inverted dome bulges into
+#: (:mod:`.contact`): the plane ``z`` (mm; the base plane is ``z = 0``), the offset of the
+#: shell's facing surface below its nodes ``offset`` (mm, half the thickness), the penalty's
+#: ``modulus`` (N/mm³: contact pressure per mm of penetration) and each node's contact ``area``
+#: (mm², ``N + 1``).
+Wall = namedtuple("Wall", ["z", "offset", "modulus", "area"])
 
 #: The partials of a bending energy ``U(a_j, a_{j+1})`` of the slope angles of the two segments
 #: that meet at a node (:func:`.shell.energy._pair_term`): ``uu = ∂U/∂a_j`` and ``uv = ∂U/∂a_{j+1}``

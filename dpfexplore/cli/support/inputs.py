@@ -15,6 +15,7 @@ __all__ = [
     "design_of",
     "model_record",
     "print_constants_line",
+    "refuse_failed_set",
     "saved_path",
     "with_constants",
 ]
@@ -71,6 +72,26 @@ def with_constants(current, given, what: str):
             f"{current.label}; give one"
         )
     return given
+
+
+def refuse_failed_set(constants, allowed: bool) -> None:
+    """Refuse a constants set whose file records that it failed validation, unless ``allowed``.
+
+    ``dpfexplore design`` calls it: an optimiser on a set known to mispredict printed fingers
+    returns designs that do not exist. The verdict is the set's ``validation`` table
+    (:mod:`dpfexplore.measurements.verdict`).
+
+    Raises
+    ------
+    UsageError
+        Naming the set and its figures, and ``--allow-unvalidated``.
+    """
+    verdict = constants.validation
+    if verdict is not None and not verdict["passes"] and not allowed:
+        raise UsageError(
+            f"{verdict['summary']}; design refuses a set that failed validation "
+            "(--allow-unvalidated to design on it anyway)"
+        )
 
 
 def constants_record(constants) -> dict:

@@ -18,6 +18,11 @@ Side by side, the independent discretisation (:mod:`dpfexplore.unitcell.solid_ch
 axisymmetric solid with scikit-fem, neo-Hookean, rigid apex column of radius t/2) on two thick
 domes: its time per curve and the largest energy difference from the shell over the stable
 first branch (0.25 H to the first fold).
+
+The two-unit run (:func:`~dpfexplore.unitcell.contact.two_unit_rest`: the dome inverted against
+its neighbour's rigid wall at a finger's gap, the cap in its unit cell's plate) on the same
+domes: the median time of one run and its ``tip_dis`` error against the reference mesh. The
+goal: one run in at most 2 s.
 """
 
 from __future__ import annotations
@@ -32,8 +37,15 @@ from ._common import NOT_MEASURED, REPORTS, compile_line, emit, fresh_process_ti
 GOAL_S = 1.0
 #: Seconds a 1,000-curve grid may take on 2 cores (the goal).
 GRID_GOAL_S = 600.0
+#: Seconds one two-unit run may take (the goal).
+TWO_UNIT_GOAL_S = 2.0
+#: The wall's distance from the dome's base plane in the two-unit runs, mm (U_sep 1 mm plus half
+#: a 1 mm chamber wall).
+TWO_UNIT_GAP = 1.5
 #: The box's corners and centre.
 DOMES = ((3.0, 0.5), (3.0, 1.0), (5.0, 0.5), (5.0, 1.0), (4.0, 0.75))
+#: The domes of the two-unit runs.
+TWO_UNIT_DOMES = DOMES
 REFERENCE_ELEMENTS = 512
 
 _PROBE = """
@@ -123,6 +135,32 @@ def _solid_side_by_side() -> list[dict]:
     return rows
 
 
+def _two_unit_runs(repeats: int) -> dict:
+    """Two-unit runs on the box's domes: median time per run, ``tip_dis`` error by mesh."""
+    from ..unitcell.contact import two_unit_rest
+    from ..unitcell.geometry import square_plate
+
+    def run_one(dome, n_elements=None):
+        return two_unit_rest(*dome, gap=TWO_UNIT_GAP, plate=square_plate(), n_elements=n_elements)
+
+    run_one(TWO_UNIT_DOMES[0])  # compiled and loaded before timing
+    times, errors = [], []
+    for dome in TWO_UNIT_DOMES:
+        runs = [run_one(dome) for _ in range(max(1, repeats))]
+        times.append(float(np.median([r.elapsed for r in runs])))
+        reference = run_one(dome, REFERENCE_ELEMENTS)
+        if runs[0].tip_dis is not None and reference.tip_dis is not None:
+            errors.append(abs(runs[0].tip_dis / reference.tip_dis - 1.0))
+    return {
+        "gap_mm": TWO_UNIT_GAP,
+        "median_s": float(np.median(times)),
+        "max_s": float(np.max(times)),
+        "max_tip_dis_error": float(max(errors)) if errors else float("nan"),
+        "domes_with_rest": len(errors),
+        "goal_s": TWO_UNIT_GOAL_S,
+    }
+
+
 def _grid_sweep(n: int, workers: int) -> dict:
     """About ``n`` geometries of the box traced by the unit-cell sweep: wall time and statuses."""
     import tempfile
@@ -191,10 +229,12 @@ def run(args: argparse.Namespace) -> int:
             }
         )
     solid = [] if args.no_solid else _solid_side_by_side()
+    two_unit = _two_unit_runs(args.repeats)
     grid = _grid_sweep(args.grid, args.workers) if args.grid else None
     record = {
         "benchmark": "unitcell",
         "solid_side_by_side": solid,
+        "two_unit": two_unit,
         "machine": machine_info(),
         "domes": [list(d) for d in DOMES],
         "reference_elements": REFERENCE_ELEMENTS,
@@ -226,6 +266,13 @@ def run(args: argparse.Namespace) -> int:
             f"CPU ({r['solid_cpu_s'] / r['shell_s']:.0f}x); energy difference "
             f"{100 * r['max_energy_difference']:.2f} % over 0.25 H..first fold"
         )
+    lines.append(
+        f"two-unit run (plate, rigid wall at {two_unit['gap_mm']:g} mm): median "
+        f"{two_unit['median_s']:.3f} s, max {two_unit['max_s']:.3f} s per run (goal "
+        f"{two_unit['goal_s']:g} s); tip_dis error {two_unit['max_tip_dis_error']:.2e} against "
+        f"{REFERENCE_ELEMENTS} elements ({two_unit['domes_with_rest']} of {len(TWO_UNIT_DOMES)} "
+        "domes with an inverted rest)"
+    )
     if grid is not None:
         lines.append(
             f"grid: {grid['curves']} curves ({grid['grid'][0]} H x {grid['grid'][1]} t, "

@@ -100,7 +100,18 @@ def read_curves(path: str | Path) -> list[UnitCellCurve]:
     CurveError
         One line naming the file and, where it applies, the curve.
     """
-    path = Path(path)
+    return _read_checked(Path(path))[1]
+
+
+def read_curve_table(path: str | Path) -> pd.DataFrame:
+    """The table of a curve file, read and checked as :func:`read_curves` does.
+
+    For readers that keep more of each curve than :class:`UnitCellCurve` (its path, its states).
+    """
+    return _read_checked(Path(path))[0]
+
+
+def _read_checked(path: Path) -> tuple[pd.DataFrame, list[UnitCellCurve]]:
     try:
         if path.suffix.lower() == ".parquet":
             frame = pd.read_parquet(path)
@@ -116,7 +127,7 @@ def read_curves(path: str | Path) -> list[UnitCellCurve]:
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CurveError(f"{path}: cannot read ({message})") from None
     try:
-        return curves_from_frame(frame)
+        return frame, curves_from_frame(frame)
     except CurveError as exc:
         raise CurveError(f"{path}: {exc}") from None
 

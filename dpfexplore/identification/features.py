@@ -50,7 +50,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from .curves import CurveError, UnitCellCurve, curves_from_frame, read_curves
+from .curves import CurveError, UnitCellCurve, curves_from_frame, read_curve_table
 from .spring_fit import CurveFit, spring_energy, spring_force
 
 __all__ = [
@@ -127,9 +127,7 @@ def feature_curves_from_frame(frame: pd.DataFrame) -> list[PathCurve]:
 
 def read_feature_curves(path: str | Path) -> list[PathCurve]:
     """Read and check a table as :func:`~.curves.read_curves` does, first branches kept."""
-    read_curves(path)  # the checks and their one-line errors
-    path = Path(path)
-    frame = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path)
+    frame = read_curve_table(path)  # the checks and their one-line errors
     try:
         return feature_curves_from_frame(frame)
     except CurveError as exc:

@@ -46,7 +46,7 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
-from .curves import CurveError, UnitCellCurve, read_curves
+from .curves import CurveError, UnitCellCurve, read_curve_table
 from .features import (
     LOCAL,
     FeatureFit,
@@ -144,9 +144,7 @@ def states_curves_from_frame(frame: pd.DataFrame) -> list[StatesCurve]:
 
 def read_states_curves(path: str | Path) -> list[StatesCurve]:
     """Read and check a table as :func:`~.curves.read_curves` does, paths' states kept."""
-    read_curves(path)  # the checks and their one-line errors
-    path = Path(path)
-    frame = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path)
+    frame = read_curve_table(path)  # the checks and their one-line errors
     try:
         return states_curves_from_frame(frame)
     except CurveError as exc:

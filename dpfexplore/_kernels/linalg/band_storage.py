@@ -88,6 +88,34 @@ def band_lu_solve(w, m, kl, ku, piv, b):
 
 
 @kernel
+def band_newton_step(band, g, y, w, piv, b):
+    """One Newton step on a band Hessian: ``y -= H⁻¹ g`` in place; the step's largest entry.
+
+    ``band`` holds the Hessian rows in band storage (``(m, 2 bw + 1)``, the diagonal in column
+    ``bw``), ``g`` the gradient; ``w`` (``(m, 3 bw + 1)``), ``piv`` and ``b`` are scratch.
+    Returns the largest absolute entry of the step (inf or NaN as the step has them), or -1.0
+    when the factorisation meets a zero pivot (``y`` unchanged then).
+    """
+    m = y.shape[0]
+    bw = (band.shape[1] - 1) // 2
+    w[:, :] = 0.0
+    for i in range(m):
+        for k in range(-bw, bw + 1):
+            if 0 <= i + k < m:
+                w[i, k + bw] = band[i, bw + k]
+    if band_lu(w, m, bw, bw, piv) != 0:
+        return -1.0
+    for j in range(m):
+        b[j] = -g[j]
+    band_lu_solve(w, m, bw, bw, piv, b)
+    dn = 0.0
+    for j in range(m):
+        y[j] += b[j]
+        dn = max(dn, abs(b[j]))
+    return dn
+
+
+@kernel
 def negative_pivots(band, lo, bw, work):
     """Inertia of the symmetric band ``band[lo:, lo:]``: the number of negative eigenvalues.
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from ..linalg.band_storage import band_lu, band_lu_solve, negative_pivots
+from ..linalg.band_storage import band_lu, band_lu_solve, band_newton_step, negative_pivots
 from .energy import BAND, assemble
 
 
@@ -148,21 +148,8 @@ def polish_on_wall(y, geom, wall, ftol, xtol):
             res = max(res, abs(g[j]))
         if res <= ftol and it > 0:
             return it, negative_pivots(band, 0, BAND, work)
-        w[:, :] = 0.0
-        for i in range(m):
-            for k in range(-BAND, BAND + 1):
-                if 0 <= i + k < m:
-                    w[i, k + BAND] = band[i, BAND + k]
-        if band_lu(w, m, BAND, BAND, piv) != 0:
-            return -1, -1
-        for j in range(m):
-            b[j] = -g[j]
-        band_lu_solve(w, m, BAND, BAND, piv, b)
-        dn = 0.0
-        for j in range(m):
-            y[j] += b[j]
-            dn = max(dn, abs(b[j]))
-        if not dn < np.inf:
+        dn = band_newton_step(band, g, y, w, piv, b)
+        if dn < 0.0 or not dn < np.inf:
             return -1, -1
         if dn <= xtol:
             assemble_wall(y, geom, wall, g, band, 2)

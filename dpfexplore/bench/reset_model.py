@@ -30,7 +30,7 @@ PULSE = (0.7, (0.0, 1.0, 5.0, 5.1))
 T_END = 15.0
 #: The pick-and-place finger's reset times (s) and the goal's tolerance on them.
 PICKPLACE_TOLERANCE = 0.02
-#: Goals of the reset-model issue (a summary line says which are met).
+#: Goals of the fast reset model (a summary line says which are met).
 GOALS = {
     "us_per_design": 50.0,
     "median_rel_err": 0.01,

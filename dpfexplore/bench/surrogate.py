@@ -80,7 +80,7 @@ def reset_model_section(designs: int = 500) -> dict[str, Any]:
     ``{"reset_model": {"us_per_design", "median_rel_err", "p95_rel_err", "max_rel_err",
     "class_agreement", "coverage_90", "fallback_rate", ...}}`` from
     :func:`.reset_model.reset_model_record`, so one run of ``bench surrogate`` reports both
-    halves of the issue.
+    parts of the surrogate question (flat surrogates and the fast reset model).
     """
     from .reset_model import reset_model_record
 

@@ -189,7 +189,7 @@ class SetSummary:
 
 @dataclass(frozen=True)
 class Goal:
-    """What a constants set must do on printed fingers, against the paper's set (issue §3).
+    """What a constants set must do on printed fingers, against the paper's set.
 
     Attributes
     ----------

@@ -33,7 +33,8 @@ from .results import FingerResult, Goal, SetSummary, SetVerdict, Validation
 
 __all__ = ["GOAL", "VERIFIED_BY", "default_sets", "judge", "validate"]
 
-#: The goal of issue §3: 1.25x the paper set's mean tip distance, stiffness within 25 %.
+#: The goal a set must meet: every state held, 1.25x the paper set's mean tip distance, stiffness
+#: within 25 % (docs/guide/validation.md).
 GOAL = Goal()
 #: How every predicted value is computed (said in every output).
 VERIFIED_BY = (

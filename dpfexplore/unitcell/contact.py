@@ -217,9 +217,13 @@ def two_unit_rest(
     area = _contact_area(geom.r0, geom.z0)
     modulus = CONTACT_MODULUS * E / t
 
+    def wall_at(shift: float) -> Wall:
+        """The wall moved ``shift`` (mm) away from where the finger's gap puts it."""
+        return Wall(float(-gap - shift), float(offset), float(modulus), area)
+
     def settle(state: NDArray, shift: float) -> tuple[float, int]:
         """Rest ``state`` (in place) against the wall moved ``shift`` (mm) away; reaction."""
-        wall = Wall(float(-gap - shift), float(offset), float(modulus), area)
+        wall = wall_at(shift)
         relaxed = state.copy()
         shell_contact.rest_on_wall(relaxed, geom, wall, ftol, RELAX_ITER)
         state[:] = relaxed
@@ -240,9 +244,7 @@ def two_unit_rest(
         before = y.copy()
         reaction, negative = settle(y, float(shift))
         if reaction == 0.0:  # the dome left the wall, pushed back over its barrier: its rest
-            far = Wall(float(-gap - shift), float(offset), float(modulus), area)
-            shell_contact.rest_on_wall(y, geom, far, ftol, LEAVE_ITER)
-            negative = int(shell_contact.polish_on_wall(y, geom, far, ftol, xtol)[1])
+            reaction, negative = _leave_wall(y, geom, wall_at(shift), ftol, xtol)
             break
         if math.isfinite(wall_stiffness) and reaction >= wall_stiffness * shift:
             # the spring carries the push somewhere in this step: the wall rests there
@@ -253,6 +255,8 @@ def two_unit_rest(
             shift = brentq(balance, float(shift), previous, xtol=1e-9 * H)
             y = before
             reaction, negative = settle(y, float(shift))
+            if negative > 0:  # balanced past the dome's fold: it goes back over its barrier
+                reaction, negative = _leave_wall(y, geom, wall_at(shift), ftol, xtol)
             break
         previous = float(shift)
     membrane, bending = _energy(y, geom)
@@ -267,6 +271,18 @@ def two_unit_rest(
         shape=_shape(y, geom),
         elapsed=time.perf_counter() - started,
     )
+
+
+def _leave_wall(y: NDArray, geom, wall: Wall, ftol: float, xtol: float) -> tuple[float, int]:
+    """Relax ``y`` (in place) to the dome's own rest beside ``wall``; its reaction and index.
+
+    For a dome pushed back over its barrier (the wall's step leaves it no contact, or the
+    spring's balance lies past the dome's fold, an unstable state): the rest on the other side.
+    """
+    shell_contact.rest_on_wall(y, geom, wall, ftol, LEAVE_ITER)
+    negative = int(shell_contact.polish_on_wall(y, geom, wall, ftol, xtol)[1])
+    reaction = shell_contact.wall_energy(y, geom, wall, np.zeros(0), np.zeros((0, 0)), 0)[1]
+    return float(reaction), negative
 
 
 def _free_rest(geom, H: float, ftol: float, xtol: float) -> NDArray | None:

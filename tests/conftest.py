@@ -57,6 +57,29 @@ def pytest_sessionstart(session):
             raise pytest.UsageError(f"compiling the kernels failed: {failed}")
 
 
+#: The longest test files (about 10-36 s each on a quiet 2-core machine), run first: with
+#: ``--dist loadfile`` the workers take whole files in collection order, so the long ones start
+#: at once and the short ones even out the end instead of one long file running alone there.
+LONGEST_FIRST = (
+    "tests/cli/test_result_commands_killed.py",
+    "tests/sweep/test_engines.py",
+    "tests/inverse/test_inverse_design.py",
+    "tests/test_docs.py",
+    "tests/cli/test_streams.py",
+    "tests/cli/test_json_output.py",
+    "tests/sweep/test_sweep_kill.py",
+    "tests/inverse/test_timing_scenes.py",
+    "tests/solvers/test_fast_reset.py",
+    "tests/cli/test_bench.py",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Run :data:`LONGEST_FIRST` first, every file's tests still together and in their order."""
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::")[0], len(rank)))
+
+
 GRIPPER = dict(
     H=[3.8187, 4.1549, 4.5246, 4.8239, 2.5], U_L=8.5773, U_sep=1.8232, t=0.8326, t_lim=1.056, E=26.0
 )

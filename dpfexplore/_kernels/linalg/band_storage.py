@@ -93,8 +93,8 @@ def band_newton_step(band, g, y, w, piv, b):
 
     ``band`` holds the Hessian rows in band storage (``(m, 2 bw + 1)``, the diagonal in column
     ``bw``), ``g`` the gradient; ``w`` (``(m, 3 bw + 1)``), ``piv`` and ``b`` are scratch.
-    Returns the largest absolute entry of the step (inf or NaN as the step has them), or -1.0
-    when the factorisation meets a zero pivot (``y`` unchanged then).
+    Returns the largest absolute entry of the step (inf when the step overflows), or -1.0 when
+    the factorisation meets a zero pivot (``y`` unchanged then).
     """
     m = y.shape[0]
     bw = (band.shape[1] - 1) // 2

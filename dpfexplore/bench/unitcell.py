@@ -284,7 +284,8 @@ def run(args: argparse.Namespace) -> int:
         f"{two_unit['median_s']:.3f} s, max {two_unit['max_s']:.3f} s per run (goal "
         f"{two_unit['goal_s']:g} s); largest tip_dis difference "
         f"{two_unit['max_tip_dis_error_mm']:.2e} mm from {REFERENCE_ELEMENTS} elements "
-        f"({two_unit['domes_with_rest']} of {len(TWO_UNIT_DOMES)} domes with an inverted rest)"
+        f"({two_unit['domes_with_rest']} of {len(TWO_UNIT_DOMES)} domes come to rest; the others "
+        "have no inverted rest to start from)"
     )
     if grid is not None:
         lines.append(

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from dpfexplore.identification.causes import compact_units, run_grid, summarise
+from dpfexplore.io.files import atomic_write
 
 
 def _jsonable(value):
@@ -59,9 +60,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "units": compact_units(frame),
     }
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.json.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(_jsonable(record), indent=1) + "\n")
-    tmp.replace(args.json)
+    atomic_write(args.json, json.dumps(_jsonable(record), indent=1) + "\n")
     print(json.dumps(_jsonable(summary), indent=1))
     print(f"{len(frame)} rows in {record['elapsed_s']:.0f} s; wrote {args.json}")
     return 0

@@ -40,6 +40,7 @@ from dpfexplore.identification.report import (
     read_identification,
     save_identification,
 )
+from dpfexplore.io.files import atomic_write
 from dpfexplore.model.constants_set import DEFAULT
 from dpfexplore.unitcell import DEFAULT_ELEMENTS
 
@@ -122,9 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "units": frame.to_dict("records"),
     }
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.json.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(_jsonable(record), indent=1) + "\n")
-    tmp.replace(args.json)
+    atomic_write(args.json, json.dumps(_jsonable(record), indent=1) + "\n")
     fig = plot_maps(frame)
     args.plot.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(args.plot, dpi=130)

@@ -88,15 +88,14 @@ def band_lu_solve(w, m, kl, ku, piv, b):
 
 
 @kernel
-def band_newton_step(band, g, y, w, piv, b):
-    """One Newton step on a band Hessian: ``y -= H⁻¹ g`` in place; the step's largest entry.
+def band_solve(band, w, piv, b):
+    """Solve ``A x = b`` for ``A`` in band storage, ``b`` overwritten by ``x``; 0, or -1.
 
-    ``band`` holds the Hessian rows in band storage (``(m, 2 bw + 1)``, the diagonal in column
-    ``bw``), ``g`` the gradient; ``w`` (``(m, 3 bw + 1)``), ``piv`` and ``b`` are scratch.
-    Returns the largest absolute entry of the step (inf when the step overflows), or -1.0 when
-    the factorisation meets a zero pivot (``y`` unchanged then).
+    ``band`` holds the rows of ``A`` in band storage (``(m, 2 bw + 1)``, the diagonal in column
+    ``bw``); ``w`` (``(m, 3 bw + 1)``) and ``piv`` are scratch. Returns -1 when the
+    factorisation meets a zero pivot (``b`` unsolved then).
     """
-    m = y.shape[0]
+    m = b.shape[0]
     bw = (band.shape[1] - 1) // 2
     w[:, :] = 0.0
     for i in range(m):
@@ -104,10 +103,24 @@ def band_newton_step(band, g, y, w, piv, b):
             if 0 <= i + k < m:
                 w[i, k + bw] = band[i, bw + k]
     if band_lu(w, m, bw, bw, piv) != 0:
-        return -1.0
+        return -1
+    band_lu_solve(w, m, bw, bw, piv, b)
+    return 0
+
+
+@kernel
+def band_newton_step(band, g, y, w, piv, b):
+    """One Newton step on a band Hessian: ``y -= H⁻¹ g`` in place; the step's largest entry.
+
+    ``band`` holds the Hessian (as :func:`band_solve`), ``g`` the gradient; ``w``, ``piv`` and
+    ``b`` are scratch. Returns the largest absolute entry of the step (inf when the step
+    overflows), or -1.0 when the factorisation meets a zero pivot (``y`` unchanged then).
+    """
+    m = y.shape[0]
     for j in range(m):
         b[j] = -g[j]
-    band_lu_solve(w, m, bw, bw, piv, b)
+    if band_solve(band, w, piv, b) != 0:
+        return -1.0
     dn = 0.0
     for j in range(m):
         y[j] += b[j]

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import kernel
-from ..linalg.band_storage import band_lu, band_lu_solve, band_newton_step, negative_pivots
+from ..linalg.band_storage import band_newton_step, band_solve, negative_pivots
 from .energy import BAND, assemble
 
 
@@ -98,17 +98,11 @@ def rest_on_wall(y, geom, wall, ftol, max_iter):
             if negative_pivots(shifted, 0, BAND, work) != 0:
                 mu = max(4.0 * mu, 1e-8 * diag)
                 continue
-            w[:, :] = 0.0
-            for i in range(m):
-                for k in range(-BAND, BAND + 1):
-                    if 0 <= i + k < m:
-                        w[i, k + BAND] = shifted[i, BAND + k]
-            if band_lu(w, m, BAND, BAND, piv) != 0:
-                mu = max(4.0 * mu, 1e-8 * diag)
-                continue
             for j in range(m):
                 b[j] = -g[j]
-            band_lu_solve(w, m, BAND, BAND, piv, b)
+            if band_solve(shifted, w, piv, b) != 0:
+                mu = max(4.0 * mu, 1e-8 * diag)
+                continue
             slope = 0.0
             for j in range(m):
                 trial[j] = y[j] + b[j]

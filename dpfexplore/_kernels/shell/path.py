@@ -40,7 +40,13 @@ import math
 import numpy as np
 
 from .._jit import kernel
-from ..linalg.band_storage import band_lu, band_lu_solve, band_newton_step, negative_pivots
+from ..linalg.band_storage import (
+    band_lu,
+    band_lu_solve,
+    band_newton_step,
+    band_solve,
+    negative_pivots,
+)
 from .energy import BAND, assemble
 from .records import PathPoints, PathScratch
 
@@ -420,17 +426,11 @@ def relax(y, geom, free_delta, ftol, max_iter):
             if negative_pivots(shifted, DELTA, BAND, work) != 0:
                 mu = max(4.0 * mu, 1e-8 * diag)
                 continue
-            w[:, :] = 0.0
-            for i in range(m):
-                for k in range(-BAND, BAND + 1):
-                    if 0 <= i + k < m:
-                        w[i, k + BAND] = shifted[i, BAND + k]
-            if band_lu(w, m, BAND, BAND, piv) != 0:
-                mu = max(4.0 * mu, 1e-8 * diag)
-                continue
             for j in range(m):
                 b[j] = -g[j] if j >= lo else 0.0
-            band_lu_solve(w, m, BAND, BAND, piv, b)
+            if band_solve(shifted, w, piv, b) != 0:
+                mu = max(4.0 * mu, 1e-8 * diag)
+                continue
             slope = 0.0
             for j in range(m):
                 trial[j] = y[j] + b[j]

@@ -307,8 +307,14 @@ def test_scene_jacobians_from_sensitivities_equal_central_differences(kind):
 @pytest.mark.slow
 def test_gripper_scene_meets_apertures_and_its_toml_reproduces_them(tmp_path, capsys):
     text = (JOBS / "design-gripper.toml").read_text()
-    text = text.replace("candidates_per_n = 256", "candidates_per_n = 64")
-    text = text.replace("starts_per_n = 4", "starts_per_n = 2")
+    # fewer candidates, and 30 SLSQP iterations per stiffening round where the job allows 60:
+    # the same finalist to all digits on this scene, at half the solves
+    for old, new in (
+        ("candidates_per_n = 256", "candidates_per_n = 64"),
+        ("max_iter = 60", "max_iter = 30"),
+    ):
+        assert old in text, old
+        text = text.replace(old, new)
     path = tmp_path / "gripper.toml"
     path.write_text(text)
     out = tmp_path / "out"

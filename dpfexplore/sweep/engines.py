@@ -523,14 +523,14 @@ class DaskEngine(Engine):
             if not warned and idle >= _NO_WORKER_NOTICE_S:
                 warned = True  # one line, not one per poll: the user sees why nothing moves
                 logger.warning(
-                    "the Dask cluster %s has no worker; waiting up to %.0f s for one, then the "
+                    "the Dask cluster %s has no worker; waiting up to %g s for one, then the "
                     "%d remaining chunk(s) fail (committed chunks are kept; Ctrl-C stops)",
                     self.scheduler or "(local)",
                     self.no_workers_timeout,
                     len(pending),
                 )
             if idle > self.no_workers_timeout:
-                message = f"no Dask worker for {self.no_workers_timeout:.0f} s"
+                message = f"no Dask worker for {self.no_workers_timeout:g} s"
                 for future in pending:
                     task, _ = submitted.pop(future.key)
                     future.cancel()

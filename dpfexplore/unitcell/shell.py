@@ -21,7 +21,7 @@ from .._kernels.shell import path as shell_path
 from .._kernels.shell.energy import assemble, nodes
 from .._kernels.shell.records import PathControls
 from ..solvers.compilation import announce
-from .geometry import Plate, check_inputs, reference_unknowns, shell
+from .geometry import Plate, check_inputs, check_path_size, reference_unknowns, shell
 from .path import (
     GhostState,
     PathSamples,
@@ -35,11 +35,8 @@ from .path import (
 
 __all__ = [
     "DEFAULT_ELEMENTS",
-    "MAX_PATH_BYTES",
     "UnitCellRun",
     "apex_stiffness",
-    "check_path_size",
-    "path_bytes",
     "unit_cell_curve",
 ]
 
@@ -54,10 +51,6 @@ PLATE_TRAVEL = 2.5
 #: Largest continuation step, as a fraction of the travel (weighted arclength,
 #: :mod:`dpfexplore._kernels.shell.path`): a simple dome takes 150-250 steps.
 DEFAULT_STEP = 1.0 / 60.0
-#: Most bytes the arrays of one traced stretch may take: the kernel allocates its points for
-#: ``max_steps`` steps before the first one (:func:`path_bytes`). 2 GiB holds over 500,000
-#: steps at the default 128 elements; a simple dome takes 150-250.
-MAX_PATH_BYTES = 2 << 30
 
 _STATUS = {
     shell_path.REACHED: "reached",
@@ -311,45 +304,6 @@ def _grading(grading) -> float:
     if not isinstance(grading, int | float) or not 0.0 <= grading <= 0.9:
         raise ValueError(f"grading={grading!r}: must be a number in [0, 0.9]")
     return float(grading)
-
-
-def path_bytes(n_segments: int, max_steps: int) -> int:
-    """Bytes the kernel allocates for one traced stretch: ``max_steps + 1`` points.
-
-    Each point holds the unknowns and the tangent (``m = 2 n_segments - 1`` each), two energies,
-    the force, its slope and the instability index: ``8 (2 m + 5)`` bytes.
-    """
-    m = 2 * int(n_segments) - 1
-    return 8 * (int(max_steps) + 1) * (2 * m + 5)
-
-
-def check_path_size(n_segments: int, max_steps: int, label: str | None = None) -> None:
-    """Refuse a ``max_steps`` whose arrays exceed :data:`MAX_PATH_BYTES`, before any allocation.
-
-    Parameters
-    ----------
-    n_segments : int
-        Segments of the meridian (the cap's, and the plate's if any).
-    max_steps : int
-        Most continuation steps.
-    label : str, optional
-        How the message starts (default ``max_steps=N``; ``options.max_steps = N`` for a job
-        file).
-
-    Raises
-    ------
-    ValueError
-        ``max_steps=N: the path's arrays would take X GB at K elements, more than the Y GB
-        allowed; give at most M``.
-    """
-    need = path_bytes(n_segments, max_steps)
-    if need > MAX_PATH_BYTES:
-        most = MAX_PATH_BYTES // path_bytes(n_segments, 0) - 1
-        raise ValueError(
-            f"{label or f'max_steps={max_steps}'}: the path's arrays would take "
-            f"{need / 1e9:.4g} GB at {n_segments} elements, more than the "
-            f"{MAX_PATH_BYTES / 1e9:.3g} GB allowed; give at most {most}"
-        )
 
 
 def unit_cell_curve(

@@ -85,7 +85,7 @@ from ..io.toml_fields import (
 )
 from ..sweep.engines import DaskEngine, Engine, LocalEngine
 from ..sweep.work import ChunkFailure
-from .shell import check_path_size
+from .geometry import check_path_size
 from .sweep_chunks import (
     CHUNKS,
     CellTask,
@@ -391,19 +391,18 @@ def run_unitcell_sweep(
     try:
         with sweep_lock(out):
             return _run_locked(job, out, runner, progress)
-    except ValueError:
-        if created:  # bad input writes nothing: remove the directory the lock created
+    except (ValueError, OSError):
+        if created:  # bad input or a full disk at the start: no empty directory left behind
             remove_if_empty(out)
         raise
 
 
-def _marked_fingerprint(out: Path) -> str | None:
-    """The fingerprint ``out/job.json`` records, None if it has none (missing, unreadable)."""
+def _job_record(out: Path) -> dict[str, Any] | None:
+    """What ``out/job.json`` holds, None if it is missing or unreadable."""
     try:
-        value = read_json(out / "job.json").get("fingerprint")
+        return read_json(out / "job.json")
     except (FileNotFoundError, StoreError):
         return None
-    return value if isinstance(value, str) else None
 
 
 def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkManifest:
@@ -417,7 +416,8 @@ def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkMan
     recompute = f"remove {chunks} to recompute its chunks here, or give a new directory"
     if (out / MANIFEST).exists():
         raise ValueError(f"{out}: is a finger sweep's dataset; give a directory of its own")
-    marked = _marked_fingerprint(out)
+    written = _job_record(out)
+    marked = None if written is None else written.get("fingerprint")
     try:
         manifest = read_manifest(chunks)
     except FileNotFoundError:
@@ -463,10 +463,11 @@ def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkMan
             write_manifest(chunks, manifest)
     remove_uncommitted(chunks, manifest)
     remove_leftovers(out)
-    if marked != job.fingerprint:  # new, or lost or damaged: the manifest says whose it is
-        atomic_write(
-            out / "job.json", json.dumps({"fingerprint": job.fingerprint, "job": job.source})
-        )
+    # job.json is the directory's label; the manifest says whose it is: a label missing,
+    # half-written or edited is written again
+    text = json.dumps({"fingerprint": job.fingerprint, "job": job.source})
+    if written != json.loads(text):
+        atomic_write(out / "job.json", text)
     return manifest
 
 

@@ -301,35 +301,39 @@ def _leaves(value, path=()):
     return [path]
 
 
-def _mutate(data: bytes, draw) -> bytes:
-    """One random edit: a JSON value replaced, or bytes truncated, flipped, inserted, deleted."""
-    kind = draw(st.sampled_from(["value", "value", "truncate", "flip", "insert", "delete"]))
-    at = draw(st.integers(0, len(data)))
-    if kind == "value":
-        document = json.loads(data)
-        *parents, last = draw(st.sampled_from(_leaves(document)))
-        place = document
-        for key in parents:
-            place = place[key]
-        place[last] = draw(
-            st.one_of(
-                st.none(),
-                st.booleans(),
-                st.integers(-2, 10**6),
-                st.floats(allow_nan=False, allow_infinity=False),
-                st.text(max_size=6),
-                st.sampled_from(["part-00002", "part-00000.designs.parquet", "0" * 64]),
-            )
-        )
-        return json.dumps(document).encode()
+def _flip(data: bytes, draw) -> bytes:
+    """Bytes truncated, flipped, inserted or deleted at a random place."""
+    kind = draw(st.sampled_from(["truncate", "flip", "insert", "delete"]))
+    at = draw(st.integers(0, len(data) - 1))
     if kind == "truncate":
         return data[:at]
     if kind == "flip":
-        at = min(at, len(data) - 1)
         return data[:at] + bytes([data[at] ^ draw(st.integers(1, 255))]) + data[at + 1 :]
     if kind == "insert":
         return data[:at] + draw(st.binary(min_size=1, max_size=8)) + data[at:]
     return data[:at] + data[at + draw(st.integers(1, 16)) :]
+
+
+def _mutate(data: bytes, draw) -> bytes:
+    """One random edit of a JSON file: a value replaced (two times in three), or :func:`_flip`."""
+    if draw(st.integers(0, 2)) == 0:
+        return _flip(data, draw)
+    document = json.loads(data)
+    *parents, last = draw(st.sampled_from(_leaves(document)))
+    place = document
+    for key in parents:
+        place = place[key]
+    place[last] = draw(
+        st.one_of(
+            st.none(),
+            st.booleans(),
+            st.integers(-2, 10**6),
+            st.floats(allow_nan=False, allow_infinity=False),
+            st.text(max_size=6),
+            st.sampled_from(["part-00002", "part-00000.designs.parquet", "0" * 64]),
+        )
+    )
+    return json.dumps(document).encode()
 
 
 @settings(max_examples=20)
@@ -468,3 +472,59 @@ def test_a_dask_cluster_without_workers_is_reported_in_one_line(tmp_path, monkey
         f"the Dask cluster {cluster.scheduler_address} has no worker; waiting up to 0.5 s for "
         "one, then the 3 remaining chunk(s) fail (committed chunks are kept; Ctrl-C stops)"
     ]
+
+
+@settings(max_examples=40)
+@given(data=st.data())
+def test_a_mutated_job_file_is_read_or_refused_in_one_line_naming_it(tmp_path_factory, data):
+    from dpfexplore.unitcell.sweep import read_job
+
+    path = tmp_path_factory.mktemp("job") / "job.toml"
+    text = JOB_TOML.encode()
+    if data.draw(st.booleans()):  # one value of the job replaced by another TOML value
+        line = data.draw(st.sampled_from([x for x in JOB_TOML.splitlines() if "=" in x]))
+        value = data.draw(
+            st.sampled_from(
+                [
+                    "0",
+                    "-1",
+                    "0.5",
+                    "1e400",
+                    "nan",
+                    "inf",
+                    '"x"',
+                    "[]",
+                    "[[1]]",
+                    "{}",
+                    "true",
+                    "[3.0, -1.0]",
+                    "99999999999999999999",
+                    "1e-300",
+                    "300",
+                ]
+            )
+        )
+        key = line.split("=")[0].strip()
+        text = JOB_TOML.replace(line, f"{key} = {value}").encode()
+    else:
+        text = _flip(text, data.draw)
+    path.write_bytes(text)
+    try:
+        job = read_job(path)
+    except ValueError as exc:
+        message = str(exc)
+        assert message.startswith(f"{path}: ") and "\n" not in message
+        return
+    assert job.geometries.shape[1] == 5 and np.isfinite(job.geometries).all()
+
+
+@settings(max_examples=6)
+@given(data=st.data())
+def test_a_mutated_chunk_file_is_traced_again(tmp_path_factory, done, data):
+    out = tmp_path_factory.mktemp("chunk") / "sw"
+    shutil.copytree(done[0], out)
+    files = sorted((out / "chunks").glob("part-*.parquet"))
+    target = data.draw(st.sampled_from(files))
+    target.write_bytes(_flip(target.read_bytes(), data.draw))
+    run_unitcell_sweep(job_from_dict(JOB), out)
+    assert_same(out, done[1])

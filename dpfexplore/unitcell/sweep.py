@@ -53,7 +53,15 @@ travel"). The curves stay the cap's: the paper's unit-cell runs pinned the cap a
 
 A directory written by an older dpfexplore, whose chunk files have no manifest to verify them
 against, is refused in one line: give a new directory, or remove its ``chunks`` folder to
-recompute it there.
+recompute it there. ``job.json`` is only the directory's label: missing, half-written or edited,
+it is written again from the job; the chunk manifest is the authority (its plan must be the
+job's, else it is refused naming it; a chunk record out of its place in the plan is recomputed).
+
+Limits, checked before anything is built or allocated: :data:`MAX_GEOMETRIES` geometries (a
+grid's product is counted first), :data:`MAX_CHUNKS` chunks, and a ``max_steps`` whose path
+arrays fit :data:`~.geometry.MAX_PATH_BYTES` at the job's ``n_elements``. Ctrl-C stops the
+sweep at once (the engine ends its workers) and raises :class:`SweepInterrupted`, which says
+what is committed.
 """
 
 from __future__ import annotations

@@ -6,18 +6,26 @@
   Kirchhoff shell; docs/guide/unitcell.md). ``--out`` writes the table ``identify fit`` reads.
 * ``unitcell sweep JOB.toml --out DIR [--workers N]``: every geometry of a job (a grid or a
   Latin hypercube over ``H``, ``t``, ``r_b``, ``E``, ``nu``) traced on ``N`` processes into
-  ``DIR/curves.parquet``, the table ``identify fit`` reads; resumable.
+  ``DIR/curves.parquet``, the table ``identify fit`` reads; resumable. Ctrl-C or SIGTERM stops
+  it at once, keeping the committed chunks (exit code 130 or 143); the same command continues.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
+from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from .support.output import FIGURE_SUFFIXES, error_line, json_text, output_path
+
+#: Exit code of a sweep ended by SIGTERM (128 + 15, the shell's convention).
+EXIT_TERMINATED = 128 + signal.SIGTERM
 
 _TABLE_SUFFIXES = (".csv", ".parquet")
 
@@ -88,28 +96,44 @@ def register(subparsers) -> None:
 
 def _sweep(args: argparse.Namespace) -> int:
     from ..io.commits import StoreError
-    from ..unitcell.sweep import SweepIncomplete, read_job, run_unitcell_sweep
+    from ..unitcell.sweep import SweepIncomplete, SweepInterrupted, read_job, run_unitcell_sweep
 
     if args.workers < 1:
         raise UsageError(f"--workers {args.workers}: must be >= 1")
     try:
         job = read_job(args.job)
-        manifest = run_unitcell_sweep(
-            job,
-            args.out,
-            workers=args.workers,
-            progress=None if args.json else _progress,
-            engine=args.engine,
-            scheduler=args.scheduler,
-        )
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    terminated: list[int] = []
+    try:
+        with _sigterm_interrupts(terminated):
+            manifest = run_unitcell_sweep(
+                job,
+                args.out,
+                workers=args.workers,
+                progress=None if args.json else _progress,
+                engine=args.engine,
+                scheduler=args.scheduler,
+            )
     except (ValueError, StoreError) as exc:
         raise UsageError(str(exc)) from None
     except SweepIncomplete as exc:
         error_line(f"dpfexplore unitcell sweep: {exc}")
         return EXIT_FAILURE
+    except SweepInterrupted as stop:
+        how = "terminated (SIGTERM)" if terminated else "interrupted"
+        error_line(
+            f"dpfexplore unitcell sweep: {how}; {stop.chunks_committed} of {stop.chunks_total} "
+            f"chunks ({stop.geometries_committed} of {stop.geometries} geometries) are committed "
+            f"in {args.out}; continue with: dpfexplore unitcell sweep {args.job} --out {args.out}"
+        )
+        return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    except _Terminated:  # before the chunks started or while merging: nothing half-written
+        error_line(f"dpfexplore unitcell sweep: terminated (SIGTERM); {args.out} is unchanged")
+        return EXIT_TERMINATED
     except OSError as exc:  # a full disk while committing: what is committed stays valid
         error_line(
-            f"dpfexplore unitcell sweep: writing {args.out} failed ({exc.strerror or exc}); the "
+            f"dpfexplore unitcell sweep: writing {args.out} failed ({_reason(exc)}); the "
             "chunks committed so far are intact: run the same command again to continue"
         )
         return EXIT_FAILURE
@@ -124,6 +148,38 @@ def _sweep(args: argparse.Namespace) -> int:
         )
     failed = sum(n for s, n in manifest["status"].items() if s not in ("reached", "partial"))
     return EXIT_FAILURE if failed else EXIT_OK
+
+
+def _reason(exc: OSError) -> str:
+    """An OSError in words, with the file it names."""
+    reason = exc.strerror or str(exc)
+    return f"{exc.filename}: {reason}" if exc.filename else reason
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Ctrl-C would be: the sweep stops the same way."""
+
+
+@contextmanager
+def _sigterm_interrupts(received: list[int]) -> Iterator[None]:
+    """SIGTERM stops the sweep as Ctrl-C does (workers ended, lock released, chunks kept).
+
+    Without it SIGTERM ends this process at once, its lock left behind (taken over as stale by
+    the next run). ``received`` gets the signal number. Only in the main thread.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        received.append(signum)
+        raise _Terminated
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _progress(done: int, total: int) -> None:
@@ -154,20 +210,47 @@ def _curve(args: argparse.Namespace) -> int:
         print(json_text(_document(run, summary)))
     else:
         _print_text(run, summary)
-    if out is not None:
-        frame = run.to_frame()
-        if out.suffix.lower() == ".parquet":
-            frame.to_parquet(out, index=False)
-        else:
-            frame.to_csv(out, index=False)
-        if not args.json:
-            print(f"wrote {out} ({len(frame)} rows)")
-    if plot is not None:
-        _save_plot(run, plot)
+    if run.n_steps == 0:  # no point of the path: nothing to write or draw
+        print(f"dpfexplore unitcell: {run.message}", file=sys.stderr)
+        return EXIT_FAILURE
+    try:
+        if out is not None:
+            rows = _write_table(run, out)
+            if not args.json:
+                print(f"wrote {out} ({rows} rows)")
+        if plot is not None:
+            _save_plot(run, plot)
+    except OSError as exc:  # a full disk: the file is absent or as it was, never partial
+        error_line(f"dpfexplore unitcell: cannot write {_reason(exc)}")
+        return EXIT_FAILURE
     if run.status not in ("reached", "partial"):
         print(f"dpfexplore unitcell: {run.message}", file=sys.stderr)
         return EXIT_FAILURE
     return EXIT_OK
+
+
+def _write_table(run, out: Path) -> int:
+    """Write the run's table atomically (``.csv`` or ``.parquet``); returns its rows."""
+    from ..io.files import atomic_write
+    from ..unitcell.sweep_chunks import parquet_bytes
+
+    frame = run.to_frame()
+    if out.suffix.lower() == ".parquet":
+        data = parquet_bytes(frame)
+    else:
+        data = frame.to_csv(index=False).encode()
+    _named(out, atomic_write, data)
+    return len(frame)
+
+
+def _named(path: Path, write, *args) -> None:
+    """``write(path, *args)``; an OSError that names no file is raised naming ``path``."""
+    try:
+        write(path, *args)
+    except OSError as exc:
+        if exc.filename is None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+        raise
 
 
 def _option_names(message: str) -> str:
@@ -236,6 +319,8 @@ def _print_text(run, summary: dict) -> None:
         f"initial stiffness {run.initial_stiffness:.4g} N/mm (Reissner's shallow shell "
         f"{summary['reissner_stiffness']:.4g}, the paper's k_b {summary['paper_k_b']:.4g})"
     )
+    if run.n_steps == 0:
+        return
     folds = ", ".join(f"{x:.4g}" for x in run.folds) or "none"
     print(f"folds in apex travel (mm): {folds}")
     if run.tip_kind == "rest":
@@ -277,4 +362,11 @@ def _save_plot(run, path: Path) -> None:
     plot_force(run, axes[0], spring=spring)
     plot_energy(run, axes[1], spring=spring)
     plot_meridians(run, axes[2])
-    fig.savefig(path, dpi=110)
+
+    def save(target: Path) -> None:
+        from ..io.files import atomic_writer
+
+        with atomic_writer(target) as fh:  # a failed save leaves no partial figure
+            fig.savefig(fh, format=target.suffix[1:].lower(), dpi=110)
+
+    _named(path, save)

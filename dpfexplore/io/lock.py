@@ -120,8 +120,11 @@ def _try_create(path: Path, content: bytes) -> bool:
     try:
         os.write(fd, content)
         os.fsync(fd)
-    finally:
+    except BaseException:  # a full disk: no empty lock file left to block the next run
         os.close(fd)
+        path.unlink(missing_ok=True)
+        raise
+    os.close(fd)
     return True
 
 

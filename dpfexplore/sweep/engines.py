@@ -53,7 +53,10 @@ Stopping
     :meth:`Engine.close` ends the workers: after a complete run it waits for them to exit; after
     an interruption (Ctrl-C, an error in the caller) it cancels the chunks not started and
     terminates local worker processes at once, so that nothing computes on after the caller
-    has stopped and no process is left behind.
+    has stopped and no process is left behind. A caller that dies without closing (SIGKILL, or
+    SIGTERM with no handler) cannot end them: each local worker process watches its parent
+    (:data:`PARENT_POLL_S`) and exits as soon as it is gone. The workers of a LocalCluster end
+    with it the same way (Dask's own watch of the parent).
 """
 
 from __future__ import annotations
@@ -62,6 +65,7 @@ import abc
 import logging
 import os
 import re
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -155,7 +159,7 @@ class LocalEngine(Engine):
                 self.processes,
                 mp_context=get_context("spawn"),
                 initializer=_start_process,
-                initargs=(work, threads),
+                initargs=(work, threads, os.getpid()),
             )
 
     def run(self, work: ChunkWork, tasks: Sequence[Any]) -> Iterator[Any]:  # noqa: D102
@@ -217,19 +221,45 @@ class LocalEngine(Engine):
             process.join(timeout=5.0)
 
 
-def _start_process(work: ChunkWork, threads: int) -> None:
+#: Seconds between a local worker process's checks that its parent is alive.
+PARENT_POLL_S = 0.2
+
+
+def _start_process(work: ChunkWork, threads: int, parent: int) -> None:
     """Initializer of a local worker process: its Numba threads, then the kernels from the cache.
 
     The process ignores SIGINT: Ctrl-C reaches the whole process group, and the parent, which
-    handles it, ends its workers (:meth:`LocalEngine.close`).
+    handles it, ends its workers (:meth:`LocalEngine.close`). It exits by itself once its
+    parent (pid ``parent``) is gone (:func:`_exit_with_parent`).
     """
     import signal
 
     import numba
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _exit_with_parent(parent)
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     work.warm_up()
+
+
+def _exit_with_parent(parent: int) -> threading.Thread:
+    """End this process within :data:`PARENT_POLL_S` of its parent's death; returns the watcher.
+
+    A killed parent cannot terminate its workers, and a worker of a ``ProcessPoolExecutor``
+    waiting for its next chunk would wait forever (it holds its task queue's write end too, so
+    it never sees the end of it). The watcher is a daemon thread: the kernels release the GIL,
+    so it runs while a chunk computes. ``os._exit``: nothing of the worker's is worth flushing
+    (its chunk is not committed; the parent's successor recomputes it).
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    watcher = threading.Thread(target=watch, name="dpfexplore-parent-watch", daemon=True)
+    watcher.start()
+    return watcher
 
 
 def _written(task: Any, write: Callable[[], Any]) -> Any:
@@ -449,6 +479,7 @@ class DaskEngine(Engine):
 
         pending = {submit(task, 1) for task in tasks}
         idle_since: float | None = None
+        warned = False
         while pending:
             try:
                 done, pending = wait(pending, timeout=_POLL_S, return_when="FIRST_COMPLETED")
@@ -480,7 +511,7 @@ class DaskEngine(Engine):
                 else:
                     yield record
             if done or client.nthreads():
-                idle_since = None
+                idle_since, warned = None, False
                 continue
             # No worker at all. Workers that die again and again (a chunk that crashes its
             # process) can make a LocalCluster give up on them: start new ones. Somebody
@@ -488,8 +519,18 @@ class DaskEngine(Engine):
             if self._cluster is not None:
                 self._cluster.scale(self._n_workers)
             idle_since = idle_since if idle_since is not None else time.monotonic()
-            if time.monotonic() - idle_since > self.no_workers_timeout:
-                message = f"no Dask worker for {self.no_workers_timeout:.0f} s"
+            idle = time.monotonic() - idle_since
+            if not warned and idle >= _NO_WORKER_NOTICE_S:
+                warned = True  # one line, not one per poll: the user sees why nothing moves
+                logger.warning(
+                    "the Dask cluster %s has no worker; waiting up to %g s for one, then the "
+                    "%d remaining chunk(s) fail (committed chunks are kept; Ctrl-C stops)",
+                    self.scheduler or "(local)",
+                    self.no_workers_timeout,
+                    len(pending),
+                )
+            if idle > self.no_workers_timeout:
+                message = f"no Dask worker for {self.no_workers_timeout:g} s"
                 for future in pending:
                     task, _ = submitted.pop(future.key)
                     future.cancel()
@@ -499,6 +540,9 @@ class DaskEngine(Engine):
 
 #: Seconds between checks for workers while no chunk finishes.
 _POLL_S = 2.0
+#: Seconds without any worker before the engine says so (a LocalCluster's nannies restart a
+#: killed worker within this; longer, and the cluster has lost its workers).
+_NO_WORKER_NOTICE_S = 5.0
 
 
 def _key_name(path: str) -> str:

@@ -20,6 +20,10 @@ the cap's ``C`` and ``D``). A clamped edge is a rotational spring :data:`CLAMP` 
 node's own bending stiffness on the last segment's slope. What an annulus cannot represent: the
 square's corners (its bending is not axisymmetric) and the chamber's side walls, whose rotation
 would make the edge elastic.
+
+**Sizes.** The path kernel allocates its points for every allowed step before the first
+(:func:`path_bytes`); :func:`check_path_size` refuses a ``max_steps`` whose arrays would pass
+:data:`MAX_PATH_BYTES`, before anything is allocated.
 """
 
 from __future__ import annotations
@@ -35,11 +39,14 @@ from .._kernels.shell.records import ShellGeometry
 __all__ = [
     "CLAMP",
     "EDGES",
+    "MAX_PATH_BYTES",
     "WALL_PER_RADIUS",
     "Plate",
     "cell_plate",
     "check_inputs",
+    "check_path_size",
     "n_unknowns",
+    "path_bytes",
     "plate_elements",
     "reference_meridian",
     "reference_unknowns",
@@ -228,3 +235,48 @@ def reference_unknowns(geom: ShellGeometry) -> np.ndarray:
     y[1::2] = geom.r0[1:n]
     y[2::2] = geom.z0[1:n]
     return y
+
+
+#: Most bytes the arrays of one traced stretch may take: the path kernel allocates its points
+#: for ``max_steps`` steps before the first one (:func:`path_bytes`). 2 GiB holds over 500,000
+#: steps at the default 128 elements; a simple dome takes 150-250.
+MAX_PATH_BYTES = 2 << 30
+
+
+def path_bytes(n_segments: int, max_steps: int) -> int:
+    """Bytes the kernel allocates for one traced stretch: ``max_steps + 1`` points.
+
+    Each point holds the unknowns and the tangent (``m = 2 n_segments - 1`` each), two energies,
+    the force, its slope and the instability index: ``8 (2 m + 5)`` bytes.
+    """
+    m = 2 * int(n_segments) - 1
+    return 8 * (int(max_steps) + 1) * (2 * m + 5)
+
+
+def check_path_size(n_segments: int, max_steps: int, label: str | None = None) -> None:
+    """Refuse a ``max_steps`` whose arrays exceed :data:`MAX_PATH_BYTES`, before any allocation.
+
+    Parameters
+    ----------
+    n_segments : int
+        Segments of the meridian (the cap's, and the plate's if any).
+    max_steps : int
+        Most continuation steps.
+    label : str, optional
+        How the message starts (default ``max_steps=N``; ``options.max_steps = N`` for a job
+        file).
+
+    Raises
+    ------
+    ValueError
+        ``max_steps=N: the path's arrays would take X GB at K elements, more than the Y GB
+        allowed; give at most M``.
+    """
+    need = path_bytes(n_segments, max_steps)
+    if need > MAX_PATH_BYTES:
+        most = MAX_PATH_BYTES // path_bytes(n_segments, 0) - 1
+        raise ValueError(
+            f"{label or f'max_steps={max_steps}'}: the path's arrays would take "
+            f"{need / 1e9:.4g} GB at {n_segments} elements, more than the "
+            f"{MAX_PATH_BYTES / 1e9:.3g} GB allowed; give at most {most}"
+        )

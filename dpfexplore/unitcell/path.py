@@ -220,7 +220,8 @@ def find_zero_force_states(
 
     states: list[ZeroForceState] = []
     for i in range(2, force.size):
-        if not force[i - 1] * force[i] < 0.0:
+        # signs compared, not the product: forces of a stiff material overflow it
+        if not (force[i - 1] < 0.0 < force[i] or force[i] < 0.0 < force[i - 1]):
             continue
         # start from the path interpolated to F = 0: near a saddle-node the barrier and the rest
         # are close, and Newton from the nearer end point may land on the other one

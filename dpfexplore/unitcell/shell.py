@@ -21,7 +21,7 @@ from .._kernels.shell import path as shell_path
 from .._kernels.shell.energy import assemble, nodes
 from .._kernels.shell.records import PathControls
 from ..solvers.compilation import announce
-from .geometry import Plate, check_inputs, reference_unknowns, shell
+from .geometry import Plate, check_inputs, check_path_size, reference_unknowns, shell
 from .path import (
     GhostState,
     PathSamples,
@@ -33,7 +33,12 @@ from .path import (
     work_along_path,
 )
 
-__all__ = ["DEFAULT_ELEMENTS", "UnitCellRun", "apex_stiffness", "unit_cell_curve"]
+__all__ = [
+    "DEFAULT_ELEMENTS",
+    "UnitCellRun",
+    "apex_stiffness",
+    "unit_cell_curve",
+]
 
 #: Elements along the meridian by default: doubling them changes the energy curve by less than
 #: 0.1 % over the paper's box (docs/guide/unitcell.md, tests/unitcell/test_convergence.py).
@@ -58,11 +63,25 @@ _MESSAGES = {
     "max_steps": "stopped after max_steps steps before the requested travel",
     "backward": "the path returned to negative apex travel",
     "step_too_small": "the continuation step fell below its floor (corrector failing)",
-    "partial": (
-        "the path stopped before the requested travel (corrector failing); the inverted branch "
-        "was traced from the dome's mirror image and appended as its own branches"
+    "no_path": (
+        "the corrector failed at the undeformed dome: no point of the path (a geometry the "
+        "discretised shell does not resolve)"
     ),
 }
+#: Why a path stopped short, in the message of a ``partial`` run.
+_STOPPED = {
+    "max_steps": "max_steps steps taken",
+    "backward": "it returned to negative apex travel",
+    "step_too_small": "corrector failing",
+}
+
+
+def _partial_message(stopped: str) -> str:
+    return (
+        f"the path stopped before the requested travel ({_STOPPED[stopped]}); the inverted "
+        "branch was traced from the dome's mirror image and appended as its own branches"
+    )
+
 
 _ANNOUNCED: list[bool] = []
 
@@ -349,6 +368,7 @@ def unit_cell_curve(
     h_max = DEFAULT_STEP * travel if step is None else _positive("step", step)
     plate = None if plate is None else plate.checked(r_b)
     geom = shell(H, t, r_b, E, nu, n, grading, plate)
+    check_path_size(geom.r0.size - 1, max_steps)
     ftol, xtol = _tolerances(H, t, E)
     _announce()
     started = time.perf_counter()
@@ -356,11 +376,15 @@ def unit_cell_curve(
     main = _trace(*trace, reference_unknowns(geom), 1.0, False)
     pieces = [main]
     name = _STATUS[main.status]
-    if name != "reached":
+    message = _MESSAGES[name]
+    if main.force.size == 0:  # not even the start: nothing to follow or mirror
+        name = "no_path"
+        message = _MESSAGES[name]
+    elif name != "reached":
         inverted = _inverted_branch(*trace, H)
         if inverted is not None:
             pieces.append(inverted)
-            name = "partial"
+            name, message = "partial", _partial_message(name)
     ys = np.concatenate([p.ys for p in pieces])
     ts = np.concatenate([p.ts for p in pieces])
     force = np.concatenate([p.force for p in pieces])
@@ -369,6 +393,10 @@ def unit_cell_curve(
     slope = np.concatenate([p.slope for p in pieces])
     branch, work, zero = [], [], []
     for piece in pieces:
+        if piece.force.size == 0:  # the no_path run: empty arrays throughout
+            branch.append(np.zeros(0, dtype=np.int64))
+            work.append(np.zeros(0))
+            continue
         ids = branch_ids(piece.ts[:, 0]) + (branch[-1][-1] + 1 if branch else 0)
         branch.append(ids)
         work.append(work_along_path(piece.ys, piece.ts, piece.force, piece.slope))
@@ -384,13 +412,13 @@ def unit_cell_curve(
     for i in range(count):
         nodes(ys[i], geom, r, z)
         shapes[i, :, 0], shapes[i, :, 1] = r, z
-    steps = np.diff(ys, axis=0)
+    steps = np.diff(ys, axis=0) if count else ys
     weighted = np.sqrt(steps[:, 0] ** 2 + np.sum(steps[:, 1:] ** 2, axis=1) / (n_all - 1))
     rests = [s for s in zero if s.stable and s.displacement > H]
     ghost, tip, tip_kind = None, None, None
     if rests:
         tip, tip_kind = min(rests, key=lambda s: s.energy).displacement, "rest"
-    else:
+    elif count:
         with np.errstate(divide="ignore", invalid="ignore"):
             stiffness = slope / ts[:, 0]
         path = PathSamples(ys[:, 0], force, stiffness, index == 0, branch)
@@ -416,14 +444,14 @@ def unit_cell_curve(
         instability_index=index,
         branch=branch,
         shapes=shapes,
-        arclength=np.concatenate([[0.0], np.cumsum(weighted)]),
+        arclength=np.concatenate([[0.0], np.cumsum(weighted)])[:count],
         work=work,
         initial_stiffness=main.stiffness,
         zero_force_states=tuple(zero),
         tip_dis=tip,
         tip_kind=tip_kind,
         status=name,
-        message=_MESSAGES[name],
+        message=message,
         elapsed=time.perf_counter() - started,
         tangents=ts,
         gap=main.force.size - 1 if len(pieces) > 1 else None,
@@ -474,7 +502,8 @@ def _trace(geom, travel, h_max, max_steps, ftol, xtol, y0, direction, stop_at_fo
     status, count, points = shell_path.follow(
         geom, y0, float(travel), controls, float(direction), bool(stop_at_fold)
     )
-    return _Piece(int(status), *(a[:count] for a in points))
+    # copies: the kernel's arrays hold max_steps + 1 points, a view would keep them all alive
+    return _Piece(int(status), *(a[:count].copy() for a in points))
 
 
 def _inverted_branch(geom, travel, h_max, max_steps, ftol, xtol, H) -> _Piece | None:

@@ -53,7 +53,15 @@ travel"). The curves stay the cap's: the paper's unit-cell runs pinned the cap a
 
 A directory written by an older dpfexplore, whose chunk files have no manifest to verify them
 against, is refused in one line: give a new directory, or remove its ``chunks`` folder to
-recompute it there.
+recompute it there. ``job.json`` is only the directory's label: missing, half-written or edited,
+it is written again from the job; the chunk manifest is the authority (its plan must be the
+job's, else it is refused naming it; a chunk record out of its place in the plan is recomputed).
+
+Limits, checked before anything is built or allocated: :data:`MAX_GEOMETRIES` geometries (a
+grid's product is counted first), :data:`MAX_CHUNKS` chunks, and a ``max_steps`` whose path
+arrays fit :data:`~.geometry.MAX_PATH_BYTES` at the job's ``n_elements``. Ctrl-C stops the
+sweep at once (the engine ends its workers) and raises :class:`SweepInterrupted`, which says
+what is committed.
 """
 
 from __future__ import annotations
@@ -62,6 +70,7 @@ import hashlib
 import itertools
 import json
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -84,6 +93,7 @@ from ..io.toml_fields import (
 )
 from ..sweep.engines import DaskEngine, Engine, LocalEngine
 from ..sweep.work import ChunkFailure
+from .geometry import check_path_size
 from .sweep_chunks import (
     CHUNKS,
     CellTask,
@@ -92,13 +102,22 @@ from .sweep_chunks import (
     chunk_problem,
     merge_chunks,
     parquet_bytes,
+    plan_problem,
     plan_tasks,
     read_manifest,
     remove_uncommitted,
     write_manifest,
 )
 
-__all__ = ["SweepIncomplete", "UnitCellJob", "read_job", "run_unitcell_sweep"]
+__all__ = [
+    "MAX_CHUNKS",
+    "MAX_GEOMETRIES",
+    "SweepIncomplete",
+    "SweepInterrupted",
+    "UnitCellJob",
+    "read_job",
+    "run_unitcell_sweep",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -108,6 +127,12 @@ _UNITS = {"H": "mm", "t": "mm", "r_b": "mm", "E": "MPa", "nu": ""}
 _OPTIONS = {"n_elements": 128, "travel": 2.2, "chunk": 8, "max_steps": 3000}
 #: Bounds of the integer options (``n_elements`` as :func:`~.shell.unit_cell_curve` takes it).
 _INTEGER_OPTIONS = {"n_elements": (4, 5000), "chunk": (1, 1_000_000), "max_steps": (1, 10_000_000)}
+#: Most geometries a job plans (a grid's product is counted before it is built): at a few tenths
+#: of a second per dome, a million take days on a workstation.
+MAX_GEOMETRIES = 1_000_000
+#: Most chunks a job plans: the chunk manifest holds a record of about 450 bytes per chunk and
+#: is rewritten at every commit (2^14 chunks: some 7 MB).
+MAX_CHUNKS = 1 << 14
 #: Where a dome's ``tip_dis`` comes from (``options.tip``): its own pinned cap's inverted rest
 #: (``"cap"``, the default), or the cap set in its unit cell's plate (``"cell"``).
 TIPS = ("cap", "cell")
@@ -173,7 +198,31 @@ def _options(source: Mapping[str, Any]) -> dict[str, Any]:
         else:
             low, high = _INTEGER_OPTIONS[key]
             options[key] = integer(given, "options", key, low=low, high=high)
+    try:  # the cap's path; a cell's plate adds segments, checked by its own run
+        label = f"options.max_steps = {options['max_steps']}"
+        check_path_size(options["n_elements"], options["max_steps"], label)
+    except ValueError as exc:
+        raise FieldError(str(exc)) from None
     return options
+
+
+def _check_plan(count: int, where: str, options: Mapping[str, Any]) -> None:
+    """Refuse a job of more than :data:`MAX_GEOMETRIES` geometries or :data:`MAX_CHUNKS` chunks.
+
+    Called with the count alone, before any geometry is built.
+    """
+    if count > MAX_GEOMETRIES:
+        raise FieldError(
+            f"{where}: {count} geometries, more than the {MAX_GEOMETRIES} a sweep plans; "
+            "split the job"
+        )
+    chunk = options["chunk"]
+    chunks = -(-count // chunk)
+    if chunks > MAX_CHUNKS:
+        raise FieldError(
+            f"options.chunk = {chunk}: {count} geometries make {chunks} chunks, more than the "
+            f"{MAX_CHUNKS} a sweep plans; give options.chunk >= {-(-count // MAX_CHUNKS)}"
+        )
 
 
 def job_from_dict(source: Mapping[str, Any]) -> UnitCellJob:
@@ -188,23 +237,27 @@ def job_from_dict(source: Mapping[str, Any]) -> UnitCellJob:
     check_keys(source, "", optional=("grid", "lhs", "options"))
     if ("grid" in source) == ("lhs" in source):
         raise FieldError("give exactly one of [grid] or [lhs]")
+    options = _options(source)
     if "grid" in source:
         grid = table(source, "grid")
         check_keys(grid, "grid", required=("H", "t"), optional=PARAMETERS[2:])
         columns = [_values(grid, "grid", name) for name in PARAMETERS]
+        sizes = [len(column) for column in columns]
+        _check_plan(math.prod(sizes), "grid (" + " x ".join(map(str, sizes)) + ")", options)
         geometries = np.array(list(itertools.product(*columns)), dtype=float)
     else:
         from scipy.stats import qmc
 
         lhs = table(source, "lhs")
         check_keys(lhs, "lhs", required=("n", "H", "t"), optional=("seed", *PARAMETERS[2:]))
-        n = integer(lhs, "lhs", "n", low=1, high=1_000_000)
+        n = integer(lhs, "lhs", "n", low=1, high=MAX_GEOMETRIES)
+        _check_plan(n, "lhs.n", options)
         seed = integer(lhs, "lhs", "seed", low=0, high=(1 << 63) - 1) if "seed" in lhs else 0
         bounds = [_bounds(lhs, name) for name in PARAMETERS]
         unit = qmc.LatinHypercube(d=len(PARAMETERS), seed=seed).random(n)
         low, high = np.array(bounds).T
         geometries = low + unit * (high - low)
-    return UnitCellJob(geometries, _options(source), dict(source))
+    return UnitCellJob(geometries, options, dict(source))
 
 
 def read_job(path: str | Path) -> UnitCellJob:
@@ -247,10 +300,38 @@ class SweepIncomplete(RuntimeError):
         )
 
 
-def _make_engine(engine: str, workers: int, scheduler: str | None) -> Engine:
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or the CLI's SIGTERM) during a sweep: the committed chunks stay committed.
+
+    Raised once the workers have stopped and the lock is released; running the sweep again
+    continues it.
+
+    Attributes
+    ----------
+    out : Path
+    chunks_committed, chunks_total : int
+    geometries_committed, geometries : int
+    """
+
+    def __init__(self, out: Path, manifest: ChunkManifest, tasks: list[CellTask]) -> None:
+        self.out = out
+        self.chunks_committed = len(manifest.chunks)
+        self.chunks_total = len(tasks)
+        self.geometries_committed = sum(c.stop - c.start for c in manifest.chunks.values())
+        self.geometries = manifest.geometries
+        super().__init__(
+            f"interrupted: {self.chunks_committed} of {self.chunks_total} chunks "
+            f"({self.geometries_committed} of {self.geometries} geometries) committed in {out}"
+        )
+
+
+def _make_engine(
+    engine: str, workers: int, scheduler: str | None, no_workers_timeout: float | None
+) -> Engine:
     if engine == "local":
         return LocalEngine(processes=workers)
-    return DaskEngine(scheduler=scheduler, n_workers=workers)
+    extra = {} if no_workers_timeout is None else {"no_workers_timeout": no_workers_timeout}
+    return DaskEngine(scheduler=scheduler, n_workers=workers, **extra)
 
 
 def run_unitcell_sweep(
@@ -261,6 +342,7 @@ def run_unitcell_sweep(
     progress=None,
     engine: str = "local",
     scheduler: str | None = None,
+    no_workers_timeout: float | None = None,
 ) -> dict[str, Any]:
     """Trace every geometry of ``job`` into ``out`` (module docstring); resumes a partial run.
 
@@ -280,6 +362,10 @@ def run_unitcell_sweep(
         (:class:`~dpfexplore.sweep.engines.DaskEngine`).
     scheduler : str, optional
         With ``engine="dask"``: the address of a running scheduler.
+    no_workers_timeout : float, s, optional
+        With ``engine="dask"``: how long the cluster may have no worker at all before the
+        remaining chunks fail (:class:`~dpfexplore.sweep.engines.DaskEngine`; its default, 600 s,
+        if None). The engine says so in one line after a few seconds without workers.
 
     Returns
     -------
@@ -295,6 +381,9 @@ def run_unitcell_sweep(
         If another sweep is writing ``out`` (a :class:`~dpfexplore.io.commits.StoreError`).
     SweepIncomplete
         If chunks failed; the others stay committed.
+    SweepInterrupted
+        On Ctrl-C (a ``KeyboardInterrupt``), once the workers have stopped; the committed
+        chunks stay committed.
     """
     out = Path(out)
     if not isinstance(workers, int) or workers < 1:
@@ -305,24 +394,23 @@ def run_unitcell_sweep(
         raise ValueError("scheduler: only with engine='dask'")
     if out.exists() and not out.is_dir():
         raise ValueError(f"{out}: exists and is not a directory")
-    runner = _make_engine(engine, workers, scheduler)
+    runner = _make_engine(engine, workers, scheduler, no_workers_timeout)
     created = not out.exists()
     try:
         with sweep_lock(out):
             return _run_locked(job, out, runner, progress)
-    except ValueError:
-        if created:  # bad input writes nothing: remove the directory the lock created
+    except (ValueError, OSError):
+        if created:  # bad input or a full disk at the start: no empty directory left behind
             remove_if_empty(out)
         raise
 
 
-def _marked_fingerprint(out: Path) -> str | None:
-    """The fingerprint ``out/job.json`` records, None if it has none (missing, unreadable)."""
+def _job_record(out: Path) -> dict[str, Any] | None:
+    """What ``out/job.json`` holds, None if it is missing or unreadable."""
     try:
-        value = read_json(out / "job.json").get("fingerprint")
+        return read_json(out / "job.json")
     except (FileNotFoundError, StoreError):
         return None
-    return value if isinstance(value, str) else None
 
 
 def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkManifest:
@@ -332,19 +420,23 @@ def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkMan
     resumed one loses the chunks that fail their checks, then temporary and uncommitted files.
     """
     chunks = out / CHUNKS
-    another = f"{out}: holds a sweep of another job; give a new directory"
+    record = chunks / MANIFEST
+    recompute = f"remove {chunks} to recompute its chunks here, or give a new directory"
     if (out / MANIFEST).exists():
         raise ValueError(f"{out}: is a finger sweep's dataset; give a directory of its own")
-    marked = _marked_fingerprint(out)
+    written = _job_record(out)
+    marked = None if written is None else written.get("fingerprint")
     try:
         manifest = read_manifest(chunks)
     except FileNotFoundError:
         manifest = None
     except StoreError as exc:
-        raise ValueError(f"{exc}; give a new directory") from None
+        raise ValueError(f"{exc}; the chunks cannot be verified: {recompute}") from None
     if manifest is None:
         if marked is not None and marked != job.fingerprint:
-            raise ValueError(another)
+            raise ValueError(
+                f"{out / 'job.json'}: holds a sweep of another job; give a new directory"
+            )
         if any(chunks.glob("designs-*.parquet")) or any(chunks.glob("curves-*.parquet")):
             raise ValueError(
                 f"{out}: holds chunk files of an older unit-cell sweep, with no {CHUNKS}/"
@@ -361,11 +453,16 @@ def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkMan
         chunks.mkdir(parents=True, exist_ok=True)
         write_manifest(chunks, manifest)  # from now on the directory is this job's
     elif manifest.fingerprint != job.fingerprint:
-        raise ValueError(another)
+        raise ValueError(f"{record}: holds a sweep of another job; give a new directory")
     else:
+        problem = plan_problem(manifest, len(job.geometries), job.options["chunk"])
+        if problem is not None:
+            raise ValueError(f"{record}: {problem}: the file was edited; {recompute}")
+        planned = {task.path: task for task in tasks}
         dropped = False
         for name, chunk in sorted(manifest.chunks.items()):
-            problem = chunk_problem(chunks, chunk)
+            task = planned.get(name)
+            problem = "not in the plan" if task is None else chunk_problem(chunks, chunk, task)
             if problem is not None:
                 logger.warning("unitcell sweep: recomputing chunk %s (%s)", name, problem)
                 del manifest.chunks[name]
@@ -374,10 +471,11 @@ def _open_chunks(out: Path, job: UnitCellJob, tasks: list[CellTask]) -> ChunkMan
             write_manifest(chunks, manifest)
     remove_uncommitted(chunks, manifest)
     remove_leftovers(out)
-    if marked != job.fingerprint:  # new, or lost or damaged: the manifest says whose it is
-        atomic_write(
-            out / "job.json", json.dumps({"fingerprint": job.fingerprint, "job": job.source})
-        )
+    # job.json is the directory's label; the manifest says whose it is: a label missing,
+    # half-written or edited is written again
+    text = json.dumps({"fingerprint": job.fingerprint, "job": job.source})
+    if written != json.loads(text):
+        atomic_write(out / "job.json", text)
     return manifest
 
 
@@ -391,22 +489,25 @@ def _run_locked(job: UnitCellJob, out: Path, engine: Engine, progress) -> dict[s
         work = UnitCellWork(root=str(chunks.resolve()), options=job.options)
         done = len(tasks) - len(pending)
         try:
-            engine.start(work)  # compile here, before any worker loads the cache
-            for outcome in engine.run(work, pending):
-                if isinstance(outcome, ChunkFailure):
-                    logger.error(
-                        "unitcell sweep: chunk %s failed: %s", outcome.task.path, outcome.error
-                    )
-                    failures.append(outcome)
-                    continue
-                manifest.chunks[outcome.path] = outcome
-                write_manifest(chunks, manifest)
-                done += 1
-                if progress is not None:
-                    progress(done, len(tasks))
-        finally:
-            engine.close()  # stops the workers, at once after an interruption
-            remove_leftovers(chunks)
+            try:
+                engine.start(work)  # compile here, before any worker loads the cache
+                for outcome in engine.run(work, pending):
+                    if isinstance(outcome, ChunkFailure):
+                        logger.error(
+                            "unitcell sweep: chunk %s failed: %s", outcome.task.path, outcome.error
+                        )
+                        failures.append(outcome)
+                        continue
+                    manifest.chunks[outcome.path] = outcome
+                    write_manifest(chunks, manifest)
+                    done += 1
+                    if progress is not None:
+                        progress(done, len(tasks))
+            finally:
+                engine.close()  # stops the workers, at once after an interruption
+                remove_leftovers(chunks)
+        except KeyboardInterrupt:
+            raise SweepInterrupted(out, manifest, tasks) from None
     if failures:
         raise SweepIncomplete(out, failures)
     return _merge(out, job, manifest)

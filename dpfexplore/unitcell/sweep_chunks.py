@@ -53,6 +53,7 @@ __all__ = [
     "chunk_problem",
     "merge_chunks",
     "parquet_bytes",
+    "plan_problem",
     "plan_tasks",
     "read_manifest",
     "remove_uncommitted",
@@ -362,12 +363,37 @@ def read_manifest(root: str | Path) -> ChunkManifest:
         raise StoreError(f"{path}: unreadable manifest ({type(exc).__name__}: {exc})") from None
 
 
-def chunk_problem(root: str | Path, chunk: CellChunk) -> str | None:
-    """Why a committed chunk cannot be trusted any more (a file missing or changed), or None."""
+def chunk_problem(root: str | Path, chunk: CellChunk, task: CellTask | None = None) -> str | None:
+    """Why a committed chunk cannot be trusted any more, or None.
+
+    Its record must match its ``task`` of the plan (if given: the same geometries, its files
+    under the chunk's names), and each file its size and checksum (a file missing or changed).
+    """
+    if task is not None:
+        names = [f"{task.path}.designs.parquet", f"{task.path}.curves.parquet"]
+        if (chunk.index, chunk.start, chunk.stop) != (task.index, task.start, task.stop):
+            return f"record of geometries [{chunk.start}, {chunk.stop}) not in the plan"
+        if [record.path for record in chunk.files] != names[: len(chunk.files)]:
+            return "record names files of another chunk"
     for record in chunk.files:
         problem = verify_file(root, record)
         if problem is not None:
             return f"{record.path} {problem}"
+    return None
+
+
+def plan_problem(manifest: ChunkManifest, geometries: int, chunk_size: int) -> str | None:
+    """How the plan ``manifest`` records differs from its job's, or None.
+
+    The fingerprint fixes the job, hence the plan: a difference means the file was edited.
+    """
+    n_chunks = -(-geometries // chunk_size)
+    recorded = (manifest.geometries, manifest.chunk_size, manifest.n_chunks)
+    if recorded != (geometries, chunk_size, n_chunks):
+        return (
+            f"records {manifest.geometries} geometries in {manifest.n_chunks} chunks of "
+            f"{manifest.chunk_size}, its job plans {geometries} in {n_chunks} of {chunk_size}"
+        )
     return None
 
 

@@ -55,6 +55,7 @@ __all__ = [
     "UnitCellCurve",
     "curves_from_frame",
     "read_curves",
+    "read_table",
     "rows_sha256",
 ]
 
@@ -142,8 +143,24 @@ def read_curve_table(path: str | Path) -> pd.DataFrame:
 
 
 def _read_checked(path: Path) -> tuple[pd.DataFrame, list[UnitCellCurve]]:
+    frame = read_table(path)
+    try:
+        return frame, curves_from_frame(frame)
+    except CurveError as exc:
+        raise CurveError(f"{path}: {exc}") from None
+
+
+def read_table(path: str | Path) -> pd.DataFrame:
+    """A CSV or Parquet table as it is, read bounded (module docstring), not yet checked.
+
+    Raises
+    ------
+    CurveError
+        One line naming the file: another suffix, not a regular file, too large, unreadable.
+    """
     from ..io.files import BoundedReadError, read_bounded
 
+    path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".parquet", ".csv"):
         raise CurveError(f"{path}: give a .csv or .parquet table of unit-cell curves")
@@ -162,10 +179,7 @@ def _read_checked(path: Path) -> tuple[pd.DataFrame, list[UnitCellCurve]]:
             raise
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CurveError(f"{path}: cannot read ({message})") from None
-    try:
-        return frame, curves_from_frame(frame)
-    except CurveError as exc:
-        raise CurveError(f"{path}: {exc}") from None
+    return frame
 
 
 def _parquet(path: Path, raw: bytes) -> pd.DataFrame:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 
 import numpy as np
@@ -143,8 +144,13 @@ def test_the_unswapped_surrogates_load_and_say_what_they_predict(saved):
     assert all(len(names) > 0 for names in knn["features"].values())
 
 
-def test_special_files_in_a_surrogate_are_refused_in_one_line(copies):
+def test_special_files_in_a_surrogate_are_refused_in_one_line(copies, capsys):
     a = copies["a"]
+    fifo = a.parent / "designs.parquet"
+    os.mkfifo(fifo)  # a named pipe as the designs to predict: refused, never waited on
+    assert main(["surrogate", "predict", str(a), str(fifo)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(fifo) in err[0] and "a FIFO" in err[0]
     (a / RESULT_MARKER).unlink()
     (a / store.META).unlink()
     (a / store.META).symlink_to("/dev/zero")

@@ -269,7 +269,7 @@ def _first_difference(found: Any, wanted: Any, where: str = "") -> str:
                 return _first_difference(
                     found.get(key, "<none>"), wanted.get(key, "<none>"), f"{where}.{key}"
                 )
-    shown = [json.dumps(v)[:80] for v in (found, wanted)]
+    shown = [json.dumps(v, default=repr)[:80] for v in (found, wanted)]
     return f"{where.lstrip('.') or 'identity'} {shown[0]} where {META} says {shown[1]}"
 
 
@@ -290,36 +290,52 @@ def _check_identity(path: Path, meta: dict[str, Any], payload: Any) -> None:
     regressors, classifiers = payload["regressors"], payload["classifiers"]
     if not (isinstance(regressors, dict) and isinstance(classifiers, dict)):
         raise SurrogateLoadError(f"{models}: not the estimators of a saved surrogate")
-    if payload["identity"] != wanted:
+    if not _same(payload["identity"], wanted):
         difference = _first_difference(payload["identity"], wanted)
         raise SurrogateLoadError(f"{models}: another surrogate's models (recorded {difference})")
-    found = {
-        "outputs": wanted["outputs"],
-        "dataset": wanted["dataset"],
-        "estimators": {
-            **{f"regressor:{k}": estimator_facts(m) for k, m in regressors.items()},
-            **{f"classifier:{k}": estimator_facts(m) for k, m in classifiers.items()},
-        },
-    }
-    if found != wanted:
+    try:
+        found = {
+            "outputs": wanted["outputs"],
+            "dataset": wanted["dataset"],
+            "estimators": {
+                **{f"regressor:{k}": estimator_facts(m) for k, m in regressors.items()},
+                **{f"classifier:{k}": estimator_facts(m) for k, m in classifiers.items()},
+            },
+        }
+        chosen = estimator_facts(payload["classifier"])
+    except (TypeError, ValueError, AttributeError) as exc:  # attributes of the wrong kind
+        raise SurrogateLoadError(
+            f"{models}: estimators without their fitted facts ({exc})"
+        ) from None
+    if not _same(found, wanted):
         difference = _first_difference(found, wanted)
         raise SurrogateLoadError(f"{models}: another surrogate's models ({difference})")
-    for kind, model in regressors.items():
-        said = estimator_facts(model)
+    for kind, said in found["estimators"].items():
+        if not kind.startswith("regressor:"):
+            continue
         if (said["outputs"] or meta["outputs"]) != meta["outputs"] or said["n_outputs"] != len(
             meta["outputs"]
         ):
             raise SurrogateLoadError(
-                f"{models}: regressor {kind} predicts {said['outputs'] or said['n_outputs']}, "
+                f"{models}: {kind} predicts {said['outputs'] or said['n_outputs']}, "
                 f"{META} says {meta['outputs']}"
             )
-    if sorted(regressors) != sorted(meta["kinds"]):
+    if sorted(map(str, regressors)) != sorted(map(str, meta["kinds"])):
         raise SurrogateLoadError(
-            f"{models}: regressors {sorted(regressors)}, {META} says {meta['kinds']}"
+            f"{models}: regressors {sorted(map(str, regressors))}, {META} says {meta['kinds']}"
         )
-    chosen = wanted["estimators"].get(f"classifier:{meta['classifier']}")
-    if estimator_facts(payload["classifier"]) != chosen:
+    if not _same(chosen, wanted["estimators"].get(f"classifier:{meta['classifier']}")):
         raise SurrogateLoadError(f"{models}: the status classifier is not {meta['classifier']}")
+
+
+def _same(first: Any, second: Any) -> bool:
+    """Whether two identity records are equal (as canonical JSON: arrays never compared)."""
+    try:
+        return json.dumps(first, sort_keys=True, default=repr) == json.dumps(
+            second, sort_keys=True, default=repr
+        )
+    except (TypeError, ValueError, RecursionError):  # keys of mixed types, a cycle
+        return False
 
 
 #: Keys of ``surrogate.json`` and the JSON type each must have.

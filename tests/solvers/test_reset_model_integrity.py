@@ -123,7 +123,9 @@ CASES = {
         "is the child of 2 nodes",
     ),
     "leaf with one child": (
-        lambda d: d["scale"]["right"].__setitem__(_first_leaf(d["scale"]), 2),
+        lambda d: d["scale"]["right"].__setitem__(
+            _first_leaf(d["scale"]), _first_leaf(d["scale"]) + 1
+        ),
         "a node has two children or none",
     ),
     "root out of order": (

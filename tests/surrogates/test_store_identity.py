@@ -125,6 +125,12 @@ def test_a_forged_identity_record_is_caught_by_the_estimators(copies):
     with pytest.raises(store.SurrogateLoadError, match=r"regressor:knn\.outputs") as info:
         store.load_surrogates(a)
     assert str(a / store.MODELS) in str(info.value)
+    payload["identity"] = np.arange(3)  # a record of another type altogether
+    (a / store.MODELS).write_bytes(sio.dumps(payload))
+    _restamp(a, manifest=True)
+    with pytest.raises(store.SurrogateLoadError, match="another surrogate's models") as info:
+        store.load_surrogates(a)
+    assert "\n" not in str(info.value)
 
 
 def test_the_unswapped_surrogates_load_and_say_what_they_predict(saved):

@@ -263,6 +263,15 @@ def check_trees(trees: TreeEnsemble) -> None:
         )
     ends = np.append(roots[1:], n)
     tree = np.repeat(np.arange(roots.size), ends - roots)
+    node = np.arange(n)
+    for key, child in (("left", left), ("right", right)):
+        bad = (child != -1) & ((child <= node) | (child >= ends[tree]))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise TreeError(
+                f"{key}[{i}] = {child[i]}: outside the nodes {i + 1} .. {ends[tree[i]] - 1} "
+                "after it in its tree (or -1 for a leaf)"
+            )
     leaf = (left == -1) & (right == -1)
     half = (left == -1) ^ (right == -1)
     if half.any():
@@ -271,16 +280,7 @@ def check_trees(trees: TreeEnsemble) -> None:
             f"node {i}: left = {left[i]}, right = {right[i]}: a node has two children or none "
             "(a leaf has left = right = -1)"
         )
-    node = np.arange(n)
     inner = ~leaf
-    for key, child in (("left", left), ("right", right)):
-        bad = inner & ((child <= node) | (child >= ends[tree]))
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise TreeError(
-                f"{key}[{i}] = {child[i]}: outside the nodes {i + 1} .. {ends[tree[i]] - 1} "
-                "after it in its tree (a leaf has left = right = -1)"
-            )
     parents = np.bincount(np.concatenate([left[inner], right[inner]]), minlength=n)
     is_root = np.zeros(n, dtype=bool)
     is_root[roots] = True

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 from pathlib import Path
 
 from . import EXIT_OK, UsageError
@@ -125,6 +126,8 @@ def _fit(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     if not 1 <= args.degree <= 5:
         raise UsageError(f"--degree {args.degree}: must be between 1 and 5")
+    if not (math.isfinite(args.max_rms) and args.max_rms > 0.0):
+        raise UsageError(f"--max-rms {args.max_rms}: need a finite relative RMS > 0")
     try:
         if args.method == "states":
             from ..identification.states import read_states_curves

@@ -1,4 +1,4 @@
-"""``dpfexplore reset-model fit|report``: train and inspect the fast reset-time model."""
+"""``dpfexplore reset-model fit|report|upgrade``: train, inspect and upgrade fast reset models."""
 
 from __future__ import annotations
 
@@ -13,13 +13,15 @@ from .support.output import announce_compilation, json_text, output_path
 
 
 def register(subparsers) -> None:
-    """Add ``reset-model`` and its ``fit`` and ``report`` subcommands."""
+    """Add ``reset-model`` and its ``fit``, ``report`` and ``upgrade`` subcommands."""
     parser = subparsers.add_parser(
         "reset-model",
         help="train (fit) or describe (report) the fast reset-time model",
         description="The fast reset-time model (reset_times_batch(..., method='fast')): a "
         "physical core with a fitted correction, a 90 % interval and a fallback. 'fit' trains "
-        "one by active learning on designs simulated by the full model; 'report' describes one.",
+        "one by active learning on designs simulated by the full model; 'report' describes one; "
+        "'upgrade' rewrites a model file of an earlier format in this one, checked, with the "
+        "same numbers.",
     )
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     fit = sub.add_parser(
@@ -67,6 +69,16 @@ def register(subparsers) -> None:
     report.add_argument("model", nargs="?", default=None, help="model file (.json)")
     report.add_argument("--json", action="store_true", help="print the model's record as JSON")
     report.set_defaults(handler=run_report)
+    upgrade = sub.add_parser(
+        "upgrade",
+        help="rewrite a format-1 model file (no checksum) in this format, numbers kept",
+        description="Check every tree and value of a model file of format version 1 and write "
+        "it in this version's format (checksum, provenance, recorded output ranges); every "
+        "number is kept, so its reset times stay bit for bit.",
+    )
+    upgrade.add_argument("model", type=Path, help="model file of format version 1 (.json)")
+    upgrade.add_argument("--out", type=Path, required=True, help="model file to write (.json)")
+    upgrade.set_defaults(handler=run_upgrade)
 
 
 def _tau(text: str) -> tuple[float, float, float, float]:
@@ -134,7 +146,10 @@ def run_fit(args) -> int:
 
         test = reset_model_record(args.test_designs, model=model)
         model.info["test"] = {k: v for k, v in test.items() if k != "goals_met"}
-    path = model.save(args.out)
+    try:
+        path = model.save(args.out)
+    except OSError as exc:
+        raise UsageError(f"--out {args.out}: cannot write ({exc.strerror or exc})") from None
     record = {**record, "test": model.info.get("test"), "saved": str(path)}
     if args.json:
         print(json_text(record))
@@ -157,6 +172,24 @@ def run_report(args) -> int:
         print(json_text(data))
     else:
         print(_summary(model, path))
+    return EXIT_OK
+
+
+def run_upgrade(args) -> int:
+    """Handler of ``reset-model upgrade``."""
+    from ..solvers.dynamics.reset_model import upgrade_reset_model
+
+    if args.out.suffix != ".json":
+        raise UsageError(f"--out {args.out}: the model is written as JSON; name it *.json")
+    try:
+        model = upgrade_reset_model(args.model)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    try:
+        path = model.save(output_path(args.out, "--out"))
+    except OSError as exc:
+        raise UsageError(f"--out {args.out}: cannot write ({exc.strerror or exc})") from None
+    print(f"reset model {args.model} upgraded to format version 2: {path}")
     return EXIT_OK
 
 

@@ -183,10 +183,17 @@ def _report(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+#: Largest Parquet file of designs ``surrogate predict`` reads, bytes.
+MAX_DESIGNS_BYTES = 512 * 2**20
+
+
 def _read_designs(path: Path):
+    import io
+
     import pandas as pd
     import pyarrow as pa
 
+    from ..io.files import BoundedReadError, read_bounded
     from ..sweep.storage.store import StoreError, read_results
 
     if (path / "_manifest.json").is_file():
@@ -197,7 +204,13 @@ def _read_designs(path: Path):
     if not path.exists():
         raise UsageError(f"{path}: no such file")
     try:
-        frame = pd.read_parquet(path)
+        raw = read_bounded(path, MAX_DESIGNS_BYTES)
+    except BoundedReadError as exc:
+        raise UsageError(str(exc)) from None
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    try:
+        frame = pd.read_parquet(io.BytesIO(raw))
     except (OSError, ValueError, pa.ArrowException) as exc:  # a file that is not Parquet
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise UsageError(f"{path}: not a Parquet file of designs ({message})") from None

@@ -34,6 +34,7 @@ from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import DEFAULT
 from ..unitcell.geometry import cell_plate
 from ..unitcell.shell import unit_cell_curve
+from .curves import read_table
 from .features import fit_features
 from .identify import DEFAULT_METHOD
 from .spring_fit import fit_curve
@@ -336,8 +337,8 @@ def identify_sweep(directory: str | Path, *, name: str, method: str = DEFAULT_ME
     from .identify import Identification, identify
 
     directory = Path(directory)
-    table = pd.read_parquet(directory / "curves.parquet")
-    designs = pd.read_parquet(directory / "designs.parquet")
+    table = read_table(directory / "curves.parquet")
+    designs = read_table(directory / "designs.parquet")
     curves = states_curves_from_frame(table)
     main_fit = identify(curves, name=name, method=method, allow_flagged=True)
     # the sweep names curve i "d{i:06d}" (dpfexplore.unitcell.sweep)

@@ -24,12 +24,21 @@ the **lower energy envelope** of the branches (at each displacement, the lowest 
 reaches there; forces are then not used, since the envelope's slope jumps where branches cross).
 Without it, the points of a curve must be in increasing displacement.
 
-:func:`read_curves` refuses, in one line naming the curve: missing columns, non-finite values,
-parameters that change within a curve, unsorted or too-short curves.
+:func:`read_curves` reads only a regular file of at most :data:`MAX_TABLE_BYTES` (a directory,
+FIFO or device is refused before anything is read; a Parquet file's row count is checked before
+it is decoded) and refuses, in one line naming the file and the curve: missing columns,
+non-finite values, duplicate rows, parameters that change within a curve, unsorted or too-short
+curves.
+
+Each curve carries the SHA-256 of its rows (:attr:`UnitCellCurve.rows_sha256`): every column
+listed above, every row, in the table's order, which is all a fit reads of the table;
+identification's ``data_sha256`` is built from them.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,7 +46,18 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-__all__ = ["MIN_POINTS", "CurveError", "UnitCellCurve", "curves_from_frame", "read_curves"]
+__all__ = [
+    "COLUMNS",
+    "MAX_TABLE_BYTES",
+    "MAX_TABLE_ROWS",
+    "MIN_POINTS",
+    "CurveError",
+    "UnitCellCurve",
+    "curves_from_frame",
+    "read_curves",
+    "read_table",
+    "rows_sha256",
+]
 
 #: Fewest points a curve needs (three polynomial coefficients, and enough to judge the fit).
 MIN_POINTS = 12
@@ -45,6 +65,13 @@ MIN_POINTS = 12
 ENVELOPE_POINTS = 200
 
 _PARAMETERS = ("H", "t", "r_b", "E", "nu")
+#: The columns a fit reads (module docstring), in the order their hash takes them.
+COLUMNS = ("curve", *_PARAMETERS, "displacement", "energy", "force", "branch", "tip_dis")
+#: Largest curve table read, bytes: a unit-cell sweep of 10,000 geometries of 500 points each
+#: takes about 300 MB as CSV, a sixth of that as Parquet.
+MAX_TABLE_BYTES = 512 * 2**20
+#: Most rows of a table (checked in a Parquet file's footer before its columns are decoded).
+MAX_TABLE_ROWS = 20_000_000
 
 
 class CurveError(ValueError):
@@ -67,6 +94,9 @@ class UnitCellCurve:
     tip_dis : float or None, mm
     folded : bool
         True when the curve was the envelope of several branches.
+    rows_sha256 : str or None
+        SHA-256 of the curve's rows in its table (:func:`rows_sha256`); None for a curve made
+        in Python.
     """
 
     curve: str
@@ -80,6 +110,7 @@ class UnitCellCurve:
     force: NDArray | None
     tip_dis: float | None = None
     folded: bool = False
+    rows_sha256: str | None = None
 
     @property
     def R(self) -> float:
@@ -112,24 +143,73 @@ def read_curve_table(path: str | Path) -> pd.DataFrame:
 
 
 def _read_checked(path: Path) -> tuple[pd.DataFrame, list[UnitCellCurve]]:
+    frame = read_table(path)
     try:
-        if path.suffix.lower() == ".parquet":
-            frame = pd.read_parquet(path)
-        elif path.suffix.lower() == ".csv":
-            frame = pd.read_csv(path)
-        else:
-            raise CurveError(f"{path}: give a .csv or .parquet table of unit-cell curves")
+        return frame, curves_from_frame(frame)
+    except CurveError as exc:
+        raise CurveError(f"{path}: {exc}") from None
+
+
+def read_table(path: str | Path) -> pd.DataFrame:
+    """A CSV or Parquet table as it is, read bounded (module docstring), not yet checked.
+
+    Raises
+    ------
+    CurveError
+        One line naming the file: another suffix, not a regular file, too large, unreadable.
+    """
+    from ..io.files import BoundedReadError, read_bounded
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".parquet", ".csv"):
+        raise CurveError(f"{path}: give a .csv or .parquet table of unit-cell curves")
+    try:
+        raw = read_bounded(path, MAX_TABLE_BYTES)
+    except BoundedReadError as exc:
+        raise CurveError(str(exc)) from None
     except FileNotFoundError:
         raise CurveError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise CurveError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    try:
+        frame = _parquet(path, raw) if suffix == ".parquet" else pd.read_csv(io.BytesIO(raw))
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         if isinstance(exc, CurveError):
             raise
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CurveError(f"{path}: cannot read ({message})") from None
-    try:
-        return frame, curves_from_frame(frame)
-    except CurveError as exc:
-        raise CurveError(f"{path}: {exc}") from None
+    return frame
+
+
+def _parquet(path: Path, raw: bytes) -> pd.DataFrame:
+    """A Parquet table from its bytes, its row count checked before its columns are decoded."""
+    import pyarrow.parquet as pq
+
+    rows = pq.ParquetFile(io.BytesIO(raw)).metadata.num_rows
+    if rows > MAX_TABLE_ROWS:
+        raise CurveError(f"{path}: {rows} rows, more than the limit of {MAX_TABLE_ROWS}")
+    return pd.read_parquet(io.BytesIO(raw))
+
+
+def rows_sha256(rows: pd.DataFrame) -> str:
+    """SHA-256 of the columns of :data:`COLUMNS` in ``rows``: each its name and every value.
+
+    Numbers as little-endian float64 (what the fits read; ``curve`` and ``branch`` as text).
+    """
+    digest = hashlib.sha256()
+    for column in COLUMNS:
+        if column not in rows:
+            continue
+        digest.update(column.encode() + b"\0")
+        if column in ("curve", "branch"):
+            for value in rows[column].astype(str):
+                encoded = value.encode("utf-8", "surrogatepass")
+                digest.update(len(encoded).to_bytes(8, "little") + encoded)
+        else:
+            values = pd.to_numeric(rows[column], errors="coerce").to_numpy(dtype="<f8")
+            digest.update(np.ascontiguousarray(values).tobytes())
+    return digest.hexdigest()
 
 
 def curves_from_frame(frame: pd.DataFrame) -> list[UnitCellCurve]:
@@ -142,6 +222,13 @@ def curves_from_frame(frame: pd.DataFrame) -> list[UnitCellCurve]:
         raise CurveError("need an energy (N·mm) or a force (N) column, or both")
     if frame.empty:
         raise CurveError("the table has no rows")
+    repeated = frame.duplicated(subset=[c for c in COLUMNS if c in frame.columns])
+    if repeated.any():
+        row = int(np.flatnonzero(repeated.to_numpy())[0])
+        raise CurveError(
+            f"row {row} (curve {str(frame['curve'].iloc[row])!r}) repeats an earlier row: "
+            "duplicate rows are refused (they would weigh twice in a fit)"
+        )
     curves = []
     for key, rows in frame.groupby("curve", sort=False):
         curves.append(_curve(str(key), rows))
@@ -194,6 +281,7 @@ def _curve(name: str, rows: pd.DataFrame) -> UnitCellCurve:
         force=force,
         tip_dis=parameters.get("tip_dis"),
         folded=bool(folded),
+        rows_sha256=rows_sha256(rows),
     )
 
 

@@ -13,7 +13,9 @@ provenance (method settings, the data's SHA-256, package versions).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import math
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -28,7 +30,7 @@ from .closed_forms import Selection, select_closed_form
 from .curves import CurveError, UnitCellCurve
 from .spring_fit import CurveFit, fit_curve
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "Identification", "identify"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "Identification", "data_sha256", "identify"]
 
 #: Per-curve fit methods: the law by the unit's states (the default, :mod:`.states`), by
 #: features (:mod:`.features`), or robust least squares over the curve (:mod:`.spring_fit`).
@@ -68,13 +70,28 @@ class Identification:
     notes: list[str] = field(default_factory=list)
 
 
-def _data_sha256(curves: Sequence[UnitCellCurve]) -> str:
+def data_sha256(curves: Sequence[UnitCellCurve]) -> str:
+    """SHA-256 of everything the fits read of ``curves``, in their order.
+
+    A curve read from a table contributes its name and the hash of its rows
+    (:attr:`~.curves.UnitCellCurve.rows_sha256`: every column a fit reads, every row); a curve
+    made in Python, every one of its fields (arrays by their float64 bytes).
+    """
     digest = hashlib.sha256()
     for c in curves:
-        digest.update(c.curve.encode())
-        digest.update(np.array([c.H, c.t, c.r_b, c.E, c.nu, c.tip_dis or np.nan]).tobytes())
-        for array in (c.displacement, c.energy, c.force):
-            digest.update(b"-" if array is None else np.ascontiguousarray(array).tobytes())
+        name = c.curve.encode("utf-8", "surrogatepass")
+        digest.update(len(name).to_bytes(8, "little") + name)
+        if c.rows_sha256 is not None:
+            digest.update(b"rows" + bytes.fromhex(c.rows_sha256))
+            continue
+        for item in dataclasses.fields(c):
+            value = getattr(c, item.name)
+            digest.update(item.name.encode() + b"=")
+            if value is None or isinstance(value, (bool, str)):
+                digest.update(repr(value).encode())
+            else:  # numbers, arrays and tuples of pairs (a path's zero-force states)
+                digest.update(np.ascontiguousarray(value, dtype="<f8").tobytes())
+                digest.update(repr(np.shape(value)).encode())
     return digest.hexdigest()
 
 
@@ -135,6 +152,14 @@ def identify(
     """
     if method not in METHODS:
         raise ValueError(f"method={method!r}: must be one of {', '.join(METHODS)}")
+    if not (isinstance(max_relative_rms, (int, float)) and math.isfinite(max_relative_rms)):
+        raise ValueError(f"max_relative_rms = {max_relative_rms!r}: need a finite number > 0")
+    if not max_relative_rms > 0.0:
+        raise ValueError(f"max_relative_rms = {max_relative_rms!r}: need a finite number > 0")
+    if isinstance(degree, bool) or not isinstance(degree, int) or not 1 <= degree <= 5:
+        raise ValueError(f"degree = {degree!r}: need a whole number from 1 to 5")
+    if isinstance(n_splits, bool) or not isinstance(n_splits, int) or n_splits < 2:
+        raise ValueError(f"n_splits = {n_splits!r}: need a whole number >= 2")
     if method == "states":
         from .states import fit_states
 
@@ -200,7 +225,7 @@ def identify(
         "curves": len(curves),
         "curves_used": len(used),
         "geometries": len(np.unique(groups)),
-        "data_sha256": _data_sha256(curves),
+        "data_sha256": data_sha256(curves),
         "alpha_spread_over_E": spread,
         "versions": _versions(),
         "notes": notes,

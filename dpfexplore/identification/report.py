@@ -10,7 +10,6 @@ the winner) and, on request, ``selection.png``. It is written whole or not at al
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..io.files import BoundedReadError, read_json_bounded
 from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import ConstantsSet, load_constants_set
 from ..model.formatting import json_text
@@ -35,6 +35,8 @@ __all__ = [
 CONSTANTS_FILE = "constants.json"
 FITS_FILE = "fits.csv"
 REPORT_FILE = "report.json"
+#: Largest report read, bytes (one per curve fit: a few hundred bytes each).
+MAX_REPORT_BYTES = 64 * 2**20
 FIGURE_FILE = "selection.png"
 
 
@@ -128,9 +130,13 @@ def read_identification(path: str | Path) -> tuple[ConstantsSet, dict[str, Any]]
     verify_result_dir(path)
     constants = load_constants_set(path / CONSTANTS_FILE)
     try:
-        report = json.loads((path / REPORT_FILE).read_text())
+        report = read_json_bounded(path / REPORT_FILE, MAX_REPORT_BYTES)
+    except BoundedReadError as exc:
+        raise ValueError(str(exc)) from None
     except (OSError, ValueError) as exc:
         raise ValueError(f"{path / REPORT_FILE}: unreadable ({exc})") from None
+    if not isinstance(report, dict):
+        raise ValueError(f"{path / REPORT_FILE}: not a report (a JSON object)")
     return constants, report
 
 

@@ -28,6 +28,7 @@ __all__ = [
     "file_sha256",
     "fsync_dir",
     "read_bounded",
+    "read_json_bounded",
 ]
 
 #: Suffix of the temporary files (their names also start with a dot: readers skip them).
@@ -134,3 +135,38 @@ def _check_kind(path: Path, mode: int, max_bytes: int, size: int) -> None:
         raise BoundedReadError(f"{path}: not a regular file ({kind})")
     if size > max_bytes:
         raise BoundedReadError(f"{path}: {size} bytes, more than the limit of {max_bytes}")
+
+
+def read_json_bounded(path: str | Path, max_bytes: int, *, strict: bool = True) -> object:
+    """The JSON document of the regular file ``path`` (at most ``max_bytes``).
+
+    With ``strict`` (the default), ``NaN``, ``Infinity`` and ``-Infinity`` (which Python's
+    parser accepts, and JSON does not) are refused; nesting deep enough to exhaust the parser's
+    recursion is refused always.
+
+    Raises
+    ------
+    BoundedReadError
+        As :func:`read_bounded` raises it.
+    ValueError
+        ``not JSON (...)`` with the parser's message and line, or ``nested too deeply``; the
+        message does not name the file (callers do).
+    OSError
+        As :func:`read_bounded` raises it.
+    """
+    import json
+
+    def refuse(name: str) -> None:
+        raise ValueError(f"{name} is not a JSON number")
+
+    data = read_bounded(path, max_bytes)
+    try:
+        return json.loads(data, parse_constant=refuse if strict else None)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not JSON ({exc.msg}, line {exc.lineno})") from None
+    except UnicodeDecodeError:
+        raise ValueError("not JSON (not UTF-8 text)") from None
+    except RecursionError:
+        raise ValueError("not JSON this reader accepts (nested too deeply)") from None
+    except ValueError as exc:
+        raise ValueError(f"not JSON ({exc})") from None

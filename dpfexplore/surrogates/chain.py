@@ -368,7 +368,7 @@ class ChainSurrogate(RegressorMixin, _UnitBox):
                 params=self.inner_params,
                 random_state=self.random_state,
                 constants=self.constants,
-            ).fit(X, y[:, others])
+            ).fit(X, pd.DataFrame(y[:, others], columns=[outputs[j] for j in others]))
             self.fit_notes_ += [f"inner: {note}" for note in self.inner_model_.fit_notes_]
         self.n_outputs_ = len(outputs)
         return self

@@ -381,7 +381,7 @@ def _fit_regressors(
 ):
     """Fit each regressor; its held-out errors per output and per N."""
     regressors, seconds, tables = {}, {}, []
-    y_train = split.train_ok[outputs].to_numpy(dtype=float)
+    y_train = split.train_ok[list(outputs)].astype(float)  # named: the models record outputs_
     headline = _headline(outputs)
     for kind in kinds:
         progress.begin(f"fitting {kind}")

@@ -339,6 +339,8 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
         Target standardisation per N, in the outputs' units.
     feature_names_, lower_, upper_, fixed_, n_train_ : dict keyed by N
         Features, training box, variables fixed in training, training rows.
+    outputs_ : tuple of str or None
+        Names of the outputs (the columns of ``y`` when it was a DataFrame; None otherwise).
     fit_notes_ : list of str
         Convergence warnings of the estimators (e.g. an MLP stopped at ``max_iter``).
     """
@@ -370,6 +372,7 @@ class DesignSurrogate(RegressorMixin, _DesignModel):
         """
         if self.kind not in KINDS:
             raise ValueError(f"kind = {self.kind!r}: choose one of {', '.join(KINDS)}")
+        self.outputs_ = tuple(str(c) for c in y.columns) if isinstance(y, pd.DataFrame) else None
         y = np.asarray(y, dtype=float)
         y = y[:, None] if y.ndim == 1 else y
         if y.shape[0] != len(X):

@@ -41,7 +41,7 @@ from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
 from ..model.version import package_versions
 from ..solvers.dynamics.fast_reset import fast_reset_core, raced_release, unit_features
-from ..solvers.dynamics.reset_model import FEATURES, ResetModel, TreeEnsemble
+from ..solvers.dynamics.reset_model import FEATURES, ResetModel, TreeEnsemble, provenance_now
 from ..solvers.dynamics.simulate import reset_times_batch
 
 __all__ = ["DEFAULT_DOMAIN", "TrainingOptions", "fit_reset_model", "training_designs"]
@@ -402,6 +402,10 @@ def fit_reset_model(
             "conformal_q": q,
             "abs_halfwidth": abs_half,
             "info": info,
+            "provenance": provenance_now(
+                "trained by active learning on designs simulated by the full model "
+                "(dpfexplore.surrogates.reset_training.fit_reset_model; options in info.options)"
+            ),
         }
     )
     record = {

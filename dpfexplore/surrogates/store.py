@@ -13,18 +13,31 @@ Format: the estimators are stored with skops (``skops.io``), not pickle. Loading
 whatever code the file names; skops rebuilds objects only of the types the loader trusts, and
 :func:`load_surrogates` trusts exactly :data:`TRUSTED_TYPES` (the scikit-learn and dpfexplore
 classes a surrogate is made of) and refuses a file that names any other type. The file's
-SHA-256, kept in ``surrogate.json``, catches a damaged or swapped file.
+SHA-256, kept in ``surrogate.json``, catches a damaged file.
 
-Loading refuses, with one line naming what differs: another :data:`SURROGATE_VERSION` or file
-format, another physical model (:data:`dpfexplore.model.version.MODEL_VERSION`), another
-scikit-learn minor version (its estimators' internals change between them), a changed model
-file, and, when a dataset is given, a dataset whose fingerprint differs from the training one.
+A checksum proves integrity, not identity: ``models.skops`` swapped for another surrogate's, with
+the checksum updated, would pass it. So both files carry the surrogate's **identity**
+(:func:`identity`): the output names, the training data's fingerprint, and for every estimator
+what it says of itself (class, kind, output names and count, the input features per number of
+units, the constants set). Before anything predicts, the identity recorded in ``models.skops``
+and the one computed from the estimators it holds must both equal ``surrogate.json``'s, whose
+own must agree with its outputs and dataset fingerprint.
+
+Loading refuses, with one line naming the file and what differs: another
+:data:`SURROGATE_VERSION` or file format, another physical model
+(:data:`dpfexplore.model.version.MODEL_VERSION`), another scikit-learn minor version (its
+estimators' internals change between them), a changed or damaged model file, another identity,
+and, when a dataset is given, a dataset whose fingerprint differs from the training one. The
+JSON files are read only as regular files of at most :data:`MAX_JSON_BYTES`, the models file
+only as a regular file of at most :data:`MAX_MODELS_BYTES`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -32,7 +45,7 @@ from typing import Any
 import pandas as pd
 
 from ..io.commits import StoreError
-from ..io.files import file_sha256
+from ..io.files import BoundedReadError, file_sha256, read_bounded, read_json_bounded
 from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.version import MODEL_VERSION, package_versions
 from .data import dataset_fingerprint
@@ -43,6 +56,7 @@ __all__ = [
     "SURROGATE_VERSION",
     "TRUSTED_TYPES",
     "SurrogateLoadError",
+    "identity",
     "json_safe",
     "load_surrogates",
     "read_report",
@@ -54,8 +68,13 @@ FORMAT = "dpfexplore-surrogate/1"
 #: something else (another feature set, scaling or target) or could not be loaded (surrogate-2:
 #: the estimators' classes moved to dpfexplore.surrogates, and skops stores class paths;
 #: surrogate-3: every estimator holds its constants set, and the flat ones' dome features come
-#: from it).
-SURROGATE_VERSION = "surrogate-3"
+#: from it; surrogate-4: both files carry the surrogate's identity).
+SURROGATE_VERSION = "surrogate-4"
+#: Largest ``surrogate.json`` or ``report.json`` read, bytes.
+MAX_JSON_BYTES = 16 * 2**20
+#: Largest ``models.skops`` read, bytes (a Gaussian process keeps its training rows: 500 rows
+#: per N for every output, a few MB).
+MAX_MODELS_BYTES = 2 * 2**30
 META, MODELS, REPORT = "surrogate.json", "models.skops", "report.json"
 SPEED_CSV, SPEED_PNG = "speed_error.csv", "speed_error.png"
 
@@ -147,10 +166,12 @@ def save_surrogates(
 def _write_surrogate(surrogates: SurrogateSet, path: Path) -> None:
     import skops.io as sio
 
+    record = identity(surrogates)
     payload = {
         "regressors": surrogates.regressors,
         "classifier": surrogates.classifier,
         "classifiers": surrogates.classifiers,
+        "identity": record,
     }
     data = sio.dumps(payload)
     untrusted = sorted(set(sio.get_untrusted_types(data=data)) - set(TRUSTED_TYPES))
@@ -175,11 +196,146 @@ def _write_surrogate(surrogates: SurrogateSet, path: Path) -> None:
         "classifiers": list(surrogates.classifiers),
         "per_n": surrogates.classifier.per_n,
         "models_sha256": file_sha256(path / MODELS),
+        "identity": record,
     }
     (path / META).write_text(json.dumps(json_safe(meta), indent=1) + "\n")
     (path / REPORT).write_text(json.dumps(json_safe(report), indent=1) + "\n")
     if report.get("speed"):
         pd.DataFrame(report["speed"]).to_csv(path / SPEED_CSV, index=False)
+
+
+#: Keys of a dataset fingerprint that say which data a surrogate was trained on.
+_DATA_KEYS = ("job_fingerprint", "chunks_sha256", "model_version", "constants")
+
+
+def identity(surrogates: SurrogateSet) -> dict[str, Any]:
+    """What a fitted surrogate predicts, from what, trained on which data (JSON types only).
+
+    Returns
+    -------
+    dict
+        ``outputs`` (names, in order), ``dataset`` (the training data's fingerprint:
+        ``job_fingerprint``, ``chunks_sha256``, ``model_version``, ``constants``) and
+        ``estimators``: for each regressor (``regressor:KIND``) and status classifier
+        (``classifier:KIND``) :func:`estimator_facts`.
+    """
+    estimators = {
+        **{f"regressor:{k}": estimator_facts(m) for k, m in surrogates.regressors.items()},
+        **{f"classifier:{k}": estimator_facts(m) for k, m in surrogates.classifiers.items()},
+    }
+    return {
+        "outputs": [str(o) for o in surrogates.outputs],
+        "dataset": {k: json_safe(surrogates.fingerprint.get(k)) for k in _DATA_KEYS},
+        "estimators": estimators,
+    }
+
+
+def estimator_facts(estimator: Any) -> dict[str, Any]:
+    """What one fitted estimator says of itself: class, kind, outputs, inputs, constants set.
+
+    Read from its fitted attributes only (``outputs_`` or ``outputs``, ``n_outputs_``,
+    ``n_units_``, ``feature_names_`` per N, an inner model's, ``constants``), so a models file
+    of another surrogate says so whatever record it carries.
+    """
+    outputs = getattr(estimator, "outputs_", None)
+    if outputs is None and hasattr(estimator, "inner_model_"):  # the chain names its outputs
+        outputs = getattr(estimator, "outputs", None)
+    features = getattr(estimator, "feature_names_", None)
+    inner = getattr(estimator, "inner_model_", None)
+    constants = getattr(estimator, "constants", None)
+    return json_safe(
+        {
+            "class": f"{type(estimator).__module__}.{type(estimator).__qualname__}",
+            "kind": str(getattr(estimator, "kind", "")),
+            "outputs": None if outputs is None else [str(o) for o in outputs],
+            "n_outputs": getattr(estimator, "n_outputs_", None),
+            "n_units": [int(n) for n in getattr(estimator, "n_units_", ())],
+            "features": None
+            if not isinstance(features, dict)
+            else {str(n): [str(c) for c in names] for n, names in features.items()},
+            "inner": None if inner is None else estimator_facts(inner),
+            "constants": (constants or {}).get("fingerprint", DEFAULT.fingerprint)
+            if isinstance(constants, dict) or constants is None
+            else "?",
+        }
+    )
+
+
+def _first_difference(found: Any, wanted: Any, where: str = "") -> str:
+    """The path of the first entry where two identity records differ, and both values."""
+    if isinstance(found, dict) and isinstance(wanted, dict):
+        for key in [*wanted, *(k for k in found if k not in wanted)]:
+            if found.get(key, "<none>") != wanted.get(key, "<none>"):
+                return _first_difference(
+                    found.get(key, "<none>"), wanted.get(key, "<none>"), f"{where}.{key}"
+                )
+    shown = [json.dumps(v, default=repr)[:80] for v in (found, wanted)]
+    return f"{where.lstrip('.') or 'identity'} {shown[0]} where {META} says {shown[1]}"
+
+
+def _check_identity(path: Path, meta: dict[str, Any], payload: Any) -> None:
+    """Refuse a models file whose estimators are not what ``surrogate.json`` describes."""
+    models = path / MODELS
+    wanted = meta.get("identity")
+    if not isinstance(wanted, dict):
+        raise SurrogateLoadError(f"{path / META}: no identity record; refit it")
+    if wanted.get("outputs") != meta["outputs"]:
+        raise SurrogateLoadError(f"{path / META}: identity.outputs differ from outputs")
+    data = {k: json_safe(meta["dataset"]["fingerprint"].get(k)) for k in _DATA_KEYS}
+    if wanted.get("dataset") != data:
+        raise SurrogateLoadError(f"{path / META}: identity.dataset differs from dataset")
+    keys = ("regressors", "classifier", "classifiers", "identity")
+    if not isinstance(payload, dict) or any(k not in payload for k in keys):
+        raise SurrogateLoadError(f"{models}: not the estimators of a saved surrogate")
+    regressors, classifiers = payload["regressors"], payload["classifiers"]
+    if not (isinstance(regressors, dict) and isinstance(classifiers, dict)):
+        raise SurrogateLoadError(f"{models}: not the estimators of a saved surrogate")
+    if not _same(payload["identity"], wanted):
+        difference = _first_difference(payload["identity"], wanted)
+        raise SurrogateLoadError(f"{models}: another surrogate's models (recorded {difference})")
+    try:
+        found = {
+            "outputs": wanted["outputs"],
+            "dataset": wanted["dataset"],
+            "estimators": {
+                **{f"regressor:{k}": estimator_facts(m) for k, m in regressors.items()},
+                **{f"classifier:{k}": estimator_facts(m) for k, m in classifiers.items()},
+            },
+        }
+        chosen = estimator_facts(payload["classifier"])
+    except (TypeError, ValueError, AttributeError) as exc:  # attributes of the wrong kind
+        raise SurrogateLoadError(
+            f"{models}: estimators without their fitted facts ({exc})"
+        ) from None
+    if not _same(found, wanted):
+        difference = _first_difference(found, wanted)
+        raise SurrogateLoadError(f"{models}: another surrogate's models ({difference})")
+    for kind, said in found["estimators"].items():
+        if not kind.startswith("regressor:"):
+            continue
+        if (said["outputs"] or meta["outputs"]) != meta["outputs"] or said["n_outputs"] != len(
+            meta["outputs"]
+        ):
+            raise SurrogateLoadError(
+                f"{models}: {kind} predicts {said['outputs'] or said['n_outputs']}, "
+                f"{META} says {meta['outputs']}"
+            )
+    if sorted(map(str, regressors)) != sorted(map(str, meta["kinds"])):
+        raise SurrogateLoadError(
+            f"{models}: regressors {sorted(map(str, regressors))}, {META} says {meta['kinds']}"
+        )
+    if not _same(chosen, wanted["estimators"].get(f"classifier:{meta['classifier']}")):
+        raise SurrogateLoadError(f"{models}: the status classifier is not {meta['classifier']}")
+
+
+def _same(first: Any, second: Any) -> bool:
+    """Whether two identity records are equal (as canonical JSON: arrays never compared)."""
+    try:
+        return json.dumps(first, sort_keys=True, default=repr) == json.dumps(
+            second, sort_keys=True, default=repr
+        )
+    except (TypeError, ValueError, RecursionError):  # keys of mixed types, a cycle
+        return False
 
 
 #: Keys of ``surrogate.json`` and the JSON type each must have.
@@ -209,9 +365,11 @@ def _read_meta(path: Path) -> dict[str, Any]:
         except ResultError as exc:
             raise SurrogateLoadError(str(exc)) from None
     try:
-        meta = json.loads((path / META).read_text())
+        meta = read_json_bounded(path / META, MAX_JSON_BYTES)
     except FileNotFoundError:
         raise SurrogateLoadError(f"{path}: no saved surrogate (no {META})") from None
+    except BoundedReadError as exc:
+        raise SurrogateLoadError(str(exc)) from None
     except (ValueError, OSError) as exc:
         raise SurrogateLoadError(f"{path / META}: unreadable ({exc})") from None
     if not isinstance(meta, dict):
@@ -237,9 +395,14 @@ def read_report(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     _read_meta(path)
     try:
-        return json.loads((path / REPORT).read_text())
-    except (FileNotFoundError, ValueError) as exc:
+        report = read_json_bounded(path / REPORT, MAX_JSON_BYTES)
+    except BoundedReadError as exc:
+        raise SurrogateLoadError(str(exc)) from None
+    except (ValueError, OSError) as exc:
         raise SurrogateLoadError(f"{path / REPORT}: unreadable ({exc})") from None
+    if not isinstance(report, dict):
+        raise SurrogateLoadError(f"{path / REPORT}: not a report (a JSON object)")
+    return report
 
 
 def check_compatible(
@@ -338,16 +501,30 @@ def load_surrogates(
     meta = _read_meta(path)
     check_compatible(meta, dataset=dataset, constants=constants)
     models = path / MODELS
-    if not models.is_file():
+    if not models.exists():
         raise SurrogateLoadError(f"{path}: no {MODELS}")
-    if file_sha256(models) != meta.get("models_sha256"):
+    try:
+        data = read_bounded(models, MAX_MODELS_BYTES)
+    except BoundedReadError as exc:
+        raise SurrogateLoadError(str(exc)) from None
+    except OSError as exc:
+        raise SurrogateLoadError(f"{models}: unreadable ({exc.strerror or exc})") from None
+    if hashlib.sha256(data).hexdigest() != meta.get("models_sha256"):
         raise SurrogateLoadError(f"{models}: checksum differs from {META} (changed or damaged)")
-    untrusted = sorted(set(sio.get_untrusted_types(file=models)) - set(TRUSTED_TYPES))
-    if untrusted:
-        raise SurrogateLoadError(
-            f"{models}: holds types this loader does not trust: {', '.join(untrusted)}"
-        )
-    payload = sio.load(models, trusted=list(TRUSTED_TYPES))
+    try:
+        untrusted = sorted(set(sio.get_untrusted_types(data=data)) - set(TRUSTED_TYPES))
+        if untrusted:
+            raise SurrogateLoadError(
+                f"{models}: holds types this loader does not trust: {', '.join(untrusted)}"
+            )
+        payload = sio.loads(data, trusted=list(TRUSTED_TYPES))
+    except (ValueError, KeyError, TypeError, AttributeError, zipfile.BadZipFile) as exc:
+        # what skops, zipfile and json raise for bytes that are not a skops file
+        if isinstance(exc, SurrogateLoadError):
+            raise
+        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SurrogateLoadError(f"{models}: not a readable skops file ({message[:120]})") from None
+    _check_identity(path, meta, payload)
     report = read_report(path)
     return SurrogateSet(
         outputs=tuple(meta["outputs"]),

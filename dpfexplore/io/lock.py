@@ -32,6 +32,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .commits import StoreError
+from .files import read_bounded
 
 __all__ = ["LOCK_NAME", "LockHeld", "file_lock", "read_lock", "remove_if_empty", "sweep_lock"]
 
@@ -73,14 +74,14 @@ def read_lock(out: str | Path) -> dict | None:
 
 def _read_holder(path: Path) -> dict | None:
     try:
-        text = path.read_text()
+        text = read_bounded(path, "record").decode("utf-8")
     except FileNotFoundError:
         return None
-    except OSError:
+    except (OSError, ValueError):  # a special file, too large, not text: unreadable
         return {}
     try:
         data = json.loads(text)
-    except ValueError:
+    except (ValueError, RecursionError):
         return {}
     return data if isinstance(data, dict) else {}
 

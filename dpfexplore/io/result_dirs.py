@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from .commits import MANIFEST as _SWEEP_MANIFEST
-from .files import atomic_write, file_sha256, fsync_dir
+from .files import atomic_write, file_sha256, fsync_dir, read_bounded
 from .lock import LockHeld, file_lock
 
 __all__ = [
@@ -73,8 +73,8 @@ class ResultExists(ResultError):
 def read_result_marker(path: str | Path) -> dict[str, Any] | None:
     """The manifest of result directory ``path``, None if it has none or it is unreadable."""
     try:
-        data = json.loads((Path(path) / RESULT_MARKER).read_text())
-    except (OSError, ValueError):
+        data = json.loads(read_bounded(Path(path) / RESULT_MARKER, "record"))
+    except (OSError, ValueError, RecursionError):
         return None
     return data if isinstance(data, dict) else None
 

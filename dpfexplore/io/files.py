@@ -60,7 +60,8 @@ def atomic_writer(path: str | Path) -> Iterator[BinaryIO]:
     """A binary file that replaces ``path`` atomically when the block ends without error.
 
     For writers that stream (``np.savez(fh, ...)``). On any failure (a full disk, Ctrl-C) the
-    temporary file is removed and the previous contents of ``path``, if any, are untouched.
+    temporary file is removed and the previous contents of ``path``, if any, are untouched; an
+    ``OSError`` that names no file is raised again naming ``path``.
     """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex[:12]}{TEMP_SUFFIX}")
@@ -70,6 +71,11 @@ def atomic_writer(path: str | Path) -> Iterator[BinaryIO]:
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if exc.filename is None:  # a write or fsync names no file: name the target
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
+        raise
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

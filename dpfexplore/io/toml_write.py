@@ -15,6 +15,7 @@ the string ``"none"`` (TOML has no null).
 
 from __future__ import annotations
 
+import errno
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -28,8 +29,17 @@ from .toml_fields import read_toml
 __all__ = ["TomlWriteError", "comment", "toml_document", "toml_ready", "write_toml"]
 
 
-class TomlWriteError(ValueError):
-    """A TOML file that could not be written as meant (one line naming the file)."""
+class TomlWriteError(OSError):
+    """A TOML file that could not be written as meant: an I/O error (``EIO``) naming the file.
+
+    ``str()`` is one line naming the file; :attr:`filename` is the file.
+    """
+
+    def __init__(self, path: Path, why: str) -> None:
+        super().__init__(errno.EIO, why, str(path))
+
+    def __str__(self) -> str:
+        return f"{self.filename}: {self.strerror}"
 
 
 def toml_ready(value: Any) -> Any:
@@ -115,11 +125,11 @@ def write_toml(
         back = read_toml(path, kind)
     except ValueError as exc:
         path.unlink(missing_ok=True)
-        raise TomlWriteError(f"{path}: written, it does not read back ({exc})") from None
+        raise TomlWriteError(path, f"written, it does not read back ({exc})") from None
     key = _first_difference(meant, back)
     if key is not None:
         path.unlink(missing_ok=True)
-        raise TomlWriteError(f"{path}: written, it reads back differently at {key or 'the top'}")
+        raise TomlWriteError(path, f"written, it reads back differently at {key or 'the top'}")
     return path
 
 

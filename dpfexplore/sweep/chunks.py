@@ -116,16 +116,16 @@ def check_plan(spec: JobSpec, chunk_sizes: Mapping[int, int]) -> None:
         raise PlanTooLarge(
             f"job.samples_per_n = {samples} for {len(spec.space.n_units)} values of N in chunks "
             f"of {smallest} designs: {count} chunks, more than the {MAX_CHUNKS} a sweep plans; "
-            f"give job.chunk_size >= {need} or fewer samples"
+            f"give a chunk size (job.chunk_size or --chunk-size) >= {need} or fewer samples"
         )
     for n in spec.space.n_units:
         rows = min(chunk_sizes[n], samples) * rows_per_design(spec.compute.states, n)
         if rows > MAX_CHUNK_ROWS:
             per = rows_per_design(spec.compute.states, n)
             raise PlanTooLarge(
-                f"job.chunk_size = {chunk_sizes[n]}: chunks of {rows} design-state rows at "
-                f"N = {n} ({per} per design), more than the {MAX_CHUNK_ROWS} a worker holds; "
-                f"give job.chunk_size <= {max(1, MAX_CHUNK_ROWS // per)}"
+                f"chunk size {chunk_sizes[n]}: chunks of {rows} design-state rows at N = {n} "
+                f"({per} per design), more than the {MAX_CHUNK_ROWS} a worker holds; give a "
+                f"chunk size (job.chunk_size or --chunk-size) <= {max(1, MAX_CHUNK_ROWS // per)}"
             )
 
 

@@ -119,10 +119,14 @@ def _try_create(path: Path, content: bytes) -> bool:
     except FileExistsError:
         return False
     try:
-        os.write(fd, content)
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+        try:
+            os.write(fd, content)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as exc:  # a full disk: no half-written lock is left behind
+        path.unlink(missing_ok=True)
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
     return True
 
 

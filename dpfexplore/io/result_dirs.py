@@ -295,6 +295,8 @@ def result_directory(
             stack.enter_context(file_lock(lock, f"{option} {path}: another command is writing it"))
         except LockHeld as exc:
             raise ResultError(str(exc)) from None
+        except OSError as exc:  # the lock file cannot be written (a full disk): name the result
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         _recover(path)
         check_output_dir(path, option=option, force=force)  # again, now that we hold the lock
         staging = path.with_name(f".{path.name}.staging-{os.getpid()}-{uuid.uuid4().hex[:8]}")
@@ -303,6 +305,10 @@ def result_directory(
             yield staging
             _write_marker(staging, kind, description)
             _swap_into_place(staging, path)
+        except OSError as exc:
+            if exc.filename is None:  # a write or fsync names no file: name the result
+                raise OSError(exc.errno, exc.strerror, str(path)) from exc
+            raise
         finally:
             if staging.exists():
                 shutil.rmtree(staging, ignore_errors=True)

@@ -2,7 +2,8 @@
 
 Each example mutates a valid small file (a span deleted, replaced or duplicated, hostile text
 inserted, the file cut short) and reads it through the format's loader. The loader must either
-refuse it with one ``ValueError`` line that starts with the file's path, or return what the
+refuse it with one ``ValueError`` line that names the file (a design's and a file that cannot
+be read start with its path; a scene's key comes first, the file last), or return what the
 file says: for a design, the design its ``[design]`` table makes; for a mutation that leaves the
 document as it was (a comment, blank space), the unmutated answer. Nothing else may escape.
 """
@@ -133,7 +134,7 @@ def _refused_in_one_line(exc: BaseException, path) -> None:
     assert isinstance(exc, ValueError), f"{type(exc).__name__}: {exc}"
     message = str(exc)
     assert "\n" not in message, message
-    assert message.startswith(f"{path}: "), message
+    assert message.startswith(f"{path}: ") or message.endswith(f" (in {path})"), message
 
 
 def _what_the_file_says(text: str, stem: str) -> Design:

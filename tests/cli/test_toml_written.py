@@ -213,3 +213,23 @@ def test_a_sweep_plan_too_large_is_refused_before_anything_is_allocated(tmp_path
     err = _one_line(capsys.readouterr().err, "dpfexplore sweep: error: job.samples_per_n = ")
     assert "give a chunk size (job.chunk_size or --chunk-size) >= 1145" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_full_disk_under_identify_fit_is_one_line_and_leaves_nothing(
+    tmp_path, capsys, monkeypatch
+):
+    import numpy as np
+
+    from dpfexplore.identification.synthetic import synthetic_curves
+
+    table = tmp_path / "curves.csv"
+    synthetic_curves(np.linspace(3, 5, 3), np.linspace(0.5, 1, 2), [5.0], [26]).to_csv(
+        table, index=False
+    )
+    out = tmp_path / "constants" / "mine"
+    _full_disk(monkeypatch)
+    argv = ["identify", "fit", str(table), "--out", str(out), "--method", "least_squares"]
+    assert main([*argv, "--degree", "1", "--selector", "lasso"]) == 1  # the smallest fit
+    err = _one_line(capsys.readouterr().err, f"dpfexplore identify: error: cannot write {out}")
+    assert "No space left on device" in err
+    assert list((tmp_path / "constants").iterdir()) == []

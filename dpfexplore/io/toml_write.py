@@ -68,7 +68,7 @@ def toml_ready(value: Any) -> Any:
 
 
 def comment(text: str) -> str:
-    """``text`` as one TOML comment line: ``# `` and the text, every control character escaped.
+    """``text`` as one TOML comment line: a hash, a space and the text, control characters escaped.
 
     TOML comments may hold no control character but tab; a newline would end the comment and
     start a line of the document. Such characters (and lone surrogates, which UTF-8 cannot

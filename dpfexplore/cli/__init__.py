@@ -11,6 +11,9 @@ What every command gets from :func:`main`:
 
 * bad input (:class:`UsageError`, or a ``ValueError``/``OSError`` a command turns into one) is
   one line on stderr and exit code 2, never a traceback;
+* a write that fails for want of room or of a writable place (a full disk) is one line naming
+  the file and exit code 1 (:func:`~.support.output.write_failure`); the writers of
+  :mod:`dpfexplore.io` leave no partial file;
 * an option value that starts with ``-`` (``--tau -2,-1,0,0.1``) reaches the option and its
   validation, instead of argparse's "expected one argument";
 * Ctrl-C ends with one line and exit code 130 (``sweep`` says what was committed and how to
@@ -39,6 +42,7 @@ from .support.output import (
     discard,
     ensure_streams,
     error_line,
+    write_failure,
 )
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
@@ -215,6 +219,12 @@ def _handle(args: argparse.Namespace) -> int:
             raise
         error_line(f"dpfexplore {args.command}: interrupted")
         return EXIT_INTERRUPTED
+    except OSError as exc:  # a full disk or a read-only place while writing: one line
+        line = write_failure(exc)
+        if line is None:
+            raise
+        error_line(f"dpfexplore {args.command}: error: {line}")
+        return EXIT_FAILURE
 
 
 #: Set once Ctrl-C arrived during this process's command (see :func:`_caused_by_ctrl_c`).

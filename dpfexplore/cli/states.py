@@ -11,6 +11,7 @@ from .support.inputs import add_constants_option, design_of, model_record, print
 from .support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
+    error_line,
     fitted_range_line,
     json_text,
     output_path,
@@ -109,7 +110,21 @@ def run(args: argparse.Namespace) -> int:
             ax.figure.savefig(plot, dpi=150, bbox_inches="tight")
             plt.close(ax.figure)
     failed = [r for r in results if r.status.label not in ("ok", "collapsed")]
+    if failed:
+        error_line(f"dpfexplore states: {_failures_line(failed, len(results))}")
     return EXIT_FAILURE if failed else EXIT_OK
+
+
+def _failures_line(failed: list, total: int) -> str:
+    """One line: how many states were not solved, and each one's status (grouped)."""
+    by_status: dict[str, list[str]] = {}
+    for r in failed:
+        by_status.setdefault(r.status.label, []).append(r.requested)
+    shown = "; ".join(
+        f"{', '.join(states[:8])}{', ...' if len(states) > 8 else ''}: {label}"
+        for label, states in by_status.items()
+    )
+    return f"{len(failed)} of {total} states not solved ({shown}); their outputs are nan"
 
 
 def _print_table(rows: list[dict], n_units: int, gripper: bool) -> None:

@@ -93,8 +93,14 @@ def parse_scene(
 
 
 def load_scene(path: str | Path) -> SceneSpec:
-    """Read and validate a scene file (:class:`SceneSpecError` naming the key)."""
-    return parse_scene(read_scene_file(path), default_name=Path(path).stem, base=Path(path).parent)
+    """Read and validate a scene file (:class:`SceneSpecError` naming the key, then the file)."""
+    document = read_scene_file(path)
+    try:
+        return parse_scene(document, default_name=Path(path).stem, base=Path(path).parent)
+    except ValueError as exc:  # SceneSpecError, or a design or constants set refused
+        if str(path) in str(exc):
+            raise
+        raise SceneSpecError(f"{exc} (in {path})") from None
 
 
 def with_constants_file(spec: SceneSpec, path: str | Path) -> SceneSpec:

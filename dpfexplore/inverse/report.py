@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..lookup.files import design_toml as write_design_toml
+from ..lookup.files import write_design_file
 from ..model.design import Design
 from .evaluation import SceneEvaluator
 from .spec import SceneSpec
@@ -49,9 +49,9 @@ __all__ = [
     "StateCheck",
     "fitted_range_warning",
     "json_times",
-    "result_row_toml",
     "text_number",
     "verify_state",
+    "write_result_row",
     "write_summary",
 ]
 
@@ -144,13 +144,17 @@ _RESULT_KEYS = (
 )
 
 
-def result_row_toml(row: Mapping[str, Any], *, title: str, constants=None) -> str:
-    """A ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table.
+def write_result_row(
+    path: str | Path, row: Mapping[str, Any], *, title: str, constants=None
+) -> Path:
+    """Write a ``[design]`` table (read back by ``dpfexplore states``) and a ``[result]`` table.
 
     ``row`` is a statics result's ``--json`` row; ``constants``: the scene's set, named in the
-    file when it is not the paper's.
+    file when it is not the paper's. The file is read back before this returns
+    (:func:`~dpfexplore.lookup.files.write_design_file`).
     """
-    return write_design_toml(
+    return write_design_file(
+        path,
         row["design"],
         [title, "Written by dpfexplore design; [design] is read by dpfexplore states."],
         {key: row.get(key) for key in _RESULT_KEYS},

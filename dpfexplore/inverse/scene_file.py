@@ -91,7 +91,7 @@ def read_scene_file(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     try:
         with reported_as(SceneSpecError):
-            return read_toml(path)
+            return read_toml(path, "scene")
     except OSError as exc:
         raise SceneSpecError(f"{path}: cannot read ({exc.strerror})") from None
     except UnicodeDecodeError:

@@ -28,7 +28,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from .files import TEMP_SUFFIX, atomic_write, file_sha256
+from .files import (
+    TEMP_SUFFIX,
+    BoundedReadError,
+    atomic_write,
+    check_file,
+    file_sha256,
+    read_bounded,
+)
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -105,9 +112,16 @@ def read_file_buffer(path: str | Path) -> pa.Buffer:
     returned. Were the input a Python object, that release would need the GIL, and at
     interpreter exit it can kill the process ("terminate called without an active exception",
     exit 134). Memory owned by Arrow is released without Python.
+
+    Only a regular file within the limit of a chunk is read
+    (:func:`~dpfexplore.io.files.check_file`): :class:`StoreError` naming it otherwise.
     """
     import pyarrow as pa
 
+    try:
+        check_file(path, "chunk")
+    except BoundedReadError as exc:
+        raise StoreError(f"chunk {exc}") from None
     with pa.OSFile(str(path)) as fh:
         return fh.read_buffer()
 
@@ -202,18 +216,22 @@ def read_json(path: str | Path) -> dict[str, Any]:
     FileNotFoundError
         If there is no such file.
     StoreError
-        In one line naming the file, if it cannot be read or is not a JSON object.
+        In one line naming the file, if it cannot be read or is not a JSON object; a special
+        file or one over the limit of a manifest is not read
+        (:func:`~dpfexplore.io.files.read_bounded`).
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        text = read_bounded(path, "manifest").decode("utf-8")
     except FileNotFoundError:
         raise
+    except BoundedReadError as exc:
+        raise StoreError(str(exc)) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise StoreError(f"{path}: cannot read ({exc})") from None
     try:
         data = json.loads(text)
-    except ValueError as exc:
+    except (ValueError, RecursionError) as exc:
         raise StoreError(f"{path}: not JSON ({exc})") from None
     if not isinstance(data, dict):
         raise StoreError(f"{path}: not a JSON object")

@@ -32,6 +32,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .commits import StoreError
+from .files import read_bounded
 
 __all__ = ["LOCK_NAME", "LockHeld", "file_lock", "read_lock", "remove_if_empty", "sweep_lock"]
 
@@ -73,14 +74,14 @@ def read_lock(out: str | Path) -> dict | None:
 
 def _read_holder(path: Path) -> dict | None:
     try:
-        text = path.read_text()
+        text = read_bounded(path, "record").decode("utf-8")
     except FileNotFoundError:
         return None
-    except OSError:
+    except (OSError, ValueError):  # a special file, too large, not text: unreadable
         return {}
     try:
         data = json.loads(text)
-    except ValueError:
+    except (ValueError, RecursionError):
         return {}
     return data if isinstance(data, dict) else {}
 
@@ -118,13 +119,16 @@ def _try_create(path: Path, content: bytes) -> bool:
     except FileExistsError:
         return False
     try:
-        os.write(fd, content)
-        os.fsync(fd)
-    except BaseException:  # a full disk: no empty lock file left to block the next run
-        os.close(fd)
+        try:
+            os.write(fd, content)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except BaseException as exc:  # a full disk (or Ctrl-C): no half-written lock left behind
         path.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.filename is None:
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
-    os.close(fd)
     return True
 
 

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from .commits import MANIFEST as _SWEEP_MANIFEST
-from .files import atomic_write, file_sha256, fsync_dir
+from .files import atomic_write, file_sha256, fsync_dir, read_bounded
 from .lock import LockHeld, file_lock
 
 __all__ = [
@@ -73,8 +73,8 @@ class ResultExists(ResultError):
 def read_result_marker(path: str | Path) -> dict[str, Any] | None:
     """The manifest of result directory ``path``, None if it has none or it is unreadable."""
     try:
-        data = json.loads((Path(path) / RESULT_MARKER).read_text())
-    except (OSError, ValueError):
+        data = json.loads(read_bounded(Path(path) / RESULT_MARKER, "record"))
+    except (OSError, ValueError, RecursionError):
         return None
     return data if isinstance(data, dict) else None
 
@@ -295,6 +295,8 @@ def result_directory(
             stack.enter_context(file_lock(lock, f"{option} {path}: another command is writing it"))
         except LockHeld as exc:
             raise ResultError(str(exc)) from None
+        except OSError as exc:  # the lock file cannot be written (a full disk): name the result
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         _recover(path)
         check_output_dir(path, option=option, force=force)  # again, now that we hold the lock
         staging = path.with_name(f".{path.name}.staging-{os.getpid()}-{uuid.uuid4().hex[:8]}")
@@ -303,6 +305,10 @@ def result_directory(
             yield staging
             _write_marker(staging, kind, description)
             _swap_into_place(staging, path)
+        except OSError as exc:
+            if exc.filename is None:  # a write or fsync names no file: name the result
+                raise OSError(exc.errno, exc.strerror, str(path)) from exc
+            raise
         finally:
             if staging.exists():
                 shutil.rmtree(staging, ignore_errors=True)

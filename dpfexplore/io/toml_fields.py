@@ -36,6 +36,8 @@ from collections.abc import Collection, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from .files import BoundedReadError, read_bounded
+
 __all__ = [
     "FieldError",
     "boolean",
@@ -75,22 +77,33 @@ def reported_as(error: type[FieldError]) -> Iterator[None]:
         raise error(str(exc)) from None
 
 
-def read_toml(path: str | Path) -> dict[str, Any]:
-    """The document of the TOML file ``path``.
+def read_toml(path: str | Path, kind: str = "toml") -> dict[str, Any]:
+    """The document of the TOML file ``path``, read within the size limit of its ``kind``.
+
+    ``kind`` is a key of :data:`dpfexplore.io.files.SIZE_LIMITS` (``"design"``, ``"job"``,
+    ``"scene"``, ``"leg"``, ...): a directory, a FIFO, a device or a file larger than the limit
+    is refused before it is read (:func:`~dpfexplore.io.files.read_bounded`).
 
     Raises
     ------
     FieldError
-        ``PATH: not valid TOML (...)``.
+        ``PATH: not valid TOML (...)``, ``PATH: is a directory, not a ...``, ``PATH: not a
+        regular file (...)``, ``PATH: N bytes, more than the limit of ...``.
     OSError, UnicodeDecodeError
         As :func:`open` and the decoder raise them: each format names what it could not read.
     """
     path = Path(path)
-    with path.open("rb") as fh:
-        try:
-            return tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise FieldError(f"{path}: not valid TOML ({exc})") from None
+    try:
+        raw = read_bounded(path, kind)
+    except BoundedReadError as exc:
+        raise FieldError(str(exc)) from None
+    text = raw.decode("utf-8")
+    try:
+        return tomllib.loads(text)
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more digits than int() reads
+        raise FieldError(f"{path}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise FieldError(f"{path}: not valid TOML (nested too deeply)") from None
 
 
 # ----------------------------------------------------------------------------- keys and tables

@@ -1,9 +1,11 @@
 """Designs as TOML files with a ``[design]`` table, as ``dpfexplore states`` reads them.
 
-:func:`design_toml` writes any :class:`~dpfexplore.model.design.Design` (every value at full
-precision: ``repr`` of a float reads back to the same float, so a written design reproduces its
-outputs exactly), with comments and an optional ``[result]`` table of what was verified; it is
-the one writer of the lookup's and the design scenes' result files. :func:`write_designs` saves
+:func:`write_design_file` writes any :class:`~dpfexplore.model.design.Design` (every value at
+full precision: ``repr`` of a float reads back to the same float, so a written design reproduces
+its outputs exactly), with comments and an optional ``[result]`` table of what was verified, by
+a TOML writer, and reads the file back before it returns
+(:func:`~dpfexplore.io.toml_write.write_toml`); it is the one writer of the lookup's and the
+design scenes' result files. :func:`write_designs` saves
 the candidates of a lookup, best first, each with comments saying where it comes from and what
 it was verified to do.
 
@@ -14,18 +16,23 @@ A design of a constants set other than the paper's is written with ``constants =
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from ..io.toml_write import toml_document, write_toml
 from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.design import Design
 from .query import LookupResult
 
-__all__ = ["CONSTANTS_FILE", "design_toml", "toml_value", "write_constants_beside", "write_designs"]
+__all__ = [
+    "CONSTANTS_FILE",
+    "design_document",
+    "design_toml",
+    "write_constants_beside",
+    "write_design_file",
+    "write_designs",
+]
 
 #: Name of the constants set file a result directory holds beside designs of a non-paper set.
 CONSTANTS_FILE = "constants.json"
@@ -41,22 +48,24 @@ def write_constants_beside(constants: ConstantsSet, directory: str | Path) -> li
     return [constants.save(Path(directory) / CONSTANTS_FILE)]
 
 
-def toml_value(value: Any) -> str:
-    """A TOML literal: floats at full precision (``repr`` reads back exactly).
-
-    ``None`` inside a list is written as the string ``"none"`` (TOML has no null).
-    """
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join('"none"' if v is None else toml_value(v) for v in value) + "]"
-    if isinstance(value, (float, np.floating)):
-        return repr(float(value))
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    raise TypeError(f"{type(value).__name__} has no TOML form here")
+def design_document(
+    design: Design | Mapping[str, Any],
+    comments: Sequence[str] = (),
+    result: Mapping[str, Any] | None = None,
+    constants: ConstantsSet | None = None,
+) -> tuple[dict[str, Any], list[str]]:
+    """The document of a design file and its opening comments (see :func:`design_toml`)."""
+    values = design.to_dict() if isinstance(design, Design) else dict(design)
+    lines = list(comments)
+    if isinstance(design, Design):
+        constants = design.constants
+    if constants is not None and constants != DEFAULT:
+        lines.append(f"under constants set {constants.label}, saved beside this file")
+        values["constants"] = CONSTANTS_FILE
+    document: dict[str, Any] = {"design": values}
+    if result:
+        document["result"] = {key: value for key, value in result.items() if value is not None}
+    return document, lines
 
 
 def design_toml(
@@ -72,21 +81,25 @@ def design_toml(
     The design's constants set (a Design's own, else ``constants``) other than the paper's is
     named as ``constants = "constants.json"``: the writer saves it beside the file.
     """
-    values = design.to_dict() if isinstance(design, Design) else dict(design)
-    lines = [f"# {c}" for c in comments]
-    if isinstance(design, Design):
-        constants = design.constants
-    if constants is not None and constants != DEFAULT:
-        lines.append(f"# under constants set {constants.label}, saved beside this file")
-        values["constants"] = CONSTANTS_FILE
-    lines.append("[design]")
-    lines += [f"{key} = {toml_value(value)}" for key, value in values.items()]
-    if result:
-        lines += ["", "[result]"]
-        lines += [
-            f"{key} = {toml_value(value)}" for key, value in result.items() if value is not None
-        ]
-    return "\n".join(lines) + "\n"
+    return toml_document(*design_document(design, comments, result, constants))
+
+
+def write_design_file(
+    path: str | Path,
+    design: Design | Mapping[str, Any],
+    comments: Sequence[str] = (),
+    result: Mapping[str, Any] | None = None,
+    constants: ConstantsSet | None = None,
+) -> Path:
+    """Write :func:`design_toml`'s document to ``path`` and read it back (the path).
+
+    Raises
+    ------
+    dpfexplore.io.toml_write.TomlWriteError
+        If the file does not read back as written (one line naming it).
+    """
+    document, lines = design_document(design, comments, result, constants)
+    return write_toml(path, document, lines, kind="design")
 
 
 def write_designs(
@@ -124,7 +137,7 @@ def _write_candidates(result: LookupResult, directory: Path) -> list[str]:
             comments.append(c.fitted_range_note)
         design = c.design
         named = design.replace(name=f"candidate-{rank:0{width}d}")
-        path.write_text(design_toml(named, comments))
+        write_design_file(path, named, comments)
         paths.append(path.name)
     sets = {c.design.constants for c in result.candidates}
     written = [p for constants in sets for p in write_constants_beside(constants, directory)]

@@ -55,6 +55,10 @@ __all__ = [
     "stale_reason",
 ]
 
+#: Largest target accepted, in units of its column's scale: beyond it, squared distances
+#: overflow double precision (1e300) and every row would be equally "infinitely" far.
+MAX_SCALED_TARGET = 1e150
+
 #: Columns indexed when none are named: the tip position (mm).
 DEFAULT_COLUMNS = ("tip_x", "tip_y")
 #: Filtered sets up to this size are scanned directly instead of asking the tree for more.
@@ -381,6 +385,14 @@ class LookupIndex:
         if mask is not None and mask.shape != (len(self),):
             raise ValueError(f"mask: need shape ({len(self)},), got {mask.shape}")
         point = target / self.scales
+        far = np.flatnonzero(np.abs(point) > MAX_SCALED_TARGET)
+        if far.size:
+            j = int(far[0])
+            raise ValueError(
+                f"target {self.columns[j]} = {target[j]:g}: more than {MAX_SCALED_TARGET:g} "
+                f"times the column's scale ({self.scales[j]:g}) from zero, farther from every "
+                "row than a distance can be computed; give a target in the dataset's range"
+            )
         found_d, found_i = [], []
         for key, part in self.slices(n_units, state):
             d, i = self._query_slice(key, part, point, int(k), mask)

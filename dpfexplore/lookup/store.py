@@ -66,7 +66,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..io.files import atomic_writer
+from ..io.files import atomic_writer, check_file
 from ..model.domain import MAX_UNITS
 from ..sweep.storage.datasets import DatasetInfo, dataset_info
 from .index import (
@@ -178,6 +178,7 @@ def save_index(index: LookupIndex, path: str | Path | None = None) -> Path:
 def _read_file(path: Path) -> tuple[Any, dict[str, NDArray]]:
     """The meta JSON and the arrays of an index file, or UnreadableIndexError."""
     try:
+        check_file(path, "lookup index")  # a ValueError: rebuilt like any unreadable index
         with np.load(path, allow_pickle=False) as data:
             names = set(data.files)
             missing = [n for n in ("meta", *(a[0] for a in ARRAYS)) if n not in names]

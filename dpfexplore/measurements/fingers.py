@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..io.files import BoundedReadError, read_bounded
+from ..io.files import SIZE_LIMITS, BoundedReadError, read_bounded
 from ..model.design import Design
 from ..model.materials import MATERIALS
 
@@ -75,10 +75,10 @@ __all__ = [
 
 #: The format line a measurement file starts with.
 FORMAT = "dpfexplore-measurements/1"
-#: Largest measurement file read (bytes): thousands of fingers.
-MAX_BYTES = 1 << 20
+#: Largest measurement file read (bytes): :data:`~dpfexplore.io.files.SIZE_LIMITS`.
+MAX_BYTES = SIZE_LIMITS["measurements"].bytes
 #: Largest design file a finger may name (bytes).
-MAX_DESIGN_BYTES = 1 << 16
+MAX_DESIGN_BYTES = SIZE_LIMITS["design"].bytes
 #: Folder of the packaged measurement files.
 PACKAGED_DIR = Path(__file__).resolve().parent.parent / "data" / "measurements"
 
@@ -205,7 +205,7 @@ def read_measurements(path: str | Path) -> MeasurementFile:
         document = tomllib.loads(raw.decode("utf-8"))
     except UnicodeDecodeError:
         raise MeasurementError(f"{path}: not a text file (a measurement file is TOML)") from None
-    except tomllib.TOMLDecodeError as exc:
+    except (ValueError, RecursionError) as exc:  # not TOML, or an integer too long to read
         raise MeasurementError(f"{path}: not valid TOML ({exc})") from None
     header = {"format", "title", "source", "finger"}
     for key in document:
@@ -380,7 +380,7 @@ def _design_file(f: _Finger) -> tuple[dict[str, Any], Path]:
         document = tomllib.loads(raw.decode("utf-8"))
     except MeasurementError as exc:
         raise f.fail("design", str(exc)) from None
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+    except (ValueError, RecursionError) as exc:  # not UTF-8, not TOML, an integer too long
         raise f.fail("design", f"{path}: not valid TOML ({exc})") from None
     table = document.get("design")
     if not isinstance(table, Mapping):

@@ -30,15 +30,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..io.files import atomic_write, read_bounded
+from ..io.files import SIZE_LIMITS, atomic_write, read_bounded
 from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError
 from .results import SetVerdict
 from .validate import GOAL, MeasurementsLike, validate
 
 __all__ = ["MAX_SET_BYTES", "failed_summary", "record_verdict", "verdict_of"]
 
-#: Largest constants set file read here (bytes).
-MAX_SET_BYTES = 1 << 22
+#: Largest constants set file read here (bytes): :data:`~dpfexplore.io.files.SIZE_LIMITS`.
+MAX_SET_BYTES = SIZE_LIMITS["constants set"].bytes
 
 
 def verdict_of(constants: ConstantsSet, measurements: MeasurementsLike | None = None) -> SetVerdict:
@@ -78,7 +78,7 @@ def record_verdict(path: str | Path, measurements: MeasurementsLike | None = Non
     verdict = verdict_of(constants, measurements)
     data["validation"] = json.loads(json.dumps(verdict.to_dict(), allow_nan=False))
     atomic_write(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
-    back = ConstantsSet.from_dict(json.loads(path.read_text()), source=str(path))
+    back = ConstantsSet.from_dict(json.loads(read_bounded(path, MAX_SET_BYTES)), source=str(path))
     if back.validation != data["validation"] or back != constants:
         raise ConstantsSetError(f"{path}: read back, it does not hold the verdict written")
     return verdict

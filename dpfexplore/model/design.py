@@ -78,7 +78,12 @@ def _is_list(value: Any) -> bool:
 def _number(name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f"{name} = {value!r}: must be a number")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:  # an integer beyond the largest float
+        raise ValueError(
+            f"{name} = an integer of {int(value).bit_length()} bits: too large"
+        ) from None
 
 
 def _constants_set(value: Any) -> ConstantsSet:
@@ -264,7 +269,7 @@ def load_design(path: str | Path) -> Design:
     """
     path = Path(path)
     try:
-        document = read_toml(path)  # "PATH: not valid TOML (...)", a ValueError
+        document = read_toml(path, "design")  # "PATH: not valid TOML (...)", a ValueError
     except FileNotFoundError:
         raise ValueError(f"{path}: no such design file") from None
     except IsADirectoryError:

@@ -28,9 +28,13 @@ from .storage.store import ChunkRecord
 from .work import ChunkFailure
 
 __all__ = [
+    "MAX_CHUNKS",
+    "MAX_CHUNK_ROWS",
     "ChunkFailure",
     "ChunkTask",
+    "PlanTooLarge",
     "SweepContext",
+    "check_plan",
     "dataset_schema",
     "default_chunk_size",
     "design_column_values",
@@ -82,8 +86,52 @@ class ChunkTask:
         return self.stop - self.start
 
 
+#: Most chunks a sweep plans: each is a task in memory and a record of about 250 bytes in the
+#: manifest, which is rewritten at every commit (2^18 chunks: a manifest of some 64 MiB).
+MAX_CHUNKS = 1 << 18
+#: Most design-state rows of one chunk: a worker holds them in memory at once (2^22 rows of
+#: some 60 columns: about 2 GiB).
+MAX_CHUNK_ROWS = 1 << 22
+
+
+class PlanTooLarge(store.StoreError):
+    """A job whose plan would not fit: too many chunks, or chunks too large for memory."""
+
+
+def check_plan(spec: JobSpec, chunk_sizes: Mapping[int, int]) -> None:
+    """Refuse a plan too large for memory, from the job's numbers alone (nothing allocated).
+
+    More than :data:`MAX_CHUNKS` chunks, or chunks of more than :data:`MAX_CHUNK_ROWS` rows.
+
+    Raises
+    ------
+    PlanTooLarge
+        One line with the job's numbers and what to change.
+    """
+    samples = spec.samples_per_n
+    count = sum(-(-samples // chunk_sizes[n]) for n in spec.space.n_units)
+    if count > MAX_CHUNKS:
+        smallest = min(chunk_sizes.values())
+        need = -(-samples * len(spec.space.n_units) // MAX_CHUNKS)
+        raise PlanTooLarge(
+            f"job.samples_per_n = {samples} for {len(spec.space.n_units)} values of N in chunks "
+            f"of {smallest} designs: {count} chunks, more than the {MAX_CHUNKS} a sweep plans; "
+            f"give a chunk size (job.chunk_size or --chunk-size) >= {need} or fewer samples"
+        )
+    for n in spec.space.n_units:
+        rows = min(chunk_sizes[n], samples) * rows_per_design(spec.compute.states, n)
+        if rows > MAX_CHUNK_ROWS:
+            per = rows_per_design(spec.compute.states, n)
+            raise PlanTooLarge(
+                f"chunk size {chunk_sizes[n]}: chunks of {rows} design-state rows at N = {n} "
+                f"({per} per design), more than the {MAX_CHUNK_ROWS} a worker holds; give a "
+                f"chunk size (job.chunk_size or --chunk-size) <= {max(1, MAX_CHUNK_ROWS // per)}"
+            )
+
+
 def plan_chunks(spec: JobSpec, chunk_sizes: Mapping[int, int]) -> list[ChunkTask]:
-    """Every chunk of the job, in (N, start) order."""
+    """Every chunk of the job, in (N, start) order (:func:`check_plan` first)."""
+    check_plan(spec, chunk_sizes)
     tasks = []
     for n_units in spec.space.n_units:
         size = chunk_sizes[n_units]

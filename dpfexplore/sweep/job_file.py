@@ -107,7 +107,7 @@ def load_job(path: str | Path) -> JobSpec:
     path = Path(path)
     try:
         with reported_as(JobSpecError):
-            document = _v.read_toml(path)
+            document = _v.read_toml(path, "job")
     except FileNotFoundError:
         raise JobSpecError(f"{path}: no such job file") from None
     except IsADirectoryError:

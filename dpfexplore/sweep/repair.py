@@ -95,7 +95,10 @@ def _load(out: Path, path: str, spec: JobSpec, schema: pa.Schema) -> _Candidate 
     n_units, index = (int(part) for part in store._PART.match(path).groups())
     if n_units not in spec.space.n_units:
         return f"N = {n_units} is not in the job"
-    data = store.read_file_buffer(out / path)
+    try:
+        data = store.read_file_buffer(out / path)
+    except store.StoreError as exc:  # not a regular file, or too large for a chunk
+        return str(exc).removeprefix(f"chunk {out / path}: ")
     try:
         table = pq.read_table(pa.BufferReader(data))
     except (pa.ArrowException, OSError) as exc:  # pyarrow's errors: the file is damaged

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
+import re
 import sys
 from pathlib import Path
 from typing import TextIO
@@ -154,6 +156,43 @@ def output_path(path: str | Path, option: str, *, suffixes: tuple[str, ...] = ()
             f"{option} {path}: cannot create the folder {path.parent} ({reason})"
         ) from None
     return path
+
+
+#: ``errno`` of a write that failed for want of room or of a writable place: reported as one
+#: line by every command (:func:`write_failure`), never as a traceback.
+WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
+#: The temporary names of :mod:`dpfexplore.io` (``.NAME.PID-ID.tmp``, a staging or set-aside
+#: directory ``.NAME.staging-PID-ID``): a message names the file the user asked for.
+_TEMP_NAME = re.compile(r"^\.(?P<name>.+?)\.(?:\d+-[0-9a-f]+\.tmp|staging-\d+-[0-9a-f]+)$")
+
+
+def shown_path(filename: str | os.PathLike) -> str:
+    """``filename`` as the user named it: temporary and staging names mapped to their target."""
+    parts = []
+    for part in Path(filename).parts:
+        match = _TEMP_NAME.match(part)
+        parts.append(match.group("name") if match else part)
+    return str(Path(*parts)) if parts else str(filename)
+
+
+def write_failure(exc: OSError) -> str | None:
+    """One line for an ``OSError`` of writing (a full disk, a quota, a read-only place).
+
+    Also for a TOML file that did not read back as written
+    (:class:`~dpfexplore.io.toml_write.TomlWriteError`). None for any other ``OSError``. Every
+    writer of :mod:`dpfexplore.io` builds a file or a
+    result directory aside and renames it into place, so a failed write leaves the previous
+    file, or nothing, where the user looks.
+    """
+    from ...io.toml_write import TomlWriteError
+
+    if isinstance(exc, TomlWriteError):
+        return f"cannot write {shown_path(exc.filename)}: {exc.strerror}"
+    if exc.errno not in WRITE_ERRNOS:
+        return None
+    reason = exc.strerror or os.strerror(exc.errno)
+    where = f" {shown_path(exc.filename)}" if exc.filename is not None else ""
+    return f"cannot write{where}: {reason}; nothing was written there"
 
 
 def announce_compilation(command: str, groups: list[str]) -> None:

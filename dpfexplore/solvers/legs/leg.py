@@ -283,7 +283,7 @@ def _phase(where: str, table: Any) -> PressureProfile:
 def load_leg(path: str | Path) -> Leg:
     """Read a leg file (module docstring); ``ValueError`` naming the key for a bad one."""
     path = Path(path)
-    leg = Leg.from_dict(read_toml(path), base=path.parent)
+    leg = Leg.from_dict(read_toml(path, "leg"), base=path.parent)
     return leg if leg.name else replace(leg, name=path.stem)
 
 

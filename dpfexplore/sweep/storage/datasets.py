@@ -21,7 +21,14 @@ from pathlib import Path
 import pyarrow as pa
 
 from ...model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, load_constants_set
-from .store import ChunkRecord, Manifest, StoreError, chunk_bytes, read_manifest
+from .store import (
+    ChunkRecord,
+    Manifest,
+    StoreError,
+    chunk_bytes,
+    read_manifest,
+    unverified_chunk,
+)
 
 __all__ = ["DatasetInfo", "dataset_checksum", "dataset_info"]
 
@@ -130,7 +137,7 @@ class DatasetInfo:
         is a StoreError naming it), so that what is decoded is what was checked.
         """
         if not verify:
-            return self.root / path
+            return unverified_chunk(self.root / path)
         record = next(r for r in self.records if r.path == path)
         return pa.BufferReader(chunk_bytes(self.root, record))
 

@@ -47,6 +47,12 @@ __all__ = ["FUNCTIONS", "FilterError", "RowFilter", "parse_filter"]
 #: Longest filter accepted (characters): a guard against pathological inputs, far above any
 #: hand-written condition.
 MAX_LENGTH = 4000
+#: Deepest nesting accepted (levels of the parsed expression): ``((a + b) * c) > d`` is 4.
+#: Conditions joined by ``and``/``or`` (or ``&``/``|``), a chain ``a < b < c`` and a run of one
+#: operator ``a + b + c`` are one level, however many terms.
+MAX_DEPTH = 64
+#: Longest part of a filter quoted in a message (characters).
+_QUOTED = 120
 
 _BOOL, _NUMBER, _TEXT = "condition", "number", "text"
 
@@ -64,6 +70,59 @@ class _Typed:
 def _call(function: Callable, *parts: Callable[[pa.Table], Any]) -> Callable[[pa.Table], Any]:
     """Evaluate ``parts`` on a table, then ``function`` on their values (eagerly)."""
     return lambda table: function(*(part(table) for part in parts))
+
+
+def _fold(combine: Callable, parts: Sequence[Callable[[pa.Table], Any]]) -> Callable:
+    """Evaluate ``parts`` on a table and combine them left to right, in a loop (no recursion)."""
+
+    def evaluate(table: pa.Table) -> Any:
+        value = parts[0](table)
+        for part in parts[1:]:
+            value = combine(value, part(table))
+        return value
+
+    return evaluate
+
+
+def _quoted(text: str) -> str:
+    """``text`` quoted for a message, shortened to its start and end when long."""
+    if len(text) <= _QUOTED:
+        return repr(text)
+    half = _QUOTED // 2
+    return repr(f"{text[:half]} ... {text[-half:]}")
+
+
+def _depth(tree: ast.AST) -> int:
+    """Nesting depth of an expression, found without recursion."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        for child in ast.iter_child_nodes(node):
+            flat = isinstance(node, ast.BoolOp | ast.Compare | ast.List | ast.Tuple | ast.Set)
+            flat = flat or (child is getattr(node, "left", None) and _same_run(node, child))
+            stack.append((child, depth if flat else depth + 1))
+    return deepest
+
+
+def _same_run(node: ast.AST, left: ast.AST) -> bool:
+    """Whether ``left`` continues the run of one operator that ``node`` ends (``a + b + c``)."""
+    return (
+        isinstance(node, ast.BinOp)
+        and isinstance(left, ast.BinOp)
+        and type(left.op) is type(node.op)
+        and not isinstance(node.op, ast.Pow)  # right-associative: a ** b ** c nests rightwards
+    )
+
+
+def _run(node: ast.BinOp) -> list[ast.AST]:
+    """The operands of a run of one operator, left to right: ``a + b + c`` -> ``[a, b, c]``."""
+    operands = [node.right]
+    while _same_run(node, node.left):
+        node = node.left
+        operands.append(node.right)
+    operands.append(node.left)
+    return operands[::-1]
 
 
 def _constant(value: pa.Scalar, kind: str) -> _Typed:
@@ -168,7 +227,7 @@ class _Compiler:
 
     def fail(self, node: ast.AST, why: str) -> FilterError:
         part = ast.get_source_segment(self.text, node) or type(node).__name__
-        return FilterError(f"--where {self.text!r}: {why}: {part!r}")
+        return FilterError(f"--where {_quoted(self.text)}: {why}: {_quoted(part)}")
 
     def compile(self, node: ast.AST) -> _Typed:
         method = getattr(self, f"_{type(node).__name__.lower()}", None)
@@ -207,7 +266,10 @@ class _Compiler:
         if isinstance(value, bool):
             return _constant(pa.scalar(value), _BOOL)
         if isinstance(value, int | float):
-            return _constant(pa.scalar(float(value)), _NUMBER)
+            try:
+                return _constant(pa.scalar(float(value)), _NUMBER)
+            except OverflowError:
+                raise self.fail(node, "a number beyond double precision") from None
         if isinstance(value, str):
             return _constant(pa.scalar(value), _TEXT)
         if value is None:
@@ -217,10 +279,7 @@ class _Compiler:
     def _boolop(self, node: ast.BoolOp) -> _Typed:
         combine = _LOGICAL[type(node.op)]
         parts = [self.expect(value, _BOOL) for value in node.values]
-        result = parts[0]
-        for part in parts[1:]:
-            result = _call(combine, result, part)
-        return _Typed(result, _BOOL)
+        return _Typed(_fold(combine, parts), _BOOL)
 
     def _unaryop(self, node: ast.UnaryOp) -> _Typed:
         if isinstance(node.op, ast.Not | ast.Invert):
@@ -231,15 +290,14 @@ class _Compiler:
         return _Typed(operand, _NUMBER)  # unary +
 
     def _binop(self, node: ast.BinOp) -> _Typed:
+        # A run of one operator is evaluated left to right in a loop, as Python groups it.
         if type(node.op) in _BITWISE_LOGICAL:  # pandas-style `a & b`, `a | b` between conditions
             combine = _BITWISE_LOGICAL[type(node.op)]
-            both = (self.expect(node.left, _BOOL), self.expect(node.right, _BOOL))
-            return _Typed(_call(combine, *both), _BOOL)
+            return _Typed(_fold(combine, [self.expect(n, _BOOL) for n in _run(node)]), _BOOL)
         if type(node.op) not in _ARITHMETIC:
             raise self.fail(node, f"the operator {_describe(node.op)} is not allowed")
-        left = self.expect(node.left, _NUMBER)
-        right = self.expect(node.right, _NUMBER)
-        return _Typed(_call(_ARITHMETIC[type(node.op)], left, right), _NUMBER)
+        operands = [self.expect(n, _NUMBER) for n in _run(node)]
+        return _Typed(_fold(_ARITHMETIC[type(node.op)], operands), _NUMBER)
 
     def _compare(self, node: ast.Compare) -> _Typed:
         left = self.compile(node.left)
@@ -248,17 +306,16 @@ class _Compiler:
                 raise self.fail(node, "`in` cannot be chained")
             negate = isinstance(node.ops[0], ast.NotIn)
             return _Typed(self._membership(left, node.comparators[0], negate=negate), _BOOL)
-        result = None
+        parts = []
         for op, right_node in zip(node.ops, node.comparators, strict=True):
             if type(op) not in _COMPARISONS:
                 raise self.fail(node, f"the comparison {_describe(op)} is not allowed")
             right = self.compile(right_node)
             if left.kind != right.kind:
                 raise self.fail(node, f"cannot compare a {left.kind} with a {right.kind}")
-            part = _call(_COMPARISONS[type(op)], left.evaluate, right.evaluate)
-            result = part if result is None else _call(pc.and_kleene, result, part)
+            parts.append(_call(_COMPARISONS[type(op)], left.evaluate, right.evaluate))
             left = right
-        return _Typed(result, _BOOL)
+        return _Typed(_fold(pc.and_kleene, parts), _BOOL)
 
     def _membership(
         self, left: _Typed, node: ast.AST, *, negate: bool
@@ -276,7 +333,13 @@ class _Compiler:
                 raise self.fail(element, "`in` takes literal values only")
             if typed.kind != left.kind:
                 raise self.fail(element, f"cannot compare a {left.kind} with a {typed.kind}")
-            values.append(ast.literal_eval(element))
+            value = ast.literal_eval(element)
+            if left.kind == _NUMBER:
+                try:
+                    value = float(value)
+                except OverflowError:
+                    raise self.fail(element, "a number beyond double precision") from None
+            values.append(value)
         value_type = {_NUMBER: pa.float64(), _TEXT: pa.string(), _BOOL: pa.bool_()}[left.kind]
         value_set = pa.array(values, type=value_type)
 
@@ -363,22 +426,28 @@ def parse_filter(text: str, schema: pa.Schema | Sequence[pa.Field]) -> RowFilter
         raise FilterError(f"--where: the filter is longer than {MAX_LENGTH} characters")
     if "@" in text:
         raise FilterError(
-            f"--where {text!r}: '@' (a Python variable) is not allowed: filters see only columns"
+            f"--where {_quoted(text)}: '@' (a Python variable) is not allowed: filters see "
+            "only columns"
         )
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
-        raise FilterError(f"--where {text!r}: not a valid condition ({exc.msg})") from None
+        raise FilterError(f"--where {_quoted(text)}: not a valid condition ({exc.msg})") from None
     except (ValueError, RecursionError, MemoryError):
-        raise FilterError(f"--where {text!r}: not a valid condition") from None
+        raise FilterError(f"--where {_quoted(text)}: not a valid condition") from None
+    if _depth(tree.body) > MAX_DEPTH:
+        raise FilterError(
+            f"--where {_quoted(text)}: nested too deeply (more than {MAX_DEPTH} levels; "
+            "join conditions with and/or instead)"
+        )
     compiler = _Compiler(text.strip(), schema)
     try:
         typed = compiler.compile(tree.body)
     except RecursionError:
-        raise FilterError(f"--where {text!r}: nested too deeply") from None
+        raise FilterError(f"--where {_quoted(text)}: nested too deeply") from None
     if typed.kind != _BOOL:
         raise FilterError(
-            f"--where {text!r}: a filter must be a condition (true or false per row), such as "
-            f"'stiffness > 0.05'; this is a {typed.kind}"
+            f"--where {_quoted(text)}: a filter must be a condition (true or false per row), "
+            f"such as 'stiffness > 0.05'; this is a {typed.kind}"
         )
     return RowFilter(text, tuple(compiler.used), typed.evaluate)

@@ -73,7 +73,7 @@ from ...io.commits import (
     verify_file,
 )
 from ...io.commits import remove_leftovers as _remove_leftovers
-from ...io.files import atomic_write, file_sha256
+from ...io.files import BoundedReadError, atomic_write, check_file, file_sha256, read_bounded
 from .row_filter import parse_filter
 from .schema import (  # the store's public names include the schema's
     FORMAT,
@@ -243,6 +243,23 @@ def write_chunk(
     )
 
 
+def unverified_chunk(path: str | Path) -> Path:
+    """``path``, a chunk file to read unverified, once it is a regular file within its limit.
+
+    Raises
+    ------
+    StoreError
+        Naming the chunk if it is missing, not a regular file or larger than a chunk may be.
+    """
+    try:
+        check_file(path, "chunk")
+    except BoundedReadError as exc:
+        raise StoreError(f"chunk {exc}") from None
+    except FileNotFoundError:
+        raise StoreError(f"chunk {path}: missing (it is in {MANIFEST})") from None
+    return Path(path)
+
+
 def chunk_bytes(root: str | Path, record: ChunkRecord, *, verify: bool = True) -> pa.Buffer:
     """The bytes of a committed chunk file, checked against its manifest record.
 
@@ -375,7 +392,9 @@ def read_manifest(root: str | Path) -> Manifest:
     """
     path = Path(root) / MANIFEST
     try:
-        text = path.read_text()
+        text = read_bounded(path, "manifest").decode("utf-8")
+    except (BoundedReadError, UnicodeDecodeError) as exc:
+        raise StoreError(f"{path}: unreadable manifest ({exc})") from None
     except FileNotFoundError:
         if not Path(root).is_dir():
             raise StoreError(f"{root}: no such directory") from None
@@ -388,7 +407,7 @@ def read_manifest(root: str | Path) -> Manifest:
         raise StoreError(f"{root}: not a sweep directory (no {MANIFEST}){hint}") from None
     try:
         manifest = Manifest.from_json(text)
-    except (ValueError, KeyError, TypeError) as exc:
+    except (ValueError, KeyError, TypeError, RecursionError) as exc:
         raise StoreError(f"{path}: unreadable manifest ({exc})") from None
     if manifest.format != FORMAT:
         raise StoreError(f"{path}: format {manifest.format!r}, this dpfexplore reads {FORMAT!r}")
@@ -406,7 +425,10 @@ def read_schema(root: str | Path) -> pa.Schema:
     """The dataset schema (with field and dataset metadata) of a sweep directory."""
     path = Path(root) / COMMON_METADATA
     try:
+        check_file(path, "dataset metadata")
         return pq.read_schema(path)
+    except BoundedReadError as exc:
+        raise StoreError(str(exc)) from None
     except FileNotFoundError:
         if not Path(root).is_dir():
             raise StoreError(f"{root}: no such directory") from None
@@ -495,7 +517,7 @@ def iter_results(
         if verify:  # decode from the very bytes that were checked
             source = pa.BufferReader(chunk_bytes(root, record))
         else:
-            source = root / record.path
+            source = unverified_chunk(root / record.path)
         table = pq.read_table(source, columns=needed, schema=schema)
         if row_filter is not None:
             table = row_filter.apply(table)

@@ -29,7 +29,7 @@ from ....model.formatting import json_number
 from ....model.gripper import gripper_aperture
 from ....solvers.lattice import spring_constants
 from ...evaluation import SceneEvaluator
-from ...report import VERIFIED_BY, result_row_toml, verify_state, write_summary
+from ...report import VERIFIED_BY, verify_state, write_result_row, write_summary
 from ...spec import SceneSpec
 from .solve import GripperTargetResult, Metastability, metastability, windows_ok
 from .spec import GripperSpec
@@ -289,7 +289,7 @@ def write_gripper_report(
     for row in rows:
         path = out / "gripper.toml"
         title = f"{spec.name}: gripper, apertures {row['target']} mm"
-        path.write_text(result_row_toml(row, title=title, constants=spec.constants))
+        write_result_row(path, row, title=title, constants=spec.constants)
         written.append(path)
     written += write_constants_beside(spec.constants, out)
     if plot:

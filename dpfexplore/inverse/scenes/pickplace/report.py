@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
 
-from ....lookup.files import design_toml, write_constants_beside
+from ....lookup.files import write_constants_beside, write_design_file
 from ....model.design import Design
 from ....model.formatting import json_number
 from ....solvers.statics import find_state
@@ -469,7 +469,7 @@ def _difference_result(
 # ----------------------------------------------------------------------------- files
 
 
-def _result_toml(row: Mapping[str, Any], title: str, constants=None) -> str:
+def _write_result(path: Path, row: Mapping[str, Any], title: str, constants=None) -> Path:
     keys = (
         "objective_kind",
         "target_reset",
@@ -494,7 +494,7 @@ def _result_toml(row: Mapping[str, Any], title: str, constants=None) -> str:
         "dpfexplore simulate.",
     ]
     result = {key: row.get(key) for key in keys}
-    return design_toml(row["design"], comments, result, constants=constants)
+    return write_design_file(path, row["design"], comments, result, constants=constants)
 
 
 def write_pickplace_report(
@@ -525,7 +525,7 @@ def write_pickplace_report(
             else "largest reset-time difference of the two profiles"
         )
         title = f"{spec.name}: result {i + 1}, {what}"
-        path.write_text(_result_toml(row, title, constants=spec.constants))
+        _write_result(path, row, title, constants=spec.constants)
         written.append(path)
     written += write_constants_beside(spec.constants, out)
     if plot:

@@ -28,7 +28,7 @@ from ....model.design import Design
 from ....model.formatting import json_number
 from ...engine.optimiser import FrontPoint, ResidualRefinement, TargetResult
 from ...evaluation import SceneEvaluator
-from ...report import VERIFIED_BY, StateCheck, result_row_toml, verify_state, write_summary
+from ...report import VERIFIED_BY, StateCheck, verify_state, write_result_row, write_summary
 from ...spec import SceneSpec
 from .spec import PositionSpec
 
@@ -317,7 +317,7 @@ def write_position_report(
     for i, row in enumerate(rows):
         path = out / f"target-{i + 1:02d}.toml"
         title = f"{spec.name}: target {i + 1} {row['target']} mm"
-        path.write_text(result_row_toml(row, title=title, constants=spec.constants))
+        write_result_row(path, row, title=title, constants=spec.constants)
         written.append(path)
     written += write_constants_beside(spec.constants, out)
     if plot:

@@ -22,7 +22,8 @@ from typing import Any, TypedDict
 
 import numpy as np
 
-from ....lookup.files import CONSTANTS_FILE, toml_value, write_constants_beside
+from ....io.toml_write import write_toml
+from ....lookup.files import CONSTANTS_FILE, write_constants_beside
 from ....model.constants_set import DEFAULT
 from ....model.design import Design
 from ....model.formatting import json_number
@@ -333,49 +334,37 @@ def inverted_intervals(result, t_end: float) -> list[list[tuple[float, float]]]:
     return out
 
 
-def _leg_toml(row: Mapping[str, Any], spec: SceneSpec[WalkerSpec], title: str) -> str:
+def _write_leg(path: Path, row: Mapping[str, Any], spec: SceneSpec[WalkerSpec], title: str) -> Path:
+    """Write the designed leg as a leg file (``dpfexplore simulate-leg``), read back checked."""
     g = spec.kind_spec.gait
-    lines = [
-        f"# {title}",
-        "# Written by dpfexplore design: run it with dpfexplore simulate-leg "
+    comments = [
+        title,
+        "Written by dpfexplore design: run it with dpfexplore simulate-leg "
         "(the walking gait, one cycle).",
-        "",
-        "[leg]",
-        'composition = "dpw"',
     ]
     if spec.constants != DEFAULT:
-        lines[2:2] = [f"# under constants set {spec.constants.label}, saved beside this file"]
-    lines += [
-        f"t_end = {g.t_end!r}",
-        "n_samples = 501",
-        "",
-        "[phase.1]",
-        f"P0 = {g.walk_pressure!r}",
-        f"tau = {toml_value(list(g.phase1))}",
-        "",
-        "[phase.2]",
-        f"P0 = {g.walk_pressure!r}",
-        f"tau = {toml_value(list(g.phase2))}",
-    ]
-    for role, phase in (("purple", "1"), ("green", "2"), ("action", "2")):
-        d = dict(row["design"][role])
-        if spec.constants != DEFAULT:
-            d["constants"] = CONSTANTS_FILE
-        body = ", ".join(f"{k} = {toml_value(v)}" for k, v in d.items() if k != "name")
-        lines += [
-            "",
-            "[[section]]",
-            f'name = "{role}"',
-            f'phase = "{phase}"',
-            f"design = {{ {body} }}",
-        ]
-    lines += ["", "# Result (not read by simulate-leg):"]
-    lines += [
-        f"# stride {row['stride']:.4f} mm, {row['stride_ratio']:.3f} x the monostable "
+        comments.append(f"under constants set {spec.constants.label}, saved beside this file")
+    comments += [
+        "Result (not read by simulate-leg): "
+        f"stride {row['stride']:.4f} mm, {row['stride_ratio']:.3f} x the monostable "
         f"leg's ({row['monostable_stride']:.4f} mm); requirements met: "
         f"{row['requirements_met']}; fitted range: {row['fitted_range']}"
     ]
-    return "\n".join(lines) + "\n"
+    sections = []
+    for role, phase in (("purple", "1"), ("green", "2"), ("action", "2")):
+        d = {k: v for k, v in row["design"][role].items() if k != "name"}
+        if spec.constants != DEFAULT:
+            d["constants"] = CONSTANTS_FILE
+        sections.append({"name": role, "phase": phase, "design": d})
+    document = {
+        "leg": {"composition": "dpw", "t_end": g.t_end, "n_samples": 501},
+        "phase": {
+            "1": {"P0": g.walk_pressure, "tau": list(g.phase1)},
+            "2": {"P0": g.walk_pressure, "tau": list(g.phase2)},
+        },
+        "section": sections,
+    }
+    return write_toml(path, document, comments, kind="leg")
 
 
 def write_walker_report(
@@ -400,7 +389,7 @@ def write_walker_report(
         if row.get("design") is None:
             continue
         path = out / f"leg-{row['leg']}.toml"
-        path.write_text(_leg_toml(row, spec, f"{spec.name}: designed {row['leg']} leg"))
+        _write_leg(path, row, spec, f"{spec.name}: designed {row['leg']} leg")
         written.append(path)
     written += write_constants_beside(spec.constants, out)
     if plot:

@@ -95,6 +95,8 @@ def _writes(call: ast.Call) -> bool:
 def _reads_a_file(call: ast.Call) -> bool:
     func = call.func
     name = _name(func)
+    if call.args and isinstance(call.args[0], ast.Call) and _name(call.args[0].func) == "BytesIO":
+        return False  # bytes in memory, read bounded before
     if name == "open":
         if isinstance(func, ast.Attribute) and _name(func.value) in {"os", "gzip"}:
             return False  # os.open: a descriptor whose kind the caller checks
@@ -150,14 +152,15 @@ def test_every_file_read_goes_through_the_bounded_reader():
 
 def test_the_walk_finds_unbounded_reads():
     # Guards the rule above against a walker that silently finds nothing.
-    assert _unbounded_reads(PACKAGE / "model" / "constants_set.py")
     source = (
         "def f(p):\n    return p.read_text()\n\n"
         "def g(p):\n    return open(p, 'wb')\n\n"
         "def h(p):\n    return np.load(p)\n\n"
-        "def k(p):\n    check_file(p, 'chunk')\n    return pq.read_table(p)\n"
+        "def k(p):\n    check_file(p, 'chunk')\n    return pq.read_table(p)\n\n"
+        "def m(raw):\n    return pd.read_parquet(io.BytesIO(raw))\n\n"
+        "def n(p):\n    return pd.read_csv(p)\n"
     )
-    assert _unbounded_calls(source) == ["2 f", "8 h"]
+    assert _unbounded_calls(source) == ["18 n", "2 f", "8 h"]
 
 
 def test_the_allow_lists_name_files_that_exist():

@@ -391,7 +391,9 @@ class ConstantsSet:
         if written != CONSTANTS_FORMAT:
             shown = (
                 repr(written[:80])
-                if isinstance(written, str) or written is None
+                if isinstance(written, str)
+                else "None"
+                if written is None
                 else f"of type {type(written).__name__}"
             )
             raise ConstantsSetError(f"{source}: format {shown}, expected {CONSTANTS_FORMAT!r}")

@@ -114,9 +114,10 @@ def first_violation(
     """
     if not (h_range[0] > 0.0 and s_range[0] > 0.0):
         raise ValueError("the domain's H/r_b and t/r_b must be positive")
-    polys = _polynomials(bounds)
+    polys, terms = _polynomials(bounds), _Terms(bounds)
+    edges = None if hull is None else _Edges(np.asarray(hull, dtype=float))
     cells = np.array([[h_range[0], h_range[1], s_range[0], s_range[1]]], dtype=float)
-    cells = cells[_keep(cells, hull)]
+    cells = cells[_keep(cells, edges)]
     open_ = np.ones((len(cells), len(bounds)), dtype=bool)
     examined = 0
     for depth in range(MAX_DEPTH + 1):
@@ -125,16 +126,16 @@ def first_violation(
         examined += len(cells)
         proven, hints = _proven(polys, cells)
         open_ &= ~proven
-        found = _counterexample(bounds, cells, open_, hints, hull)
-        if found is not None:
-            return found
         rows = np.flatnonzero(open_.any(axis=1))
         if not len(rows):
             return None
+        found = _counterexample(terms, cells[rows], hints[rows], edges)
+        if found is not None:
+            return found
         if depth == MAX_DEPTH or examined + 4 * len(rows) > MAX_CELLS:
             return _unproven(cells[rows], open_[rows])
         cells, open_ = _split(cells[rows], open_[rows])
-        keep = _keep(cells, hull)
+        keep = _keep(cells, edges)
         cells, open_ = cells[keep], open_[keep]
     return None  # pragma: no cover  (the loop returns at MAX_DEPTH)
 
@@ -154,34 +155,47 @@ def _polynomials(bounds: Sequence[Bound]) -> NDArray:
     Returns an array of shape ``(2, n_bounds, n_h, n_s)``: the coefficients, then their
     magnitudes (for the rounding bound), padded to the largest degrees.
     """
-    built = []
+    forms = {}  # one expansion per distinct form: F P, |terms of F P| and F
     for bound in bounds:
-        ps = [p for p, _ in bound.exponents] + [0]
-        qs = [q for _, q in bound.exponents] + [0]
-        a = max(0, -min(ps))
-        b = max(0, max(p - 2 * q for p, q in zip(ps, qs, strict=True)))
-        k = max(0, max(qs))
-        sign = -1.0 if bound.upper else 1.0
-        # the limit as a term of P: P − lo = (−lo) + P, hi − P = hi − P
-        terms = [
-            (p, q, sign * c) for (p, q), c in zip(bound.exponents, bound.coefficients, strict=True)
-        ]
-        terms.append((0, 0, -sign * bound.limit))
-        entries: dict[tuple[int, int], list[float]] = {}
-        for p, q, c in terms:
-            # c 2^q s^(p+a) h^(2q−p+b) (1 + h²)^(k−q), expanded binomially
-            for m in range(k - q + 1):
-                key = (2 * q - p + b + 2 * m, p + a)
-                entries.setdefault(key, []).append(c * 2.0**q * comb(k - q, m))
-        built.append(entries)
-    n_h = 1 + max(i for entries in built for i, _ in entries)
-    n_s = 1 + max(j for entries in built for _, j in entries)
+        key = (bound.exponents, bound.coefficients)
+        if key not in forms:
+            forms[key] = _expand(*key)
+    n_h = max(f.shape[1] for f in forms.values())
+    n_s = max(f.shape[2] for f in forms.values())
     polys = np.zeros((2, len(bounds), n_h, n_s))
-    for n, entries in enumerate(built):
-        for (i, j), values in entries.items():
-            polys[0, n, i, j] = sum(values)
-            polys[1, n, i, j] = sum(abs(v) for v in values)
+    for n, bound in enumerate(bounds):
+        fp, fp_abs, f = forms[(bound.exponents, bound.coefficients)]
+        sign = -1.0 if bound.upper else 1.0
+        rows, cols = fp.shape
+        # lower: F P − lo F; upper: hi F − F P
+        polys[0, n, :rows, :cols] = sign * fp - sign * bound.limit * f
+        polys[1, n, :rows, :cols] = fp_abs + abs(bound.limit) * f
     return polys
+
+
+def _expand(exponents: tuple[tuple[int, int], ...], coefficients: tuple[float, ...]) -> NDArray:
+    """``F P``, its terms' magnitudes and ``F`` of one form, as ``(3, n_h, n_s)`` coefficients.
+
+    Each term ``c π1^p π3^q`` times ``F = s^a h^b (1 + h²)^k`` is
+    ``c 2^q s^(p+a) h^(2q−p+b) (1 + h²)^(k−q)``, expanded binomially.
+    """
+    ps = [p for p, _ in exponents] + [0]
+    qs = [q for _, q in exponents] + [0]
+    a = max(0, -min(ps))
+    b = max(0, max(p - 2 * q for p, q in zip(ps, qs, strict=True)))
+    k = max(0, max(qs))
+    n_h = 1 + max(2 * k - p + b for p in ps)
+    out = np.zeros((3, n_h, 1 + max(ps) + a))
+    for (p, q), c in zip([*exponents, (0, 0)], [*coefficients, None], strict=True):
+        for m in range(k - q + 1):
+            weight = 2.0**q * comb(k - q, m)
+            i, j = 2 * q - p + b + 2 * m, p + a
+            if c is None:  # F itself: the term (0, 0) with coefficient 1
+                out[2, i, j] += weight
+            else:
+                out[0, i, j] += c * weight
+                out[1, i, j] += abs(c) * weight
+    return out
 
 
 @lru_cache(maxsize=64)
@@ -249,60 +263,71 @@ def _split(cells: NDArray, open_: NDArray) -> tuple[NDArray, NDArray]:
 # ---------------------------------------------------------------------- the domain
 
 
-def _half_planes(h: NDArray, s: NDArray, hull: NDArray) -> NDArray:
-    """Per point (leading axes of ``h``, ``s``) and hull edge: inside that edge's half-plane.
+class _Edges:
+    """A counter-clockwise hull's edges, for half-plane tests (as ``inside_hull`` makes them)."""
 
-    The inside of a counter-clockwise hull is on the left of every edge, to 1e-12 of the
-    hull's size (as ``ConstantsSet.inside_hull`` decides it).
-    """
-    edges = np.roll(hull, -1, axis=0) - hull
-    tol = 1e-12 * float(np.abs(hull).max()) * np.hypot(edges[:, 0], edges[:, 1])
-    h, s = np.asarray(h)[..., None], np.asarray(s)[..., None]
-    with np.errstate(invalid="ignore"):
-        cross = edges[:, 0] * (s - hull[:, 1]) - edges[:, 1] * (h - hull[:, 0])
-        return cross >= -tol
+    def __init__(self, hull: NDArray) -> None:
+        self.start = hull
+        self.direction = np.roll(hull, -1, axis=0) - hull
+        self.tol = (
+            1e-12 * float(np.abs(hull).max()) * np.hypot(*self.direction.T)  # of the hull's size
+        )
 
-
-def _inside(h: NDArray, s: NDArray, hull: NDArray | None) -> NDArray:
-    """Whether points lie in the hull (all finite points without one)."""
-    inside = np.isfinite(h) & np.isfinite(s)
-    return inside if hull is None else inside & _half_planes(h, s, hull).all(axis=-1)
+    def inside(self, h: NDArray, s: NDArray) -> NDArray:
+        """Per point (the shape of ``h``, ``s``) and edge: on the inner side of that edge."""
+        d, o = self.direction, self.start
+        with np.errstate(invalid="ignore"):
+            cross = d[:, 0] * (s[..., None] - o[:, 1]) - d[:, 1] * (h[..., None] - o[:, 0])
+            return cross >= -self.tol
 
 
-def _keep(cells: NDArray, hull: NDArray | None) -> NDArray:
+def _keep(cells: NDArray, edges: _Edges | None) -> NDArray:
     """Cells not wholly outside the hull (outside one edge's half-plane at every corner)."""
-    if hull is None:
+    if edges is None:
         return np.ones(len(cells), dtype=bool)
-    corners = _half_planes(cells[:, [0, 1, 0, 1]], cells[:, [2, 2, 3, 3]], hull)
+    corners = edges.inside(cells[:, [0, 1, 0, 1]], cells[:, [2, 2, 3, 3]])
     return ~np.any(~corners.any(axis=1), axis=1)
 
 
+class _Terms:
+    """The bounds' terms padded to one table, to evaluate every bound at many points at once."""
+
+    def __init__(self, bounds: Sequence[Bound]) -> None:
+        width = max(1, *(len(b.coefficients) for b in bounds))
+        self.p = np.zeros((len(bounds), width))
+        self.q = np.zeros((len(bounds), width))
+        self.c = np.zeros((len(bounds), width))
+        for n, bound in enumerate(bounds):
+            for j, ((p, q), c) in enumerate(zip(bound.exponents, bound.coefficients, strict=True)):
+                self.p[n, j], self.q[n, j], self.c[n, j] = p, q, c
+        self.limit = np.array([b.limit for b in bounds])
+        self.upper = np.array([b.upper for b in bounds])
+
+    def broken(self, h: NDArray, s: NDArray) -> NDArray:
+        """``(n_points, n_bounds)``: where each bound fails (NaN fails)."""
+        R = (h * h + 1.0) / (2.0 * h)
+        pi1, pi3 = (s / h)[:, None, None], (h / R)[:, None, None]
+        with np.errstate(all="ignore"):
+            value = (self.c * pi1**self.p * pi3**self.q).sum(axis=2)
+            return np.where(self.upper, ~(value < self.limit), ~(value > self.limit))
+
+
 def _counterexample(
-    bounds: Sequence[Bound],
-    cells: NDArray,
-    open_: NDArray,
-    hints: NDArray,
-    hull: NDArray | None,
+    terms: _Terms, cells: NDArray, hints: NDArray, edges: _Edges | None
 ) -> Violation | None:
-    """A point of the domain where a bound breaks (a corner, centre or hint of an open cell)."""
-    rows = np.flatnonzero(open_.any(axis=1))
-    if not len(rows):
-        return None
-    h0, h1, s0, s1 = cells[rows].T
-    h = np.concatenate([np.column_stack([0.5 * (h0 + h1), h0, h1, h0, h1]), hints[rows, :, 0]], 1)
-    s = np.concatenate([np.column_stack([0.5 * (s0 + s1), s0, s0, s1, s1]), hints[rows, :, 1]], 1)
+    """A point of the domain where a bound breaks (a corner, centre or hint of a cell)."""
+    h0, h1, s0, s1 = cells.T
+    h = np.concatenate([np.column_stack([0.5 * (h0 + h1), h0, h1, h0, h1]), hints[..., 0]], 1)
+    s = np.concatenate([np.column_stack([0.5 * (s0 + s1), s0, s0, s1, s1]), hints[..., 1]], 1)
     h, s = h.ravel(), s.ravel()
-    inside = _inside(h, s, hull)
-    if not inside.any():
+    if edges is not None:
+        inside = edges.inside(h, s).all(axis=1)
+        h, s = h[inside], s[inside]
+    if not len(h):
         return None
-    h, s = h[inside], s[inside]
-    R = (h * h + 1.0) / (2.0 * h)
-    pi1, pi3 = (s / h)[:, None], (h / R)[:, None]
-    for index, bound in enumerate(bounds):
-        p, q = np.array(bound.exponents, dtype=float).reshape(-1, 2).T
-        value = (np.array(bound.coefficients) * pi1**p * pi3**q).sum(axis=1)
-        broken = ~(value < bound.limit) if bound.upper else ~(value > bound.limit)
-        if broken.any():
-            i = int(np.flatnonzero(broken)[0])
-            return Violation(index, float(h[i]), float(s[i]), found=True)
-    return None
+    broken = terms.broken(h, s)
+    if not broken.any():
+        return None
+    index = int(np.flatnonzero(broken.any(axis=0))[0])
+    i = int(np.flatnonzero(broken[:, index])[0])
+    return Violation(index, float(h[i]), float(s[i]), found=True)

@@ -524,7 +524,11 @@ def find_constants_set(text: str | Path) -> ConstantsSet:
         One line: no such file or set (listing the packaged ones), or the file's own problem.
     """
     path = Path(text)
-    if path.exists() or path.suffix == ".json" or len(path.parts) > 1:
+    try:
+        exists = path.exists()
+    except OSError:  # a name too long for a path: the reader says so in one line
+        exists = True
+    if exists or path.suffix == ".json" or len(path.parts) > 1:
         return load_constants_set(path)
     if str(text) == DEFAULT.name:
         return DEFAULT

@@ -25,6 +25,7 @@ from dpfexplore.model.constants_set import (
     ConstantsSet,
     ConstantsSetError,
     _fingerprint,
+    find_constants_set,
     load_constants_set,
     packaged_sets,
 )
@@ -327,6 +328,9 @@ def test_special_and_large_files_are_refused_before_reading(tmp_path, capsys):
         fh.truncate(MAX_SET_BYTES + 1)  # sparse: nothing to write, nothing read
     refused(large, f"{MAX_SET_BYTES + 1} bytes, more than the limit of {MAX_SET_BYTES}")
     refused(tmp_path / "missing.json", "cannot read (No such file or directory)")
+    long = "a" * 5000
+    with pytest.raises(ConstantsSetError, match=r"cannot read \(File name too long\)"):
+        find_constants_set(long)
 
 
 def test_a_scene_naming_dev_zero_as_its_constants_is_refused(tmp_path, capsys):

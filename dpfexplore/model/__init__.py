@@ -12,6 +12,9 @@ constants
 closed_form, constants_set
     Closed forms in ``π1 = t/H``, ``π3 = H/R`` as data, and the constants sets every
     computation runs on (the paper's by default; their domain, fingerprint, files).
+set_checks
+    A constants set's file read within bounds and its fields checked; its claims proven over
+    its whole domain (Bernstein bounds of its closed forms).
 quantities
     The tables that declare the model's quantities, one row each: a stable state's output
     columns and a constants set's closed forms (the kernels, results, datasets, set files and

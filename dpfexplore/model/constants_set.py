@@ -33,7 +33,13 @@ Domain
     fitted at 0.35 only). Sets identified from unit-cell curves state the dimensionless ranges
     of their data and its ``E`` and ``nu`` ranges. The domain must bound ``H/r_b`` and
     ``t/r_b`` (directly, or through ``H``, ``t`` and ``r_b``): :meth:`ConstantsSet.check`
-    evaluates the forms there.
+    proves the forms physical there (:mod:`dpfexplore.model.set_checks`).
+
+Files
+    :func:`load_constants_set` reads at most
+    :data:`~dpfexplore.model.set_checks.fields.MAX_SET_BYTES` of a regular file as strict JSON
+    and checks every field's type and magnitude before it uses any
+    (:mod:`~dpfexplore.model.set_checks.fields`); every refusal is one line naming the file.
 """
 
 from __future__ import annotations
@@ -54,6 +60,8 @@ from .closed_form import N_FORMS, ClosedForm, ConstantsSetError, float_powers
 from .constants import _ALPHA_TERMS, _KB_TERMS, TIP_PER_HEIGHT, TIP_PER_THICKNESS
 from .domain import FITTED_RANGES
 from .quantities import SET_FORMS, scaled
+from .set_checks.claims import claims_problem
+from .set_checks.fields import fields_problem, read_set_json
 
 __all__ = [
     "CONSTANTS_FORMAT",
@@ -69,8 +77,6 @@ __all__ = [
 
 #: Identifies the file layout; bump when it changes incompatibly.
 CONSTANTS_FORMAT = "dpfexplore-constants/1"
-#: Points per axis of the grid on which :meth:`ConstantsSet.check` evaluates a set's domain.
-CHECK_GRID = 41
 #: Ranges a domain may state: name -> (unit, per unit of the finger (True) or shared).
 DOMAIN_KEYS: dict[str, tuple[str, bool]] = {
     "H": ("mm", True),
@@ -319,32 +325,26 @@ class ConstantsSet:
         return inside
 
     def check(self) -> None:
-        """Refuse a set whose forms are unphysical inside its own domain.
+        """Refuse a set whose claims do not hold over its own domain.
 
-        Evaluated on a :data:`CHECK_GRID` × :data:`CHECK_GRID` grid of ``(H/r_b, t/r_b)`` over
-        :meth:`ratio_ranges` (``k_b`` scales with ``E``, so one ``E`` suffices).
+        Proven, not sampled (:mod:`dpfexplore.model.set_checks.claims`): every coefficient and
+        range within the limits of a physical set; the hull, if any, a convex polygon inside
+        the ranges that reaches the ranges it states; and over the whole domain (the box of
+        :meth:`ratio_ranges`, within the hull) ``k_b > 0``, ``0 < alpha < 1``,
+        ``H < tip_dis``, with ``k_hat`` and ``tip_ratio`` bounded (``k_b`` scales with ``E``,
+        so one ``E`` suffices).
 
         Raises
         ------
         ConstantsSetError
-            Naming the first form (in the order of
-            :data:`~dpfexplore.model.quantities.SET_FORMS`) and dome where its quantity is not
-            physical: ``k_b <= 0``, ``alpha`` outside ``(0, 1)``, ``tip_dis <= H``.
+            ``constants set NAME: ...``, naming what is wrong and, for a form, the dome where
+            its quantity is not physical (or, within rounding of its bound, near which).
         """
-        h_range, t_range = self.ratio_ranges()
-        H, t = np.meshgrid(
-            np.linspace(*h_range, CHECK_GRID), np.linspace(*t_range, CHECK_GRID), indexing="ij"
-        )
-        values = self.evaluate(H, t, 1.0, 1.0)
-        claimed = self.inside_hull(H, t)  # the box's corners outside the data's hull are not
-        for form in SET_FORMS:
-            bad = ~form.physical(values[form.quantity], H) & claimed
-            if np.any(bad):
-                i, j = np.argwhere(bad)[0]
-                raise ConstantsSetError(
-                    f"constants set {self.name!r}: {form.unphysical} inside its own domain, at "
-                    f"H/r_b = {H[i, j]:.4g}, t/r_b = {t[i, j]:.4g}"
-                )
+        hull = None if self.hull is None else np.asarray(self.hull, dtype=float)
+        forms = {form.name: getattr(self, form.name) for form in SET_FORMS}
+        problem = claims_problem(forms, self.domain, self.ratio_ranges(), hull)
+        if problem:
+            raise ConstantsSetError(f"constants set {self.name!r}: {problem}")
 
     # ------------------------------------------------------------------ files
 
@@ -387,58 +387,57 @@ class ConstantsSet:
         """Read :meth:`to_dict`'s data; the fingerprint must match and the set be physical."""
         if not isinstance(data, Mapping):
             raise ConstantsSetError(f"{source}: not a constants set (a JSON object)")
-        if data.get("format") != CONSTANTS_FORMAT:
-            raise ConstantsSetError(
-                f"{source}: format {data.get('format')!r}, expected {CONSTANTS_FORMAT!r}"
+        written = data.get("format")
+        if written != CONSTANTS_FORMAT:
+            shown = (
+                repr(written[:80])
+                if isinstance(written, str)
+                else "None"
+                if written is None
+                else f"of type {type(written).__name__}"
             )
+            raise ConstantsSetError(f"{source}: format {shown}, expected {CONSTANTS_FORMAT!r}")
         for key in ("name", *(form.name for form in SET_FORMS), "domain", "fingerprint"):
             if key not in data:
                 raise ConstantsSetError(f"{source}: missing {key!r}")
         body = {k: v for k, v in data.items() if k not in ("fingerprint", "validation")}
-        if _fingerprint(body) != data["fingerprint"]:
+        try:
+            fingerprint = _fingerprint(body)
+        except (TypeError, ValueError, RecursionError) as exc:  # NaN, a non-JSON value
+            raise ConstantsSetError(f"{source}: not a constants set ({exc})") from None
+        if fingerprint != data["fingerprint"]:
             raise ConstantsSetError(
                 f"{source}: its contents do not match its fingerprint (edited or damaged)"
             )
         # Same fingerprint, same contents: a set read and checked before is not checked again
-        # (the check evaluates its forms over its domain, ~0.5 ms; estimators read their set
+        # (the check proves its forms over its domain, ~0.2-1.5 ms; estimators read their set
         # on every prediction).
         verdict = _verdict(data.get("validation"), data["fingerprint"], source)
         known = _READ_SETS.get(data["fingerprint"])
         if known is not None and known.validation == verdict:
             return known
-        if not isinstance(data["domain"], Mapping):
-            raise ConstantsSetError(f"{source}: domain must be a table of ranges")
-        domain = {}
-        for key, value in data["domain"].items():
-            if (
-                not isinstance(value, list)
-                or len(value) != 2
-                or not all(
-                    isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
-                    for v in value
-                )
-                or not value[0] <= value[1]
-            ):
-                raise ConstantsSetError(f"{source}: domain.{key} must be [low, high]")
-            domain[str(key)] = (float(value[0]), float(value[1]))
+        problem = fields_problem(data)
+        if problem:
+            raise ConstantsSetError(f"{source}: {problem}")
+        domain = {str(k): (float(v[0]), float(v[1])) for k, v in data["domain"].items()}
         try:
             result = cls(
-                name=str(data["name"]),
+                name=data["name"],
                 **{
                     form.name: ClosedForm.from_dict(data[form.name], f"{source}: {form.name}")
                     for form in SET_FORMS
                 },
                 domain=domain,
                 provenance=dict(data.get("provenance") or {}),
-                hull=_hull(data.get("hull"), source),
+                hull=_hull(data.get("hull")),
                 validation=verdict,
             )
+            result.check()
         except ConstantsSetError as exc:
             message = str(exc)
             raise ConstantsSetError(
                 message if message.startswith(source) else f"{source}: {message}"
             ) from None
-        result.check()
         if len(_READ_SETS) >= 64:
             _READ_SETS.clear()
         _READ_SETS[data["fingerprint"]] = result
@@ -478,17 +477,9 @@ def _verdict(value: Any, fingerprint: str, source: str) -> dict[str, Any] | None
     return value
 
 
-def _hull(value: Any, source: str) -> tuple[tuple[float, float], ...] | None:
-    if value is None:
-        return None
-    if not isinstance(value, list) or not all(
-        isinstance(v, list)
-        and len(v) == 2
-        and all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)
-        for v in value
-    ):
-        raise ConstantsSetError(f"{source}: hull must be a list of [H/r_b, t/r_b] vertices")
-    return tuple((float(a), float(b)) for a, b in value)
+def _hull(value: Any) -> tuple[tuple[float, float], ...] | None:
+    """A file's ``hull`` (its fields checked) as vertices, or None."""
+    return None if value is None else tuple((float(a), float(b)) for a, b in value)
 
 
 def data_hull(h: ArrayLike, s: ArrayLike) -> tuple[tuple[float, float], ...] | None:
@@ -533,7 +524,11 @@ def find_constants_set(text: str | Path) -> ConstantsSet:
         One line: no such file or set (listing the packaged ones), or the file's own problem.
     """
     path = Path(text)
-    if path.exists() or path.suffix == ".json" or len(path.parts) > 1:
+    try:
+        exists = path.exists()
+    except OSError:  # a name too long for a path: the reader says so in one line
+        exists = True
+    if exists or path.suffix == ".json" or len(path.parts) > 1:
         return load_constants_set(path)
     if str(text) == DEFAULT.name:
         return DEFAULT
@@ -549,17 +544,13 @@ def load_constants_set(path: str | Path) -> ConstantsSet:
     Raises
     ------
     ConstantsSetError
-        One line naming the file: unreadable, not JSON, another format, a fingerprint that does
-        not match, or closed forms that are unphysical inside their own domain.
+        One line naming the file: unreadable, not a regular file or too large
+        (:func:`~dpfexplore.model.set_checks.fields.read_set_json`), not strict JSON, another
+        format, a field of the wrong type or magnitude, a fingerprint that does not match, or
+        claims that do not hold (:meth:`ConstantsSet.check`).
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except OSError as exc:
-        raise ConstantsSetError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ConstantsSetError(f"{path}: not a constants set (not JSON: {exc})") from None
-    result = ConstantsSet.from_dict(data, source=str(path))
+    result = ConstantsSet.from_dict(read_set_json(path), source=str(path))
     if result.validation is not None and not result.validation["passes"]:
         logging.getLogger("dpfexplore.validation").warning(result.validation["summary"])
     return result

@@ -183,10 +183,6 @@ def _report(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-#: Largest Parquet file of designs ``surrogate predict`` reads, bytes.
-MAX_DESIGNS_BYTES = 512 * 2**20
-
-
 def _read_designs(path: Path):
     import io
 
@@ -204,7 +200,7 @@ def _read_designs(path: Path):
     if not path.exists():
         raise UsageError(f"{path}: no such file")
     try:
-        raw = read_bounded(path, MAX_DESIGNS_BYTES)
+        raw = read_bounded(path, "designs table")
     except BoundedReadError as exc:
         raise UsageError(str(exc)) from None
     except OSError as exc:

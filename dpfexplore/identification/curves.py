@@ -46,6 +46,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from ..io.files import SIZE_LIMITS
+
 __all__ = [
     "COLUMNS",
     "MAX_TABLE_BYTES",
@@ -67,9 +69,8 @@ ENVELOPE_POINTS = 200
 _PARAMETERS = ("H", "t", "r_b", "E", "nu")
 #: The columns a fit reads (module docstring), in the order their hash takes them.
 COLUMNS = ("curve", *_PARAMETERS, "displacement", "energy", "force", "branch", "tip_dis")
-#: Largest curve table read, bytes: a unit-cell sweep of 10,000 geometries of 500 points each
-#: takes about 300 MB as CSV, a sixth of that as Parquet.
-MAX_TABLE_BYTES = 512 * 2**20
+#: Largest curve table read, bytes (the reason in :data:`dpfexplore.io.files.SIZE_LIMITS`).
+MAX_TABLE_BYTES = SIZE_LIMITS["curve table"].bytes
 #: Most rows of a table (checked in a Parquet file's footer before its columns are decoded).
 MAX_TABLE_ROWS = 20_000_000
 

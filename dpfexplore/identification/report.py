@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..io.files import BoundedReadError, read_json_bounded
+from ..io.files import SIZE_LIMITS, BoundedReadError, read_json_bounded
 from ..model.constants import ALPHA_BISTABLE, ALPHA_GHOST
 from ..model.constants_set import ConstantsSet, load_constants_set
 from ..model.formatting import json_text
@@ -35,8 +35,8 @@ __all__ = [
 CONSTANTS_FILE = "constants.json"
 FITS_FILE = "fits.csv"
 REPORT_FILE = "report.json"
-#: Largest report read, bytes (one per curve fit: a few hundred bytes each).
-MAX_REPORT_BYTES = 64 * 2**20
+#: Largest report read, bytes (the reason in :data:`dpfexplore.io.files.SIZE_LIMITS`).
+MAX_REPORT_BYTES = SIZE_LIMITS["identification report"].bytes
 FIGURE_FILE = "selection.png"
 
 

@@ -152,9 +152,41 @@ SIZE_LIMITS: dict[str, SizeLimit] = {
         "the paper's printed fingers are 9 KiB; 1 MiB holds a few thousand fingers",
     ),
     "constants set": SizeLimit(
-        4 * _MiB,
+        1 * _MiB,
         "constants set file",
-        "a set is a few closed forms with their hull: tens of KiB",
+        "a set is a few closed forms with their hull (the packaged one 7 KiB); 1 MiB leaves room "
+        "for long provenance notes and parses in milliseconds",
+    ),
+    "reset model": SizeLimit(
+        16 * _MiB,
+        "reset-model file",
+        "the packaged model is 80 KiB; 400 trees of depth 5 in both ensembles take about 5 MB",
+    ),
+    "curve table": SizeLimit(
+        512 * _MiB,
+        "curve table",
+        "a unit-cell sweep of 10,000 geometries of 500 points each is about 300 MB as CSV, a "
+        "sixth of that as Parquet",
+    ),
+    "identification report": SizeLimit(
+        64 * _MiB,
+        "identification report",
+        "one entry per curve fit, a few hundred bytes each",
+    ),
+    "surrogate metadata": SizeLimit(
+        16 * _MiB,
+        "surrogate metadata (surrogate.json, report.json)",
+        "a surrogate's identity, fingerprints and error tables: tens of KiB",
+    ),
+    "surrogate models": SizeLimit(
+        2 * _GiB,
+        "surrogate models (models.skops)",
+        "a Gaussian process keeps its training rows: 500 rows per N for every output, a few MB",
+    ),
+    "designs table": SizeLimit(
+        512 * _MiB,
+        "designs table (Parquet)",
+        "the designs surrogate predict reads: 10^6 designs of a few dozen columns, about 200 MB",
     ),
     "manifest": SizeLimit(
         256 * _MiB,

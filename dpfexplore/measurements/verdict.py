@@ -30,15 +30,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..io.files import SIZE_LIMITS, atomic_write, read_bounded
+from ..io.files import atomic_write
 from ..model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError
+from ..model.set_checks.fields import read_set_json
 from .results import SetVerdict
 from .validate import GOAL, MeasurementsLike, validate
 
-__all__ = ["MAX_SET_BYTES", "failed_summary", "record_verdict", "verdict_of"]
-
-#: Largest constants set file read here (bytes): :data:`~dpfexplore.io.files.SIZE_LIMITS`.
-MAX_SET_BYTES = SIZE_LIMITS["constants set"].bytes
+__all__ = ["failed_summary", "record_verdict", "verdict_of"]
 
 
 def verdict_of(constants: ConstantsSet, measurements: MeasurementsLike | None = None) -> SetVerdict:
@@ -67,10 +65,7 @@ def record_verdict(path: str | Path, measurements: MeasurementsLike | None = Non
         does not hold the verdict written.
     """
     path = Path(path)
-    try:
-        data = json.loads(read_bounded(path, MAX_SET_BYTES))
-    except (OSError, ValueError) as exc:
-        raise ConstantsSetError(f"{path}: cannot read a constants set ({exc})") from None
+    data = read_set_json(path)  # bounded, strict JSON; one line naming the file
     if not isinstance(data, dict):
         raise ConstantsSetError(f"{path}: not a constants set (a JSON object)")
     data.pop("validation", None)
@@ -78,7 +73,7 @@ def record_verdict(path: str | Path, measurements: MeasurementsLike | None = Non
     verdict = verdict_of(constants, measurements)
     data["validation"] = json.loads(json.dumps(verdict.to_dict(), allow_nan=False))
     atomic_write(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
-    back = ConstantsSet.from_dict(json.loads(read_bounded(path, MAX_SET_BYTES)), source=str(path))
+    back = ConstantsSet.from_dict(read_set_json(path), source=str(path))
     if back.validation != data["validation"] or back != constants:
         raise ConstantsSetError(f"{path}: read back, it does not hold the verdict written")
     return verdict

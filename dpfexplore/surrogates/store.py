@@ -45,7 +45,7 @@ from typing import Any
 import pandas as pd
 
 from ..io.commits import StoreError
-from ..io.files import BoundedReadError, file_sha256, read_bounded, read_json_bounded
+from ..io.files import SIZE_LIMITS, BoundedReadError, file_sha256, read_bounded, read_json_bounded
 from ..model.constants_set import DEFAULT, ConstantsSet
 from ..model.version import MODEL_VERSION, package_versions
 from .data import dataset_fingerprint
@@ -70,11 +70,11 @@ FORMAT = "dpfexplore-surrogate/1"
 #: surrogate-3: every estimator holds its constants set, and the flat ones' dome features come
 #: from it; surrogate-4: both files carry the surrogate's identity).
 SURROGATE_VERSION = "surrogate-4"
-#: Largest ``surrogate.json`` or ``report.json`` read, bytes.
-MAX_JSON_BYTES = 16 * 2**20
-#: Largest ``models.skops`` read, bytes (a Gaussian process keeps its training rows: 500 rows
-#: per N for every output, a few MB).
-MAX_MODELS_BYTES = 2 * 2**30
+#: Largest ``surrogate.json`` or ``report.json`` read, bytes (reasons in
+#: :data:`dpfexplore.io.files.SIZE_LIMITS`).
+MAX_JSON_BYTES = SIZE_LIMITS["surrogate metadata"].bytes
+#: Largest ``models.skops`` read, bytes.
+MAX_MODELS_BYTES = SIZE_LIMITS["surrogate models"].bytes
 META, MODELS, REPORT = "surrogate.json", "models.skops", "report.json"
 SPEED_CSV, SPEED_PNG = "speed_error.csv", "speed_error.png"
 

@@ -270,7 +270,7 @@ def read_job(path: str | Path) -> UnitCellJob:
     """
     path = Path(path)
     try:
-        source = read_toml(path)
+        source = read_toml(path, "unit-cell job")
     except FileNotFoundError:
         raise FieldError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:

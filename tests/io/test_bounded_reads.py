@@ -4,8 +4,8 @@ The walk (:func:`test_every_file_read_goes_through_the_bounded_reader`) parses e
 finds each call that reads a file (``open`` for reading, ``Path.read_text``/``read_bytes``,
 ``np.load``, ``json.load``, ``tomllib.load``, pandas' and pyarrow's readers of a path). A reading
 call passes when its function also checks the file first (``read_bounded``, ``check_file`` or
-a helper built on them); otherwise its module must be in :data:`NOT_YET_BOUNDED` or
-:data:`NOT_A_USER_FILE`, each entry with its reason. A new unbounded read fails here.
+a helper built on them) or reads bytes already in memory (``io.BytesIO``); otherwise its module
+must be in :data:`NOT_A_USER_FILE`, each entry with its reason. A new unbounded read fails here.
 """
 
 from __future__ import annotations
@@ -57,15 +57,6 @@ READERS = {
 LIBRARIES = {"np", "numpy", "pd", "pandas", "pq", "pa", "pads", "json", "tomllib", "pickle"}
 LIBRARIES |= {"joblib", "skops", "sio"}
 
-#: Modules other parts of the work convert to the bounded reader (they own them).
-NOT_YET_BOUNDED = {
-    "model/constants_set.py": "constants set files: the constants-set checks",
-    "solvers/dynamics/reset_model.py": "reset-model files: the reset-model integrity work",
-    "surrogates/": "surrogate files: the surrogate identity work",
-    "identification/": "identification tables and reports: the identification work",
-    "unitcell/": "unit-cell jobs and chunks: the unit-cell pipeline work",
-    "cli/surrogate.py": "training tables of surrogate fit: the surrogate identity work",
-}
 #: Reads of files the tool itself controls, not files a user names.
 NOT_A_USER_FILE = {
     "io/files.py": "file_sha256 hashes a committed file in 1 MiB blocks (memory bounded)",
@@ -134,8 +125,7 @@ def _unbounded_calls(source: str) -> list[str]:
 
 def _allowed(relpath: str) -> bool:
     return any(
-        relpath == key or (key.endswith("/") and relpath.startswith(key))
-        for key in (*NOT_YET_BOUNDED, *NOT_A_USER_FILE)
+        relpath == key or (key.endswith("/") and relpath.startswith(key)) for key in NOT_A_USER_FILE
     )
 
 
@@ -164,7 +154,7 @@ def test_the_walk_finds_unbounded_reads():
 
 
 def test_the_allow_lists_name_files_that_exist():
-    for key in (*NOT_YET_BOUNDED, *NOT_A_USER_FILE):
+    for key in NOT_A_USER_FILE:
         assert (PACKAGE / key).exists(), key
 
 

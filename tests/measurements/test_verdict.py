@@ -97,6 +97,23 @@ def test_record_verdict_writes_the_verdict_into_the_file(tmp_path):
     assert path.read_text() == text
 
 
+@pytest.mark.parametrize(
+    "text, reason",
+    [
+        ("[" * 200_000 + "]" * 200_000, "nested too deeply"),
+        ('{"format": NaN}', "NaN is not a number"),
+    ],
+)
+def test_record_verdict_refuses_a_malformed_file_in_one_line_naming_it(tmp_path, text, reason):
+    path = tmp_path / "deep.json"
+    path.write_text(text)
+    with pytest.raises(ConstantsSetError) as refused:
+        record_verdict(path)
+    message = str(refused.value)
+    assert message.startswith(f"{path}: ") and reason in message and "\n" not in message
+    assert path.read_text() == text  # nothing written
+
+
 def test_commands_announce_a_failed_set_in_one_line(tmp_path, capsys):
     path = tmp_path / "other.json"
     plain = other_set()

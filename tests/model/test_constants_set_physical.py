@@ -345,5 +345,6 @@ def test_a_scene_naming_dev_zero_as_its_constants_is_refused(tmp_path, capsys):
     assert code == 2 and "\n" not in err, err
     assert err.endswith(
         "scene.constants = '/dev/zero': /dev/zero: not a regular file (a device or socket)"
+        f" (in {tmp_path / 'scene.toml'})"
     )
     assert not (tmp_path / "out").exists()

@@ -19,15 +19,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ...io.files import SIZE_LIMITS
 from ..closed_form import MAX_POWER, ConstantsSetError
 from ..quantities import SET_FORMS
 from .claims import DOMAIN_LIMITS, MAX_COEFFICIENT
 
 __all__ = ["MAX_NESTING", "MAX_SET_BYTES", "MAX_TERMS", "fields_problem", "read_set_json"]
 
-#: Largest constants set file read (bytes). A set is a few kB (the packaged one 7 kB); 1 MiB
-#: leaves room for long provenance notes and parses in milliseconds.
-MAX_SET_BYTES = 1 << 20
+#: Largest constants set file read, bytes (the reason in :data:`dpfexplore.io.files.SIZE_LIMITS`).
+MAX_SET_BYTES = SIZE_LIMITS["constants set"].bytes
 #: Deepest nesting of lists and tables in a set file (the format itself needs 4).
 MAX_NESTING = 32
 #: Most terms a closed form may hold: every ``(p, q)`` with ``|p|, |q| <= MAX_POWER``.

@@ -39,7 +39,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from ...io.files import BoundedReadError, atomic_write, read_json_bounded
+from ...io.files import SIZE_LIMITS, BoundedReadError, atomic_write, read_json_bounded
 from ...model.constants_set import DEFAULT, ConstantsSet
 from ...model.formatting import json_text
 from ...model.limits import MAX_UNITS
@@ -67,9 +67,8 @@ MODEL_FORMAT = "dpfexplore-reset-model"
 FORMAT_VERSION = 2
 #: The model shipped with the package.
 DEFAULT_MODEL_PATH = Path(__file__).parent / "data" / "reset_model.json"
-#: Largest model file read, bytes (the packaged one: 80 kB; 400 trees of depth 5 each for both
-#: ensembles: about 5 MB).
-MAX_MODEL_BYTES = 16 * 2**20
+#: Largest model file read, bytes (the reason in :data:`dpfexplore.io.files.SIZE_LIMITS`).
+MAX_MODEL_BYTES = SIZE_LIMITS["reset model"].bytes
 #: Bound of the trees' recorded output ranges, log units: the correction is ``log(T_full /
 #: T_core)`` and the scale the size of its error; ``e^20`` (5e8) is beyond any reset time ratio
 #: the core can be off by.

@@ -281,9 +281,15 @@ def _phase(where: str, table: Any) -> PressureProfile:
 
 
 def load_leg(path: str | Path) -> Leg:
-    """Read a leg file (module docstring); ``ValueError`` naming the key for a bad one."""
+    """Read a leg file (module docstring); a ``ValueError`` naming the key, then the file."""
     path = Path(path)
-    leg = Leg.from_dict(read_toml(path, "leg"), base=path.parent)
+    document = read_toml(path, "leg")  # its errors start with the path
+    try:
+        leg = Leg.from_dict(document, base=path.parent)
+    except ValueError as exc:
+        if str(path) in str(exc):
+            raise
+        raise ValueError(f"{exc} (in {path})") from None
     return leg if leg.name else replace(leg, name=path.stem)
 
 

@@ -20,7 +20,13 @@ from pathlib import Path
 
 from . import EXIT_OK, UsageError
 from .support.inputs import design_argument, saved_path
-from .support.output import FIGURE_SUFFIXES, announce_compilation, json_text, output_path
+from .support.output import (
+    FIGURE_SUFFIXES,
+    announce_compilation,
+    json_text,
+    output_path,
+    save_figure,
+)
 
 CONSTANTS = Path("results") / "constants"
 
@@ -226,5 +232,5 @@ def _compare(args: argparse.Namespace) -> int:
         from ..plotting.compare import plot_set_comparison
 
         figure = plot_set_comparison(drawn, [first.name, second.name])
-        figure.savefig(plot, dpi=130)
+        save_figure(figure, plot, dpi=130)
     return EXIT_OK

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from .support.inputs import add_constants_option, constants_argument
-from .support.output import FIGURE_SUFFIXES, json_text, output_path
+from .support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
 
 
 def register(subparsers) -> None:
@@ -254,6 +254,6 @@ def _plot(result, path: Path) -> None:
         [c.tip for c in result.candidates],
         labels=[c.status for c in result.candidates],
     )
-    ax.figure.savefig(path, dpi=150, bbox_inches="tight")
+    save_figure(ax.figure, path, dpi=150, bbox_inches="tight")
     plt.close(ax.figure)
     print(f"reachable tip region written to {path}", file=sys.stderr)

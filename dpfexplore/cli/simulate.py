@@ -14,6 +14,7 @@ from .support.output import (
     fitted_range_line,
     json_text,
     output_path,
+    save_figure,
 )
 
 
@@ -230,4 +231,4 @@ def _save_plot(result, path: Path) -> None:
     fig = Figure(figsize=(7, 7), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
     plot_simulation(result, axes)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)

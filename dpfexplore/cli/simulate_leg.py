@@ -6,7 +6,7 @@ from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from .support.inputs import add_constants_option, constants_argument, with_constants
-from .support.output import FIGURE_SUFFIXES, json_text, output_path
+from .support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
 
 
 def register(subparsers) -> None:
@@ -118,4 +118,4 @@ def _save_plot(result, path: Path, assignments=()) -> None:
     fig = Figure(figsize=(11, 5), layout="constrained")
     plot_tip_paths(result, fig.subplots(1, 2), labels=[label])
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from .support.inputs import add_constants_option, constants_record, design_of, print_constants_line
-from .support.output import FIGURE_SUFFIXES, json_text, output_path
+from .support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
 
 
 def register(subparsers) -> None:
@@ -145,4 +145,4 @@ def _save_plot(seq, path: Path) -> None:
     plot_snap(seq, axes[0], quantity="u")
     plot_snap(seq, axes[1], quantity="tip")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)

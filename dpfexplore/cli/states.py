@@ -15,6 +15,7 @@ from .support.output import (
     fitted_range_line,
     json_text,
     output_path,
+    save_figure,
 )
 
 UNITS_HELP = (
@@ -104,10 +105,10 @@ def run(args: argparse.Namespace) -> int:
         from ..plotting.statics import plot_states, plot_states_grid
 
         if sum(r.stable for r in results) > 6:  # too many to overlay: one panel each
-            plot_states_grid(results).savefig(plot, dpi=150, bbox_inches="tight")
+            save_figure(plot_states_grid(results), plot, dpi=150, bbox_inches="tight")
         else:
             ax = plot_states(results)
-            ax.figure.savefig(plot, dpi=150, bbox_inches="tight")
+            save_figure(ax.figure, plot, dpi=150, bbox_inches="tight")
             plt.close(ax.figure)
     failed = [r for r in results if r.status.label not in ("ok", "collapsed")]
     if failed:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from . import EXIT_OK, UsageError
 from .support.inputs import add_constants_option, constants_argument, saved_path
-from .support.output import json_text
+from .support.output import json_text, save_table
 
 #: Where ``surrogate report|predict NAME`` looks for a bare name.
 SURROGATES = Path("results") / "surrogates"
@@ -239,10 +239,7 @@ def _predict(args: argparse.Namespace) -> int:
     table["flag"] = ["" if inside else "OUT OF RANGE" for inside in table["in_range"]]
     flagged = int((~table["in_range"]).sum())
     if args.out is not None:
-        if args.out.suffix == ".csv":
-            table.to_csv(args.out, index=False)
-        else:
-            table.to_parquet(args.out, index=False)
+        save_table(table, args.out)
         print(f"{len(table)} predictions written to {args.out}")
     else:
         print(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))

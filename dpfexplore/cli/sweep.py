@@ -24,7 +24,7 @@ from pathlib import Path
 from ..sweep.progress import LogProgress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
 from .support.inputs import add_constants_option, constants_argument, constants_line, with_constants
-from .support.output import FIGURE_SUFFIXES, output_path
+from .support.output import FIGURE_SUFFIXES, output_path, save_figure, save_table
 
 
 def register(subparsers) -> None:
@@ -300,7 +300,7 @@ def _query(args: argparse.Namespace) -> int:
             frame.to_csv(sys.stdout, index=False)
         else:
             csv = output_path(args.csv, "--csv")
-            frame.to_csv(csv, index=False)
+            save_table(frame, csv)
             error_line(f"{len(frame)} rows written to {csv}")
     else:
         print(frame.to_string(max_rows=40, index=False))
@@ -338,7 +338,7 @@ def _plot_space(args: argparse.Namespace) -> int:
         suffixes=FIGURE_SUFFIXES,
     )
     figure = axes[0].figure
-    figure.savefig(out, dpi=150)
+    save_figure(figure, out, dpi=150)
     plt.close(figure)
     print(f"design-space maps written to {out}")
     return EXIT_OK

@@ -22,7 +22,14 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError
-from .support.output import FIGURE_SUFFIXES, error_line, json_text, output_path
+from .support.output import (
+    FIGURE_SUFFIXES,
+    error_line,
+    json_text,
+    output_path,
+    save_figure,
+    save_table,
+)
 
 #: Exit code of a sweep ended by SIGTERM (128 + 15, the shell's convention).
 EXIT_TERMINATED = 128 + signal.SIGTERM
@@ -230,27 +237,10 @@ def _curve(args: argparse.Namespace) -> int:
 
 
 def _write_table(run, out: Path) -> int:
-    """Write the run's table atomically (``.csv`` or ``.parquet``); returns its rows."""
-    from ..io.files import atomic_write
-    from ..unitcell.sweep_chunks import parquet_bytes
-
+    """Write the run's table whole or not at all (``.csv`` or ``.parquet``); returns its rows."""
     frame = run.to_frame()
-    if out.suffix.lower() == ".parquet":
-        data = parquet_bytes(frame)
-    else:
-        data = frame.to_csv(index=False).encode()
-    _named(out, atomic_write, data)
+    save_table(frame, out)
     return len(frame)
-
-
-def _named(path: Path, write, *args) -> None:
-    """``write(path, *args)``; an OSError that names no file is raised naming ``path``."""
-    try:
-        write(path, *args)
-    except OSError as exc:
-        if exc.filename is None:
-            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
-        raise
 
 
 def _option_names(message: str) -> str:
@@ -362,11 +352,4 @@ def _save_plot(run, path: Path) -> None:
     plot_force(run, axes[0], spring=spring)
     plot_energy(run, axes[1], spring=spring)
     plot_meridians(run, axes[2])
-
-    def save(target: Path) -> None:
-        from ..io.files import atomic_writer
-
-        with atomic_writer(target) as fh:  # a failed save leaves no partial figure
-            fig.savefig(fh, format=target.suffix[1:].lower(), dpi=110)
-
-    _named(path, save)
+    save_figure(fig, path, dpi=110)

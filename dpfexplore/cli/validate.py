@@ -21,7 +21,13 @@ from pathlib import Path
 
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from .support.inputs import CONSTANTS_HELP
-from .support.output import FIGURE_SUFFIXES, announce_compilation, json_text, output_path
+from .support.output import (
+    FIGURE_SUFFIXES,
+    announce_compilation,
+    json_text,
+    output_path,
+    save_figure,
+)
 
 
 def register(subparsers) -> None:
@@ -152,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
     if plot is not None:
         from ..plotting.validation import plot_validation
 
-        plot_validation(validation.fingers).savefig(plot, dpi=110)
+        save_figure(plot_validation(validation.fingers), plot, dpi=110)
     if report is not None:
         figure = None
         if plot is not None:  # the page links the figure relative to itself

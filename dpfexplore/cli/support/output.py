@@ -7,6 +7,8 @@ import logging
 import os
 import re
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
@@ -173,6 +175,43 @@ def shown_path(filename: str | os.PathLike) -> str:
         match = _TEMP_NAME.match(part)
         parts.append(match.group("name") if match else part)
     return str(Path(*parts)) if parts else str(filename)
+
+
+def save_figure(figure, path: str | os.PathLike, **options) -> None:
+    """Save a Matplotlib ``figure`` to ``path`` whole or not at all (any savefig ``options``).
+
+    Written aside and renamed into place (:func:`dpfexplore.io.files.atomic_writer`): a full disk
+    or an interruption leaves the previous file, or none, never part of a figure. The format is
+    the file's suffix.
+    """
+    from ...io.files import atomic_writer
+
+    path = Path(path)
+    with _naming(path), atomic_writer(path) as handle:
+        figure.savefig(handle, format=path.suffix[1:].lower() or None, **options)
+
+
+def save_table(frame, path: str | os.PathLike) -> None:
+    """Write a pandas ``frame`` to ``path`` (``.csv``, else Parquet) whole or not at all."""
+    from ...io.files import atomic_writer
+
+    path = Path(path)
+    with _naming(path), atomic_writer(path) as handle:
+        if path.suffix.lower() == ".csv":
+            handle.write(frame.to_csv(index=False).encode())
+        else:
+            frame.to_parquet(handle, index=False)
+
+
+@contextmanager
+def _naming(path: Path) -> Iterator[None]:
+    """An ``OSError`` raised inside that names no file is raised again naming ``path``."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+        raise
 
 
 def write_failure(exc: OSError) -> str | None:

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -45,7 +44,7 @@ from ...model.formatting import json_text
 from ...model.limits import MAX_UNITS
 from ...model.pressure import PressureProfile
 from ...model.version import MODEL_VERSION
-from .tree_ensemble import TreeEnsemble, TreeError
+from .tree_ensemble import TreeEnsemble, TreeError, finite_number
 
 __all__ = [
     "DEFAULT_MODEL_PATH",
@@ -338,15 +337,15 @@ def _model_from(data: dict[str, Any], *, provenance: dict[str, str]) -> ResetMod
     if not isinstance(data.get("domain"), dict):
         raise ValueError("domain: need a table")
     return ResetModel(
-        P0=_number(scene.get("P0"), "scene.P0"),
-        tau=tuple(_number(v, f"scene.tau[{i}]") for i, v in enumerate(scene["tau"])),
+        P0=finite_number(scene.get("P0"), "scene.P0"),
+        tau=tuple(finite_number(v, f"scene.tau[{i}]") for i, v in enumerate(scene["tau"])),
         domain=data["domain"],
         correction=trees["correction"],
         scale=trees["scale"],
         info=info,
         constants=_recorded_constants(data.get("constants")),
         provenance=provenance,
-        **{key: _number(data.get(key), key) for key in _NUMBERS},
+        **{key: finite_number(data.get(key), key) for key in _NUMBERS},
     )
 
 
@@ -361,18 +360,6 @@ def _v1_ensemble(entry: dict[str, Any]) -> TreeEnsemble:
         raise ValueError(f"trees: {exc}") from None
 
 
-def _number(value: Any, key: str) -> float:
-    if type(value) not in (int, float):
-        raise ValueError(f"{key} = {value!r}: need a number")
-    try:
-        number = float(value)
-    except OverflowError:
-        number = math.inf
-    if not math.isfinite(number):
-        raise ValueError(f"{key} = {value!r}: need a finite number")
-    return number
-
-
 def _check_model(model: ResetModel) -> None:
     """Every value of a model within its meaning (module docstring); ``ValueError`` naming it."""
     for key in ("correction", "scale"):
@@ -382,7 +369,7 @@ def _check_model(model: ResetModel) -> None:
         raise ValueError("features: the model's inputs differ from this dpfexplore's; refit it")
     numbers = {key: getattr(model, key) for key in ("P0", *_NUMBERS)}
     for key, value in numbers.items():
-        _number(value, key)
+        finite_number(value, key)
     try:
         PressureProfile.pulse(model.P0, model.tau)
     except (ValueError, TypeError) as exc:
@@ -412,7 +399,7 @@ def _check_domain(domain: Any) -> None:
         pair = domain[key]
         if not isinstance(pair, (list, tuple)) or len(pair) != 2:
             raise ValueError(f"domain.{key} = {pair!r}: need [low, high]")
-        low, high = (_number(v, f"domain.{key}") for v in pair)
+        low, high = (finite_number(v, f"domain.{key}") for v in pair)
         if key == "n_units":
             if not (float(low).is_integer() and float(high).is_integer()):
                 raise ValueError(f"domain.n_units = {list(pair)}: need whole numbers of units")
@@ -426,7 +413,7 @@ def _check_domain(domain: Any) -> None:
     if not isinstance(fixed, dict) or set(fixed) != set(DOMAIN_FIXED):
         raise ValueError(f"domain.fixed: need {', '.join(DOMAIN_FIXED)}")
     for key in DOMAIN_FIXED:
-        value = _number(fixed[key], f"domain.fixed.{key}")
+        value = finite_number(fixed[key], f"domain.fixed.{key}")
         if not (0.0 < value < 0.5 if key == "nu" else 0.0 < value <= 1e6):
             raise ValueError(f"domain.fixed.{key} = {value!r}: outside its physical range")
 

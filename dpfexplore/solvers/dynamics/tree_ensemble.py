@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from ..._kernels.records import TreeArrays
 from ..._kernels.reset.trees import tree_ensemble_predict
 
-__all__ = ["TreeEnsemble", "TreeError", "check_trees"]
+__all__ = ["TreeEnsemble", "TreeError", "check_trees", "finite_number"]
 
 _INT_KEYS = ("feature", "left", "right", "roots")
 _FLOAT_KEYS = ("threshold", "value")
@@ -220,16 +220,25 @@ def _float_array(values: Any, key: str) -> NDArray[np.float64]:
     return np.array(values, dtype=np.float64)
 
 
-def _finite(value: Any, key: str) -> float:
+def finite_number(value: Any, key: str, error: type[ValueError] = ValueError) -> float:
+    """``value`` of a JSON file as a finite float; ``error`` naming ``key`` otherwise.
+
+    Only an int or a float is a number here (not a bool, a string or None); an int beyond a
+    float's range is not finite.
+    """
     if type(value) not in (int, float):
-        raise TreeError(f"{key} = {value!r}: need a number")
+        raise error(f"{key} = {value!r}: need a number")
     try:
         number = float(value)
     except OverflowError:
         number = math.inf
     if not math.isfinite(number):
-        raise TreeError(f"{key} = {value!r}: need a finite number")
+        raise error(f"{key} = {value!r}: need a finite number")
     return number
+
+
+def _finite(value: Any, key: str) -> float:
+    return finite_number(value, key, TreeError)
 
 
 def check_trees(trees: TreeEnsemble) -> None:

@@ -111,13 +111,17 @@ def test_an_interrupted_sweep_keeps_its_chunks_and_resumes(tmp_path, reference, 
     out = tmp_path / "sw"
     job = job_from_dict(JOB)
 
+    interrupted: list[float] = []
+
     def interrupt(done, total):
+        interrupted.append(time.perf_counter())
         raise KeyboardInterrupt
 
-    started = time.perf_counter()
     with pytest.raises(KeyboardInterrupt):
         run_unitcell_sweep(job, out, workers=workers, progress=interrupt)
-    assert time.perf_counter() - started < 60.0
+    # stopped at once, the chunks not yet traced abandoned (not computed and discarded: ~1 s
+    # quiet, with the worker processes ended; the bound leaves room for a loaded machine)
+    assert time.perf_counter() - interrupted[0] < 5.0
     assert len(chunk_manifest(out)["chunks"]) == 1
     assert not (out / LOCK_NAME).exists() and not (out / "manifest.json").exists()
     assert not spawned_workers()

@@ -169,10 +169,14 @@ class CrashingEvaluator(UnitConstantsEvaluator):
         return super().__call__(batch)
 
 
-def spawned_workers() -> list[psutil.Process]:
-    """This process's live spawned children (earlier tests may leave zombies: not ours)."""
+def spawned_workers(parent: psutil.Process | None = None) -> list[psutil.Process]:
+    """Live spawned worker processes: this process's children, or all of ``parent``'s descendants.
+
+    Zombies (an earlier test's) are not counted.
+    """
+    children = psutil.Process().children() if parent is None else parent.children(recursive=True)
     found = []
-    for child in psutil.Process().children():
+    for child in children:
         try:
             if "spawn_main" in " ".join(child.cmdline()):
                 found.append(child)

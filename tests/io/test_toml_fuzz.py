@@ -137,6 +137,22 @@ def _refused_in_one_line(exc: BaseException, path) -> None:
     assert message.startswith(f"{path}: ") or message.endswith(f" (in {path})"), message
 
 
+def refused_or_read(tmp_path_factory, text: str, original: str, name: str, load, key=repr) -> None:
+    """``text`` written as ``name`` and loaded: refused in one line naming it, or read; read as
+    ``original`` when it says the same (``key`` of both equal)."""
+    path = tmp_path_factory.mktemp("fuzz") / name
+    _write(path, text)
+    try:
+        read = load(path)
+    except Exception as exc:
+        _refused_in_one_line(exc, path)
+        return
+    if tomllib.loads(text) == tomllib.loads(original):
+        unmutated = tmp_path_factory.mktemp("original") / name
+        unmutated.write_text(original)
+        assert key(read) == key(load(unmutated))
+
+
 def _what_the_file_says(text: str, stem: str) -> Design:
     table = dict(tomllib.loads(text)["design"])
     table.setdefault("name", stem)
@@ -174,14 +190,4 @@ def load_design_text(tmp_path_factory, text: str) -> Design:
 @example(text=SCENE.replace("candidates_per_n = 4", "candidates_per_n = " + "9" * 5000))
 @example(text=SCENE + "# a comment\n")
 def test_a_mutated_scene_file_is_refused_in_one_line_or_read(tmp_path_factory, text):
-    path = tmp_path_factory.mktemp("scene") / "scene.toml"
-    _write(path, text)
-    try:
-        spec = load_scene(path)
-    except Exception as exc:
-        _refused_in_one_line(exc, path)
-        return
-    if tomllib.loads(text) == tomllib.loads(SCENE):
-        original = tmp_path_factory.mktemp("original") / "scene.toml"
-        original.write_text(SCENE)
-        assert spec == load_scene(original)
+    refused_or_read(tmp_path_factory, text, SCENE, "scene.toml", load_scene, key=lambda spec: spec)

@@ -9,10 +9,8 @@ formats a user writes by hand, read through the format's loader. The loader must
 
 from __future__ import annotations
 
-import tomllib
-
 from hypothesis import example, given, settings
-from test_toml_fuzz import _refused_in_one_line, _write, mutated
+from test_toml_fuzz import mutated, refused_or_read
 
 from dpfexplore.measurements.fingers import read_measurements
 from dpfexplore.solvers.legs.leg import load_leg
@@ -103,26 +101,12 @@ tip = "a table"
 """
 
 
-def _check(tmp_path_factory, text: str, original: str, name: str, load, key=repr) -> None:
-    path = tmp_path_factory.mktemp("fuzz") / name
-    _write(path, text)
-    try:
-        read = load(path)
-    except Exception as exc:
-        _refused_in_one_line(exc, path)
-        return
-    if tomllib.loads(text) == tomllib.loads(original):
-        unmutated = tmp_path_factory.mktemp("original") / name
-        unmutated.write_text(original)
-        assert key(read) == key(load(unmutated))
-
-
 @settings(max_examples=60)
 @given(text=mutated(JOB))
 @example(text=JOB.replace("samples_per_n = 40", "samples_per_n = " + "9" * 400))
 @example(text=JOB + "# a comment\n")
 def test_a_mutated_job_file_is_refused_in_one_line_or_read(tmp_path_factory, text):
-    _check(tmp_path_factory, text, JOB, "job.toml", load_job)
+    refused_or_read(tmp_path_factory, text, JOB, "job.toml", load_job)
 
 
 @settings(max_examples=60)
@@ -130,7 +114,7 @@ def test_a_mutated_job_file_is_refused_in_one_line_or_read(tmp_path_factory, tex
 @example(text=LEG.replace("P0 = 0.4", "P0 = 1e400"))
 @example(text=LEG + "\n# a comment\n")
 def test_a_mutated_leg_file_is_refused_in_one_line_or_read(tmp_path_factory, text):
-    _check(tmp_path_factory, text, LEG, "leg.toml", load_leg)
+    refused_or_read(tmp_path_factory, text, LEG, "leg.toml", load_leg)
 
 
 @settings(max_examples=60)
@@ -139,7 +123,7 @@ def test_a_mutated_leg_file_is_refused_in_one_line_or_read(tmp_path_factory, tex
 @example(text=MEASUREMENTS + "\n# a comment\n")
 def test_a_mutated_measurement_file_is_refused_in_one_line_or_read(tmp_path_factory, text):
     # the file's SHA-256 covers its bytes (a comment included): the fingers must be the same
-    _check(
+    refused_or_read(
         tmp_path_factory,
         text,
         MEASUREMENTS,

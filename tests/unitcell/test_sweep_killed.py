@@ -11,22 +11,12 @@ import time
 import pandas as pd
 import psutil
 import pytest
+from sweep_helpers import spawned_workers
 
 from dpfexplore.unitcell.sweep import job_from_dict, run_unitcell_sweep
 
 JOB = {"grid": {"H": [3.0, 3.5, 4.0, 4.5], "t": [0.8]}, "options": {"n_elements": 32, "chunk": 1}}
 JOB_TOML = "[grid]\nH = [3.0, 3.5, 4.0, 4.5]\nt = [0.8]\n[options]\nn_elements = 32\nchunk = 1\n"
-
-
-def _workers(parent: psutil.Process) -> list[psutil.Process]:
-    found = []
-    for child in parent.children(recursive=True):
-        try:
-            if "spawn_main" in " ".join(child.cmdline()):
-                found.append(child)
-        except (psutil.ZombieProcess, psutil.NoSuchProcess, psutil.AccessDenied):
-            continue
-    return found
 
 
 @pytest.mark.slow
@@ -42,7 +32,7 @@ def test_sigkill_of_the_parent_leaves_no_worker_and_the_next_run_completes(tmp_p
     deadline = time.monotonic() + 120
     try:
         while len(workers) < 2 and time.monotonic() < deadline and process.poll() is None:
-            workers = _workers(parent)
+            workers = spawned_workers(parent)
             time.sleep(0.02)
         # everything it started: the workers and multiprocessing's resource tracker
         family = parent.children(recursive=True)

@@ -14,25 +14,44 @@ constants, and whatever those import in turn. A module that a kernel starts to i
 without being listed anywhere; a module no kernel reaches (``cli/``, ``sweep/``) leaves the
 digest alone. An installed package never changes, so the clean-up only ever acts during
 development.
+
+Walking the imports costs about 0.2 s of CPU, paid by every process that loads a kernel (each
+command, test worker and sweep worker). So the digest is remembered beside the kernels with the
+size and modification time of every source it covers (:func:`current_digest`): while none of
+them changes and no module is added to ``_kernels/``, it is read back instead of recomputed.
+That is the test Numba itself applies to a cached kernel's own file; a source edited without a
+change of size or time would escape both.
 """
 
 from __future__ import annotations
 
 import ast
 import hashlib
+import json
 import logging
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
 import numba
 
-__all__ = ["KERNELS_DIR", "invalidate_stale_cache", "is_cached", "kernel_sources", "sources_digest"]
+from ..io.files import BoundedReadError, atomic_write, read_bounded
+
+__all__ = [
+    "KERNELS_DIR",
+    "current_digest",
+    "invalidate_stale_cache",
+    "is_cached",
+    "kernel_sources",
+    "sources_digest",
+]
 
 logger = logging.getLogger(__name__)
 
 #: The kernels' package folder, ``dpfexplore/_kernels``.
 KERNELS_DIR = Path(__file__).parent
 _MARKER = "dpfexplore-sources.sha256"
+_STAMP = "dpfexplore-sources.stamp.json"
 
 
 def _module_name(path: Path, top: Path) -> str:
@@ -103,12 +122,59 @@ def kernel_sources(kernels_dir: Path = KERNELS_DIR) -> list[Path]:
 
 def sources_digest(kernels_dir: Path = KERNELS_DIR) -> str:
     """SHA-256 over the paths and contents of :func:`kernel_sources`."""
-    top = kernels_dir.parent.parent
+    return _digest(kernel_sources(kernels_dir), kernels_dir.parent.parent)
+
+
+def _digest(sources: list[Path], top: Path) -> str:
     digest = hashlib.sha256()
-    for path in kernel_sources(kernels_dir):
+    for path in sources:
         digest.update(path.relative_to(top).as_posix().encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
+
+
+def _stat(path: Path) -> list[int]:
+    info = os.stat(path)
+    return [info.st_size, info.st_mtime_ns]
+
+
+def current_digest(kernels_dir: Path = KERNELS_DIR, stamp: Path | None = None) -> str:
+    """:func:`sources_digest`, read back from ``stamp`` while no source has changed.
+
+    Parameters
+    ----------
+    kernels_dir : Path
+        The kernels' package folder.
+    stamp : Path, optional
+        The remembered digest: JSON with the digest and each source's path, size (bytes) and
+        modification time (ns). Default ``kernels_dir/__pycache__/dpfexplore-sources.stamp.json``.
+
+    Returns
+    -------
+    str
+        The digest, recomputed (and the stamp rewritten, where it can be) when a source's size or
+        time differs from the stamp's, a source is gone, or ``kernels_dir`` holds a module the
+        stamp does not list.
+    """
+    top = kernels_dir.parent.parent
+    stamp = stamp if stamp is not None else kernels_dir / "__pycache__" / _STAMP
+    try:
+        recorded = json.loads(read_bounded(stamp, "kernel sources stamp"))
+        files = {name: size_time for name, *size_time in recorded["files"]}
+        own = {path.relative_to(top).as_posix() for path in kernels_dir.rglob("*.py")}
+        if own <= files.keys() and all(_stat(top / n) == st for n, st in files.items()):
+            return str(recorded["digest"])
+    except (OSError, BoundedReadError, ValueError, KeyError, TypeError):
+        pass  # no stamp yet, or one from other sources: recompute
+    sources = kernel_sources(kernels_dir)
+    times = [[path.relative_to(top).as_posix(), *_stat(path)] for path in sources]  # before reading
+    digest = _digest(sources, top)
+    try:
+        stamp.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(stamp, json.dumps({"digest": digest, "files": times}))
+    except OSError:
+        pass  # a read-only install: recomputed by every process, as Numba caches nothing there
+    return digest
 
 
 def _cache_dirs() -> list[Path]:
@@ -154,7 +220,7 @@ def clear_stale(digest: str, dirs: list[Path]) -> int:
 
 def invalidate_stale_cache() -> None:
     """Drop cached kernels compiled from other versions of the kernel sources."""
-    clear_stale(sources_digest(), _cache_dirs())
+    clear_stale(current_digest(), _cache_dirs())
 
 
 def is_cached(dispatcher) -> bool | None:

@@ -212,6 +212,11 @@ SIZE_LIMITS: dict[str, SizeLimit] = {
         "result record",
         "a result directory's marker or report, a lock file: a few KiB of JSON",
     ),
+    "kernel sources stamp": SizeLimit(
+        1 * _MiB,
+        "kernel sources stamp",
+        "path, size and modification time of each kernel source: about 80 bytes per file",
+    ),
 }
 
 

@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
-from dpfexplore._kernels._cache import KERNELS_DIR, clear_stale, kernel_sources, sources_digest
+from dpfexplore._kernels._cache import (
+    KERNELS_DIR,
+    clear_stale,
+    current_digest,
+    kernel_sources,
+    sources_digest,
+)
 
 PACKAGE = KERNELS_DIR.parent
 
@@ -111,3 +118,37 @@ def test_a_stale_cache_is_cleared_and_a_current_one_kept(tmp_path):
     (cache / "lattice.assemble-10.py311.nbi").write_bytes(b"index")
     assert clear_stale("digest-1", [cache]) == 0  # marked current: kept
     assert clear_stale("digest-2", [cache]) == 1
+
+
+def test_the_remembered_digest_follows_every_change_of_the_sources(tmp_path):
+    kernels = _package(tmp_path)
+    stamp = tmp_path / "stamp.json"
+    first = current_digest(kernels, stamp)
+    assert first == sources_digest(kernels) and stamp.exists()
+    assert current_digest(kernels, stamp) == first  # read back
+    recorded = stamp.read_text()
+    # an edit of an imported model module (another size)
+    _write(tmp_path, {"pkg/model/status.py": "OK = 00\n"})
+    edited = current_digest(kernels, stamp)
+    assert edited == sources_digest(kernels) != first and stamp.read_text() != recorded
+    # the same size, another time: recomputed all the same
+    path = tmp_path / "pkg/model/status.py"
+    path.write_text("OK = 10\n")
+    os.utime(path, ns=(1, 1))
+    assert current_digest(kernels, stamp) == sources_digest(kernels) != edited
+    # a new kernel module, even one that imports nothing new
+    _write(tmp_path, {"pkg/_kernels/family/c.py": "X = 1\n"})
+    assert current_digest(kernels, stamp) == sources_digest(kernels)
+    # a source gone
+    (tmp_path / "pkg/_kernels/family/c.py").unlink()
+    assert current_digest(kernels, stamp) == sources_digest(kernels)
+    # a stamp that is not JSON, or names another digest for the same files, is not trusted blindly
+    stamp.write_text("{not json")
+    assert current_digest(kernels, stamp) == sources_digest(kernels)
+
+
+def test_the_digest_without_a_writable_stamp_is_computed(tmp_path):
+    kernels = _package(tmp_path)
+    blocked = tmp_path / "file"
+    blocked.write_text("")
+    assert current_digest(kernels, blocked / "stamp.json") == sources_digest(kernels)

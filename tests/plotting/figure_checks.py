@@ -213,15 +213,15 @@ def _labels_missing(fig) -> list[str]:
                 continue
             if fig._supxlabel if letter == "x" else fig._supylabel:
                 continue
-            problems.append(f"axes {fig.axes.index(ax)}: {letter} tick labels but no {letter} label")
+            problems.append(
+                f"axes {fig.axes.index(ax)}: {letter} tick labels but no {letter} label"
+            )
     return problems
 
 
 def _shared_label_below(ax, axes) -> bool:
     shared = ax.get_shared_x_axes().get_siblings(ax)
-    return any(
-        other is not ax and other.xaxis.label.get_text().strip() for other in shared
-    ) or any(
+    return any(other is not ax and other.xaxis.label.get_text().strip() for other in shared) or any(
         other is not ax
         and other.get_position().y0 < ax.get_position().y0
         and other.xaxis.label.get_text().strip()
@@ -260,7 +260,9 @@ def check_figure(fig, *, labels: bool = True) -> list[str]:
         box = _shrunk(legend.get_window_extent(renderer))
         for i, ax in enumerate(fig.axes):
             if ax.get_visible():
-                problems += [f"{name} covers axes {i} {hit}" for hit in _data_under(ax, box, renderer)]
+                problems += [
+                    f"{name} covers axes {i} {hit}" for hit in _data_under(ax, box, renderer)
+                ]
     if labels:
         problems += _labels_missing(fig)
     return problems
@@ -270,3 +272,30 @@ def assert_readable(fig, *, labels: bool = True) -> None:
     """Fail with every problem :func:`check_figure` finds in ``fig``."""
     problems = check_figure(fig, labels=labels)
     assert not problems, "\n".join(problems)
+
+
+class captured_figures:  # noqa: N801  (used as a context manager, like a function)
+    """Record every Matplotlib figure saved inside the ``with`` block (``Figure.savefig``).
+
+    A command draws and saves its figures itself; this hands them to :func:`check_figure`
+    as drawn, whatever writes them (``save_figure``, a result directory's writer).
+    """
+
+    def __enter__(self) -> list:
+        from matplotlib.figure import Figure
+
+        self._original = Figure.savefig
+        figures: list = []
+        original = self._original
+
+        def savefig(figure, *args, **kwargs):
+            figures.append(figure)
+            return original(figure, *args, **kwargs)
+
+        Figure.savefig = savefig
+        return figures
+
+    def __exit__(self, *exc) -> None:
+        from matplotlib.figure import Figure
+
+        Figure.savefig = self._original

@@ -325,9 +325,8 @@ def _print_text(run, summary: dict) -> None:
     if run.zero_force_states:
         print("zero-force states: travel/mm  energy/N·mm  stable  negative eigenvalues")
         for s in run.zero_force_states:
-            print(
-                f"  {s.displacement:10.5g}  {s.energy:11.5g}  {'yes' if s.stable else 'no':6}  {s.index}"
-            )
+            stable = "yes" if s.stable else "no"
+            print(f"  {s.displacement:10.5g}  {s.energy:11.5g}  {stable:6}  {s.index}")
     step = max(1, math.ceil(run.n_steps / 30))
     rows = sorted({*range(0, run.n_steps, step), run.n_steps - 1})
     if len(rows) < run.n_steps:

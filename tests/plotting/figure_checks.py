@@ -29,7 +29,6 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection, PathCollection
 from matplotlib.legend import Legend
-from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.transforms import Bbox
 
@@ -201,7 +200,7 @@ def _data_under(ax, box: Bbox, renderer) -> list[str]:
 def _labels_missing(fig) -> list[str]:
     problems = []
     axes = [ax for ax in fig.axes if ax.get_visible() and ax.axison]
-    for i, ax in enumerate(axes):
+    for ax in axes:
         for axis, letter in ((ax.xaxis, "x"), (ax.yaxis, "y")):
             if not axis.get_visible() or not _drawn_ticklabels(axis):
                 continue
@@ -274,7 +273,7 @@ def assert_readable(fig, *, labels: bool = True) -> None:
     assert not problems, "\n".join(problems)
 
 
-class captured_figures:  # noqa: N801  (used as a context manager, like a function)
+class captured_figures:
     """Record every Matplotlib figure saved inside the ``with`` block (``Figure.savefig``).
 
     A command draws and saves its figures itself; this hands them to :func:`check_figure`

@@ -39,6 +39,10 @@ SLACK = 1.0
 def _renderer(fig):
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)
+    # twice: the first draw runs the layout engine, and with fixed-aspect axes the positions of
+    # axis labels read back only settle on the next draw (a saved file is drawn once, after
+    # the layout, as the second draw here)
+    fig.canvas.draw()
     fig.canvas.draw()
     return fig.canvas.get_renderer()
 
@@ -87,10 +91,12 @@ def _text_boxes(fig, renderer) -> list[tuple[str, Bbox]]:
         for text in ax.texts:
             add(f"{where} text {text.get_text()!r}", text)
         add(f"{where} legend", ax.get_legend())
+    sup = [t for t in (fig._suptitle, fig._supxlabel, fig._supylabel) if t is not None]
     for text in fig.texts:
-        add(f"figure text {text.get_text()!r}", text)
-    for suptitle in (fig._suptitle, fig._supxlabel, fig._supylabel):
-        add(f"figure title {suptitle.get_text()!r}" if suptitle else "", suptitle)
+        if not any(text is t for t in sup):
+            add(f"figure text {text.get_text()!r}", text)
+    for text in sup:
+        add(f"figure title {text.get_text()!r}", text)
     for j, legend in enumerate(fig.legends):
         add(f"figure legend {j}", legend)
     return items

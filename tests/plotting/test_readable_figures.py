@@ -118,7 +118,7 @@ def test_unit_cell_figure_keys_its_colours_and_markers(tmp_path):
         ["unitcell", "curve", "--H", "3", "--t", "0.83", "--plot", str(tmp_path / "d.png")],
     )
     assert_readable(fig)
-    force, energy, meridians = fig.axes
+    force, _energy, meridians = fig.axes
     keys = [t.get_text() for t in force.get_legend().get_texts()]
     branches = [k for k in keys if k.startswith("branch ")]
     assert branches == [f"branch {k}" for k in range(len(branches))] and len(branches) >= 2

@@ -182,7 +182,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from ..identification.compare import RESET_PULSE, compare_fingers
+    from ..identification.compare import compare_fingers, format_comparison
     from ..identification.report import compare_sets
     from ..model.constants_set import DEFAULT
 
@@ -192,6 +192,7 @@ def _compare(args: argparse.Namespace) -> int:
     if first.name == second.name:
         second = dataclasses.replace(second, name=f"{second.name} (2)")
     designs = [(text, design_argument(text)) for text in args.design]
+    names = [first.name, second.name]
     announce_compilation("identify compare", ["states", "dynamics"])
     document = []
     drawn = []
@@ -209,22 +210,7 @@ def _compare(args: argparse.Namespace) -> int:
         )
         if args.json:
             continue
-        show = {"index": False, "float_format": lambda v: f"{v:.5g}"}
-        print(f"design {design.name or text}: {design.n_units} units")
-        print("units (k_b N/mm, alpha, tip_dis mm):")
-        print(units.to_string(**show))
-        print("sequential states (tip mm, stiffness N/mm, energy N·mm; tip_shift mm):")
-        print(states.to_string(**show))
-        tau = ", ".join(f"{v:g}" for v in RESET_PULSE["tau"])
-        after = RESET_PULSE["t_end"] - RESET_PULSE["tau"][-1]
-        print(
-            f"reset times (s after a {RESET_PULSE['P0']:g} MPa pulse, tau {tau} s; "
-            f"inf: still inverted {after:g} s after it):"
-        )
-        print(resets.to_string(**show))
-        for column in units.columns:
-            if column.endswith(":in_domain") and not units[column].all():
-                print(f"note: {column.split(':')[0]}: some units lie outside its fitted domain")
+        print("\n".join(format_comparison(design.name or text, names, units, states, resets)))
         print()
     if args.json:
         print(json_text(document))

@@ -187,16 +187,19 @@ def _print(result, written) -> None:
         f"{result.query_seconds * 1e3:.2f} ms"
     )
     extra = [c for c in result.columns if c not in ("tip_x", "tip_y")]
+    # the distances are in mm when the target is a tip alone, else in the index's scaled units
+    tip_only = not extra and all(float(v) == 1.0 for v in result.scales)
+    distance = "mm" if tip_only else "scaled"
     header = (
         f"{'#':>2}  {'N':>2}  {'state':<12}  {'status':<9}  {'tip x':>9}  {'tip y':>9}  "
         f"{'error':>9}  {'stiffness':>9}  "
         + "".join(f"{c:>12}  " for c in extra)
-        + f"{'dataset d':>9}  {'fit':<3}  design_id"
+        + f"{'row dist':>9}  {'fit':<3}  design_id"
     )
     units = (
-        f"{'':>2}  {'':>2}  {'':<12}  {'':<9}  {'mm':>9}  {'mm':>9}  {'':>9}  {'N/mm':>9}  "
+        f"{'':>2}  {'':>2}  {'':<12}  {'':<9}  {'mm':>9}  {'mm':>9}  {distance:>9}  {'N/mm':>9}  "
         + "".join(f"{'':>12}  " for _ in extra)
-        + f"{'':>9}"
+        + f"{distance:>9}"
     )
     # Where each printed value comes from: the verification solve, or the dataset row.
     provenance = result.provenance
@@ -222,6 +225,11 @@ def _print(result, written) -> None:
             + (" (refined)" if c.refined else "")
             + (f" (also {', '.join(str(i) for i in c.also_from)})" if c.also_from else "")
         )
+    print(
+        "key: error, row dist: distance from the target of the design and of the dataset row it\n"
+        "     started from (design_id); re-solved: by the exact model at the design; re-read:\n"
+        "     from the dataset row (checksum verified); fit: inside the closed forms' fitted range"
+    )
     for note in result.notes:
         print(f"note: {note}")
     notes = {c.fitted_range_note for c in result.candidates if c.fitted_range_note}

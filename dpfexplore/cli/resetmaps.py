@@ -81,15 +81,24 @@ def run(args) -> int:
     except ResultError as exc:
         raise UsageError(str(exc)) from None
     failed = 0
+    early = False
     for name, frame in maps.items():
         failed += int((frame["status"] != "ok").sum())
         finite = frame["reset_time"][np.isfinite(frame["reset_time"])]
+        if len(finite):
+            span = f"reset times {finite.min():.4g} to {finite.max():.4g} s"
+            early |= bool(finite.min() < 0.0)
+        else:
+            span = "no finite reset time"
         print(
-            f"{name:>5}: {frame['value'].nunique()} values, {len(frame)} unit rows, "
-            f"reset times {finite.min() if len(finite) else float('nan'):.4g}-"
-            f"{finite.max() if len(finite) else float('nan'):.4g} s, "
+            f"{name:>5}: {frame['value'].nunique()} values, {len(frame)} unit rows, {span}, "
             f"{int(np.isinf(frame['reset_time']).sum())} never reset within "
             f"{spec.t_after:g} s"
+        )
+    if early:
+        print(
+            "note: reset times count from the end of the release ramp (tau4); a negative one "
+            "is a unit that snapped back during the ramp, before the pressure reached zero"
         )
     print(f"computed in {elapsed:.1f} s (including any compilation); wrote:")
     for path in paths:

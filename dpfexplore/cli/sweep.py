@@ -92,7 +92,8 @@ def register(subparsers) -> None:
         "--columns",
         nargs="+",
         metavar="COL",
-        help="columns to output (space- or comma-separated; default all)",
+        help="columns to output (space- or comma-separated; 'all': every one); default: every "
+        "column with --csv/--json, a summary table on the terminal (" + " ".join(_SUMMARY) + ")",
     )
     output = query.add_mutually_exclusive_group()
     output.add_argument("--csv", type=Path, metavar="FILE", help="write CSV to FILE ('-': stdout)")
@@ -278,6 +279,19 @@ def _repair(args: argparse.Namespace, spec, out: Path) -> None:
 
 # ----------------------------------------------------------------------------- query
 
+#: The columns ``query`` prints as a table when none are asked for: a row's design, state, status
+#: and answer in about 90 characters (the whole row is 60-100 columns, 600 characters and more).
+_SUMMARY = (
+    "design_id",
+    "n_units",
+    "requested_bits",
+    "found_bits",
+    "status_label",
+    "tip_x",
+    "tip_y",
+    "stiffness",
+)
+
 
 def _query(args: argparse.Namespace) -> int:
     from ..sweep.storage.store import StoreError, read_results
@@ -285,6 +299,8 @@ def _query(args: argparse.Namespace) -> int:
     columns = None
     if args.columns:
         columns = [c for item in args.columns for c in item.split(",") if c]
+        if columns == ["all"]:
+            columns = None
     try:
         frame = read_results(args.dir, columns=columns, where=args.where, verify=args.verify)
     except StoreError as exc:
@@ -303,8 +319,18 @@ def _query(args: argparse.Namespace) -> int:
             save_table(frame, csv)
             error_line(f"{len(frame)} rows written to {csv}")
     else:
-        print(frame.to_string(max_rows=40, index=False))
+        shown = frame
+        if not args.columns:
+            shown = frame[[c for c in _SUMMARY if c in frame.columns]]
+        print(shown.to_string(max_rows=40, index=False))
         print(f"({len(frame)} rows)")
+        if len(frame) > 40:
+            print("(the first and last 20 shown; all of them with --csv or --json)")
+        if shown.shape[1] < frame.shape[1]:
+            print(
+                f"({shown.shape[1]} of {frame.shape[1]} columns shown; --columns all for every "
+                "one, --columns NAME ... to choose)"
+            )
     return EXIT_OK
 
 

@@ -325,10 +325,19 @@ def _print_text(run, summary: dict) -> None:
     if run.zero_force_states:
         print("zero-force states: travel/mm  energy/N·mm  stable  negative eigenvalues")
         for s in run.zero_force_states:
-            print(f"  {s.displacement:10.5g}  {s.energy:11.5g}  {s.stable!s:6}  {s.index}")
-    print(f"{'travel/mm':>10} {'force/N':>10} {'energy/N·mm':>12} {'branch':>6} stable")
+            stable = "yes" if s.stable else "no"
+            print(f"  {s.displacement:10.5g}  {s.energy:11.5g}  {stable:6}  {s.index}")
     step = max(1, math.ceil(run.n_steps / 30))
-    for i in [*range(0, run.n_steps, step), run.n_steps - 1][: run.n_steps]:
+    rows = sorted({*range(0, run.n_steps, step), run.n_steps - 1})
+    if len(rows) < run.n_steps:
+        print(
+            f"path table: {len(rows)} of its {run.n_steps} points (one in {step}, and the last; "
+            "all of them with --out FILE.csv or --json):"
+        )
+    else:
+        print(f"path table: all {run.n_steps} points:")
+    print(f"{'travel/mm':>10} {'force/N':>10} {'energy/N·mm':>12} {'branch':>6} stable")
+    for i in rows:
         print(
             f"{run.displacement[i]:10.5g} {run.force[i]:10.5g} {run.energy[i]:12.6g} "
             f"{run.branch[i]:6d} {'yes' if run.stable[i] else 'no'}"
@@ -347,7 +356,7 @@ def _save_plot(run, path: Path) -> None:
         spring = (fit.k_b, fit.alpha, fit.d)
     except CurveError:  # too few points or branches for the law: the curve alone
         spring = None
-    fig = Figure(figsize=(7, 10), layout="constrained")
+    fig = Figure(figsize=(8.5, 10), layout="constrained")
     axes = fig.subplots(3, 1)
     plot_force(run, axes[0], spring=spring)
     plot_energy(run, axes[1], spring=spring)

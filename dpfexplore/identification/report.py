@@ -10,6 +10,8 @@ the winner) and, on request, ``selection.png``. It is written whole or not at al
 
 from __future__ import annotations
 
+import re
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -149,23 +151,58 @@ def format_report(report: dict[str, Any]) -> str:
         f"by {100 * report['alpha_spread_over_E']:.2g} % across E at one geometry",
         "  domain: " + ", ".join(f"{k} {lo:g}-{hi:g}" for k, (lo, hi) in domain.items()),
     ]
-    for form in report["closed_forms"].values():
-        lines.append(f"  {form['text']}")
+    for target, form in report["closed_forms"].items():
+        n = _form_terms(form["text"])
+        lines.append(
+            f"  {target}: {_terms(n)} plus a constant, selected by {form['selector']} on all "
+            "the curves:"
+        )
+        lines += _wrapped_form(form["text"])
         heldout = form.get("heldout") or {}
         if heldout:
-            scores = ", ".join(
-                f"{name} RMSE {heldout[name]['rmse']:.3g} ({heldout[name]['terms']} terms)"
-                for name in ("rfecv", "lasso")
-                if name in heldout
-            )
             geometries = heldout.get("geometries", {})
+            test = geometries.get("test", "?")
+            train = geometries.get("train", "?")
+            total = geometries.get("test", 0) + geometries.get("train", 0)
+            # a stored count includes the constant (the refit's intercept)
             lines.append(
-                f"    held-out geometries ({geometries.get('test', '?')} of "
-                f"{geometries.get('test', 0) + geometries.get('train', 0)}): {scores}; "
-                f"winner {heldout['winner']}; used: {form['selector']}"
+                f"    held-out geometries ({test} of {total}; each selector re-run on the other "
+                f"{train}):"
             )
-    lines += [f"  note: {note}" for note in report.get("notes", [])]
+            for name in ("rfecv", "lasso"):
+                if name in heldout:
+                    lines.append(
+                        f"      {name}: {_terms(heldout[name]['terms'] - 1)} + constant, RMSE "
+                        f"{heldout[name]['rmse']:.3g}"
+                        + (" (the better)" if heldout["winner"] == name else "")
+                    )
+    for note in report.get("notes", []):
+        lines += textwrap.wrap(
+            note, 96, initial_indent="  note: ", subsequent_indent="    ", break_on_hyphens=False
+        )
     return "\n".join(lines)
+
+
+def _wrapped_form(text: str, width: int = 96) -> list[str]:
+    """A closed form's text in lines of at most ``width`` characters, each term kept whole."""
+    name, _, rhs = text.partition(" = ")
+    terms = re.findall(r"[+-]\S+(?: \S*π\S*)?", rhs)
+    lines, line = [], f"    {name} ="
+    for term in terms:
+        if len(line) + 1 + len(term) > width and line.strip():
+            lines.append(line)
+            line = "       "
+        line += f" {term}"
+    return [*lines, line]
+
+
+def _terms(n: int) -> str:
+    return f"{n} term" if n == 1 else f"{n} terms"
+
+
+def _form_terms(text: str) -> int:
+    """Terms of a closed form's text besides its constant (``"k_hat = +4 -35.5 π1·π3 ..."``)."""
+    return sum("π" in term for term in text.partition("=")[2].split())
 
 
 def _unit_class(alpha: float) -> str:

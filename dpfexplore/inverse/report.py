@@ -215,8 +215,14 @@ def text_number(value: Any, spec: str, missing: str = "nan") -> str:
     return format(value, spec)
 
 
-def fitted_range_warning(row: Mapping[str, Any]) -> list[str]:
-    """The summary line of a row whose design is outside the fitted range (none otherwise)."""
-    return (
-        [f"      warning: {row['fitted_range_note']}"] if row.get("fitted_range") is False else []
-    )
+def fitted_range_warning(row: Mapping[str, Any], indent: str = "      ") -> list[str]:
+    """The summary line of a row whose design is outside the fitted range (none otherwise).
+
+    ``indent`` is that of the lines about the row's design (under a table row: six spaces).
+    """
+    if row.get("fitted_range") is not False:
+        return []
+    return [
+        f"{indent}warning: the design lies outside the closed forms' fitted range "
+        f"({row['fitted_range_note']}); its spring constants are extrapolated"
+    ]

@@ -484,7 +484,9 @@ def refine(
     if not (np.isfinite(tol) and tol > 0):
         raise ValueError(f"tol = {tol!r}: must be finite and > 0")
     if sensitivities not in SENSITIVITIES:
-        raise ValueError(f"sensitivities = {sensitivities!r}: choose one of {list(SENSITIVITIES)}")
+        raise ValueError(
+            f"sensitivities = {sensitivities!r}: choose one of {', '.join(SENSITIVITIES)}"
+        )
     if design.n_units != variables.n_units:
         raise ValueError(f"design has {design.n_units} units, the variables {variables.n_units}")
     state_int = parse_state(state, design.n_units)

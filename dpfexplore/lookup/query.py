@@ -118,6 +118,22 @@ class RowFilter:
     where: str | None = None
 
 
+def _filter_text(filters: RowFilter) -> str:
+    """The filters that were given, as a message names them: ``n_units = 4..6, where = t < 0.8``."""
+    given = []
+    if filters.state is not None:
+        given.append(f"state = {filters.state}")
+    if filters.n_units is not None:
+        n = sorted(int(v) for v in filters.n_units)
+        span = len(n) > 2 and n == list(range(n[0], n[-1] + 1))
+        given.append(
+            f"n_units = {n[0]}..{n[-1]}" if span else f"n_units = {', '.join(map(str, n))}"
+        )
+    if filters.where is not None:
+        given.append(f"where = {filters.where}")
+    return ", ".join(given) if given else "(no filter)"
+
+
 @dataclass(frozen=True)
 class PolishOptions:
     """How a lookup polishes its candidates with the exact model (``lookup(refine=True)``).
@@ -399,11 +415,9 @@ def _nearest_rows(
         _, rows = index.query(target, k, n_units=filters.n_units, state=filters.state, mask=mask)
         query_seconds = time.perf_counter() - t0
         if rows.size == 0:
-            n_units = filters.n_units
             raise ValueError(
-                f"no indexed rows match state = {filters.state!r}, n_units = "
-                f"{list(n_units) if n_units is not None else 'any'}, where = {filters.where!r} "
-                f"(the dataset has N = {list(index.n_values)})"
+                f"no indexed rows match {_filter_text(filters)} "
+                f"(the dataset has N = {', '.join(str(int(n)) for n in index.n_values)})"
             )
         try:
             batch, source_values = read_rows(

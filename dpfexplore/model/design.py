@@ -221,7 +221,7 @@ class Design:
         for key in data:
             if key not in known:
                 raise ValueError(
-                    f"{key} = {data[key]!r}: unknown design key; known: {sorted(known)}"
+                    f"{key} = {data[key]!r}: unknown design key; known: {', '.join(sorted(known))}"
                 )
         for key in ("H", "U_L", "U_sep", "t", "t_lim"):
             if key not in data:

@@ -44,5 +44,5 @@ def material(key: str) -> Material:
         return MATERIALS[key.lower()]
     except KeyError:
         raise ValueError(
-            f"material = {key!r}: unknown material; choose one of {sorted(MATERIALS)}"
+            f"material = {key!r}: unknown material; choose one of {', '.join(sorted(MATERIALS))}"
         ) from None

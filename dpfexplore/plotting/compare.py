@@ -102,7 +102,10 @@ def plot_set_comparison(
             [], [], color="0.3", marker="o", mfc="white", ls="none", label="solve landed elsewhere"
         )
     )
-    fig.legend(handles=handles, loc="outside upper center", ncols=len(handles), fontsize="small")
+    # one row of keys where the columns leave room; two keys a row per column of panels else,
+    # so a one-design figure keeps its legend inside the page
+    ncols = min(len(handles), 2 * columns)
+    fig.legend(handles=handles, loc="outside upper center", ncols=ncols, fontsize="small")
     return fig
 
 

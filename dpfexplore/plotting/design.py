@@ -27,7 +27,7 @@ def _axes(ax: Axes | None, size=(6, 5)) -> Axes:
     if ax is None:
         import matplotlib.pyplot as plt
 
-        _, ax = plt.subplots(figsize=size)
+        _, ax = plt.subplots(figsize=size, layout="constrained")
     return ax
 
 
@@ -52,7 +52,8 @@ def plot_target_shapes(
     for i, (xy, target, ok) in enumerate(zip(nodes, targets, reachable, strict=True)):
         plot_finger(xy, ax, color=colors[i], label=f"target {i + 1}")
         ax.plot(*target, "*" if ok else "x", color=colors[i], ms=12, mec="k")
-    ax.legend(fontsize="small")
+    # beside the axes: the fingers fan out over the whole panel
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.set_title("Designs in their targeted state (star: target met, x: unreachable)")
     return ax
 
@@ -183,12 +184,14 @@ def plot_gripper(
         Segment height (mm), base angle (degrees) and base length (mm) (MODEL.md §7).
     targets, apertures : sequence of float, mm
     """
-    import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle
 
     n = len(nodes)
     if fig is None:
-        fig = plt.figure(figsize=(3.2 * n, 4))
-    axes = fig.subplots(1, n, squeeze=False)[0]
+        fig = Figure(figsize=(3.0 * n + 0.6, 4.2), layout="constrained")
+    # one scale for every panel: the states differ by how far the fingers close
+    axes = fig.subplots(1, n, squeeze=False, sharex=True, sharey=True)[0]
+    extents = []
     for ax, xy, target, aperture, label in zip(
         axes, nodes, targets, apertures, list(states) or [""] * n, strict=False
     ):
@@ -197,16 +200,18 @@ def plot_gripper(
         mirrored[:, 1] = 2.0 * base_l - finger[:, 1]
         plot_finger(finger, ax, color="C0")
         plot_finger(mirrored, ax, color="C0")
-        ax.add_patch(
-            plt.Circle(
-                (float(np.mean(finger[-1:, 0])), base_l),
-                target / 2.0,
-                fill=False,
-                ls="--",
-                color="C3",
-            )
-        )
+        centre = (float(np.mean(finger[-1:, 0])), base_l)
+        ax.add_patch(Circle(centre, target / 2.0, fill=False, ls="--", color="C3"))
+        extents += [finger, mirrored]
+        extents.append(np.array(centre) + target / 2.0 * np.array([[-1, -1], [1, 1]]))
         ax.set_title(f"{label}: {aperture:.2f} mm\n(target {target:g})", fontsize="small")
-        ax.autoscale()
+    every = np.vstack(extents)
+    low, high = every.min(axis=0), every.max(axis=0)
+    pad = 0.05 * float(np.max(high - low))
+    axes[0].set_xlim(low[0] - pad, high[0] + pad)
+    axes[0].set_ylim(low[1] - pad, high[1] + pad)
+    for ax in axes[1:]:
+        ax.set_ylabel("")
+        ax.tick_params(labelleft=False)
     fig.suptitle("Gripper in its targeted states (dashed: object)")
     return fig

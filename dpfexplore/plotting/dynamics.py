@@ -69,7 +69,9 @@ def plot_extensions(result, ax=None):
     ax.plot([], [], color="0.4", marker="v", linestyle="none", label="snap-back")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("dome extension x̄/d")
-    ax.legend(fontsize="small", ncol=2)
+    # beside the axes: the curves fill the panel (a snap-back crosses every height), so no
+    # corner inside it is free of data
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     return ax
 
 
@@ -87,14 +89,17 @@ def plot_simulation(result, axes: Sequence[Any] | None = None):
 def plot_reset_map(frame, x: str, *, hue: str | None = None, ax=None, xlabel: str | None = None):
     """Reset time against one parameter, one line per value of ``hue``.
 
-    ``frame`` holds the columns ``x``, ``reset_time`` (s; ``inf`` = never resets within the
-    horizon, drawn as open markers at the top) and optionally ``hue``.
+    ``frame`` holds the columns ``x``, ``reset_time`` (s after the end of the release ramp,
+    ``τ4``; ``inf`` = never resets within the horizon) and optionally ``hue``. A unit that never
+    resets has no time to draw: it is an open triangle on the top edge of the axes, outside the
+    time scale. A negative time is a unit that snapped back during the release ramp, before the
+    pressure reached zero at ``τ4`` (MODEL.md §8 counts reset times from ``τ4``); the zero line
+    is then drawn and named.
     """
     ax = _axes(ax)
     groups = [(None, frame)] if hue is None else list(frame.groupby(hue, sort=True))
-    finite_max = np.nanmax(np.where(np.isfinite(frame["reset_time"]), frame["reset_time"], np.nan))
-    top = 1.1 * finite_max if np.isfinite(finite_max) else 1.0
     unit = _UNITS.get(hue or "", "")
+    edge = ax.get_xaxis_transform()  # x in data, y in axes fractions: 1 is the top edge
     for i, (value, group) in enumerate(groups):
         color = f"C{i % 10}"
         label = None if hue is None else f"{hue} = {value:g}{unit}"
@@ -104,34 +109,45 @@ def plot_reset_map(frame, x: str, *, hue: str | None = None, ax=None, xlabel: st
         if never.any():
             ax.plot(
                 group[x][never],
-                np.full(never.sum(), top),
-                marker="o",
+                np.ones(never.sum()),
+                marker="^",
                 color=color,
                 markerfacecolor="none",
                 linestyle="none",
+                transform=edge,
+                clip_on=False,
             )
     if np.isinf(frame["reset_time"]).any():
-        # the open markers have no time of their own: say so on the line they sit on
-        ax.axhline(top, color="0.6", linestyle=":", linewidth=0.8)
         ax.plot(
             [],
             [],
-            marker="o",
+            marker="^",
             markerfacecolor="none",
             color="0.3",
             linestyle="none",
             label="no reset within the horizon",
         )
     finite = frame["reset_time"][np.isfinite(frame["reset_time"])]
+    if len(finite) and float(finite.min()) < 0.0:
+        ax.axhline(0.0, color="0.5", linestyle="--", linewidth=0.8)
+        ax.plot(
+            [],
+            [],
+            color="0.5",
+            linestyle="--",
+            linewidth=0.8,
+            label="end of release (τ4);\nbelow: reset during the ramp",
+        )
     if len(finite) and np.ptp(finite) < 1e-3 * max(abs(float(finite.mean())), 1e-12):
         # equal up to integration noise: a span of ±5 % keeps that noise from reading as a trend
         centre = float(finite.mean())
-        ax.set_ylim(0.95 * centre, max(1.05 * centre, 1.02 * top))
+        ax.set_ylim(sorted((0.95 * centre, 1.05 * centre)))
     ax.ticklabel_format(axis="y", useOffset=False, style="plain")
     ax.set_xlabel(xlabel or x)
     ax.set_ylabel("reset time after release (s)")
-    if hue is not None or np.isinf(frame["reset_time"]).any():
-        ax.legend(fontsize="small")
+    if ax.get_legend_handles_labels()[1]:
+        # below the axes: the lines may cross any corner of the panel
+        ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.16))
     return ax
 
 
@@ -170,7 +186,7 @@ def plot_reset_maps(maps, fig=None):
     from matplotlib.figure import Figure
 
     if fig is None:
-        fig = Figure(figsize=(13, 4), layout="constrained")
+        fig = Figure(figsize=(13, 5), layout="constrained")
     axes = fig.subplots(1, 3)
     labels = {"H": "dome height H (mm)", "t": "dome thickness t (mm)", "hold": "hold time (s)"}
     for ax, name in zip(axes, ("H", "t", "hold"), strict=True):
@@ -196,5 +212,5 @@ def plot_reset_maps(maps, fig=None):
             "hold": f"t = {frame['t'].iloc[0]:g} mm",
         }[name]
         horizon = frame["horizon"].iloc[0]
-        ax.set_title(f"{fixed}, N = {frame['n_units'].iloc[0]} (open: > {horizon:g} s)")
+        ax.set_title(f"{fixed}, N = {frame['n_units'].iloc[0]} (horizon {horizon:g} s)")
     return fig

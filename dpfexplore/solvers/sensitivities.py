@@ -114,12 +114,12 @@ class Sensitivities:
             return self.tip[1]
         if output in ("bend_angle", "curvature", "energy", "stiffness"):
             return getattr(self, output)
-        raise ValueError(f"output = {output!r}: choose one of {sorted(OUTPUTS)}")
+        raise ValueError(f"output = {output!r}: choose one of {', '.join(sorted(OUTPUTS))}")
 
     def wrt(self, parameter: str) -> dict[str, float]:
         """Every output's derivative with respect to one parameter (e.g. ``"H_3"``)."""
         if parameter not in self.parameters:
-            raise ValueError(f"parameter = {parameter!r}: not one of {list(self.parameters)}")
+            raise ValueError(f"parameter = {parameter!r}: not one of {', '.join(self.parameters)}")
         j = self.parameters.index(parameter)
         return {name: float(self.of(name)[j]) for name in OUTPUTS}
 

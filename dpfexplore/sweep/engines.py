@@ -558,6 +558,9 @@ def make_engine(name: str, *, workers: int | None = None, scheduler: str | None 
     ValueError
         For an unknown name, ``scheduler`` with the local engine, or ``workers < 1``.
     """
+    if workers is not None and workers < 1:
+        what = "Numba threads" if name == "local" else "Dask worker processes"
+        raise ValueError(f"--workers {workers}: must be >= 1 ({what})")
     if name == "local":
         if scheduler is not None:
             raise ValueError(f"--scheduler {scheduler}: only with --engine dask")

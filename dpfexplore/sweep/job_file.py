@@ -96,6 +96,14 @@ logger = logging.getLogger(__name__)
 MAX_SAMPLES_PER_N = 1 << 30
 
 
+#: Files of other commands a user may hand ``sweep`` by mistake: their top table, their kind and
+#: the command that reads them.
+_OTHER_FILES = (
+    ("scene", "scene", "dpfexplore design"),
+    ("design", "design", "dpfexplore states"),
+)
+
+
 def load_job(path: str | Path) -> JobSpec:
     """Read and validate a job file.
 
@@ -112,6 +120,14 @@ def load_job(path: str | Path) -> JobSpec:
         raise JobSpecError(f"{path}: no such job file") from None
     except IsADirectoryError:
         raise JobSpecError(f"{path}: is a directory, not a job file") from None
+    if isinstance(document, Mapping) and "job" not in document:
+        # another command's file: name the command that reads it
+        for table, kind, command in _OTHER_FILES:
+            if table in document:
+                raise JobSpecError(
+                    f"{path}: a {kind} file ([{table}] table), not a sweep job ([job], [space], "
+                    f"[compute]); run it with: {command} {path}"
+                )
     try:
         return parse_job(document, default_name=path.stem, base=path.parent)
     except JobSpecError as exc:
@@ -211,7 +227,7 @@ def _parse_space(space: Mapping[str, Any]) -> DesignSpace:
         if material_key.lower() not in MATERIALS:
             raise JobSpecError(
                 f"space.material = {material_key!r}: unknown material; "
-                f"choose one of {sorted(MATERIALS)}"
+                f"choose one of {', '.join(sorted(MATERIALS))}"
             )
         chosen = MATERIALS[material_key.lower()]
         preset = {"E": chosen.E, "nu": chosen.nu}

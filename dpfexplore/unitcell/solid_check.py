@@ -166,7 +166,9 @@ class SolidDome:
         self.H, self.t, self.r_b, self.E, self.nu = H, t, r_b, E, nu
         self.a = 0.5 * t if disc_radius is None else float(disc_radius)
         if material not in MATERIALS:
-            raise ValueError(f"material: {material!r} must be one of {sorted(MATERIALS)}")
+            raise ValueError(
+                f"material: {material!r} must be one of {', '.join(sorted(MATERIALS))}"
+            )
         self.spec, self.apex, self.material = spec, apex, material
         self.lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
         self.mu = E / (2.0 * (1.0 + nu))

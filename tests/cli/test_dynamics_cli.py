@@ -149,6 +149,12 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path, monkeypatch):
     finite = h_map[np.isfinite(h_map.reset_time)]
     assert finite.reset_time.is_monotonic_increasing and np.isinf(h_map.reset_time.iloc[-1])
     assert (tmp_path / "reset_maps.png").read_bytes()[:4] == b"\x89PNG"
+    # each range printed "low to high" (a negative low is no dash), a negative time explained
+    out = capsys.readouterr().out
+    t_map = pd.read_parquet(tmp_path / "reset_map_t.parquet")
+    times = t_map.reset_time[np.isfinite(t_map.reset_time)]
+    assert f"reset times {times.min():.4g} to {times.max():.4g} s" in out
+    assert ("snapped back during the ramp" in out) == bool((times < 0).any())
     # the figure: one panel per map; the H panel draws the parquet's finite reset times
     (fig,) = drawn
     axes = fig.axes
@@ -167,7 +173,7 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path, monkeypatch):
     np.testing.assert_allclose(
         points[np.lexsort(points.T[::-1])], expected[np.lexsort(expected.T[::-1])]
     )
-    assert "reset_map_hold.parquet" in capsys.readouterr().out
+    assert "reset_map_hold.parquet" in out
 
 
 @pytest.mark.slow

@@ -216,6 +216,34 @@ def test_table_output(dataset, capsys):
     assert "status" in lines[1] and "stiffness" in lines[1]
     assert len([line for line in lines if line.strip().startswith(("1 ", "2 ", "3 "))]) == 3
     assert "re-solved by the exact model" in out
+    # the distances' unit under their header, and what the columns' sources mean
+    assert lines[2].split()[-1] == "mm" and "row dist" in lines[1]
+    assert "key: error, row dist:" in out and "re-read:" in out
+
+
+def test_query_prints_a_summary_that_fits_a_terminal(dataset, capsys):
+    assert main(["query", str(dataset)]) == 0
+    out = capsys.readouterr().out
+    assert max(len(line) for line in out.splitlines()) <= 100
+    assert out.splitlines()[0].split() == [
+        "design_id",
+        "n_units",
+        "requested_bits",
+        "found_bits",
+        "status_label",
+        "tip_x",
+        "tip_y",
+        "stiffness",
+    ]
+    assert "--columns all for every one" in out
+    assert main(["query", str(dataset), "--columns", "all", "--where", "design_id == 0"]) == 0
+    assert "U_sep_1" in capsys.readouterr().out.splitlines()[0]
+
+
+def test_no_match_names_only_the_filters_given(dataset, capsys):
+    assert main(["lookup", str(dataset), "--target", "30,20", "--n-units", "9"]) == 2
+    err = capsys.readouterr().err
+    assert "n_units = 9 (the dataset has N = 3, 4)" in err and "None" not in err
 
 
 @pytest.mark.slow

@@ -29,7 +29,13 @@ def test_sequences_that_differ_are_compared_where_both_solved():
 def test_compare_takes_a_packaged_set_by_name(capsys):
     assert main(["identify", "compare", "shell-extended", "paper", "--design", "gripper"]) == 0
     out = capsys.readouterr().out
-    assert "shell-extended:tip_x" in out and "paper:tip_x" in out
+    # one table per set's own sequence; lines a terminal shows whole, no Python booleans or NaN
+    assert "sequential states under shell-extended" in out
+    assert "sequential states under paper" in out
+    assert max(len(line) for line in out.splitlines()) <= 100
+    assert not {"True", "False", "NaN", "nan"} & set(out.split())
+    # the paper set's last tip (46.51, 36.029 mm, its all-inverted request) is printed
+    assert "46.51   36.029" in out
     packaged = PACKAGED_DIR / "shell-extended.json"
     assert main(["identify", "report", str(packaged)]) == 2
     assert "not a saved identification" in capsys.readouterr().err

@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from plotting.figure_checks import assert_readable, captured_figures
 
 from dpfexplore.cli import main
 from dpfexplore.identification.synthetic import synthetic_curves
@@ -24,7 +25,10 @@ def table(tmp_path_factory):
 def test_fit_report_compare(table, tmp_path, capsys):
     out = tmp_path / "constants" / "mine"
     argv = ["identify", "fit", str(table), "--out", str(out), "--method", "least_squares"]
-    assert main([*argv, "--plot", "--json"]) == 0
+    with captured_figures() as figures:
+        assert main([*argv, "--plot", "--json"]) == 0
+    (selection,) = figures
+    assert_readable(selection)
     report = json.loads(capsys.readouterr().out)
     assert report["curves"] == 60 and report["curves_flagged"] == 0
     verify_result_dir(out)

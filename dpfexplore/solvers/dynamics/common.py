@@ -65,7 +65,9 @@ def method_info(name: str) -> MethodInfo:
     try:
         return METHODS[name]
     except KeyError:
-        raise ValueError(f"method = {name!r}: unknown; choose one of {sorted(METHODS)}") from None
+        raise ValueError(
+            f"method = {name!r}: unknown; choose one of {', '.join(sorted(METHODS))}"
+        ) from None
 
 
 @dataclass(frozen=True)

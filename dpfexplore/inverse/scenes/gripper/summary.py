@@ -21,11 +21,13 @@ def summary_lines(spec: SceneSpec, rows: Sequence[Mapping[str, Any]]) -> list[st
     lines = []
     for r in rows:
         ap = ", ".join(f"{a:.3f}" for a in r["apertures"])
+        targets = ", ".join(f"{a:g}" for a in r["target"])
         lines.append(
-            f"  apertures {ap} mm (targets {r['target']}), theta_B {r['theta_B_deg']:.3f}"
+            f"  apertures {ap} mm (targets {targets}), theta_B {r['theta_B_deg']:.3f}"
             f" deg, Base_L {r['base_L']:.3f} mm, stiffness {_fmt(r['stiffness'], '.5f')}"
             f" N/mm"
         )
+        lines += fitted_range_warning(r, indent="  ")
         meta = r.get("metastability") or {}
         lines.append(
             f"  tip unit: reset after {_fmt(meta.get('reset_time_s'), '.4f')} s "
@@ -45,5 +47,4 @@ def summary_lines(spec: SceneSpec, rows: Sequence[Mapping[str, Any]]) -> list[st
             lines.append(
                 f"  reference: apertures {ap} mm, stiffness {_fmt(ref['stiffness'], '.5f')} N/mm"
             )
-        lines += fitted_range_warning(r)
     return lines

@@ -7,6 +7,7 @@ position-and-stiffness scene prints the same.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -34,13 +35,18 @@ def summary_lines(spec: SceneSpec, rows: Sequence[Mapping[str, Any]]) -> list[st
         )
         if "front" in r:
             ks = [p.get("stiffness") for p in r["front"]]
-            lines.append(
-                "      front (tol mm: N/mm): "
-                + ", ".join(
-                    f"{p['tolerance_mm']:g}: {_fmt(k, '.4f')}"
-                    for p, k in zip(r["front"], ks, strict=True)
+            # each rung whole on a line: "0.1: 0.1716" never split
+            line = "      front (tol mm: N/mm):"
+            for n, (p, k) in enumerate(zip(r["front"], ks, strict=True)):
+                rung = f" {p['tolerance_mm']:g}: {_fmt(k, '.4f')}" + (
+                    "," if n < len(ks) - 1 else ""
                 )
-            )
+                if len(line) + len(rung) > 96:
+                    lines.append(line)
+                    line = "       "
+                line += rung
+            lines.append(line)
+            lines += _answer_lines(spec, r)
         if "reference" in r:
             ref, dom = r["reference"], r.get("dominates_reference")
             lines.append(
@@ -50,3 +56,29 @@ def summary_lines(spec: SceneSpec, rows: Sequence[Mapping[str, Any]]) -> list[st
             )
         lines += fitted_range_warning(r)
     return lines
+
+
+def _answer_lines(spec: SceneSpec, row: Mapping[str, Any]) -> list[str]:
+    """Which design answers a position-and-stiffness target, and why.
+
+    The scene asks for the stiffest design whose tip meets the target (its ``objective.
+    tolerance``, mm², is met within ``sqrt(tolerance)`` mm): the front's design at the loosest
+    rung within that distance. The table row above is the design closest to the target, found
+    by the position search before stiffness enters; it is the front's seed, not the answer.
+    """
+    within = math.sqrt(spec.kind_spec.tolerance) * (1.0 + 1e-9)
+    index = [
+        i
+        for i, p in enumerate(row["front"])
+        if p["tolerance_mm"] <= within and p.get("stiffness") is not None
+    ]
+    if not index:
+        return [f"      answer: no design of the front within the scene's {within:.3g} mm"]
+    i = index[-1]
+    p = row["front"][i]
+    return [
+        f"      answer: N {p['n_units']}, {_fmt(p['stiffness'], '.4f')} N/mm, "
+        f"{_fmt(p.get('distance_mm'), '.2g')} mm from the target: the stiffest design within the",
+        f"        scene's tolerance ({within:.3g} mm; summary.json: front[{i}]); the row above is "
+        "the closest",
+    ]

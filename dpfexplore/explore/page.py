@@ -346,6 +346,9 @@ def _map_view(session: ExploreSession, page: Page) -> LayoutDOM:
         y_axis_label="tip y (mm)",
         title="Tips of every design-state row (click: designs for that tip)",
         output_backend="canvas",
+        # a zoom or pan is sent (RangesUpdate) this long after the gesture stops: BokehJS's
+        # default, 500 ms, would be most of the time to the full-resolution image
+        lod_timeout=40,
     )
     fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=page.raster)
     fig.scatter("x", "y", source=page.marks, marker="x", size=16, line_width=3, color="black")

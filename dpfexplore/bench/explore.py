@@ -213,7 +213,8 @@ def _browse(args, running, data, rng) -> dict[str, Any]:
         for i in rng.choice(ok, size=args.clicks, replace=False):
             px, py, _, _ = page_point(page, *data.tip[i])
             time.sleep(DOUBLE_TAP_S)  # two clicks within 0.3 s are BokehJS's double tap
-            clicks.append(timed(page, "details", "pointerdown", lambda: page.mouse.click(px, py)))
+            click = lambda x=px, y=py: page.mouse.click(x, y)  # noqa: E731
+            clicks.append(timed(page, "details", "pointerdown", click))
             server.append(running.pages[-1].session.last_tap.seconds * 1e3)
         out["click"] = _summary(clicks)
         out["click"]["server_median_ms"] = statistics.median(server)

@@ -72,6 +72,7 @@ class ExploreSession:
         self.x_range, self.y_range = self.full_range()
         self.last_tap: TapResult | None = None
         self.render_seconds = 0.0
+        self._drawn: tuple | None = None
 
     # ------------------------------------------------------------------ state
 
@@ -120,6 +121,7 @@ class ExploreSession:
         """Apply ``filters``; returns the rows passing them (ValueError for a bad filter)."""
         keep = self.data.mask(filters)
         self.filters, self.keep = filters, keep
+        self._drawn = None
         return self.count
 
     def colour_options(self) -> list[str]:
@@ -131,6 +133,7 @@ class ExploreSession:
         if name not in self.colour_options():
             raise ValueError(f"colour {name!r}: one of {', '.join(self.colour_options())}")
         self.colour = name
+        self._drawn = None
 
     # ------------------------------------------------------------------ gestures
 
@@ -145,19 +148,9 @@ class ExploreSession:
             self.x_range = (float(x_range[0]), float(x_range[1]))
         if y_range is not None:
             self.y_range = (float(y_range[0]), float(y_range[1]))
-        rows = np.flatnonzero(self.keep)
-        tip = self.data.tip[rows]
-        values = categories = None
-        limits = None
-        if self.colour == "n_units":
-            categories = self.data.n_units[rows] - min(self.data.n_values)
-        elif self.colour == "state":
-            categories = self.data.requested[rows]
-        elif self.colour == "status":
-            categories = self.data.status[rows]
-        else:
-            values = self.data.columns[self.colour][rows]
-            limits = self._limits(self.colour)
+        if self._drawn is None:  # the kept rows' arrays, until the filters or the colour change
+            self._drawn = self._drawn_arrays()
+        tip, values, categories, limits = self._drawn
         raster = rasterize(
             tip,
             self.x_range,
@@ -170,6 +163,22 @@ class ExploreSession:
         )
         self.render_seconds = time.perf_counter() - start
         return raster
+
+    def _drawn_arrays(self):
+        """The kept rows' tips and colour column, and the colour limits."""
+        rows = np.flatnonzero(self.keep)
+        tip = self.data.tip[rows]
+        values = categories = limits = None
+        if self.colour == "n_units":
+            categories = self.data.n_units[rows] - min(self.data.n_values)
+        elif self.colour == "state":
+            categories = self.data.requested[rows]
+        elif self.colour == "status":
+            categories = self.data.status[rows].astype(np.int64)
+        else:
+            values = self.data.columns[self.colour][rows]
+            limits = self._limits(self.colour)
+        return tip, values, categories, limits
 
     def _limits(self, name: str) -> tuple[float, float]:
         """Colour limits of a column over the kept rows: 1st and 99th percentiles."""

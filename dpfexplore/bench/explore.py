@@ -287,6 +287,11 @@ def run(args: argparse.Namespace) -> int:
             "offline": browse["request_hosts"] == [f"127.0.0.1:{running.port}"],
         },
     }
+    record["command"] = (
+        "dpfexplore bench explore --save"
+        + (f" --dataset {args.dataset}" if args.dataset != DEFAULT_DATASET else "")
+        + (f" --screenshot {args.screenshot}" if args.screenshot else "")
+    )
     text = _text(record)
     if args.save:
         (REPORTS / "bench-explore.md").parent.mkdir(parents=True, exist_ok=True)
@@ -307,11 +312,15 @@ def _text(r: dict[str, Any]) -> str:
             "# bench explore: the explorer's page in headless Chromium",
             "",
             f"Machine: {m['cpu']}, {m['cores']} cores, {m['date']}; load average "
-            f"{', '.join(f'{v:.2f}' for v in r['load'])}. Command: `dpfexplore bench explore "
-            "--save --screenshot docs/images/explore.png`.",
+            f"{', '.join(f'{v:.2f}' for v in r['load'])}. Command: `{r['command']}`.",
             "",
             f"Dataset: {r['dataset']['path']}, {r['dataset']['rows']:,} rows of "
-            f"{r['dataset']['designs']:,} designs (jobs/explore-million.toml).",
+            f"{r['dataset']['designs']:,} designs"
+            + (
+                f", made now by its sweep in {r['dataset']['sweep_s']:.0f} s."
+                if r["dataset"]["sweep_s"]
+                else "."
+            ),
             "",
             "| step | measured | goal |",
             "| --- | --- | --- |",

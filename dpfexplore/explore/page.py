@@ -231,19 +231,22 @@ class Page:
             self.details.text = f"<span style='color:#b00'>{html.escape(result.error)}</span>"
             self.picks_source.data = {"xs": [], "ys": [], "colour": [], "width": []}
             return result
-        xs, ys, colours, widths = [], [], [], []
-        blocks = []
-        for rank, pick in enumerate(result.picks, start=1):
-            shift = (rank - 1) * 0.0  # all picks share the target: drawn on one set of axes
-            for j, state in enumerate(pick.states if rank == 1 else pick.states[:1]):
-                if not state.stable:
-                    continue
-                layer = state.nodes[1::2]
-                xs.append((layer[:, 0] + shift).tolist())
-                ys.append(layer[:, 1].tolist())
-                colours.append(_STATE_COLOURS[j % len(_STATE_COLOURS)] if rank == 1 else "#999")
-                widths.append(3.0 if j == 0 else 1.5)
-            blocks.append(_pick_html(rank, pick))
+        # drawn bottom to top: the other picks' matched states (grey), the best pick's other
+        # states, then its matched state, thick, ending at the target
+        lines = [(p.states[0], "#aaa", 2.0) for p in result.picks[1:] if p.states[0].stable]
+        if result.picks:
+            best = result.picks[0].states
+            lines += [
+                (s, _STATE_COLOURS[1 + j % (len(_STATE_COLOURS) - 1)], 1.5)
+                for j, s in enumerate(best[1:])
+                if s.stable
+            ]
+            lines += [(best[0], _STATE_COLOURS[0], 3.5)] if best[0].stable else []
+        xs = [s.nodes[1::2, 0].tolist() for s, _, _ in lines]
+        ys = [s.nodes[1::2, 1].tolist() for s, _, _ in lines]
+        colours = [c for _, c, _ in lines]
+        widths = [w for _, _, w in lines]
+        blocks = [_pick_html(rank, pick) for rank, pick in enumerate(result.picks, start=1)]
         self.picks_source.data = {"xs": xs, "ys": ys, "colour": colours, "width": widths}
         if self.fingers is not None and xs:
             x = np.concatenate([np.asarray(v) for v in xs] + [[tx, 0.0]])
@@ -365,7 +368,7 @@ def _detail_view(session: ExploreSession, page: Page) -> LayoutDOM:
         y_range=Range1d(-5.0, 50.0),
         frame_width=360,
         frame_height=300,
-        title="Designs found: matched state (thick), sequential states (thin)",
+        title="Best design: matched state (red), sequential states; others grey",
         x_axis_label="x (mm)",
         y_axis_label="y (mm)",
         tools="pan,wheel_zoom,reset",

@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     if not args.no_browser:
-        webbrowser.open(running.url)
+        webbrowser.open_new_tab(running.url)
     try:
         running.server.io_loop.start()
     except KeyboardInterrupt:

@@ -115,8 +115,14 @@ def _application(data: ExploreData, finder: DesignFinder, sessions: list):
     from .session import ExploreSession
 
     def make(doc) -> None:
-        session = ExploreSession(data, finder)
-        sessions.append(build_document(doc, session))
+        page = build_document(doc, ExploreSession(data, finder))
+        sessions.append(page)
+
+        def forget(context) -> None:  # a closed tab's arrays are not kept
+            if page in sessions:
+                sessions.remove(page)
+
+        doc.on_session_destroyed(forget)
 
     return Application(FunctionHandler(make))
 

@@ -44,6 +44,9 @@ identification
 inverse
     Scenes and the optimiser (inverse design): an engine that imports no scene, one package per
     scene kind.
+explore
+    The design-space explorer in the browser (``dpfexplore explore``): a dataset's tips on a
+    map rasterized on the server, filters, clicks answered by verified designs (Bokeh, an extra).
 bench, cli
     The benchmarks and the ``dpfexplore`` command (``__main__``: ``python -m dpfexplore``), on
     top of everything.

@@ -31,9 +31,10 @@ from pathlib import Path
 #: the sensitivities and the closed forms. Lanes are balanced by their compile times on an empty
 #: cache (2-core AMD EPYC, seconds of CPU): states 32 | shell 24 + contact 7; statics 9 +
 #: sensitivities 16 + batch 12 + benchmarks 9 | dynamics 21 + reset 11 + release 16; snap 25 +
-#: batch 18 | fast reset 35.
+#: batch 18 | fast reset 35; the explorer's map kernels (explore raster, their own, 2) beside
+#: the shell.
 PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
-    (("states",), ("unit-cell shell", "unit-cell contact")),
+    (("states",), ("unit-cell shell", "unit-cell contact", "explore raster")),
     (
         ("statics", "sensitivities", "sensitivities batch", "benchmarks"),
         ("dynamics", "reset", "release"),
@@ -90,7 +91,18 @@ def _steps() -> dict:
         "benchmarks": _benchmarks,
         "unit-cell shell": lambda: unit_cell_curve(3.0, 0.8, max_steps=20),
         "unit-cell contact": lambda: two_unit_rest(3.0, 0.8, gap=1.5, n_elements=16),
+        "explore raster": _explore_raster,
     }
+
+
+def _explore_raster() -> None:
+    import numpy as np
+
+    from dpfexplore.explore.raster import rasterize
+
+    tip = np.zeros((4, 2))
+    rasterize(tip, (-1.0, 1.0), (-1.0, 1.0), 4, 4, categories=np.zeros(4, dtype=np.int64))
+    rasterize(tip, (-1.0, 1.0), (-1.0, 1.0), 4, 4, values=np.zeros(4))
 
 
 def serialise_cache_access() -> None:

@@ -29,6 +29,7 @@ PIPELINE = (
     ("unitcell",),
     ("identification",),
     ("inverse",),
+    ("explore",),
     ("bench",),
     ("cli",),
 )

@@ -60,6 +60,7 @@ COMMAND_MODULES = (
     "identify",
     "unitcell",
     "validate",
+    "explore",
     "bench",
 )
 

@@ -2,12 +2,11 @@
 
 On a fresh clone Numba's cache is empty and compiling is most of the suite's CPU. The test
 session (``conftest.pytest_sessionstart``, in the process that starts the pytest-xdist workers)
-runs :data:`PLAN` before any test: phase after phase, each phase's lanes in parallel processes
-(``python tests/compile_ahead.py STEP ...``). The lanes of a phase share no uncompiled kernel,
-so no two processes ever write the same cache file (several processes writing one at once is a
-known source of crashes); what the lanes share was compiled by an earlier phase. The workers then
-only load machine code. It computes nothing the tests check: each step is the smallest public call
-that compiles its kernels with the argument types the package uses.
+runs every step of :data:`STEPS` before any test (:func:`compile_all`): two long-lived processes,
+one per core, each taking the next step whose prerequisites are done, so that no two processes
+ever write the same cache file (several processes writing one at once is a known source of
+crashes). The workers then only load machine code. It computes nothing the tests check: each step
+is the smallest public call that compiles its kernels with the argument types the package uses.
 
 Kernels only a test calls directly (a few small ones, and the benchmarks' timing loops) are
 compiled by the worker that calls them; :func:`serialise_cache_access` makes the cache safe for
@@ -18,29 +17,128 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
+import os
+import selectors
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-#: Phases of lanes of steps. Lanes of one phase run at once and must not share a kernel that
-#: an earlier phase has not compiled (checked by compiling each lane alone on the cache the
-#: earlier phases left, and comparing the cache files each wrote): the statics family and the
-#: dynamics family both sit on "states" (the lattice); "snap" lands a snapped finger with the
-#: dynamics family's integrator and loaded state; the shell shares nothing with them, and the
+#: Each step: the steps that compile kernels it also calls, and its compile time on an empty cache
+#: (seconds of CPU, 2-core AMD EPYC). A step starts once those steps are done, so no two processes
+#: ever compile one kernel at once (several processes writing one cache file at once is a known
+#: source of crashes): the prerequisites were found by running each step alone on a cache that
+#: held only "states" and comparing the kernels each compiled. The statics, sensitivity and
+#: dynamics families all sit on "states" (the lattice); reset times and the release run the
+#: dynamics family's integrators and events; "snap" lands a snapped finger with those and the
+#: release's loaded state; the shell and the explorer's map share nothing with them, and the
 #: unit-cell contact builds on the shell. The benchmarks time their own loops over the statics,
-#: the sensitivities and the closed forms. Lanes are balanced by their compile times on an empty
-#: cache (2-core AMD EPYC, seconds of CPU): states 32 | shell 24 + contact 7; statics 9 +
-#: sensitivities 16 + batch 12 + benchmarks 9 | dynamics 21 + reset 11 + release 16; snap 25 +
-#: batch 18 | fast reset 35; the explorer's map kernels (explore raster, their own, 2) beside
-#: the shell.
-PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
-    (("states",), ("unit-cell shell", "unit-cell contact", "explore raster")),
-    (
-        ("statics", "sensitivities", "sensitivities batch", "benchmarks"),
-        ("dynamics", "reset", "release"),
-    ),
-    (("snap", "snap batch"), ("fast reset",)),
-)
+#: the sensitivities and the closed forms. The times order the ready steps (the longest chain of
+#: steps still to run first).
+STEPS: dict[str, tuple[tuple[str, ...], float]] = {
+    "states": ((), 32),
+    "unit-cell shell": ((), 24),
+    "unit-cell contact": (("unit-cell shell",), 7),
+    "statics": (("states",), 9),
+    "sensitivities": (("states",), 16),
+    "sensitivities batch": (("sensitivities",), 12),
+    "benchmarks": (("statics", "sensitivities"), 9),
+    "dynamics": (("states",), 21),
+    "reset": (("dynamics",), 11),
+    "release": (("dynamics",), 16),
+    "snap": (("dynamics", "release"), 25),
+    "snap batch": (("snap",), 18),
+    "fast reset": (("release",), 35),
+    "explore raster": ((), 1),
+}
+
+
+def chain_lengths() -> dict[str, float]:
+    """For each step, the compile time of the longest chain of steps that starts with it (s)."""
+    after: dict[str, list[str]] = {name: [] for name in STEPS}
+    for name, (before, _) in STEPS.items():
+        for step in before:
+            after[step].append(name)
+    lengths: dict[str, float] = {}
+
+    def length(name: str) -> float:
+        if name not in lengths:
+            lengths[name] = STEPS[name][1] + max((length(n) for n in after[name]), default=0.0)
+        return lengths[name]
+
+    for name in STEPS:
+        length(name)
+    return lengths
+
+
+def compile_all(workers: int = 2) -> None:
+    """Run every step of :data:`STEPS` in ``workers`` long-lived processes, as soon as it may.
+
+    Each process (``python tests/compile_ahead.py --serve``) runs the steps it is handed one after
+    another, keeping what it compiled in memory; a free process takes the ready step whose chain
+    of later steps is longest (list scheduling), so both cores stay busy until the end.
+
+    Raises
+    ------
+    RuntimeError
+        A process ended before its step was done (its error is on stderr).
+    """
+    lanes = [
+        subprocess.Popen(
+            [sys.executable, __file__, "--serve"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        for _ in range(workers)
+    ]
+    chain = chain_lengths()
+    pending, done, running = set(STEPS), set(), {}
+    events = selectors.DefaultSelector()
+    for lane in lanes:
+        events.register(lane.stdout, selectors.EVENT_READ, lane)
+    try:
+        while pending or running:
+            for lane in lanes:
+                ready = sorted(
+                    (s for s in pending if set(STEPS[s][0]) <= done), key=lambda s: -chain[s]
+                )
+                if lane in running or not ready:
+                    continue
+                pending.remove(ready[0])
+                running[lane] = ready[0]
+                lane.stdin.write(ready[0] + "\n")
+                lane.stdin.flush()
+            if not running:
+                raise RuntimeError(f"steps whose prerequisites never run: {sorted(pending)}")
+            for key, _ in events.select():
+                lane = key.data
+                if lane.stdout.readline().strip() != running[lane]:
+                    raise RuntimeError(f"compiling {running[lane]!r} failed (exit {lane.wait()})")
+                done.add(running.pop(lane))
+    finally:
+        for lane in lanes:
+            if running:
+                lane.kill()
+            lane.stdin.close()  # the end of its input ends a lane
+            lane.wait()
+        events.close()
+
+
+def serve() -> int:
+    """Run the steps named on stdin, one per line; answer each with its name once it is done.
+
+    The answers go out on the original stdout; whatever a step prints goes to stderr.
+    """
+    answers = os.fdopen(os.dup(1), "w")
+    os.dup2(2, 1)
+    serialise_cache_access()
+    steps = _steps()
+    for line in sys.stdin:
+        steps[line.strip()]()
+        answers.write(line)
+        answers.flush()
+    return 0
 
 
 def _benchmarks() -> None:
@@ -145,6 +243,9 @@ def groups_missing() -> bool:
 
 
 def main(names: list[str]) -> int:
+    """``--serve``: :func:`serve`; otherwise run the named steps in this process."""
+    if names == ["--serve"]:
+        return serve()
     serialise_cache_access()
     steps = _steps()
     for name in names:

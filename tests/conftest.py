@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -49,12 +47,10 @@ def pytest_sessionstart(session):
         return
     if not compile_ahead.groups_missing():
         return
-    script = str(Path(__file__).with_name("compile_ahead.py"))
-    for phase in compile_ahead.PLAN:
-        lanes = [subprocess.Popen([sys.executable, script, *steps]) for steps in phase]
-        failed = [lane.args for lane in lanes if lane.wait() != 0]
-        if failed:
-            raise pytest.UsageError(f"compiling the kernels failed: {failed}")
+    try:
+        compile_ahead.compile_all(workers=2)
+    except RuntimeError as error:
+        raise pytest.UsageError(f"compiling the kernels failed: {error}") from None
 
 
 #: The longest test files (about 10-36 s each on a quiet 2-core machine), run first: with

@@ -1,8 +1,8 @@
 """The map's image: every kept row's tip binned into the pixels of the visible range, coloured.
 
-Rasterized on the server (the kernels of :mod:`.binning`: one pass over the rows), so that the
-browser receives one image of ``width x height`` pixels whatever the number of rows: 10^6 rows
-bin in about 10 ms on one core. Two ways to colour a pixel:
+Rasterized on the server (the kernels of :mod:`dpfexplore._kernels.raster.binning`: one pass
+over the rows), so that the browser receives one image of ``width x height`` pixels whatever the
+number of rows: 10^6 rows bin in about 10 ms on one core. Two ways to colour a pixel:
 
 * by a **value** (stiffness, curvature, energy, ...): the mean of the column over the pixel's
   rows, through a perceptually uniform colour map (viridis) between the kept rows' 1st and 99th
@@ -112,7 +112,7 @@ def rasterize(
         raise ValueError(f"range x {x_range}, y {y_range}: need low < high")
     if width < 1 or height < 1:
         raise ValueError(f"image size {width} x {height}: need at least one pixel")
-    from .binning import bin_categories, bin_values
+    from .._kernels.raster.binning import bin_categories, bin_values
 
     size = width * height
     tip = np.ascontiguousarray(tip, dtype=np.float64)

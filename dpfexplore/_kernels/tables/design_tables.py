@@ -284,7 +284,7 @@ def design_tables(designs, forms, out):
     arrays, written = DesignArrays(*designs), TableOutputs(*out)
     terms = set_terms(forms, written.dtab.shape[0] > 0)
     block = dome_block(terms, batch_block_size(arrays))
-    first = 0
+    first = np.int64(0)  # not the literal 0: one compiled signature of the block functions
     while first < arrays.n_units.shape[0]:
         end, count = gather_domes(arrays, first, block)
         set_constants_block(terms, block, count)

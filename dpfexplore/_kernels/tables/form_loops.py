@@ -65,7 +65,7 @@ def paper_tables(designs, forms, out):
     not have (:data:`~dpfexplore.model.quantities.SET_FORMS` beyond these three) is NaN here.
     """
     block = dome_block(set_terms(forms, False), batch_block_size(designs))
-    first = 0
+    first = np.int64(0)  # not the literal 0: one compiled signature of the block functions
     while first < designs.n_units.shape[0]:
         end, count = gather_domes(designs, first, block)
         for d in range(count):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._kernels._jit import kernel
+from .._jit import kernel
 
 __all__ = ["bin_categories", "bin_values"]
 

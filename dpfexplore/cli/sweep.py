@@ -192,7 +192,7 @@ def _sweep(args: argparse.Namespace) -> int:
     chosen = with_constants(spec.constants, given, str(args.job))
     if chosen is not spec.constants:
         spec = dataclasses.replace(
-            spec, constants=chosen, constants_file=str(Path(args.constants).resolve())
+            spec, constants=chosen, constants_file=str(_located(args.constants).resolve())
         )
     if args.chunk_size is not None and args.chunk_size < 1:
         raise UsageError(f"--chunk-size {args.chunk_size}: must be >= 1")
@@ -342,3 +342,10 @@ def _plot_space(args: argparse.Namespace) -> int:
     plt.close(figure)
     print(f"design-space maps written to {out}")
     return EXIT_OK
+
+
+def _located(text: str) -> Path:
+    """The file ``--constants`` names (a name resolved as every command resolves it)."""
+    from ..model.constants_set import locate_constants_set
+
+    return locate_constants_set(text)

@@ -72,6 +72,7 @@ __all__ = [
     "data_hull",
     "find_constants_set",
     "load_constants_set",
+    "locate_constants_set",
     "packaged_sets",
 ]
 
@@ -513,29 +514,75 @@ def packaged_sets() -> list[str]:
     )
 
 
-def find_constants_set(text: str | Path) -> ConstantsSet:
-    """The constants set a user names: a file, ``paper`` or a packaged set's name.
+#: Where ``dpfexplore identify fit`` saves an identification by default, relative to the
+#: working directory: ``results/constants/NAME/constants.json`` is the set named ``NAME``.
+SAVED_DIR = Path("results") / "constants"
 
-    A file of that name wins over a packaged set (as example designs do).
+#: The set's file inside a saved identification's folder.
+SAVED_FILE = "constants.json"
+
+
+def locate_constants_set(text: str | Path, base: str | Path | None = None) -> Path | None:
+    """The file of the constants set a user names (None for ``paper``, the built-in set).
+
+    The one resolution of set names and paths, in this order: an existing file (relative to
+    ``base``, the folder of the TOML file that names it, when given); an existing folder, a saved
+    identification holding ``constants.json``; a saved identification's name
+    (``results/constants/NAME/`` in the working directory); a path (ending in ``.json`` or with a
+    folder in it) that does not exist; ``paper``; a packaged set's name. Local names win over
+    packaged ones, as a design file in the working directory wins over a packaged example.
+
+    Raises
+    ------
+    ConstantsSetError
+        One line naming ``text`` when it names nothing, listing the packaged sets.
+    """
+    given = Path(text).expanduser()
+    path = Path(base) / given if base is not None and not given.is_absolute() else given
+    try:
+        exists = path.exists()
+        is_dir = path.is_dir()
+    except OSError:  # a name too long for a path: the reader says so in one line
+        return path
+    if is_dir:
+        inside = path / SAVED_FILE
+        if not inside.is_file():
+            raise ConstantsSetError(
+                f"{text}: a folder without {SAVED_FILE} (a saved identification holds one)"
+            )
+        return inside
+    if exists:
+        return path
+    saved = SAVED_DIR / str(text) / SAVED_FILE
+    if len(given.parts) == 1 and not given.suffix and saved.is_file():
+        return saved
+    if path.suffix == ".json" or len(given.parts) > 1:
+        return path  # the reader names the missing file
+    if str(text) == DEFAULT.name:
+        return None
+    if str(text) in packaged_sets():
+        return PACKAGED_DIR / f"{text}.json"
+    known = ", ".join([DEFAULT.name, *packaged_sets()])
+    raise ConstantsSetError(
+        f"{text}: no such constants set file, saved identification ({SAVED_DIR}/{text}/) "
+        f"or packaged set (packaged sets: {known})"
+    )
+
+
+def find_constants_set(text: str | Path, base: str | Path | None = None) -> ConstantsSet:
+    """The constants set a user names: a file, a saved identification, ``paper`` or a packaged set.
+
+    Every command option (``--constants``), every TOML file's ``constants`` key and
+    ``Design(constants="...")`` resolve names here (:func:`locate_constants_set` gives the
+    order).
 
     Raises
     ------
     ConstantsSetError
         One line: no such file or set (listing the packaged ones), or the file's own problem.
     """
-    path = Path(text)
-    try:
-        exists = path.exists()
-    except OSError:  # a name too long for a path: the reader says so in one line
-        exists = True
-    if exists or path.suffix == ".json" or len(path.parts) > 1:
-        return load_constants_set(path)
-    if str(text) == DEFAULT.name:
-        return DEFAULT
-    if str(text) in packaged_sets():
-        return load_constants_set(PACKAGED_DIR / f"{text}.json")
-    known = ", ".join([DEFAULT.name, *packaged_sets()])
-    raise ConstantsSetError(f"{text}: no such constants set file (packaged sets: {known})")
+    path = locate_constants_set(text, base)
+    return DEFAULT if path is None else load_constants_set(path)
 
 
 def load_constants_set(path: str | Path) -> ConstantsSet:

@@ -79,8 +79,10 @@ def register(subparsers) -> None:
     query = subparsers.add_parser(
         "query",
         help="select rows of a sweep dataset",
-        description="Select committed rows of a sweep dataset with a pandas query expression "
-        "over its columns (units in the dataset schema; see README).",
+        description="Select committed rows of a sweep dataset with a condition over its columns. "
+        "The columns, their types, units and meanings: the documentation's 'Sweep dataset "
+        "format' page (docs/formats/dataset.md); each column also carries its unit and "
+        "description in the dataset's own schema.",
     )
     query.add_argument("dir", type=Path, help="sweep dataset directory")
     query.add_argument(

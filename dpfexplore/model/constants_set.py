@@ -44,6 +44,7 @@ Files
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -60,7 +61,7 @@ from .closed_form import N_FORMS, ClosedForm, ConstantsSetError, float_powers
 from .constants import _ALPHA_TERMS, _KB_TERMS, TIP_PER_HEIGHT, TIP_PER_THICKNESS
 from .domain import FITTED_RANGES
 from .quantities import SET_FORMS, scaled
-from .set_checks.claims import claims_problem
+from .set_checks.claims import claims_problem, data_hull
 from .set_checks.fields import fields_problem, read_set_json
 
 __all__ = [
@@ -483,21 +484,6 @@ def _hull(value: Any) -> tuple[tuple[float, float], ...] | None:
     return None if value is None else tuple((float(a), float(b)) for a, b in value)
 
 
-def data_hull(h: ArrayLike, s: ArrayLike) -> tuple[tuple[float, float], ...] | None:
-    """The counter-clockwise convex hull of points ``(H/r_b, t/r_b)``; None when degenerate."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    points = np.column_stack([np.ravel(h), np.ravel(s)]).astype(float)
-    points = np.unique(points[np.all(np.isfinite(points), axis=1)], axis=0)
-    if points.shape[0] < 3:
-        return None
-    try:
-        hull = ConvexHull(points)
-    except QhullError:  # collinear: the ranges say all there is
-        return None
-    return tuple((float(x), float(y)) for x, y in points[hull.vertices])  # 2-D: counter-clockwise
-
-
 def _fingerprint(body: Mapping[str, Any]) -> str:
     canonical = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(canonical.encode()).hexdigest()
@@ -514,54 +500,38 @@ def packaged_sets() -> list[str]:
     )
 
 
-#: Where ``dpfexplore identify fit`` saves an identification by default, relative to the
-#: working directory: ``results/constants/NAME/constants.json`` is the set named ``NAME``.
-SAVED_DIR = Path("results") / "constants"
-
-#: The set's file inside a saved identification's folder.
-SAVED_FILE = "constants.json"
+#: ``results/constants/NAME/constants.json`` (``identify fit``'s default) is the set ``NAME``.
+SAVED_DIR, SAVED_FILE = Path("results") / "constants", "constants.json"
 
 
 def locate_constants_set(text: str | Path, base: str | Path | None = None) -> Path | None:
-    """The file of the constants set a user names (None for ``paper``, the built-in set).
+    """The file of the set a user names (None for ``paper``): the one resolution of set names.
 
-    The one resolution of set names and paths, in this order: an existing file (relative to
-    ``base``, the folder of the TOML file that names it, when given); an existing folder, a saved
-    identification holding ``constants.json``; a saved identification's name
-    (``results/constants/NAME/`` in the working directory); a path (ending in ``.json`` or with a
-    folder in it) that does not exist; ``paper``; a packaged set's name. Local names win over
-    packaged ones, as a design file in the working directory wins over a packaged example.
-
-    Raises
-    ------
-    ConstantsSetError
-        One line naming ``text`` when it names nothing, listing the packaged sets.
+    In order: an existing file (relative to ``base``, the folder of a TOML file naming it); a
+    folder holding ``constants.json`` (a saved identification); a saved identification's name
+    (:data:`SAVED_DIR`); any other path (``.json``, or with a folder); ``paper``; a packaged
+    set. Local names win, as a design file in the working directory wins over an example.
+    Raises :class:`ConstantsSetError` (one line, listing the packaged sets) for no such set.
     """
     given = Path(text).expanduser()
     path = Path(base) / given if base is not None and not given.is_absolute() else given
-    try:
-        exists = path.exists()
-        is_dir = path.is_dir()
-    except OSError:  # a name too long for a path: the reader says so in one line
-        return path
-    if is_dir:
-        inside = path / SAVED_FILE
-        if not inside.is_file():
+    with contextlib.suppress(OSError):  # a name too long for a path: the reader says so
+        if path.is_dir() and not (path / SAVED_FILE).is_file():
             raise ConstantsSetError(
-                f"{text}: a folder without {SAVED_FILE} (a saved identification holds one)"
+                f"{text}: a folder without {SAVED_FILE} (a saved identification)"
             )
-        return inside
-    if exists:
-        return path
-    saved = SAVED_DIR / str(text) / SAVED_FILE
-    if len(given.parts) == 1 and not given.suffix and saved.is_file():
-        return saved
-    if path.suffix == ".json" or len(given.parts) > 1:
-        return path  # the reader names the missing file
-    if str(text) == DEFAULT.name:
-        return None
-    if str(text) in packaged_sets():
-        return PACKAGED_DIR / f"{text}.json"
+        if path.exists():
+            return path / SAVED_FILE if path.is_dir() else path
+        if (
+            len(given.parts) == 1
+            and not given.suffix
+            and (SAVED_DIR / given / SAVED_FILE).is_file()
+        ):
+            return SAVED_DIR / given / SAVED_FILE
+    if path.suffix == ".json" or len(given.parts) > 1 or len(str(text)) > 255:
+        return path  # the reader names the file and its problem
+    if str(text) in (DEFAULT.name, *packaged_sets()):
+        return None if str(text) == DEFAULT.name else PACKAGED_DIR / f"{text}.json"
     known = ", ".join([DEFAULT.name, *packaged_sets()])
     raise ConstantsSetError(
         f"{text}: no such constants set file, saved identification ({SAVED_DIR}/{text}/) "
@@ -570,17 +540,7 @@ def locate_constants_set(text: str | Path, base: str | Path | None = None) -> Pa
 
 
 def find_constants_set(text: str | Path, base: str | Path | None = None) -> ConstantsSet:
-    """The constants set a user names: a file, a saved identification, ``paper`` or a packaged set.
-
-    Every command option (``--constants``), every TOML file's ``constants`` key and
-    ``Design(constants="...")`` resolve names here (:func:`locate_constants_set` gives the
-    order).
-
-    Raises
-    ------
-    ConstantsSetError
-        One line: no such file or set (listing the packaged ones), or the file's own problem.
-    """
+    """The set a user names, for every command and file (:func:`locate_constants_set`)."""
     path = locate_constants_set(text, base)
     return DEFAULT if path is None else load_constants_set(path)
 

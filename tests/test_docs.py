@@ -98,3 +98,23 @@ def test_validation_page_shows_the_report_and_its_figure(site):
     assert "validation.png" in page and "Per set and material" in page
     image = site / "_images" / "validation.png"
     assert image.exists() and image.stat().st_size > 50_000
+
+
+@pytest.mark.slow
+def test_tutorial_page_shows_the_outputs_and_figures(site):
+    # the executed copy of docs/tutorial.ipynb (docs/_ext/notebook_outputs.py), not the bare cells
+    page = (site / "_generated" / "tutorial.html").read_text(encoding="utf-8")
+    assert "reachable: True" in _text(site / "_generated" / "tutorial.html")
+    figures = re.findall(r'<img [^>]*src="([^"]*/cell\d+-\d+\.png)"', page)
+    assert figures
+    for src in figures:
+        image = (site / "_generated" / src).resolve()
+        assert image.exists() and image.stat().st_size > 10_000, image
+
+
+@pytest.mark.slow
+def test_format_pages_are_in_the_site(site):
+    job = _text(site / "formats" / "job-file.html")
+    assert "samples_per_n" in job and "integer 1…1073741824" in job
+    assert "stiffness" in _text(site / "formats" / "dataset.html")
+    assert "targets" in _text(site / "formats" / "scene-file.html")

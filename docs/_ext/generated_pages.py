@@ -9,9 +9,9 @@ On ``builder-inited`` this Sphinx extension writes into ``docs/_generated/`` (gi
 ``gallery.md`` and ``gallery/*.png``
     Every ``docs/examples/*.py`` run in a subprocess with the output PNG path as its argument;
     the page shows each script's docstring, its figure and its source.
-``tutorial.md``
+``tutorial.md`` and ``tutorial/*.png``
     ``docs/tutorial.ipynb`` as a Markdown page (its Markdown cells, its code cells as code
-    blocks, and any text outputs stored in the notebook).
+    blocks, and the text outputs and figures of its execution: :mod:`notebook_outputs`).
 ``api_public.rst``
     An autosummary table of ``dpfexplore.__all__``, each name under the module that defines it.
 
@@ -883,24 +883,43 @@ def render_gallery(runs: Sequence[tuple[Path, Path, float]], docs: Path) -> str:
 # --------------------------------------------------------------------------- tutorial
 
 
-def render_notebook(notebook: Path) -> str:
-    """A notebook as MyST Markdown: Markdown cells as they are, code cells as code blocks."""
-    nb = json.loads(notebook.read_text(encoding="utf-8"))
+def render_notebook(notebook: Path, out_dir: Path) -> str:
+    """A notebook as MyST Markdown, with the outputs of its execution.
+
+    Markdown cells as they are, code cells as code blocks, each followed by its text outputs and
+    its figures (PNG files written to ``out_dir/tutorial/``); the executed copy comes from
+    :func:`notebook_outputs.executed_notebook` (run once, shared with ``tests/test_tutorial.py``).
+    """
+    import base64
+
+    from notebook_outputs import executed_notebook
+
+    nb, _ = executed_notebook(notebook, out_dir)
+    images = out_dir / notebook.stem
+    images.mkdir(parents=True, exist_ok=True)
     parts = []
-    for cell in nb.get("cells", []):
+    for index, cell in enumerate(nb.get("cells", [])):
         source = "".join(cell.get("source", ""))
         if cell.get("cell_type") == "markdown":
             parts.append(source.strip() + "\n")
         elif cell.get("cell_type") == "code" and source.strip():
             parts.append("```python\n" + source.rstrip() + "\n```\n")
-            for out in cell.get("outputs", []):
-                text = out.get("text") or out.get("data", {}).get("text/plain")
+            for number, out in enumerate(cell.get("outputs", [])):
+                data = out.get("data", {})
+                if "image/png" in data:
+                    name = f"cell{index}-{number}.png"
+                    png = base64.b64decode("".join(data["image/png"]))
+                    if not (images / name).is_file() or (images / name).read_bytes() != png:
+                        (images / name).write_bytes(png)
+                    parts.append(f"![output of the cell above]({notebook.stem}/{name})\n")
+                    continue
+                text = out.get("text") or data.get("text/plain")
                 if text:
                     parts.append("```text\n" + "".join(text).rstrip() + "\n```\n")
     note = (
-        "\n```{note}\nThis page is `docs/tutorial.ipynb`, converted when the docs were built "
-        "(`tests/test_tutorial.py` executes the notebook). Run it yourself with Jupyter, or "
-        "download it: {download}`tutorial.ipynb <../tutorial.ipynb>`.\n```\n"
+        "\n```{note}\nThis page is `docs/tutorial.ipynb`, executed when the docs were built "
+        "(once: `tests/test_tutorial.py` shares the run), with its outputs. Run it yourself "
+        "with Jupyter, or download it: {download}`tutorial.ipynb <../tutorial.ipynb>`.\n```\n"
     )
     first, _, rest = "\n".join(parts).partition("\n")
     return first + "\n" + note + rest
@@ -937,7 +956,7 @@ def generate(app: Sphinx) -> None:
         out / "benchmarks.md", render_benchmarks(template, repo / "results" / "reports")
     )
     _write_if_changed(out / "api_public.rst", render_public_api())
-    _write_if_changed(out / "tutorial.md", render_notebook(docs / "tutorial.ipynb"))
+    _write_if_changed(out / "tutorial.md", render_notebook(docs / "tutorial.ipynb", out))
     runs = run_examples(docs / "examples", out / "gallery")
     _write_if_changed(out / "gallery.md", render_gallery(runs, docs))
     LOG.info(

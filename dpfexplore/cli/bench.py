@@ -1,12 +1,19 @@
 """``dpfexplore bench NAME [--json]``: benchmarks that run our code and a baseline side by side.
 
 Each benchmark lives in :mod:`dpfexplore.bench` and registers its own options; see
-:data:`BENCHMARKS`.
+:data:`BENCHMARKS`. ``--save`` writes the record ``results/reports/bench-NAME.json`` (tracked in
+git: the documentation's benchmarks page is built from it) and never replaces one silently: a
+record already there is refused before the benchmark runs, unless ``--force``, the rule of
+``design --out`` and ``lookup --write``.
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
+from pathlib import Path
+
+from .support.output import refuse_overwrite
 
 #: Benchmark name -> module under :mod:`dpfexplore.bench` providing ``register(subparsers)``.
 BENCHMARKS = (
@@ -36,3 +43,32 @@ def register(subparsers) -> None:
     bench_sub = parser.add_subparsers(dest="benchmark", metavar="BENCHMARK", required=True)
     for name in BENCHMARKS:
         importlib.import_module(f"dpfexplore.bench.{name}").register(bench_sub)
+    for name, sub in bench_sub.choices.items():
+        if any("--save" in action.option_strings for action in sub._actions):
+            sub.add_argument(
+                "--force",
+                action="store_true",
+                help="with --save: replace the record already saved under results/reports/",
+            )
+            sub.set_defaults(
+                handler=functools.partial(_refuse_overwrite, name, sub.get_default("handler"))
+            )
+
+
+def saved_record(name: str, args) -> Path:
+    """The record ``bench NAME --save`` writes (``--save-as`` names it for ``bench design``)."""
+    return Path("results") / "reports" / (getattr(args, "save_as", None) or f"bench-{name}.json")
+
+
+def _refuse_overwrite(name: str, handler, args) -> int:
+    """Run ``handler`` unless ``--save`` would replace a record without ``--force``.
+
+    Raises
+    ------
+    UsageError
+        Naming the record, before any benchmark work
+        (:func:`~dpfexplore.cli.support.output.refuse_overwrite`).
+    """
+    if args.save:
+        refuse_overwrite(saved_record(name, args), "--save", args.force)
+    return handler(args)

@@ -28,8 +28,6 @@ from .support.output import (
     save_figure,
 )
 
-CONSTANTS = Path("results") / "constants"
-
 
 def register(subparsers) -> None:
     """Add ``identify`` and its subcommands."""
@@ -108,9 +106,9 @@ def _load(name: str):
     Returns ``(set, report)``; the report is None for anything but a saved identification.
     """
     from ..identification.report import read_identification
-    from ..model.constants_set import find_constants_set
+    from ..model.constants_set import SAVED_DIR, find_constants_set
 
-    path = saved_path(name, CONSTANTS)
+    path = saved_path(name, SAVED_DIR)
     try:
         if path.is_dir():
             return read_identification(path)

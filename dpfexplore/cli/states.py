@@ -33,7 +33,12 @@ def register(subparsers) -> None:
         description="Search every state (2^N, or N+1 with --sequential) of the design in a TOML "
         "file ([design] table) and print a table. " + UNITS_HELP,
     )
-    parser.add_argument("design", help="TOML file with a [design] table")
+    parser.add_argument(
+        "design",
+        help="TOML file with a [design] table, or a packaged example's name: gripper (the "
+        "paper's gripper finger) or pickplace (its pick-and-place finger), in "
+        "dpfexplore/examples/",
+    )
     parser.add_argument("--sequential", action="store_true", help="only the N+1 sequential states")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--plot", metavar="FILE.png", help="draw the stable states to a PNG")

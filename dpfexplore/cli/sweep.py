@@ -79,8 +79,10 @@ def register(subparsers) -> None:
     query = subparsers.add_parser(
         "query",
         help="select rows of a sweep dataset",
-        description="Select committed rows of a sweep dataset with a pandas query expression "
-        "over its columns (units in the dataset schema; see README).",
+        description="Select committed rows of a sweep dataset with a condition over its columns. "
+        "The columns, their types, units and meanings: the documentation's 'Sweep dataset "
+        "format' page (docs/formats/dataset.md); each column also carries its unit and "
+        "description in the dataset's own schema.",
     )
     query.add_argument("dir", type=Path, help="sweep dataset directory")
     query.add_argument(
@@ -193,7 +195,7 @@ def _sweep(args: argparse.Namespace) -> int:
     chosen = with_constants(spec.constants, given, str(args.job))
     if chosen is not spec.constants:
         spec = dataclasses.replace(
-            spec, constants=chosen, constants_file=str(Path(args.constants).resolve())
+            spec, constants=chosen, constants_file=str(_located(args.constants).resolve())
         )
     if args.chunk_size is not None and args.chunk_size < 1:
         raise UsageError(f"--chunk-size {args.chunk_size}: must be >= 1")
@@ -368,3 +370,10 @@ def _plot_space(args: argparse.Namespace) -> int:
     plt.close(figure)
     print(f"design-space maps written to {out}")
     return EXIT_OK
+
+
+def _located(text: str) -> Path:
+    """The file ``--constants`` names (a name resolved as every command resolves it)."""
+    from ..model.constants_set import locate_constants_set
+
+    return locate_constants_set(text)

@@ -27,6 +27,7 @@ from .support.output import (
     error_line,
     json_text,
     output_path,
+    refuse_overwrite,
     save_figure,
     save_table,
 )
@@ -77,6 +78,9 @@ def register(subparsers) -> None:
         default=None,
         metavar="FILE.csv",
         help="write the path as the table identify fit reads (.csv or .parquet)",
+    )
+    curve.add_argument(
+        "--force", action="store_true", help="replace the files --out and --plot name if they exist"
     )
     curve.set_defaults(handler=_curve)
     sweep = sub.add_parser(
@@ -198,6 +202,9 @@ def _curve(args: argparse.Namespace) -> int:
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     out = output_path(args.out, "--out", suffixes=_TABLE_SUFFIXES) if args.out else None
+    for path, option in ((out, "--out"), (plot, "--plot")):
+        if path is not None:
+            refuse_overwrite(path, option, args.force)
     try:
         run = unit_cell_curve(
             args.H,

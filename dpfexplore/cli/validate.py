@@ -83,9 +83,9 @@ def _sets(args: argparse.Namespace) -> list:
     """The sets the command validates, each with the file it came from (None for 'paper')."""
     from ..model.constants_set import (
         DEFAULT,
-        PACKAGED_DIR,
         ConstantsSetError,
-        find_constants_set,
+        load_constants_set,
+        locate_constants_set,
         packaged_sets,
     )
 
@@ -93,14 +93,10 @@ def _sets(args: argparse.Namespace) -> list:
     found = []
     for name in names:
         try:
-            constants = find_constants_set(name)
+            path = locate_constants_set(name)
+            constants = DEFAULT if path is None else load_constants_set(path)
         except ConstantsSetError as exc:
             raise UsageError(f"--constants {exc}") from None
-        path = Path(name)
-        if constants is DEFAULT:
-            path = None
-        elif not path.exists() and name in packaged_sets():
-            path = PACKAGED_DIR / f"{name}.json"
         found.append((constants, path))
     seen = [c.name for c, _ in found]
     for name in seen:

@@ -128,6 +128,18 @@ def _targets(
     return targets, notes
 
 
+#: What a refusal of flagged fits suggests, by method: the method that fits such curves first,
+#: leaving the flagged ones out (``allow_flagged``) last.
+_FLAGGED_HINT = {
+    "states": "allow_flagged (--allow-flagged) leaves them out",
+    "features": "the law by the unit's states (method 'states', the default) fits a monostable "
+    "dome's curve too; allow_flagged (--allow-flagged) leaves them out",
+    "least_squares": "a quartic fitted to the path cannot follow a folded shell path: the law "
+    "by the unit's states (method 'states', the default) fits it; allow_flagged "
+    "(--allow-flagged) leaves them out",
+}
+
+
 def identify(
     curves: Sequence[UnitCellCurve],
     *,
@@ -176,7 +188,7 @@ def identify(
         curve, fit = flagged[0]
         raise CurveError(
             f"{len(flagged)} of {len(fits)} curve fits cannot be trusted, e.g. curve "
-            f"{curve.curve!r}: {fit.flags[0]} (allow_flagged / --allow-flagged leaves them out)"
+            f"{curve.curve!r}: {fit.flags[0]}; {_FLAGGED_HINT[method]}"
         )
     used = [(c, f) for c, f in zip(curves, fits, strict=True) if f.ok]
     groups = np.array(["|".join(map(str, c.geometry)) for c, _ in used])

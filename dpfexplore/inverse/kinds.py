@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from ..io.toml_fields import check_keys, reported_as, table
-from ..model.constants_set import DEFAULT
+from ..model.constants_set import DEFAULT, ConstantsSetError, locate_constants_set
 from ..model.design import resolve_constants
 from .scene_file import SceneSpecError, build_spec, read_scene_file
 from .scene_kind import SceneKind
@@ -104,12 +104,16 @@ def load_scene(path: str | Path) -> SceneSpec:
 
 
 def with_constants_file(spec: SceneSpec, path: str | Path) -> SceneSpec:
-    """The scene read again under the constants set file ``path`` (``design --constants``).
+    """The scene read again under the constants set ``path`` names (``design --constants``).
 
     Re-read from its document, so that every design the scene makes (reference designs, the
     pick-and-place and walker legs) runs on the set; a scene that names another set is refused.
     """
-    given = resolve_constants(path)
+    try:
+        located = locate_constants_set(path)
+        given = resolve_constants(path)
+    except ConstantsSetError as exc:
+        raise SceneSpecError(f"--constants {exc}") from None
     if spec.constants == given:
         return spec
     if spec.constants != DEFAULT:
@@ -118,7 +122,7 @@ def with_constants_file(spec: SceneSpec, path: str | Path) -> SceneSpec:
             f"{spec.constants.label} (scene.constants); give one"
         )
     document = {**spec.document, "scene": {**spec.document["scene"]}}
-    document["scene"]["constants"] = str(Path(path).resolve())
+    document["scene"]["constants"] = str(Path(located).resolve()) if located else DEFAULT.name
     return parse_scene(document, default_name=spec.name)
 
 

@@ -44,6 +44,7 @@ Files
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -60,7 +61,7 @@ from .closed_form import N_FORMS, ClosedForm, ConstantsSetError, float_powers
 from .constants import _ALPHA_TERMS, _KB_TERMS, TIP_PER_HEIGHT, TIP_PER_THICKNESS
 from .domain import FITTED_RANGES
 from .quantities import SET_FORMS, scaled
-from .set_checks.claims import claims_problem
+from .set_checks.claims import claims_problem, data_hull
 from .set_checks.fields import fields_problem, read_set_json
 
 __all__ = [
@@ -72,6 +73,7 @@ __all__ = [
     "data_hull",
     "find_constants_set",
     "load_constants_set",
+    "locate_constants_set",
     "packaged_sets",
 ]
 
@@ -482,21 +484,6 @@ def _hull(value: Any) -> tuple[tuple[float, float], ...] | None:
     return None if value is None else tuple((float(a), float(b)) for a, b in value)
 
 
-def data_hull(h: ArrayLike, s: ArrayLike) -> tuple[tuple[float, float], ...] | None:
-    """The counter-clockwise convex hull of points ``(H/r_b, t/r_b)``; None when degenerate."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    points = np.column_stack([np.ravel(h), np.ravel(s)]).astype(float)
-    points = np.unique(points[np.all(np.isfinite(points), axis=1)], axis=0)
-    if points.shape[0] < 3:
-        return None
-    try:
-        hull = ConvexHull(points)
-    except QhullError:  # collinear: the ranges say all there is
-        return None
-    return tuple((float(x), float(y)) for x, y in points[hull.vertices])  # 2-D: counter-clockwise
-
-
 def _fingerprint(body: Mapping[str, Any]) -> str:
     canonical = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(canonical.encode()).hexdigest()
@@ -513,29 +500,49 @@ def packaged_sets() -> list[str]:
     )
 
 
-def find_constants_set(text: str | Path) -> ConstantsSet:
-    """The constants set a user names: a file, ``paper`` or a packaged set's name.
+#: ``results/constants/NAME/constants.json`` (``identify fit``'s default) is the set ``NAME``.
+SAVED_DIR, SAVED_FILE = Path("results") / "constants", "constants.json"
 
-    A file of that name wins over a packaged set (as example designs do).
 
-    Raises
-    ------
-    ConstantsSetError
-        One line: no such file or set (listing the packaged ones), or the file's own problem.
+def locate_constants_set(text: str | Path, base: str | Path | None = None) -> Path | None:
+    """The file of the set a user names (None for ``paper``): the one resolution of set names.
+
+    In order: an existing file (relative to ``base``, the folder of a TOML file naming it); a
+    folder holding ``constants.json`` (a saved identification); a saved identification's name
+    (:data:`SAVED_DIR`); any other path (``.json``, or with a folder); ``paper``; a packaged
+    set. Local names win, as a design file in the working directory wins over an example.
+    Raises :class:`ConstantsSetError` (one line, listing the packaged sets) for no such set.
     """
-    path = Path(text)
-    try:
-        exists = path.exists()
-    except OSError:  # a name too long for a path: the reader says so in one line
-        exists = True
-    if exists or path.suffix == ".json" or len(path.parts) > 1:
-        return load_constants_set(path)
-    if str(text) == DEFAULT.name:
-        return DEFAULT
-    if str(text) in packaged_sets():
-        return load_constants_set(PACKAGED_DIR / f"{text}.json")
+    given = Path(text).expanduser()
+    path = Path(base) / given if base is not None and not given.is_absolute() else given
+    with contextlib.suppress(OSError):  # a name too long for a path: the reader says so
+        if path.is_dir() and not (path / SAVED_FILE).is_file():
+            raise ConstantsSetError(
+                f"{text}: a folder without {SAVED_FILE} (a saved identification)"
+            )
+        if path.exists():
+            return path / SAVED_FILE if path.is_dir() else path
+        if (
+            len(given.parts) == 1
+            and not given.suffix
+            and (SAVED_DIR / given / SAVED_FILE).is_file()
+        ):
+            return SAVED_DIR / given / SAVED_FILE
+    if path.suffix == ".json" or len(given.parts) > 1 or len(str(text)) > 255:
+        return path  # the reader names the file and its problem
+    if str(text) in (DEFAULT.name, *packaged_sets()):
+        return None if str(text) == DEFAULT.name else PACKAGED_DIR / f"{text}.json"
     known = ", ".join([DEFAULT.name, *packaged_sets()])
-    raise ConstantsSetError(f"{text}: no such constants set file (packaged sets: {known})")
+    raise ConstantsSetError(
+        f"{text}: no such constants set file, saved identification ({SAVED_DIR}/{text}/) "
+        f"or packaged set (packaged sets: {known})"
+    )
+
+
+def find_constants_set(text: str | Path, base: str | Path | None = None) -> ConstantsSet:
+    """The set a user names, for every command and file (:func:`locate_constants_set`)."""
+    path = locate_constants_set(text, base)
+    return DEFAULT if path is None else load_constants_set(path)
 
 
 def load_constants_set(path: str | Path) -> ConstantsSet:

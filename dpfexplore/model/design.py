@@ -29,7 +29,7 @@ from .constants_set import (
     DEFAULT,
     DOMAIN_KEYS,
     ConstantsSet,
-    load_constants_set,
+    find_constants_set,
 )
 from .domain import MAX_UNITS, active_units, fitted_range
 from .formatting import nums as _nums
@@ -90,24 +90,25 @@ def _constants_set(value: Any) -> ConstantsSet:
     if isinstance(value, ConstantsSet):
         return value
     if isinstance(value, (str, Path)):
-        return load_constants_set(value)
+        return find_constants_set(value)
     raise ValueError(
         f"constants = {value!r}: must be a ConstantsSet or the path of a constants set file"
     )
 
 
 def resolve_constants(value: str | Path, base: str | Path | None = None) -> ConstantsSet:
-    """Load the constants set a file names (``constants = "FILE"``), relative to ``base``.
+    """The constants set a TOML file's ``constants`` key names, a path relative to ``base``.
+
+    A path, a saved identification's name, ``paper`` or a packaged set's name, resolved as
+    every ``--constants`` option is (:func:`~dpfexplore.model.constants_set.find_constants_set`).
 
     Raises
     ------
     ValueError
-        One line naming the file (:class:`~dpfexplore.model.constants_set.ConstantsSetError`).
+        One line naming the file or name
+        (:class:`~dpfexplore.model.constants_set.ConstantsSetError`).
     """
-    path = Path(value).expanduser()
-    if base is not None and not path.is_absolute():
-        path = Path(base) / path
-    return load_constants_set(path)
+    return find_constants_set(value, base)
 
 
 @dataclass(frozen=True)

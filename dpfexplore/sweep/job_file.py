@@ -62,7 +62,7 @@ from typing import Any
 
 from ..io import toml_fields as _v
 from ..io.toml_fields import FieldError, reported_as
-from ..model.constants_set import DEFAULT, ConstantsSetError
+from ..model.constants_set import DEFAULT, ConstantsSetError, locate_constants_set
 from ..model.design import DEFAULTS, MATERIALS, resolve_constants
 from ..model.domain import MAX_UNITS
 from ..model.pressure import PressureProfile
@@ -175,10 +175,11 @@ def parse_job(
             constants = resolve_constants(written, base)
         except ConstantsSetError as exc:
             raise JobSpecError(f"job.constants = {written!r}: {exc}") from None
-        constants_file = str(
-            Path(written).expanduser()
-            if Path(written).expanduser().is_absolute() or base is None
-            else (Path(base) / written).resolve()
+        located = locate_constants_set(written, base)
+        constants_file = (
+            None
+            if located is None
+            else str(located if located.is_absolute() or base is None else located.resolve())
         )
     if sampler == "sobol" and samples & (samples - 1):
         logger.warning(

@@ -21,9 +21,10 @@ __all__ = [
 ]
 
 CONSTANTS_HELP = (
-    "constants set for k_b, alpha and the reach: a JSON file (from `dpfexplore identify fit`), "
-    "'paper' or a packaged set's name ('shell-extended'); default: the one the input names, "
-    "else the paper's closed forms"
+    "constants set for k_b, alpha and the reach: a JSON file, a saved identification (its "
+    "folder, or NAME for results/constants/NAME from `dpfexplore identify fit`), 'paper' or a "
+    "packaged set's name ('shell-extended'); default: the one the input names, else the "
+    "paper's closed forms"
 )
 
 

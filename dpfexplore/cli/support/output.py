@@ -160,6 +160,23 @@ def output_path(path: str | Path, option: str, *, suffixes: tuple[str, ...] = ()
     return path
 
 
+def refuse_overwrite(path: Path, option: str, force: bool) -> Path:
+    """``path``, refused when it exists and ``force`` is not given: no file replaced silently.
+
+    The rule of ``design --out`` and ``lookup --write`` for result directories
+    (:func:`dpfexplore.io.result_dirs.check_output_dir`), for single files
+    (``unitcell curve --out/--plot``, ``bench NAME --save``); checked before any work.
+
+    Raises
+    ------
+    UsageError
+        Naming the option and the file, and ``--force``.
+    """
+    if path.exists() and not force:
+        raise UsageError(f"{option} {path}: the file exists; use --force to replace it")
+    return path
+
+
 #: ``errno`` of a write that failed for want of room or of a writable place: reported as one
 #: line by every command (:func:`write_failure`), never as a traceback.
 WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})

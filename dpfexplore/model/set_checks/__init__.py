@@ -7,7 +7,8 @@ fields
     before any is used.
 claims
     What a set claims about its domain: magnitudes within a physical set's, a hull consistent
-    with its ranges, and each closed form within its physical bounds over the whole domain.
+    with its ranges, and each closed form within its physical bounds over the whole domain;
+    the hull of the data a set is fitted on (``data_hull``).
 bounds
     Proven bounds of closed forms over a domain of ``(H/r_b, t/r_b)``: Bernstein enclosures,
     subdivided where inconclusive.

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..closed_form import ClosedForm
 from ..quantities import SET_FORMS
@@ -35,6 +35,7 @@ __all__ = [
     "HULL_MIN_AREA",
     "MAX_COEFFICIENT",
     "claims_problem",
+    "data_hull",
 ]
 
 #: Largest coefficient magnitude of a closed form. The packaged sets' largest is 379
@@ -187,3 +188,18 @@ def _forms_problem(
         f"{text} not ruled out inside its own domain ({name} not proven {side} {limit:g} "
         f"near {where})"
     )
+
+
+def data_hull(h: ArrayLike, s: ArrayLike) -> tuple[tuple[float, float], ...] | None:
+    """The counter-clockwise convex hull of points ``(H/r_b, t/r_b)``; None when degenerate."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    points = np.column_stack([np.ravel(h), np.ravel(s)]).astype(float)
+    points = np.unique(points[np.all(np.isfinite(points), axis=1)], axis=0)
+    if points.shape[0] < 3:
+        return None
+    try:
+        hull = ConvexHull(points)
+    except QhullError:  # collinear: the ranges say all there is
+        return None
+    return tuple((float(x), float(y)) for x, y in points[hull.vertices])  # 2-D: counter-clockwise

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pyarrow as pa
 
-from ...model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, load_constants_set
+from ...model.constants_set import DEFAULT, ConstantsSet, ConstantsSetError, find_constants_set
 from .store import (
     ChunkRecord,
     Manifest,
@@ -115,7 +115,7 @@ class DatasetInfo:
             return DEFAULT
         source = self.job.get("job", {}).get("constants")
         try:
-            found = load_constants_set(source) if source else None
+            found = find_constants_set(source) if source else None
         except ConstantsSetError as exc:
             raise StoreError(
                 f"{self.root}: its rows were computed under constants set {wanted}, whose "

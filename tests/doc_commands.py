@@ -86,6 +86,17 @@ def _joined(lines: list[str]) -> list[str]:
     return out
 
 
+def _and_chain(row: str) -> list[str]:
+    """The commands of ``a && b && c``, a parenthesised group kept whole."""
+    parts, depth, start = [], 0, 0
+    for i, char in enumerate(row):
+        depth += {"(": 1, ")": -1}.get(char, 0)
+        if depth == 0 and row.startswith(" && ", i):
+            parts.append(row[start:i])
+            start = i + 4
+    return [*parts, row[start:]]
+
+
 def parse_blocks(path: Path) -> list[Block]:
     """Every command block of the Markdown file ``path``, in order."""
     text = path.read_text(encoding="utf-8")
@@ -118,7 +129,7 @@ def parse_blocks(path: Path) -> list[Block]:
             for row in _joined(body):
                 row = _strip_comment(row)
                 if row.strip():
-                    commands.extend(Command(part.strip()) for part in row.split(" && "))
+                    commands.extend(Command(part.strip()) for part in _and_chain(row))
         blocks.append(Block(path, line, lang, marker.group("text") if marker else None, commands))
     return blocks
 

@@ -42,8 +42,11 @@ BLOCKS: list[Block] = [block for doc in _documents() for block in parse_blocks(d
 
 #: Set-up commands: what CI runs itself (the pattern, and where it is run).
 SET_UP = {
+    r"\(command -v chromium >/dev/null \|\| \(apt-get update && apt-get install -y chromium "
+    r"chromium-driver\)\)": ".ci/run",
     r"python3 -m venv \.venv": ".ci/run",
     r"\.venv/bin/pip install -e (\.|\"\.\[test\]\")": ".ci/run",
+    r"pip install -e \"\.\[explore\]\"": "pyproject.toml (the explore extra, in the test extra)",
     r"source \.venv/bin/activate": ".ci/run (the harness calls the installed entry point)",
     r"(\.venv/bin/)?python -m pytest": ".ci/run",
     r"(\.venv/bin/)?python -m pytest tests/test_docs\.py": "tests/test_docs.py",
@@ -131,18 +134,37 @@ def _run(command: str) -> tuple[int, str, str]:
     return code, out.getvalue(), err.getvalue()
 
 
-@pytest.mark.parametrize("block", BLOCKS, ids=[b.name for b in BLOCKS])
+def _not_run(block: Block) -> bool:
+    """Marked ``not run: REASON`` beside the block (the guide's text says why)."""
+    return block.marker is not None and block.marker.startswith("not run: ")
+
+
+#: The blocks the harness runs: all but those marked not run and those of set-up lines only.
+RUN = [
+    block
+    for block in BLOCKS
+    if not _not_run(block) and any(not set_up_of(c.text) for c in block.commands)
+]
+
+
+def test_a_block_not_run_says_why():
+    """Every block left out is marked with its reason."""
+    left_out = [block for block in BLOCKS if _not_run(block)]
+    for block in left_out:
+        assert len(block.marker) > 20, (block.name, block.marker)
+    for block in BLOCKS:
+        assert (
+            block.marker is None
+            or _not_run(block)
+            or re.fullmatch(r"exit (\d+): .{10,}", block.marker)
+        ), (block.name, block.marker)
+
+
+@pytest.mark.parametrize("block", RUN, ids=[b.name for b in RUN])
 def test_block_runs_as_written(block, workspace, monkeypatch):
-    exit_code = 0
-    if block.marker is not None:
-        found = re.fullmatch(r"exit (\d+): .{10,}", block.marker)
-        if found:  # a documented exit code, the guide's text saying why
-            exit_code = int(found.group(1))
-        else:
-            assert block.marker.startswith("not run: ") and len(block.marker) > 20, block.marker
-            pytest.skip(f"{block.name}: {block.marker} (the guide says so beside the block)")
+    found = re.fullmatch(r"exit (\d+): .{10,}", block.marker or "")
+    exit_code = int(found.group(1)) if found else 0  # a documented exit code, the text says why
     monkeypatch.chdir(workspace)
-    ran = []
     for command in block.commands:
         if set_up_of(command.text):
             continue  # CI's own set-up (test_set_up_commands_are_what_ci_runs)
@@ -151,9 +173,6 @@ def test_block_runs_as_written(block, workspace, monkeypatch):
         if command.expected:
             problem = output_mismatch(command.expected, out.splitlines())
             assert problem is None, f"{block.name}: {command.text}\n{problem}"
-        ran.append(command.text)
-    if not ran:
-        pytest.skip(f"{block.name}: set-up only, which CI itself runs (.ci/run, the tests)")
 
 
 # ------------------------------------------------------------------- the harness's own rules
@@ -191,3 +210,6 @@ def test_blocks_are_read_as_written(tmp_path):
     assert first.commands[0].expected == ["out 1", "out 2"] and first.commands[1].expected == []
     assert second.marker == "not run: a reason of some length"
     assert [set_up_of(c.text) for c in second.commands] == [".ci/run", ".ci/run"]
+    page.write_text("```bash\n(a || (b && c)) && d && (e)\n```\n")
+    (group,) = parse_blocks(page)
+    assert [c.text for c in group.commands] == ["(a || (b && c))", "d", "(e)"]

@@ -14,6 +14,7 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import os
 import time
 import warnings
 from pathlib import Path
@@ -67,7 +68,9 @@ def executed_notebook(notebook: Path, out_dir: Path) -> tuple[dict[str, Any], fl
                 resources={"metadata": {"path": str(notebook.parent)}},
             )
             started = time.perf_counter()
-            client.execute()
+            # the kernel draws inline (its default backend), whatever backend this process uses:
+            # the Sphinx build sets MPLBACKEND=Agg, which would leave the figures out
+            client.execute(env={k: v for k, v in os.environ.items() if k != "MPLBACKEND"})
             seconds = time.perf_counter() - started
         nb.metadata["dpfexplore"] = {"source_sha256": digest, "seconds": seconds}
         text = nbformat.writes(nb)

@@ -262,7 +262,7 @@ def test_curve_files_on_a_full_disk_are_absent_or_untouched(
     assert not target.exists() and leftovers(tmp_path) == []
     if option == "--out":  # an existing file is left as it was (a figure the same way)
         target.write_bytes(b"before")
-        assert main(argv) == 1
+        assert main([*argv, "--force"]) == 1  # replacing it, as asked, fails whole
         assert target.read_bytes() == b"before" and leftovers(tmp_path) == []
         capsys.readouterr()
 

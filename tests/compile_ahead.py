@@ -35,7 +35,7 @@ from pathlib import Path
 PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
     (("states",), ("unit-cell shell", "unit-cell contact")),
     (
-        ("statics", "sensitivities", "sensitivities batch", "benchmarks"),
+        ("statics", "sensitivities", "sensitivities batch", "benchmarks", "grasp"),
         ("dynamics", "reset", "release"),
     ),
     (("snap", "snap batch"), ("fast reset",)),
@@ -49,6 +49,14 @@ def _benchmarks() -> None:
     statics._per_design_times(tiny_batch(), 2, passes=1, repeats=1)
     sensitivities.bench_size(2, 2, 2, seed=0, passes=1, repeats=1)
     identify._table_build(12, 1, 0)
+
+
+def _grasp() -> None:
+    from dpfexplore import load_design
+    from dpfexplore.examples import example_path
+    from dpfexplore.grasping import grasp
+
+    grasp(load_design(example_path("gripper")), 40.0, mu=0.5)
 
 
 def _steps() -> dict:
@@ -88,6 +96,7 @@ def _steps() -> dict:
         "release": lambda: reset_times_batch(batch, pulse, t_end=6.0, method="release"),
         "fast reset": compile_fast_reset,
         "benchmarks": _benchmarks,
+        "grasp": _grasp,
         "unit-cell shell": lambda: unit_cell_curve(3.0, 0.8, max_steps=20),
         "unit-cell contact": lambda: two_unit_rest(3.0, 0.8, gap=1.5, n_elements=16),
     }

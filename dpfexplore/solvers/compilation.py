@@ -76,7 +76,7 @@ COMPILE_CPU_S = {
     "release": 20,
     "unit-cell shell": 27,
     "unit-cell contact": 7,
-    "grasp": 40,
+    "grasp": 10,
 }
 
 

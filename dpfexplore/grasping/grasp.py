@@ -20,7 +20,7 @@ from ..model.design import Design
 from ..model.gripper import gripper_frame
 from .setup import GRAVITY, GraspOptions, Gripper, gripper_of, state_bits
 
-__all__ = ["GraspReport", "StateGrasp", "check_object", "grasp"]
+__all__ = ["GraspReport", "StateGrasp", "check_object", "deciding_state", "grasp", "tip_reset_time"]
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,9 @@ class StateGrasp:
         The sensor's reading (magnitude of unit 1's dome force) and its change from the free
         state.
     detects : bool
-        ``sensor_N > threshold``.
+        Whether this state decides the size class: ``sensor_N > threshold``, or the object
+        pushed a dome back (the state is lost; on its way over the barrier the dome's force
+        passes its peak, far above any threshold).
     payload_kg, payload_N : float
         Largest weight held (disk free along the axis, gripper pointing down).
     holds : bool
@@ -241,7 +243,7 @@ def _record(gripper, j, x, seg, out, payload_n, threshold, held) -> StateGrasp:
         grip_force_N=float(out[r.G_GRIP]),
         sensor_N=reading,
         sensor_change_N=reading - float(free_reading),
-        detects=bool(reading > threshold),
+        detects=bool(ok and (reading > threshold or out[r.G_HOLDS] < 0.5)),
         payload_kg=payload_n / GRAVITY,
         payload_N=payload_n,
         holds=bool(ok and out[r.G_HOLDS] > 0.5),
@@ -254,6 +256,19 @@ def _record(gripper, j, x, seg, out, payload_n, threshold, held) -> StateGrasp:
         normals=normals,
         nodes_mm=gripper_frame(pos, gripper.h, theta),
     )
+
+
+def deciding_state(states) -> str | None:
+    """The size class of the loop: the first state that decides, None if none does.
+
+    The loop stops at a state whose solve failed (no class), as the sorting kernel does.
+    """
+    for s in states:
+        if s.status != "ok":
+            return None
+        if s.detects:
+            return s.state
+    return None
 
 
 def tip_reset_time(design: Design, profile=None, t_end: float = 2.0) -> float:
@@ -324,7 +339,7 @@ def grasp(
         states.append(_record(gripper, j, x, seg, out, pay, thr, False))
         x, seg, out, pay = solve_state(gripper, j, disk, ctl, held=True)
         tips.append(_record(gripper, j, x, seg, out, pay, thr, True))
-    size = next((s.state for s in states if s.detects), None)
+    size = deciding_state(states)
     return GraspReport(
         diameter_mm=float(diameter),
         mass_kg=float(mass),

@@ -52,11 +52,27 @@ def _benchmarks() -> None:
 
 
 def _grasp() -> None:
+    import numpy as np
+
     from dpfexplore import load_design
     from dpfexplore.examples import example_path
-    from dpfexplore.grasping import grasp
+    from dpfexplore.grasping import GraspOptions, grasp, gripper_of
+    from dpfexplore.grasping.sort import run_sort
 
-    grasp(load_design(example_path("gripper")), 40.0, mu=0.5)
+    gripper = gripper_of(load_design(example_path("gripper")))
+    grasp(gripper, 40.0, mu=0.5)
+    # the sorting kernel alone: sort_objects also runs the dynamics (the tip's reset), whose
+    # kernels the other lane of this phase compiles
+    run_sort(
+        gripper,
+        np.array([40.0]),
+        np.array([0.01]),
+        mu=0.5,
+        depth=gripper.default_depth(),
+        threshold=gripper.threshold(0.1),
+        tip_lasts=True,
+        options=GraspOptions(),
+    )
 
 
 def _steps() -> dict:

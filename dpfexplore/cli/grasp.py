@@ -109,14 +109,14 @@ def _check_options(args) -> None:
             raise UsageError(f"{name} {value:g}: must be > 0 (N)")
 
 
-def _gripper(args):
+def _gripper(args, groups=("states", "grasp")):
     from ..grasping import gripper_of
 
     try:
         design = design_of(args)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
-    announce_compilation(args.command, ["states", "grasp"])
+    announce_compilation(args.command, list(groups))
     return gripper_of(design)
 
 
@@ -131,7 +131,7 @@ def run_grasp(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--object {args.object}: {exc}") from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    gripper = _gripper(args)
+    gripper = _gripper(args, ("states", "grasp", "reset"))
     try:
         check_object(diameter, mass, args.mu, gripper.open_aperture)
     except ValueError as exc:
@@ -236,7 +236,7 @@ def run_sort(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    gripper = _gripper(args)
+    gripper = _gripper(args, ("states", "grasp", "grasp sort", "reset"))
     try:
         report = sort_objects(
             gripper,

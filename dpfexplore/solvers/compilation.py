@@ -62,6 +62,7 @@ KERNEL_GROUPS = {
     "unit-cell shell": (shell_path.follow,),
     "unit-cell contact": (shell_contact.rest_on_wall, shell_contact.polish_on_wall),
     "grasp": (grasp_equilibrium.grasp_solve, grasp_batch.pull_out),
+    "grasp sort": (grasp_batch.sort_batch,),
 }
 #: Groups this process has announced or found compiled: checked once, never again.
 _SETTLED: set[str] = set()
@@ -77,6 +78,7 @@ COMPILE_CPU_S = {
     "unit-cell shell": 27,
     "unit-cell contact": 7,
     "grasp": 10,
+    "grasp sort": 15,
 }
 
 

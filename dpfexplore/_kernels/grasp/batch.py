@@ -128,20 +128,52 @@ def pull_out(x, lat, disk, contact, ctl, ws, seg, res):
 
 
 @kernel
-def _one_grasp(x0, lat, disk, ctl, ws, x, out):
-    """Grasp from the free state ``x0`` into ``x``; returns the contact table it ends with."""
-    n = x0.shape[0]
-    for i in range(n):
+def _grasp_from_free(x0, lat, disk, ctl, ws, x, out):
+    """Grasp from the free state ``x0`` with no shifts (into ``x``, ``out``); whether it solved.
+
+    The same solve as the Python API's per-state grasp, so a batch row and a per-object call
+    give the same numbers bit for bit.
+    """
+    n_units = lat.unit_params.shape[0]
+    for i in range(x0.shape[0]):
         x[i] = x0[i]
-    contact = np.zeros((lat.unit_params.shape[0], N_CONTACT_COLS))
-    seg = np.empty((lat.unit_params.shape[0], N_SEG))
-    grasp_solve(x, lat, disk, contact, ctl, ws, seg, out)
-    return contact, seg
+    contact = np.zeros((n_units, N_CONTACT_COLS))
+    grasp_solve(x, lat, disk, contact, ctl, ws, np.empty((n_units, N_SEG)), out)
+    return out[G_STATUS] == st.OK
+
+
+@kernel
+def _pull_from_free(x0, lat, disk, ctl, ws, x, res):
+    """Payload (``res``, ``P_*``) of the state at free shape ``x0``: its pull-out, no shifts.
+
+    As the Python API's per-state payload (the pull-out grasps first, then pulls).
+    """
+    n_units = lat.unit_params.shape[0]
+    for i in range(x0.shape[0]):
+        x[i] = x0[i]
+    pull_out(
+        x, lat, disk, np.zeros((n_units, N_CONTACT_COLS)), ctl, ws, np.empty((n_units, N_SEG)), res
+    )
+
+
+@kernel
+def decides(out, threshold):
+    """Whether a grasp (``out``, ``G_*``) decides the size class at sensor ``threshold`` (N).
+
+    The reading passes the threshold, or the object pushed a dome back (the state is lost: on
+    its way over the barrier the dome's force passes its peak, far above any threshold).
+    """
+    return abs(out[G_DOME1_FORCE]) > threshold or out[G_HOLDS] < 0.5
 
 
 @batch_kernel
 def sort_batch(objects, setup, frame, ctl, result):
     """The sorting loop for each object (``prange``); fills ``result`` ``(n, N_SORT)``.
+
+    Per object: close state by state (grasp from the state's free shape); the first state
+    whose grasp :func:`decides` gives the size class; its payload (pull-out) against the
+    object's weight gives ``W_LIGHT``; else the same state with the tip unit held inverted,
+    when the tip unit lasts the lift, ``W_HEAVY``; else ``W_NOT_HELD``.
 
     Parameters
     ----------
@@ -162,7 +194,7 @@ def sort_batch(objects, setup, frame, ctl, result):
         ws = workspace()
         x = np.empty(nf)
         out = np.empty(N_GRASP)
-        res = np.empty(5)
+        res = np.empty(N_PULL)
         disk = Disk(frame[0], frame[1], 0.5 * objects[o, 0], frame[4], frame[2], frame[3], frame[5])
         result[o, S_SIZE] = -1.0
         result[o, S_READING] = math.nan
@@ -172,27 +204,20 @@ def sort_batch(objects, setup, frame, ctl, result):
         result[o, S_STATUS] = st.OK
         for j in range(n_states):
             lat = GraspLattice(setup.unit_params, setup.h, setup.bits[j])
-            contact, seg = _one_grasp(setup.x_free[j], lat, disk, ctl, ws, x, out)
-            if out[G_STATUS] != st.OK:
+            if not _grasp_from_free(setup.x_free[j], lat, disk, ctl, ws, x, out):
                 result[o, S_STATUS] = out[G_STATUS]
                 break
-            reading = abs(out[G_DOME1_FORCE])
-            result[o, S_READING] = reading
-            if reading <= setup.threshold:
+            result[o, S_READING] = abs(out[G_DOME1_FORCE])
+            if not decides(out, setup.threshold):
                 continue
             result[o, S_SIZE] = j
-            pull_out(x, lat, disk, contact, ctl, ws, seg, res)
+            _pull_from_free(setup.x_free[j], lat, disk, ctl, ws, x, res)
             result[o, S_PAYLOAD] = res[P_FORCE]
-            if res[P_FORCE] >= objects[o, 1]:
-                result[o, S_WEIGHT] = W_LIGHT
-                break
             held = GraspLattice(setup.held_params, setup.h, setup.held_bits[j])
-            contact, seg = _one_grasp(setup.x_held[j], held, disk, ctl, ws, x, out)
-            if out[G_STATUS] != st.OK:
-                result[o, S_STATUS] = out[G_STATUS]
-                break
-            pull_out(x, held, disk, contact, ctl, ws, seg, res)
+            _pull_from_free(setup.x_held[j], held, disk, ctl, ws, x, res)
             result[o, S_PAYLOAD_TIP] = res[P_FORCE]
-            if res[P_FORCE] >= objects[o, 1] and setup.tip_lasts:
+            if result[o, S_PAYLOAD] >= objects[o, 1]:
+                result[o, S_WEIGHT] = W_LIGHT
+            elif result[o, S_PAYLOAD_TIP] >= objects[o, 1] and setup.tip_lasts:
                 result[o, S_WEIGHT] = W_HEAVY
             break

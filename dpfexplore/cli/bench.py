@@ -21,6 +21,7 @@ BENCHMARKS = (
     "design",
     "identify",
     "unitcell",
+    "grasp",
 )
 
 

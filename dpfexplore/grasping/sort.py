@@ -140,7 +140,8 @@ class SortedObject:
         The reading at the deciding state (the last state tried when none decided) and its
         margin over the threshold (N).
     payload_kg, payload_tip_kg : float
-        Payload of the deciding state without and with the tip unit inverted (NaN: none).
+        Payload of the deciding state without and with the tip unit inverted (NaN: none; the
+        tip's only when the object slipped without it, as in the loop).
     payload_margin_kg : float
         The payload that held it (the tip's for ``heavy``; the larger for ``not_held``) minus
         its mass.
@@ -334,7 +335,9 @@ def sort_objects(
         weight_class = WEIGHT_CLASSES[int(row[kb.S_WEIGHT])]
         pay, tip = row[kb.S_PAYLOAD] / GRAVITY, row[kb.S_PAYLOAD_TIP] / GRAVITY
         held_by = (
-            tip if weight_class == "heavy" else (pay if weight_class == "light" else max(pay, tip))
+            tip
+            if weight_class == "heavy"
+            else (pay if weight_class == "light" else np.fmax(pay, tip))
         )
         records.append(
             SortedObject(
@@ -405,10 +408,10 @@ def sorting_map(
     thr = gripper.threshold(margin) if threshold is None else float(threshold)
     d = np.asarray(diameters, dtype=float)
     w = np.asarray(masses, dtype=float) * GRAVITY
-    table = run_sort(
+    table = run_sort(  # an infinite weight slips: both payloads of each diameter
         gripper,
         d,
-        np.zeros_like(d),
+        np.full_like(d, np.inf),
         mu=mu,
         depth=depth,
         threshold=thr,

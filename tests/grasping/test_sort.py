@@ -44,8 +44,9 @@ def _loop(gripper, diameter, mass, mu):
     j = gripper.states.index(size)
     pay, tip = report.states[j].payload_N, report.tip_states[j].payload_N
     weight = mass * GRAVITY
-    cls = "light" if pay >= weight else ("heavy" if tip >= weight else "not_held")
-    return j, pay, tip, cls
+    if pay >= weight:  # held: the tip unit is never inverted
+        return j, pay, np.nan, "light"
+    return j, pay, tip, "heavy" if tip >= weight else "not_held"
 
 
 def test_parallel_kernel_agrees_with_the_per_object_loop_exactly(gripper):

@@ -172,8 +172,9 @@ def sort_batch(objects, setup, frame, ctl, result):
 
     Per object: close state by state (grasp from the state's free shape); the first state
     whose grasp :func:`decides` gives the size class; its payload (pull-out) against the
-    object's weight gives ``W_LIGHT``; else the same state with the tip unit held inverted,
-    when the tip unit lasts the lift, ``W_HEAVY``; else ``W_NOT_HELD``.
+    object's weight gives ``W_LIGHT``; if it slips, the same state with the tip unit held
+    inverted (its payload is computed only then: NaN otherwise), when the tip unit lasts the
+    lift, ``W_HEAVY``; else ``W_NOT_HELD``. An infinite weight gives both payloads.
 
     Parameters
     ----------
@@ -213,11 +214,13 @@ def sort_batch(objects, setup, frame, ctl, result):
             result[o, S_SIZE] = j
             _pull_from_free(setup.x_free[j], lat, disk, ctl, ws, x, res)
             result[o, S_PAYLOAD] = res[P_FORCE]
+            if res[P_FORCE] >= objects[o, 1]:
+                result[o, S_WEIGHT] = W_LIGHT
+                break
+            # it slips: invert the tip unit and lift again
             held = GraspLattice(setup.held_params, setup.h, setup.held_bits[j])
             _pull_from_free(setup.x_held[j], held, disk, ctl, ws, x, res)
             result[o, S_PAYLOAD_TIP] = res[P_FORCE]
-            if result[o, S_PAYLOAD] >= objects[o, 1]:
-                result[o, S_WEIGHT] = W_LIGHT
-            elif result[o, S_PAYLOAD_TIP] >= objects[o, 1] and setup.tip_lasts:
+            if res[P_FORCE] >= objects[o, 1] and setup.tip_lasts:
                 result[o, S_WEIGHT] = W_HEAVY
             break

@@ -12,16 +12,26 @@ setup
     the solver's controls.
 grasp
     :func:`grasp`: one object in every grasp state; :class:`GraspReport`.
+sort
+    :func:`sort_objects`: the size-and-weight loop over many objects (in parallel), the
+    confusion table; :func:`sorting_map` over a grid of diameters and masses.
 """
 
 from .grasp import GraspReport, StateGrasp, grasp
 from .setup import GraspOptions, Gripper, gripper_of
+from .sort import Objects, SortedObject, SortReport, read_objects, sort_objects, sorting_map
 
 __all__ = [
     "GraspOptions",
     "GraspReport",
     "Gripper",
+    "Objects",
+    "SortReport",
+    "SortedObject",
     "StateGrasp",
     "grasp",
     "gripper_of",
+    "read_objects",
+    "sort_objects",
+    "sorting_map",
 ]

@@ -58,7 +58,7 @@ class GraspOptions:
     eps: float = 0.01
     pull_step: float = 0.5
     grow: float = 1.0
-    max_outer: int = 40
+    max_outer: int = 200
 
     def __post_init__(self) -> None:
         for name in ("tol", "eps", "pull_step", "grow"):

@@ -35,6 +35,7 @@ __all__ = [
     "SortedObject",
     "read_objects",
     "sort_objects",
+    "sorting_map",
 ]
 
 #: Weight classes, in the order of the kernel's codes (``W_LIGHT``, ``W_HEAVY``, ``W_NOT_HELD``).

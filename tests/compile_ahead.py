@@ -30,8 +30,8 @@ from pathlib import Path
 #: unit-cell contact builds on the shell. The benchmarks time their own loops over the statics,
 #: the sensitivities and the closed forms. Lanes are balanced by their compile times on an empty
 #: cache (2-core AMD EPYC, seconds of CPU): states 32 | shell 24 + contact 7; statics 9 +
-#: sensitivities 16 + batch 12 + benchmarks 9 | dynamics 21 + reset 11 + release 16; snap 25 +
-#: batch 18 | fast reset 35.
+#: sensitivities 16 + batch 12 + benchmarks 9 + grasp 15 (contact 8, sorting 7) | dynamics 21 +
+#: reset 11 + release 16; snap 25 + batch 18 | fast reset 35.
 PLAN: tuple[tuple[tuple[str, ...], ...], ...] = (
     (("states",), ("unit-cell shell", "unit-cell contact")),
     (

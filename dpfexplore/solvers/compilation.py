@@ -78,7 +78,7 @@ COMPILE_CPU_S = {
     "unit-cell shell": 27,
     "unit-cell contact": 7,
     "grasp": 10,
-    "grasp sort": 15,
+    "grasp sort": 7,
 }
 
 

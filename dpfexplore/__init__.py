@@ -25,6 +25,9 @@ solvers
     :func:`snap_pressures`, legs: the Python API over the kernels (MODEL.md §6-§10).
 plotting
     ``plot_*(..., ax=None) -> Axes``; imports only model and solvers.
+grasping
+    :func:`dpfexplore.grasping.grasp`: the gripper closing on a disk, contact forces, the
+    contact sensor, payload per state (MODEL.md §12).
 measurements
     Printed fingers as data (the paper's ship with the package) and :func:`validate`: how well
     each constants set predicts them.

@@ -33,7 +33,8 @@ from pathlib import Path
 #: dynamics family's integrators and events; "snap" lands a snapped finger with those and the
 #: release's loaded state; the shell and the explorer's map share nothing with them, and the
 #: unit-cell contact builds on the shell. The benchmarks time their own loops over the statics,
-#: the sensitivities and the closed forms. The times order the ready steps (the longest chain of
+#: the sensitivities and the closed forms; the grasp's contact and sorting kernels call the
+#: lattice and its factorisations as the statics and the sensitivities do. The times order the ready steps (the longest chain of
 #: steps still to run first).
 STEPS: dict[str, tuple[tuple[str, ...], float]] = {
     "states": ((), 32),
@@ -50,6 +51,7 @@ STEPS: dict[str, tuple[tuple[str, ...], float]] = {
     "snap batch": (("snap",), 18),
     "fast reset": (("release",), 35),
     "explore raster": ((), 1),
+    "grasp": (("statics", "sensitivities"), 15),
 }
 
 
@@ -150,6 +152,30 @@ def _benchmarks() -> None:
     identify._table_build(12, 1, 0)
 
 
+def _grasp() -> None:
+    import numpy as np
+
+    from dpfexplore import load_design
+    from dpfexplore.examples import example_path
+    from dpfexplore.grasping import GraspOptions, grasp, gripper_of
+    from dpfexplore.grasping.sort import run_sort
+
+    gripper = gripper_of(load_design(example_path("gripper")))
+    grasp(gripper, 40.0, mu=0.5)
+    # the sorting kernel alone: sort_objects also runs the dynamics (the tip's reset), which
+    # the dynamics steps compile
+    run_sort(
+        gripper,
+        np.array([40.0]),
+        np.array([0.01]),
+        mu=0.5,
+        depth=gripper.default_depth(),
+        threshold=gripper.threshold(0.1),
+        tip_lasts=True,
+        options=GraspOptions(),
+    )
+
+
 def _steps() -> dict:
     import numpy as np
 
@@ -187,6 +213,7 @@ def _steps() -> dict:
         "release": lambda: reset_times_batch(batch, pulse, t_end=6.0, method="release"),
         "fast reset": compile_fast_reset,
         "benchmarks": _benchmarks,
+        "grasp": _grasp,
         "unit-cell shell": lambda: unit_cell_curve(3.0, 0.8, max_steps=20),
         "unit-cell contact": lambda: two_unit_rest(3.0, 0.8, gap=1.5, n_elements=16),
         "explore raster": _explore_raster,

@@ -22,6 +22,7 @@ PIPELINE = (
     ("_kernels",),
     ("solvers",),
     ("plotting",),
+    ("grasping",),
     ("measurements",),
     ("sweep",),
     ("lookup",),

@@ -26,4 +26,7 @@ design, design_timing
 identify, unitcell
     Identification's speed and accuracy; one dome's curve against the mesh error, a grid of
     curves, and the solid cross-check side by side.
+grasp
+    One grasp, the sorting loop over many objects and the sorting map, and the contact's error
+    against the tightest penetration tolerance.
 """

@@ -48,6 +48,7 @@ from .support.output import (
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
 COMMAND_MODULES = (
     "states",
+    "grasp",
     "sweep",
     "simulate",
     "simulate_leg",

@@ -29,6 +29,7 @@ BENCHMARKS = (
     "identify",
     "unitcell",
     "explore",
+    "grasp",
 )
 
 

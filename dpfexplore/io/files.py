@@ -207,6 +207,11 @@ SIZE_LIMITS: dict[str, SizeLimit] = {
         "lookup index",
         "an index of 10^8 rows: a few float64 columns per row, under 8 GiB",
     ),
+    "objects": SizeLimit(
+        64 * _MiB,
+        "objects file (CSV)",
+        "a row is a name, two numbers and a class, under 100 bytes: 10^5 objects are under 10 MiB",
+    ),
     "record": SizeLimit(
         16 * _MiB,
         "result record",

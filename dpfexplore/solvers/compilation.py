@@ -33,6 +33,8 @@ from collections.abc import Iterable
 
 from .._kernels._cache import is_cached
 from .._kernels.dynamics import batch as dynamics_batch
+from .._kernels.grasp import batch as grasp_batch
+from .._kernels.grasp import equilibrium as grasp_equilibrium
 from .._kernels.reset import reduced
 from .._kernels.sensitivity import batch as sensitivity_batch
 from .._kernels.shell import contact as shell_contact
@@ -59,6 +61,8 @@ KERNEL_GROUPS = {
     "snap": (ksnap.follow,),
     "unit-cell shell": (shell_path.follow,),
     "unit-cell contact": (shell_contact.rest_on_wall, shell_contact.polish_on_wall),
+    "grasp": (grasp_equilibrium.grasp_solve, grasp_batch.pull_out),
+    "grasp sort": (grasp_batch.sort_batch,),
 }
 #: Groups this process has announced or found compiled: checked once, never again.
 _SETTLED: set[str] = set()
@@ -73,6 +77,8 @@ COMPILE_CPU_S = {
     "release": 20,
     "unit-cell shell": 27,
     "unit-cell contact": 7,
+    "grasp": 10,
+    "grasp sort": 7,
 }
 
 

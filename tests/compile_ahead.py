@@ -34,8 +34,8 @@ from pathlib import Path
 #: release's loaded state; the shell and the explorer's map share nothing with them, and the
 #: unit-cell contact builds on the shell. The benchmarks time their own loops over the statics,
 #: the sensitivities and the closed forms; the grasp's contact and sorting kernels call the
-#: lattice and its factorisations as the statics and the sensitivities do. The times order the ready steps (the longest chain of
-#: steps still to run first).
+#: lattice and its factorisations as the statics and the sensitivities do. The times order the
+#: ready steps (the longest chain of steps still to run first).
 STEPS: dict[str, tuple[tuple[str, ...], float]] = {
     "states": ((), 32),
     "unit-cell shell": ((), 24),

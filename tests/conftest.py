@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import numpy as np
@@ -47,10 +48,15 @@ def pytest_sessionstart(session):
         return
     if not compile_ahead.groups_missing():
         return
+    started = time.perf_counter()
     try:
         compile_ahead.compile_all(workers=2)
     except RuntimeError as error:
         raise pytest.UsageError(f"compiling the kernels failed: {error}") from None
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        seconds = time.perf_counter() - started
+        reporter.write_line(f"compiled the kernels ahead in {seconds:.0f} s (two processes)")
 
 
 #: The longest test files (about 10-36 s each on a quiet 2-core machine), run first: with

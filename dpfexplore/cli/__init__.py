@@ -4,8 +4,9 @@ Thin by design: each command module parses its arguments, calls the public API a
 exit code (0 success, 1 failure of the computation, 2 bad input, 130 interrupted). Command
 modules register themselves through ``register(subparsers)``; :data:`COMMAND_MODULES` lists
 them, one module per command named after it (``sweep`` also holds ``query`` and
-``plot-space``); :mod:`.support` holds what they share (one-line errors and tolerant streams,
-help screens, naming a design or a constants set).
+``plot-space``, ``finger.grasp`` also ``sort``), those about one finger in :mod:`.finger`;
+:mod:`.support` holds what they share (one-line errors and tolerant streams, help screens,
+naming a design or a constants set).
 
 What every command gets from :func:`main`:
 
@@ -47,13 +48,13 @@ from .support.output import (
 
 #: Modules under :mod:`dpfexplore.cli` that each add one or more subcommands.
 COMMAND_MODULES = (
-    "states",
-    "grasp",
+    "finger.states",
+    "finger.grasp",
     "sweep",
-    "simulate",
-    "simulate_leg",
-    "snap",
-    "resetmaps",
+    "finger.simulate",
+    "finger.simulate_leg",
+    "finger.snap",
+    "finger.resetmaps",
     "resetmodel",
     "surrogate",
     "lookup",

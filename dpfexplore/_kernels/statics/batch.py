@@ -58,8 +58,8 @@ def _solve_rows(designs, rows, first, last, controls, outputs):
         n_iter[r] = it
         if keep_shape:
             nf = n_free(n_units[i])
-            shapes[r, :nf] = x[:nf]
-            shapes[r, nf:] = np.nan
+            for j in range(shapes.shape[1]):
+                shapes[r, j] = x[j] if j < nf else np.nan
 
 
 @kernel

@@ -255,9 +255,11 @@ def find_state(unit_params, h, requested, controls, x, ws):
         if best_found < 0 or (released and not best_is_release):
             best_found = found
             best_is_release = released
-            best[:] = x[:n]
+            for j in range(n):
+                best[j] = x[j]
     if best_found >= 0:
-        x[:n] = best
+        for j in range(n):
+            x[j] = best[j]
         return st.COLLAPSED, best_found, total_iter
     return last_status, -1, total_iter
 

@@ -6,9 +6,9 @@ import math
 import sys
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import add_constants_option, constants_record, design_of, print_constants_line
-from .support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
+from .. import EXIT_FAILURE, EXIT_OK, UsageError
+from ..support.inputs import add_constants_option, constants_record, design_of, print_constants_line
+from ..support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
 
 
 def register(subparsers) -> None:
@@ -63,8 +63,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Handler of ``dpfexplore snap``."""
-    from ..model.status import Status
-    from ..solvers.snap.continuation import snap_pressures
+    from ...model.status import Status
+    from ...solvers.snap.continuation import snap_pressures
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
@@ -138,7 +138,7 @@ def _print_table(seq, design, name) -> None:
 def _save_plot(seq, path: Path) -> None:
     from matplotlib.figure import Figure
 
-    from ..plotting.snap import plot_snap
+    from ...plotting.snap import plot_snap
 
     fig = Figure(figsize=(7, 7), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)

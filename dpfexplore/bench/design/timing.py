@@ -125,11 +125,11 @@ def _row(
 
 def bench_pickplace(args, jobs) -> list[dict]:
     """Each target reset time: ours (screening + bracket + Brent) against TPE."""
-    from ..inverse.evaluation import SceneEvaluator
-    from ..inverse.kinds import load_scene
-    from ..inverse.scenes.pickplace.problem import ResetProblem
-    from ..inverse.scenes.pickplace.solve import SEARCH_FRACTION, solve_pickplace
-    from ..inverse.scenes.pickplace.spec import with_target_reset
+    from ...inverse.evaluation import SceneEvaluator
+    from ...inverse.kinds import load_scene
+    from ...inverse.scenes.pickplace.problem import ResetProblem
+    from ...inverse.scenes.pickplace.solve import SEARCH_FRACTION, solve_pickplace
+    from ...inverse.scenes.pickplace.spec import with_target_reset
 
     base = load_scene(jobs / "design-pickplace.toml")
     rows = []
@@ -168,9 +168,9 @@ def bench_pickplace(args, jobs) -> list[dict]:
 
 def bench_walker(args, jobs) -> list[dict]:
     """Each leg of the walker scene: ours (section by section, roots) against TPE on the leg."""
-    from ..inverse.evaluation import SceneEvaluator
-    from ..inverse.kinds import load_scene
-    from ..inverse.scenes.walker.solve import WalkerSearch, solve_walker, violation
+    from ...inverse.evaluation import SceneEvaluator
+    from ...inverse.kinds import load_scene
+    from ...inverse.scenes.walker.solve import WalkerSearch, solve_walker, violation
 
     base = load_scene(jobs / "design-walker-leg.toml")
     rows = []
@@ -197,7 +197,7 @@ def bench_walker(args, jobs) -> list[dict]:
 
 def _leg_objective(search, variables, sizes: dict, kind: str, violation):
     """Black-box objective of a whole leg: box point -> requirement violation (recorded)."""
-    from ..model.design import DesignBatch
+    from ...model.design import DesignBatch
 
     def f(z) -> float:
         parts, start = {}, 0

@@ -20,7 +20,7 @@ for every method):
 
 The paper's ten position targets (five targets, Cheetah 95A and NinjaFlex 85A scenes), the
 gripper, and the timing scenes (pick-and-place target reset times and walker legs, against TPE at
-equal wall time: :mod:`dpfexplore.bench.design_timing`): for each method the exact evaluations
+equal wall time: :mod:`dpfexplore.bench.design.timing`): for each method the exact evaluations
 and wall time to reach 0.5 mm², 1e-6 mm² and the paper's objective, the best objective at the
 same number of evaluations and at the same wall time as ours, and the best objective within the
 baseline's budget. A black-box method gets
@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, count, emit, int_list, machine_info, name_list
+from .._common import REPORTS, count, emit, int_list, machine_info, name_list
 
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 #: The paper's best position objectives (mm², MODEL.md §9), per material.
@@ -215,8 +215,8 @@ def _summary(evaluator, paper: float, ours_evals: float, ours_wall: float) -> di
 
 def bench_position(spec, index: int, material: str, args) -> dict:
     """One position target: ours, TPE and GP-BO."""
-    from ..inverse.evaluation import SceneEvaluator
-    from ..inverse.scenes.position.solve import position_problems, solve_position_target
+    from ...inverse.evaluation import SceneEvaluator
+    from ...inverse.scenes.position.solve import position_problems, solve_position_target
 
     paper = PAPER_OBJECTIVES[material][index]
     ours = SceneEvaluator(max(spec.n_units))
@@ -224,7 +224,7 @@ def bench_position(spec, index: int, material: str, args) -> dict:
     mine = _summary(ours, paper, np.inf, np.inf)
     methods = {"ours": mine}
     if not args.no_seeded:
-        from ..inverse.scenes.position.spec import with_seeds
+        from ...inverse.scenes.position.spec import with_seeds
 
         seeded_spec = with_seeds(spec, seed_dataset(spec, args.seed_datasets))
         seeded = SceneEvaluator(max(spec.n_units))  # its clock starts here: after the one-off open
@@ -250,7 +250,7 @@ def seed_dataset(spec, made: dict[str, dict]) -> str:
     tip index and the design columns of the scene's N), which every later target shares. Both are
     one-off costs of the dataset, reported apart from the per-target rows as the sweep is.
     """
-    from ..inverse.engine.seeds import open_seeds
+    from ...inverse.engine.seeds import open_seeds
 
     order = spec.variables.get("heights", "free")
     job = JOBS / f"design-seeds-{order}.toml"
@@ -258,8 +258,8 @@ def seed_dataset(spec, made: dict[str, dict]) -> str:
     if str(out) not in made:
         wall = None
         if not (out / "_manifest.json").is_file():
-            from ..sweep.driver import run_sweep
-            from ..sweep.job_file import load_job
+            from ...sweep.driver import run_sweep
+            from ...sweep.job_file import load_job
 
             begin = time.perf_counter()
             run_sweep(load_job(job), out)
@@ -306,9 +306,9 @@ def _row(scene: str, target, material: str, paper: float | None, methods: dict) 
 
 def bench_gripper(args) -> dict:
     """The gripper: ours against the baselines on the apertures' squared error (mm²)."""
-    from ..inverse.evaluation import SceneEvaluator
-    from ..inverse.kinds import load_scene
-    from ..inverse.scenes.gripper.solve import gripper_problem, solve_gripper
+    from ...inverse.evaluation import SceneEvaluator
+    from ...inverse.kinds import load_scene
+    from ...inverse.scenes.gripper.solve import gripper_problem, solve_gripper
 
     spec = load_scene(JOBS / "design-gripper.toml")
     ours = SceneEvaluator(5)
@@ -336,7 +336,7 @@ def bench_gripper(args) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``bench design``."""
-    from ..inverse.kinds import load_scene, parse_scene
+    from ...inverse.kinds import load_scene, parse_scene
 
     logging.getLogger("bayes_opt").setLevel(logging.WARNING)
     args.seed_datasets = {}
@@ -359,7 +359,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.skip_gripper:
         rows.append(bench_gripper(args))
         _progress(rows[-1], started)
-    from .design_timing import bench_pickplace, bench_walker
+    from .timing import bench_pickplace, bench_walker
 
     for skip, bench in ((args.skip_pickplace, bench_pickplace), (args.skip_walker, bench_walker)):
         if not skip:
@@ -399,7 +399,7 @@ def _ratio(a, b):
 
 
 def _designs_in(path: str) -> int:
-    from ..sweep.storage.datasets import dataset_info
+    from ...sweep.storage.datasets import dataset_info
 
     return int(dataset_info(path).designs_committed)
 

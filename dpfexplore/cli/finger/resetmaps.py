@@ -5,13 +5,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.output import announce_compilation
+from .. import EXIT_FAILURE, EXIT_OK, UsageError
+from ..support.output import announce_compilation
 
 
 def register(subparsers) -> None:
     """Add the ``reset-maps`` subcommand."""
-    from ..solvers.dynamics.methods import DEFAULT_METHOD, METHODS
+    from ...solvers.dynamics.methods import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "reset-maps",
@@ -51,8 +51,8 @@ def run(args) -> int:
     """Run the command; returns the exit code."""
     import numpy as np
 
-    from ..io.result_dirs import ResultError, check_output_dir
-    from ..solvers.dynamics.resetmaps import ResetMapSpec, reset_time_maps
+    from ...io.result_dirs import ResultError, check_output_dir
+    from ...solvers.dynamics.resetmaps import ResetMapSpec, reset_time_maps
 
     if not 1 <= args.units <= 12:
         raise UsageError(f"--units {args.units}: must be between 1 and 12")
@@ -112,8 +112,8 @@ def write_reset_maps(maps, directory: str | Path, *, force: bool = False) -> lis
     The directory is a result directory (:mod:`dpfexplore.io.result_dirs`): written whole
     or not at all; one holding an earlier result is replaced only with ``force``.
     """
-    from ..io.result_dirs import result_directory
-    from ..plotting.dynamics import plot_reset_maps
+    from ...io.result_dirs import result_directory
+    from ...plotting.dynamics import plot_reset_maps
 
     directory = Path(directory)
     names = [f"reset_map_{name}.parquet" for name in maps] + ["reset_maps.png"]

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import add_constants_option, constants_argument, with_constants
-from .support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
+from .. import EXIT_FAILURE, EXIT_OK, UsageError
+from ..support.inputs import add_constants_option, constants_argument, with_constants
+from ..support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
 
 
 def register(subparsers) -> None:
@@ -45,8 +45,8 @@ def register(subparsers) -> None:
 
 
 def _leg(text: str, assignments, constants=None):
-    from ..examples import NAMES, example_path
-    from ..solvers.legs.leg import apply_assignments, load_leg
+    from ...examples import NAMES, example_path
+    from ...solvers.legs.leg import apply_assignments, load_leg
 
     path = Path(text)
     if not path.exists() and text in NAMES:
@@ -64,8 +64,8 @@ def _leg(text: str, assignments, constants=None):
 
 def run(args) -> int:
     """Run the command; returns the exit code."""
-    from ..model.status import Status
-    from ..solvers.legs.leg import simulate_leg
+    from ...model.status import Status
+    from ...solvers.legs.leg import simulate_leg
 
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
     try:
@@ -110,7 +110,7 @@ def _print_text(result, summary) -> None:
 def _save_plot(result, path: Path, assignments=()) -> None:
     from matplotlib.figure import Figure
 
-    from ..plotting.leg import plot_tip_paths
+    from ...plotting.leg import plot_tip_paths
 
     name = result.leg.name or "leg"
     # the legend names the leg that ran: the file's, changed by any --set

@@ -12,9 +12,9 @@ import argparse
 import math
 import sys
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import add_constants_option, design_of
-from .support.output import (
+from .. import EXIT_FAILURE, EXIT_OK, UsageError
+from ..support.inputs import add_constants_option, design_of
+from ..support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
     error_line,
@@ -110,7 +110,7 @@ def _check_options(args) -> None:
 
 
 def _gripper(args, groups=("states", "grasp")):
-    from ..grasping import gripper_of
+    from ...grasping import gripper_of
 
     try:
         design = design_of(args)
@@ -122,7 +122,7 @@ def _gripper(args, groups=("states", "grasp")):
 
 def run_grasp(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore grasp``."""
-    from ..grasping.grasp import check_object, grasp
+    from ...grasping.grasp import check_object, grasp
 
     diameter, mass = _object(args.object)
     _check_options(args)
@@ -203,7 +203,7 @@ def _plot_grasp(report, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..plotting.grasp import plot_grasp
+    from ...plotting.grasp import plot_grasp
 
     n = len(report.states)
     fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 4), squeeze=False)
@@ -228,7 +228,7 @@ def run_sort(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore sort``."""
     import numpy as np
 
-    from ..grasping.sort import WEIGHT_CLASSES, read_objects, sort_objects, sorting_map
+    from ...grasping.sort import WEIGHT_CLASSES, read_objects, sort_objects, sorting_map
 
     _check_options(args)
     try:
@@ -260,7 +260,7 @@ def run_sort(args: argparse.Namespace) -> int:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plotting.grasp import plot_sorting_map
+        from ...plotting.grasp import plot_sorting_map
 
         lo = 0.5 * float(np.min(objects.diameters))
         diameters = np.linspace(lo, gripper.open_aperture, 100)

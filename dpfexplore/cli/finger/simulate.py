@@ -6,9 +6,9 @@ import json
 import math
 from pathlib import Path
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import add_constants_option, design_of, model_record, print_constants_line
-from .support.output import (
+from .. import EXIT_FAILURE, EXIT_OK, UsageError
+from ..support.inputs import add_constants_option, design_of, model_record, print_constants_line
+from ..support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
     fitted_range_line,
@@ -20,7 +20,7 @@ from .support.output import (
 
 def register(subparsers) -> None:
     """Add the ``simulate`` subcommand."""
-    from ..solvers.dynamics.methods import DEFAULT_METHOD, METHODS
+    from ...solvers.dynamics.methods import DEFAULT_METHOD, METHODS
 
     parser = subparsers.add_parser(
         "simulate",
@@ -69,7 +69,7 @@ def register(subparsers) -> None:
 
 
 def _profile(args):
-    from ..solvers.dynamics.simulate import PressureProfile
+    from ...solvers.dynamics.simulate import PressureProfile
 
     if args.profile:
         try:
@@ -91,8 +91,8 @@ def _profile(args):
 
 def run(args) -> int:
     """Run the command; returns the exit code."""
-    from ..model.status import Status
-    from ..solvers.dynamics.simulate import simulate
+    from ...model.status import Status
+    from ...solvers.dynamics.simulate import simulate
 
     if args.method != "fast" and (args.max_rel_halfwidth is not None or args.reset_model):
         raise UsageError("--max-rel-halfwidth and --reset-model need --method fast")
@@ -151,10 +151,10 @@ def run(args) -> int:
 
 def _run_fast(args, design, profile) -> int:
     """``--method fast``: one row of ``reset_times_batch(method="fast")``, printed like a run."""
-    from ..model.design import DesignBatch
-    from ..model.status import Status
-    from ..solvers.dynamics.fast_reset import FALLBACK_REASONS
-    from ..solvers.dynamics.simulate import CLASS_NAMES, reset_times_batch
+    from ...model.design import DesignBatch
+    from ...model.status import Status
+    from ...solvers.dynamics.fast_reset import FALLBACK_REASONS
+    from ...solvers.dynamics.simulate import CLASS_NAMES, reset_times_batch
 
     out = reset_times_batch(
         DesignBatch.from_designs([design]),
@@ -226,7 +226,7 @@ def _run_fast(args, design, profile) -> int:
 def _save_plot(result, path: Path) -> None:
     from matplotlib.figure import Figure
 
-    from ..plotting.dynamics import plot_simulation
+    from ...plotting.dynamics import plot_simulation
 
     fig = Figure(figsize=(7, 7), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)

@@ -6,9 +6,9 @@ import argparse
 import math
 import sys
 
-from . import EXIT_FAILURE, EXIT_OK, UsageError
-from .support.inputs import add_constants_option, design_of, model_record, print_constants_line
-from .support.output import (
+from .. import EXIT_FAILURE, EXIT_OK, UsageError
+from ..support.inputs import add_constants_option, design_of, model_record, print_constants_line
+from ..support.output import (
     FIGURE_SUFFIXES,
     announce_compilation,
     error_line,
@@ -64,9 +64,9 @@ def _number(value: float):
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore states``."""
-    from ..model.gripper import gripper_aperture
-    from ..solvers.lattice import spring_constants
-    from ..solvers.statics import enumerate_states
+    from ...model.gripper import gripper_aperture
+    from ...solvers.lattice import spring_constants
+    from ...solvers.statics import enumerate_states
 
     try:
         design = design_of(args)
@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plotting.statics import plot_states, plot_states_grid
+        from ...plotting.statics import plot_states, plot_states_grid
 
         if sum(r.stable for r in results) > 6:  # too many to overlay: one panel each
             save_figure(plot_states_grid(results), plot, dpi=150, bbox_inches="tight")

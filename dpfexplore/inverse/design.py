@@ -35,7 +35,11 @@ logger = logging.getLogger(__name__)
 
 
 class TargetProgress(Protocol):
-    """Receives progress: ``start(total)``, ``advance(text)`` per target, ``close()``."""
+    """Receives progress: ``start(total)``, ``advance(text)`` per target, ``close()``.
+
+    Optional: ``batch(text)``, told after each evaluation batch of the optimiser where the
+    target under way is (``"target 2/5: refining 12/60"``: iterations done of the budget).
+    """
 
     def start(self, total: int) -> None: ...  # noqa: D102
 
@@ -75,6 +79,13 @@ def _progress_text(i: int, total: int, row: Mapping[str, Any]) -> str:
     return f"result {i + 1}/{total} {row.get('target')}: objective {shown}"
 
 
+def _batch_reporter(batch, i: int, total: int):
+    def report(what: str, done: int, of: int) -> None:
+        batch(f"target {i + 1}/{total}: {what} {done}/{of}")
+
+    return report
+
+
 def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> DesignOutcome:
     """Solve every target of a scene and verify every reported design."""
     evaluator = SceneEvaluator(max(spec.n_units))
@@ -83,8 +94,11 @@ def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> 
     if progress is not None:
         progress.start(total)
     results = []
+    batch = getattr(progress, "batch", None)
     try:
         for i in range(total):
+            if batch is not None:
+                evaluator.on_batch = _batch_reporter(batch, i, total)
             outcome = kind.solve(spec, i, evaluator)
             result = kind.report(spec, outcome, evaluator)
             results.append(result)

@@ -2,8 +2,9 @@ r"""The longest silence of a command: run it piped, timestamp each line it write
 
 A command that works for minutes should never leave its user without a line for more than a
 few seconds (docs/decisions.md, "Progress"). This runs each command given (a shell command
-line, as the README and the guides write it, with ``dpfexplore`` resolved to this checkout's
-``.venv/bin/dpfexplore``) with standard output and standard error on pipes, reads both as lines
+line, as the README and the guides write it, with ``dpfexplore`` run as ``python -m dpfexplore``
+on this checkout's package, by the Python that runs the script) with standard output and
+standard error on pipes, reads both as lines
 arrive, and prints per command: its wall time, the longest gap between two lines (from the
 start to the first line and from the last line to the exit count too), where that gap ended,
 and the exit code.
@@ -56,11 +57,11 @@ def documented() -> list[str]:
 
 def run(command: str, *, verbose: bool = False) -> dict:
     """Run ``command`` piped; the times of its lines, its longest silence and its exit code."""
-    exe = ROOT / ".venv" / "bin" / "dpfexplore"
-    shell = re.sub(r"^dpfexplore\b", str(exe), command)
+    shell = re.sub(r"^dpfexplore\b", f"{sys.executable} -m dpfexplore", command)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))  # this checkout's package
     start = time.monotonic()
     proc = subprocess.Popen(
-        shell, shell=True, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        shell, shell=True, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE
     )
     chooser = selectors.DefaultSelector()
     buffers = {}

@@ -1,6 +1,6 @@
 """What a long command tells its user while it works: the one progress display of the package.
 
-A command's work is a sequence of *stages* (``"compiling 1/2: states and statics kernels"``,
+A command's work is a sequence of *stages* (``"compiling the states kernels, group 1/2"``,
 ``"target 2/5 (46, 32)"``, ``"designs"``), each with a count done out of a total when it has one.
 :class:`Progress` shows them on a stream:
 

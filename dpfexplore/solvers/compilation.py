@@ -7,8 +7,8 @@ is the one notice, in one line, of every command (the CLI prints it before the w
 the Python API, :func:`announce`, logs it once per process as a WARNING on the ``dpfexplore``
 logger, which Python shows on stderr even when logging is not configured); it also starts a
 watcher of Numba's compilations that shows each group as a stage of the command's progress
-display (:mod:`dpfexplore.io.progress`): ``compiling 1/2: states kernels`` with the time so far,
-never silent for more than a few seconds while Numba compiles.
+display (:mod:`dpfexplore.io.progress`): ``compiling the states kernels, group 1/2`` with the
+time and the CPU so far, never silent for more than a few seconds while Numba compiles.
 
 :data:`COMPILE_CPU_S` holds what a group costs on an empty cache, in seconds of CPU (not wall:
 on a machine other processes load, wall time says how busy it was), measured by
@@ -180,7 +180,7 @@ def _unregister(watchers: list[CompileWatcher]) -> None:
 
 
 class CompileWatcher(numba_event.Listener):
-    """A Numba event listener that turns compilations into stages ``compiling i/n: G kernels``.
+    """A Numba event listener: each group's compilation a stage ``compiling the G kernels, ...``.
 
     Parameters
     ----------
@@ -231,7 +231,8 @@ class CompileWatcher(numba_event.Listener):
             display = self._display()
             group = self.groups[index]
             display.stage(
-                f"compiling {index + 1}/{len(self.groups)}: {group} kernels ({cpu_range([group])})",
+                f"compiling the {group} kernels, group {index + 1}/{len(self.groups)} "
+                f"({cpu_range([group])})",
                 busy=self.compiling,
                 cpu=True,
             )

@@ -115,8 +115,8 @@ def test_each_compiled_group_is_a_stage_while_numba_compiles(monkeypatch, capsys
     compilation.stop_watching()
     assert watcher not in compilation._WATCHERS
     err = capsys.readouterr().err
-    assert "test: compiling 1/2: toy one kernels (about 1-2 s of CPU" in err
-    assert "test: compiling 2/2: toy two kernels (about 3-4 s of CPU" in err
+    assert "test: compiling the toy one kernels, group 1/2 (about 1-2 s of CPU" in err
+    assert "test: compiling the toy two kernels, group 2/2 (about 3-4 s of CPU" in err
 
 
 def test_design_reports_every_evaluation_batch_with_done_and_total(tmp_path):

@@ -35,3 +35,18 @@ def register(subparsers) -> None:
     bench_sub = parser.add_subparsers(dest="benchmark", metavar="BENCHMARK", required=True)
     for name in BENCHMARKS:
         importlib.import_module(f"dpfexplore.bench.{name}").register(bench_sub)
+    for name, sub in bench_sub.choices.items():
+        sub.set_defaults(handler=_with_progress(name, sub.get_default("handler")))
+
+
+def _with_progress(name: str, handler):
+    """``handler`` run as a stage of a progress display: a line every few seconds it is silent."""
+
+    def run(args):
+        from ..io.progress import Progress
+
+        with Progress("bench", boundaries=False) as display:
+            display.stage(f"benchmark {name}")
+            return handler(args)
+
+    return run

@@ -85,6 +85,9 @@ class _TargetProgress:
         self.display.note(text)
         self.display.update(advance=1, detail="")
 
+    def stage(self, text: str) -> None:
+        self.display.stage(text)
+
     def close(self) -> None:
         self.display.end_stage()
 

@@ -38,7 +38,8 @@ class TargetProgress(Protocol):
     """Receives progress: ``start(total)``, ``advance(text)`` per target, ``close()``.
 
     Optional: ``batch(text)``, told after each evaluation batch of the optimiser where the
-    target under way is (``"target 2/5: refining 12/60"``: iterations done of the budget).
+    target under way is (``"target 2/5: refining 12/60"``: iterations done of the budget);
+    ``stage(text)``, told what :func:`run_design` does after the targets (writing the report).
     """
 
     def start(self, total: int) -> None: ...  # noqa: D102
@@ -142,6 +143,9 @@ def run_design(
         "results": len(outcome.results),
         "constants": spec.constants.fingerprint,
     }
+    stage = getattr(progress, "stage", None)
+    if stage is not None:
+        stage("writing the report and figures" if plot else "writing the report")
     with result_directory(out, kind="design", force=force, description=facts) as staging:
         writer(spec, outcome.results, outcome.evaluator, staging, wall_s=outcome.wall_s, plot=plot)
     return outcome

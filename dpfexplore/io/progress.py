@@ -284,7 +284,7 @@ class Progress:
                 dynamic_ncols=True,
                 file=self.stream,
                 bar_format=None if known else "{desc}: {elapsed}{postfix}",
-                leave=True,
+                leave=self.boundaries,  # a stage that tells no boundaries leaves no line
             )
         except (OSError, ValueError):
             self.bar, self._quiet = None, True

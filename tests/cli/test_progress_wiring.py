@@ -164,6 +164,7 @@ def test_design_shows_targets_done_of_total_and_one_line_per_result(tmp_path, ca
     assert main(["design", str(_scene(tmp_path)), "--out", str(tmp_path / "out")]) in (0, 1)
     err = capsys.readouterr().err
     assert "design: targets 0/2 (0 %)" in err and "design: targets 2/2 (100 %)" in err
+    assert err.rstrip().endswith("design: writing the report")
     assert len(re.findall(r"design: result \d/2 ", err)) == 2
 
 

@@ -172,3 +172,32 @@ def _scene(tmp_path):
     path = tmp_path / "scene.toml"
     path.write_text(SCENE)
     return path
+
+
+def test_unitcell_sweep_chunks_are_a_stage_of_the_display():
+    import io
+
+    from dpfexplore.cli.unitcell import _chunks
+
+    stream = io.StringIO()
+    with Progress("unitcell sweep", stream, heartbeat=False) as display:
+        progress = _chunks(display)
+        progress(1, 4)  # the first report opens the stage, with what is done already
+        progress(4, 4)
+    said = [line[9:] for line in stream.getvalue().splitlines()]
+    assert said[0] == "unitcell sweep: chunks 1/4 (25 %)"
+    assert said[-1].startswith("unitcell sweep: chunks 4/4 (100 %)")
+
+
+def test_a_benchmark_runs_inside_a_display_that_speaks_only_when_silent():
+    from dpfexplore.cli.bench import _with_progress
+    from dpfexplore.io.progress import active
+
+    seen = []
+
+    def handler(args):
+        seen.append((active().what, active().boundaries))
+        return 7
+
+    assert _with_progress("statics", handler)(None) == 7
+    assert seen == [("benchmark statics", False)] and active() is None

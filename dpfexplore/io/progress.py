@@ -240,7 +240,8 @@ class Progress:
             if counted > 0 and elapsed > 0:
                 rate = counted / elapsed
                 if self.unit:
-                    parts.append(f"{rate:.3g} {self.unit}s/s")
+                    shown = f"{rate:.0f}" if rate >= 10 else f"{rate:.2g}"
+                    parts.append(f"{shown} {self.unit}s/s")
                 parts.append(f"ETA {duration((self.total - self.done) / rate)}")
         if self.detail:
             parts.append(self.detail)

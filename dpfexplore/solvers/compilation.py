@@ -10,13 +10,15 @@ watcher of Numba's compilations that shows each group as a stage of the command'
 display (:mod:`dpfexplore.io.progress`): ``compiling the states kernels, group 1/2`` with the
 time and the CPU so far, never silent for more than a few seconds while Numba compiles.
 
-:data:`COMPILE_CPU_S` holds what a group costs on an empty cache, in seconds of CPU (not wall:
-on a machine other processes load, wall time says how busy it was), measured by
-``scripts/compile_cpu.py`` (each group alone, in a fresh process with an empty
-``NUMBA_CACHE_DIR``) on a 2-core AMD EPYC VM shared with four other jobs (load 6-8). A group
-shares most of its code with the others (the lattice assembly, the linear algebra), so a second
-group costs less once the first is compiled; the notice's sum of several groups is an upper
-bound. Which commands run which group:
+:data:`COMPILE_CPU_S` holds what each group costs alone on an empty cache, in seconds of CPU
+(not wall: on a machine other processes load, wall time says how busy it was; ``states``: 34 s
+of CPU took 116 s of wall at load 9), measured by ``scripts/compile_cpu.py`` (each group in a
+fresh process with an empty ``NUMBA_CACHE_DIR``) on 2-core AMD EPYC VMs: the least of a range on
+a quiet VM, the most on one shared with four other jobs (load 5-10). A group shares most of its
+code with the others (the lattice assembly, the linear algebra), so a second group costs less
+once the first is compiled (``statics`` after ``states``: about 9 s of CPU); several groups are
+quoted from the dearest alone to the sum of all (:func:`cpu_range`). Which commands run which
+group:
 
 * ``states``: ``states``, ``find_state`` (one design, serial kernels);
 * ``statics``: every ``sweep``, ``solve_batch`` (parallel kernels);
@@ -83,17 +85,18 @@ _SETTLED: set[str] = set()
 _WATCHERS: list[CompileWatcher] = []
 #: The machine :data:`COMPILE_CPU_S` was measured on (module docstring).
 COMPILE_MACHINE = "a 2-core AMD EPYC VM"
-#: First-compile cost of each group, seconds of CPU: (least, most) of the runs measured on
-#: :data:`COMPILE_MACHINE` by ``scripts/compile_cpu.py`` (module docstring).
+#: First-compile cost of each group alone on an empty cache, seconds of CPU: (least, most) of
+#: the runs on :data:`COMPILE_MACHINE` (``scripts/compile_cpu.py``): the least on a quiet VM,
+#: the most on one shared with four other jobs (load 5-10), where CPU time is higher too.
 COMPILE_CPU_S: dict[str, tuple[int, int]] = {
-    "states": (23, 45),
-    "statics": (22, 45),
-    "sensitivities": (14, 30),
-    "snap": (28, 55),
-    "dynamics": (20, 40),
-    "reset": (20, 40),
-    "release": (20, 40),
-    "unit-cell shell": (27, 55),
+    "states": (23, 34),
+    "statics": (22, 46),
+    "sensitivities": (37, 60),
+    "snap": (51, 72),
+    "dynamics": (20, 49),
+    "reset": (20, 56),
+    "release": (20, 52),
+    "unit-cell shell": (27, 63),
     "unit-cell contact": (7, 15),
 }
 
@@ -108,9 +111,14 @@ def uncompiled(groups: Iterable[str]) -> list[str]:
 
 
 def cpu_range(groups: Iterable[str]) -> str:
-    """What compiling ``groups`` costs: ``"about 30-45 s of CPU on a 2-core AMD EPYC VM"``."""
+    """What compiling ``groups`` costs: ``"about 23-34 s of CPU on a 2-core AMD EPYC VM"``.
+
+    For several groups, from the least of the dearest group alone to the sum of the most: the
+    groups share code, so the second costs less once the first is compiled (``statics`` after
+    ``states``: about 9 s of CPU instead of 45).
+    """
     groups = list(groups)
-    low = sum(COMPILE_CPU_S[group][0] for group in groups)
+    low = max(COMPILE_CPU_S[group][0] for group in groups)
     high = sum(COMPILE_CPU_S[group][1] for group in groups)
     return f"about {low}-{high} s of CPU on {COMPILE_MACHINE}"
 

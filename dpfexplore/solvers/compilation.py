@@ -96,8 +96,8 @@ COMPILE_CPU_S: dict[str, tuple[int, int]] = {
     "dynamics": (20, 49),
     "reset": (20, 56),
     "release": (20, 52),
-    "unit-cell shell": (27, 63),
-    "unit-cell contact": (7, 15),
+    "unit-cell shell": (26, 27),
+    "unit-cell contact": (7, 28),
 }
 
 

@@ -97,7 +97,7 @@ COMPILE_CPU_S: dict[str, tuple[int, int]] = {
     "reset": (20, 56),
     "release": (20, 52),
     "unit-cell shell": (26, 27),
-    "unit-cell contact": (7, 28),
+    "unit-cell contact": (7, 28),  # 7 once the shell is compiled (what unitcell runs first)
 }
 
 

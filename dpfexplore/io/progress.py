@@ -291,9 +291,11 @@ class Progress:
             self.bar, self._quiet = None, True
 
     def _bar_show(self, steps: int) -> None:
-        if self.detail:
-            self.bar.set_postfix_str(self.detail, refresh=False)
-        self.bar.update(steps) if steps else self.bar.refresh()
+        # tqdm redraws on update at most every 0.1 s; a detail alone waits for the heartbeat's
+        # refresh (every 0.5 s), so a loop may report every iteration
+        self.bar.set_postfix_str(self.detail, refresh=False)
+        if steps:
+            self.bar.update(steps)
 
     def _bar_call(self, call, *args) -> None:
         try:

@@ -54,6 +54,7 @@ def register(subparsers) -> None:
             sub.set_defaults(
                 handler=functools.partial(_refuse_overwrite, name, sub.get_default("handler"))
             )
+        sub.set_defaults(handler=_with_progress(name, sub.get_default("handler")))
 
 
 def saved_record(name: str, args) -> Path:
@@ -73,3 +74,16 @@ def _refuse_overwrite(name: str, handler, args) -> int:
     if args.save:
         refuse_overwrite(saved_record(name, args), "--save", args.force)
     return handler(args)
+
+
+def _with_progress(name: str, handler):
+    """``handler`` run as a stage of a progress display: a line every few seconds it is silent."""
+
+    def run(args):
+        from ..io.progress import Progress
+
+        with Progress("bench", boundaries=False) as display:
+            display.stage(f"benchmark {name}")
+            return handler(args)
+
+    return run

@@ -17,10 +17,9 @@ which, and why), 2 bad input (one line on stderr; nothing written).
 from __future__ import annotations
 
 import argparse
-import sys
-import time
 from pathlib import Path
 
+from ..io.progress import Progress
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from .support.inputs import add_constants_option, refuse_failed_set
 from .support.output import json_text
@@ -70,41 +69,27 @@ def register(subparsers) -> None:
     parser.set_defaults(handler=run)
 
 
-class _BarProgress:
-    """tqdm bar over the targets on a terminal."""
+class _TargetProgress:
+    """The targets as a stage of the display, each result a line, each evaluation batch a detail."""
 
-    def __init__(self) -> None:
-        self.bar = None
-
-    def start(self, total: int) -> None:
-        from tqdm import tqdm
-
-        self.bar = tqdm(total=total, unit="target", dynamic_ncols=True, file=sys.stderr)
-
-    def advance(self, text: str) -> None:
-        self.bar.set_postfix_str(text, refresh=False)
-        self.bar.update(1)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-class _LineProgress:
-    """One line on stderr per target: for logs and pipes."""
+    def __init__(self, display: Progress) -> None:
+        self.display = display
 
     def start(self, total: int) -> None:
-        self._emit(f"{total} target(s)")
+        self.display.stage("targets", total, unit="target")
+
+    def batch(self, text: str) -> None:
+        self.display.update(detail=text)
 
     def advance(self, text: str) -> None:
-        self._emit(text)
+        self.display.note(text)
+        self.display.update(advance=1, detail="")
+
+    def stage(self, text: str) -> None:
+        self.display.stage(text)
 
     def close(self) -> None:
-        pass
-
-    @staticmethod
-    def _emit(text: str) -> None:
-        print(f"{time.strftime('%H:%M:%S')} design: {text}", file=sys.stderr, flush=True)
+        self.display.end_stage()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -127,9 +112,11 @@ def run(args: argparse.Namespace) -> int:
         check_output_dir(out, force=args.force)
     except ResultError as exc:
         raise UsageError(str(exc)) from None
-    progress = _BarProgress() if sys.stderr.isatty() else _LineProgress()
     try:
-        outcome = run_design(spec, out, plot=args.plot, progress=progress, force=args.force)
+        with Progress("design") as display:
+            outcome = run_design(
+                spec, out, plot=args.plot, progress=_TargetProgress(display), force=args.force
+            )
     except ResultError as exc:  # another writer took the directory meanwhile
         raise UsageError(str(exc)) from None
     rows = outcome.rows

@@ -11,6 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..io.progress import Progress
 from . import EXIT_FAILURE, EXIT_OK, UsageError
 from .support.inputs import add_constants_option, constants_argument
 from .support.output import FIGURE_SUFFIXES, json_text, output_path, save_figure
@@ -134,22 +135,24 @@ def run(args: argparse.Namespace) -> int:
     try:
         n_units = parse_n_units(args.n_units) if args.n_units else None
         constraints = parse_constraints(args.constraints)
-        result = lookup(
-            args.dataset,
-            target,
-            columns=columns,
-            scales=scales,
-            state=args.state,
-            n_units=n_units,
-            where=args.where,
-            k=args.k,
-            refine=args.refine,
-            constraints=constraints,
-            tol=args.tol,
-            rebuild=not args.no_rebuild,
-            verify=not args.no_verify,
-            constants=constants_argument(args.constants),
-        )
+        with Progress("lookup", boundaries=False) as display:
+            display.stage("searching, re-solving and refining" if args.refine else "searching")
+            result = lookup(
+                args.dataset,
+                target,
+                columns=columns,
+                scales=scales,
+                state=args.state,
+                n_units=n_units,
+                where=args.where,
+                k=args.k,
+                refine=args.refine,
+                constraints=constraints,
+                tol=args.tol,
+                rebuild=not args.no_rebuild,
+                verify=not args.no_verify,
+                constants=constants_argument(args.constants),
+            )
     except (StoreError, StaleIndexError, ValueError) as exc:
         raise UsageError(str(exc).splitlines()[0]) from None
     except KeyError as exc:  # read_results names an unknown --where column this way

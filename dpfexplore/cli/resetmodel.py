@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import math
-import sys
-import time
 from itertools import pairwise
 from pathlib import Path
 
+from ..io.progress import Progress
 from . import EXIT_OK, UsageError
 from .support.output import announce_compilation, json_text, output_path
 
@@ -134,13 +133,10 @@ def run_fit(args) -> int:
         atol=args.atol,
         seed=args.seed,
     )
-    announce_compilation("reset-model", ["reset"])
-    model, record = fit_reset_model(
-        options,
-        progress=lambda line: print(
-            f"{time.strftime('%H:%M:%S')} reset-model fit: {line}", file=sys.stderr, flush=True
-        ),
-    )
+    with Progress("reset-model fit") as display:
+        announce_compilation("reset-model", ["reset"])
+        display.stage("fitting")
+        model, record = fit_reset_model(options, progress=display.note)
     if args.test_designs and (args.P0, tau) == (0.7, (0.0, 1.0, 5.0, 5.1)):
         from ..bench.reset_model import reset_model_record
 

@@ -18,10 +18,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
-import time
 from pathlib import Path
 
-from ..sweep.progress import LogProgress
+from ..io.progress import Progress
+from ..sweep.progress import DisplayProgress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError, error_line
 from .support.inputs import add_constants_option, constants_argument, constants_line, with_constants
 from .support.output import FIGURE_SUFFIXES, output_path, save_figure, save_table
@@ -128,59 +128,6 @@ def register(subparsers) -> None:
 # ----------------------------------------------------------------------------- sweep
 
 
-class _BarProgress:
-    """tqdm bar on the terminal: designs done, rate, ETA. Output problems never stop a sweep."""
-
-    def __init__(self) -> None:
-        self.bar = None
-
-    def note(self, text: str) -> None:
-        error_line(f"sweep: {text} ...")
-
-    def start(self, total_designs: int, done_designs: int) -> None:
-        from tqdm import tqdm
-
-        try:
-            self.bar = tqdm(
-                total=total_designs,
-                initial=done_designs,
-                unit="design",
-                unit_scale=True,
-                dynamic_ncols=True,
-                file=sys.stderr,
-            )
-        except (OSError, ValueError):
-            self.bar = None
-
-    def advance(self, record) -> None:
-        if self.bar is None:
-            return
-        try:
-            self.bar.update(record.stop - record.start)
-        except (OSError, ValueError):  # the terminal went away: go on without a bar
-            self.bar = None
-
-    def close(self) -> None:
-        if self.bar is not None:
-            try:
-                self.bar.close()
-            except (OSError, ValueError):
-                pass
-
-
-class _LineProgress(LogProgress):
-    """One line on stderr per ``interval`` seconds (and at the end): for logs and pipes.
-
-    Lines that cannot be written (stderr closed) are dropped; the sweep goes on.
-    """
-
-    def note(self, text: str) -> None:
-        self.emit(text)
-
-    def emit(self, text: str) -> None:
-        error_line(f"{time.strftime('%H:%M:%S')} sweep: {text}")
-
-
 def _sweep(args: argparse.Namespace) -> int:
     from ..sweep.driver import SweepInterrupted, run_sweep
     from ..sweep.engines import make_engine
@@ -208,16 +155,16 @@ def _sweep(args: argparse.Namespace) -> int:
         _repair(args, spec, out)
         if not args.resume:
             return EXIT_OK
-    progress = _BarProgress() if sys.stderr.isatty() else _LineProgress()
     try:
-        summary = run_sweep(
-            spec,
-            out,
-            resume=args.resume,
-            engine=engine,
-            chunk_size=args.chunk_size,
-            progress=progress,
-        )
+        with Progress("sweep") as display:
+            summary = run_sweep(
+                spec,
+                out,
+                resume=args.resume,
+                engine=engine,
+                chunk_size=args.chunk_size,
+                progress=DisplayProgress(display),
+            )
     except StoreError as exc:
         raise UsageError(str(exc)) from None
     except OSError as exc:  # a full disk while committing: what is committed stays valid

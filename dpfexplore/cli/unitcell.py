@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..io.progress import Progress
 from . import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from .support.output import (
     FIGURE_SUFFIXES,
@@ -117,12 +118,12 @@ def _sweep(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     terminated: list[int] = []
     try:
-        with _sigterm_interrupts(terminated):
+        with _sigterm_interrupts(terminated), Progress("unitcell sweep") as display:
             manifest = run_unitcell_sweep(
                 job,
                 args.out,
                 workers=args.workers,
-                progress=None if args.json else _progress,
+                progress=None if args.json else _chunks(display),
                 engine=args.engine,
                 scheduler=args.scheduler,
             )
@@ -193,8 +194,16 @@ def _sigterm_interrupts(received: list[int]) -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
-def _progress(done: int, total: int) -> None:
-    print(f"dpfexplore unitcell sweep: chunk {done}/{total}", file=sys.stderr)
+def _chunks(display: Progress):
+    """The sweep's ``progress(done, total)`` as the chunks' stage of ``display``."""
+
+    def progress(done: int, total: int) -> None:
+        if display.what is None:
+            display.stage("chunks", total, done=done, unit="chunk")
+        else:
+            display.update(done)
+
+    return progress
 
 
 def _curve(args: argparse.Namespace) -> int:

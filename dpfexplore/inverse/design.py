@@ -35,7 +35,12 @@ logger = logging.getLogger(__name__)
 
 
 class TargetProgress(Protocol):
-    """Receives progress: ``start(total)``, ``advance(text)`` per target, ``close()``."""
+    """Receives progress: ``start(total)``, ``advance(text)`` per target, ``close()``.
+
+    Optional: ``batch(text)``, told after each evaluation batch of the optimiser where the
+    target under way is (``"target 2/5: refining 12/60"``: iterations done of the budget);
+    ``stage(text)``, told what :func:`run_design` does after the targets (writing the report).
+    """
 
     def start(self, total: int) -> None: ...  # noqa: D102
 
@@ -75,6 +80,13 @@ def _progress_text(i: int, total: int, row: Mapping[str, Any]) -> str:
     return f"result {i + 1}/{total} {row.get('target')}: objective {shown}"
 
 
+def _batch_reporter(batch, i: int, total: int):
+    def report(what: str, done: int, of: int) -> None:
+        batch(f"target {i + 1}/{total}: {what} {done}/{of}")
+
+    return report
+
+
 def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> DesignOutcome:
     """Solve every target of a scene and verify every reported design."""
     evaluator = SceneEvaluator(max(spec.n_units))
@@ -83,8 +95,11 @@ def design_scene(spec: SceneSpec, *, progress: TargetProgress | None = None) -> 
     if progress is not None:
         progress.start(total)
     results = []
+    batch = getattr(progress, "batch", None)
     try:
         for i in range(total):
+            if batch is not None:
+                evaluator.on_batch = _batch_reporter(batch, i, total)
             outcome = kind.solve(spec, i, evaluator)
             result = kind.report(spec, outcome, evaluator)
             results.append(result)
@@ -128,6 +143,9 @@ def run_design(
         "results": len(outcome.results),
         "constants": spec.constants.fingerprint,
     }
+    stage = getattr(progress, "stage", None)
+    if stage is not None:
+        stage("writing the report and figures" if plot else "writing the report")
     with result_directory(out, kind="design", force=force, description=facts) as staging:
         writer(spec, outcome.results, outcome.evaluator, staging, wall_s=outcome.wall_s, plot=plot)
     return outcome

@@ -30,7 +30,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import numba
 import numpy as np
@@ -105,6 +105,14 @@ class SceneEvaluator:
         # objective seen and its point, and, while archiving, every stiffness evaluation.
         self._best_seen: dict[int, tuple[float, NDArray | None]] = {}
         self._archives: dict[int, list] = {}
+        #: Told ``(what, done, total)`` by the optimiser's loops after each evaluation batch
+        #: (:meth:`report`); None: nobody listens.
+        self.on_batch: Callable[[str, int, int], None] | None = None
+
+    def report(self, what: str, done: int, total: int) -> None:
+        """Tell :attr:`on_batch` that ``what`` (``"refining"``) has done ``done`` of ``total``."""
+        if self.on_batch is not None:
+            self.on_batch(what, done, total)
 
     # ------------------------------------------------------------------ what problems saw
 

@@ -2,10 +2,11 @@
 
 A fit is a known number of steps (each status classifier, each regressor, the exact model's
 errors, the timing); :func:`~.fit.fit_surrogates` tells its progress when each step begins and
-ends. :func:`fit_progress` picks the display as the sweep's CLI does
-(:mod:`dpfexplore.sweep.progress`): a tqdm bar on ``stream`` when it is a terminal (the step
-under way as its description, each finished step's line above it), else one line per step to
-a callable or the module logger. Output problems never stop a fit.
+ends. :func:`fit_progress` picks the display (:class:`dpfexplore.io.progress.Progress`, the
+package's one): a tqdm bar on ``stream`` when it is a terminal (the step under way as its
+description, each finished step's line above it), else one line per step to a callable or the
+module logger, and a line of the step under way when one runs longer than a few seconds.
+Output problems never stop a fit.
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ import logging
 import sys
 from collections.abc import Callable
 from typing import IO, Protocol, runtime_checkable
+
+from ..io.progress import Progress as Display
 
 __all__ = ["BarProgress", "FitProgress", "LineProgress", "fit_progress"]
 
@@ -40,69 +43,72 @@ class FitProgress(Protocol):
         """Called once at the end (also after an error)."""
 
 
-class LineProgress:
-    """One line per step and note, to ``emit`` (default: the logger, INFO)."""
+class _DisplayProgress:
+    """A fit's steps as stages of a display (:class:`dpfexplore.io.progress.Progress`)."""
 
-    def __init__(self, emit: Callable[[str], None] | None = None) -> None:
-        self.emit = emit or logger.info
-        self.total = self.done = 0
+    display: Display
 
     def start(self, total: int) -> None:
         """Note the number of steps."""
-        self.total, self.done = total, 0
+        self.display.stage("steps", total, unit="step")
 
     def begin(self, text: str) -> None:
-        """Nothing: the step's line comes when it ends."""
+        """Show the step under way."""
+        self.display.update(detail=text)
 
     def step(self, line: str) -> None:
-        """Write the step's line."""
-        self.done += 1
-        self.emit(line)
+        """Write the step's line and count the step."""
+        self.display.note(line)
+        self.display.update(advance=1)
 
     def note(self, line: str) -> None:
         """Write the line."""
-        self.emit(line)
+        self.display.note(line)
 
     def close(self) -> None:
-        """Nothing to release."""
+        """End the display."""
+        self.display.close()
+
+    @property
+    def total(self) -> int:
+        """Steps of the fit."""
+        return self.display.total or 0
+
+    @property
+    def done(self) -> int:
+        """Steps done."""
+        return self.display.done
 
 
-class BarProgress:
+class LineProgress(_DisplayProgress):
+    """One line per step and note, to ``emit`` (default: the logger, INFO).
+
+    A step longer than the display's interval (4 s) adds a line of the step under way and
+    its time so far, every interval.
+    """
+
+    def __init__(self, emit: Callable[[str], None] | None = None) -> None:
+        self.emit = emit or logger.info
+        self.display = Display("surrogate fit", emit=self.emit, boundaries=False)
+
+
+class BarProgress(_DisplayProgress):
     """A tqdm bar over the steps on ``stream``; finished steps' lines are written above it."""
 
     def __init__(self, stream: IO[str] | None = None) -> None:
         self.stream = stream or sys.stderr
-        self.bar = None
+        self.display = Display("surrogate fit", self.stream, bar=True)
 
-    def start(self, total: int) -> None:
-        """Open the bar."""
-        from tqdm import tqdm
-
-        self.bar = tqdm(
-            total=total, unit="step", dynamic_ncols=True, file=self.stream, desc="surrogate fit"
-        )
+    @property
+    def bar(self):
+        """The tqdm bar while the fit runs, else None."""
+        return self.display.bar
 
     def begin(self, text: str) -> None:
-        """Show the step under way."""
+        """Show the step under way as the bar's description."""
+        self.display.update(detail=text)
         if self.bar is not None:
             self.bar.set_description_str(text)
-
-    def step(self, line: str) -> None:
-        """Write the line above the bar and advance it."""
-        if self.bar is not None:
-            self.bar.write(line, file=self.stream)
-            self.bar.update(1)
-
-    def note(self, line: str) -> None:
-        """Write the line above the bar."""
-        if self.bar is not None:
-            self.bar.write(line, file=self.stream)
-
-    def close(self) -> None:
-        """Close the bar."""
-        if self.bar is not None:
-            self.bar.close()
-            self.bar = None
 
 
 def fit_progress(

@@ -80,8 +80,12 @@ class StaticsEvaluator:
         return f"StaticsEvaluator({self.compute!r})"
 
     def kernel_groups(self) -> list[str]:
-        """Kernel groups this job needs (:mod:`dpfexplore.solvers.compilation`)."""
-        groups = ["statics"]
+        """Kernel groups this job compiles (:mod:`dpfexplore.solvers.compilation`).
+
+        The warm-up compiles the serial kernels (``states``) with the parallel ones, so both
+        are named in the one notice.
+        """
+        groups = ["states", "statics"]
         load = self.compute.reset_times
         if load is not None:
             groups.append("release" if load.method == "release" else "reset")

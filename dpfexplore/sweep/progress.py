@@ -1,4 +1,4 @@
-"""How a sweep reports its progress: the :class:`Progress` protocol and log lines.
+"""How a sweep reports its progress: the :class:`Progress` protocol, on a display or as log lines.
 
 Apart from :mod:`.driver` so that the CLI can define its progress display without importing the
 sweep machinery (and Numba) before the arguments are even parsed.
@@ -7,13 +7,14 @@ sweep machinery (and Numba) before the arguments are even parsed.
 from __future__ import annotations
 
 import logging
-import time
 from typing import TYPE_CHECKING, Protocol
+
+from ..io.progress import Progress as Display
 
 if TYPE_CHECKING:
     from .storage.store import ChunkRecord
 
-__all__ = ["LogProgress", "Progress", "note"]
+__all__ = ["DisplayProgress", "LogProgress", "Progress", "note"]
 
 logger = logging.getLogger("dpfexplore.sweep.driver")  # the name users filter on
 
@@ -43,41 +44,46 @@ def note(progress: Progress, text: str) -> None:
         logger.info("sweep: %s", text)
 
 
-class LogProgress:
-    """Progress as log lines (INFO) at most every ``interval`` seconds: done, rate, ETA.
+class DisplayProgress:
+    """The sweep's progress on a display (:class:`dpfexplore.io.progress.Progress`).
 
-    Subclasses change where the lines go by overriding :meth:`emit`.
+    Designs done out of the job's, their rate and the time left: a bar on a terminal, plain
+    lines otherwise; a note (what the sweep does before its first chunk) is a line of its own.
+    Output problems never stop a sweep (the display goes quiet).
+    """
+
+    def __init__(self, display: Display) -> None:
+        self.display = display
+
+    def note(self, text: str) -> None:
+        """A line of its own."""
+        self.display.note(text)
+
+    def start(self, total_designs: int, done_designs: int) -> None:
+        """The designs' stage begins, with the designs already committed."""
+        self.display.stage("designs", total_designs, done=done_designs, unit="design")
+
+    def advance(self, record: ChunkRecord) -> None:
+        """A chunk is committed."""
+        self.display.update(advance=record.stop - record.start)
+
+    def close(self) -> None:
+        """The stage is over."""
+        self.display.end_stage()
+
+
+class LogProgress(DisplayProgress):
+    """Progress as log records (INFO, ``sweep: ...``) at most every ``interval`` seconds.
+
+    The Python API's default: the designs done, their rate and the time left, as
+    :class:`DisplayProgress` shows them, to the ``dpfexplore.sweep.driver`` logger.
     """
 
     def __init__(self, interval: float = 10.0, log: logging.Logger = logger) -> None:
-        self.interval = interval
-        self.log = log
-        self.total = self.done = self.at_start = 0
-        self.started = self.last = 0.0
-
-    def emit(self, text: str) -> None:
-        """Write one progress line."""
-        self.log.info("sweep: %s", text)
-
-    def start(self, total_designs: int, done_designs: int) -> None:
-        """Note the totals and log the starting line."""
-        self.total, self.done, self.at_start = total_designs, done_designs, done_designs
-        self.started = self.last = time.perf_counter()
-        self.emit(f"starting: {done_designs}/{total_designs} designs already committed")
-
-    def advance(self, record: ChunkRecord) -> None:
-        """Count a committed chunk; log a line when ``interval`` has passed or at the end."""
-        self.done += record.stop - record.start
-        now = time.perf_counter()
-        if now - self.last >= self.interval or self.done >= self.total:
-            self.last = now
-            rate = (self.done - self.at_start) / max(now - self.started, 1e-9)
-            eta = (self.total - self.done) / rate if rate > 0 else float("inf")
-            percent = 100.0 * self.done / max(self.total, 1)
-            self.emit(
-                f"{self.done}/{self.total} designs ({percent:.1f} %), {rate:.0f} designs/s, "
-                f"ETA {eta:.0f} s"
-            )
+        super().__init__(
+            Display("sweep", interval=interval, emit=lambda text: log.info("sweep: %s", text))
+        )
 
     def close(self) -> None:
-        """Nothing to release."""
+        """End the stage and stop the display's heartbeat."""
+        self.display.close()

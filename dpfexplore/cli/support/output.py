@@ -252,12 +252,19 @@ def write_failure(exc: OSError) -> str | None:
 
 
 def announce_compilation(command: str, groups: list[str]) -> None:
-    """Say in one line that ``command`` compiles kernels first (nothing when they are cached)."""
+    """Say in one line that ``command`` compiles kernels first (nothing when they are cached).
+
+    The line and the stages of the compilation that follow it (``compiling 1/2: ...``) go to
+    the command's progress display on standard error
+    (:class:`dpfexplore.io.progress.Progress`), the sweep's and design's format.
+    """
+    from ...io.progress import Progress, active
     from ...solvers.compilation import compile_notice
 
-    notice = compile_notice(groups)
+    display = active() or Progress(command.split()[0])
+    notice = compile_notice(groups, display=display)
     if notice:
-        error_line(f"dpfexplore {command}: {notice} ...")
+        display.note(notice)
 
 
 def fitted_range_line(note: str) -> str:

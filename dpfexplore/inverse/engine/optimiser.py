@@ -166,6 +166,7 @@ def screen(
     want = requests[0][2]
     evaluator = problems[0].evaluator
     out = evaluator.solve(batch, states, stiffness=want)
+    evaluator.report("screening candidates", len(batch), len(batch))
     evaluations, start = [], 0
     for p, z, (b, _, _) in zip(problems, points, requests, strict=True):
         part = {k: v[start : start + len(b)] for k, v in out.items()}
@@ -251,11 +252,14 @@ def refine_residual(
         The best exactly evaluated point of the run.
     """
     stiffness = weights is not None
-    last: dict = {}
+    last: dict = {"n": 0}
+    budget = max(int(max_iter), 1)
 
     def fun(z: NDArray) -> tuple[NDArray | None, Evaluation]:
         ev = problem.evaluate(z[None, :], purpose="refine", stiffness=stiffness)
         last["z"], last["ev"] = z, ev
+        last["n"] += 1
+        problem.evaluator.report("refining", last["n"], max(last["n"], budget))
         if not ev.ok[0]:
             return None, ev
         r = ev.residual[0]
@@ -278,7 +282,7 @@ def refine_residual(
         fun,
         z0,
         jac=jac,
-        max_nfev=max(int(max_iter), 1),
+        max_nfev=budget,
         goal=None if stiffness else goal,
         ftol=FTOL,
         xtol=1e-12,
@@ -317,6 +321,7 @@ def maximise_stiffness(
     tol2 = tolerance**2
     best: dict = {"k": -np.inf, "z": None, "ev": None}
     cache: dict = {}
+    calls = [0]
 
     def at(z: NDArray) -> Evaluation:
         z = np.clip(z, 0.0, 1.0)
@@ -325,6 +330,10 @@ def maximise_stiffness(
             ev = problem.evaluate(z[None, :], purpose="front", stiffness=True)
             cache.clear()
             cache[key] = ev
+            calls[0] += 1  # SLSQP's evaluations, against its iteration budget
+            problem.evaluator.report(
+                "stiffest design within the tolerance", calls[0], max(calls[0], max_iter)
+            )
             # SLSQP meets active constraints to rounding: a relative slack of 1e-9 accepts its
             # end point without moving a reported design measurably.
             if (

@@ -17,7 +17,7 @@ from dpfexplore.examples import example_path
 @pytest.fixture
 def main(monkeypatch):
     """The CLI with the dynamics commands registered (independent of the other commands)."""
-    monkeypatch.setattr(cli, "COMMAND_MODULES", ("simulate", "resetmaps", "bench"))
+    monkeypatch.setattr(cli, "COMMAND_MODULES", ("finger.simulate", "finger.resetmaps", "bench"))
     monkeypatch.setattr(cli_bench, "BENCHMARKS", ("dynamics",))
     return cli.main
 

@@ -205,7 +205,7 @@ def test_assignments():
 
 @pytest.fixture
 def main(monkeypatch):
-    monkeypatch.setattr(cli, "COMMAND_MODULES", ("simulate_leg",))
+    monkeypatch.setattr(cli, "COMMAND_MODULES", ("finger.simulate_leg",))
     return cli.main
 
 

@@ -412,14 +412,19 @@ def test_sigterm_stops_the_sweep_as_ctrl_c_does(tmp_path, monkeypatch, capsys, d
     job.write_text(JOB_TOML)
     from dpfexplore.cli import unitcell as cli_unitcell
 
-    real = cli_unitcell._progress
+    real = cli_unitcell._chunks
 
-    def terminate_after_the_first(done_chunks, total):
-        real(done_chunks, total)
-        signal.raise_signal(signal.SIGTERM)
+    def terminate_after_the_first(display):
+        shown = real(display)
+
+        def progress(done_chunks, total):
+            shown(done_chunks, total)
+            signal.raise_signal(signal.SIGTERM)
+
+        return progress
 
     previous = signal.getsignal(signal.SIGTERM)
-    monkeypatch.setattr(cli_unitcell, "_progress", terminate_after_the_first)
+    monkeypatch.setattr(cli_unitcell, "_chunks", terminate_after_the_first)
     code = main(["unitcell", "sweep", str(job), "--out", str(out)])
     assert code == 143 and signal.getsignal(signal.SIGTERM) is previous
     err = capsys.readouterr().err.splitlines()

@@ -42,7 +42,7 @@ import numpy as np
 
 from .._common import REPORTS, count, emit, int_list, machine_info, name_list
 
-JOBS = Path(__file__).resolve().parents[2] / "jobs"
+JOBS = Path(__file__).resolve().parents[3] / "jobs"
 #: The paper's best position objectives (mm², MODEL.md §9), per material.
 PAPER_OBJECTIVES = {
     "cheetah-95a": (0.775, 0.056, 0.55, 0.22, 0.32),

@@ -75,6 +75,22 @@ def name_list(names: Sequence[str]) -> Callable[[str], list[str]]:
     return parse
 
 
+def dataset_options(parser: argparse.ArgumentParser, dataset: Path, job: Path) -> None:
+    """Add ``--dataset`` (default ``dataset``) and ``--job`` (default ``job``, which makes it).
+
+    For the benchmarks that time a command on a large sweep dataset, made once when missing.
+    """
+    parser.add_argument(
+        "--dataset",
+        type=Path,
+        default=dataset,
+        help=f"sweep dataset (default {dataset}; made if missing)",
+    )
+    parser.add_argument(
+        "--job", type=Path, default=job, help="job that makes the dataset when it is missing"
+    )
+
+
 def machine_info() -> dict[str, Any]:
     """Facts about the machine and software a benchmark ran on."""
     import numba

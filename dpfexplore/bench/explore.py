@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ._common import REPORTS, count, emit, machine_info
+from ._common import REPORTS, count, dataset_options, emit, machine_info
 
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 DEFAULT_DATASET = Path("results") / "explore-million"
@@ -142,18 +142,7 @@ def register(subparsers) -> None:
         action="store_true",
         help=f"also write the record to {REPORTS}/bench-explore.json and .md",
     )
-    parser.add_argument(
-        "--dataset",
-        type=Path,
-        default=DEFAULT_DATASET,
-        help=f"sweep dataset (default {DEFAULT_DATASET}; made if missing)",
-    )
-    parser.add_argument(
-        "--job",
-        type=Path,
-        default=JOBS / "explore-million.toml",
-        help="job that makes the dataset when it is missing",
-    )
+    dataset_options(parser, DEFAULT_DATASET, JOBS / "explore-million.toml")
     parser.add_argument("--zooms", type=count(1), default=12, help="zoom and pan steps timed")
     parser.add_argument("--clicks", type=count(1), default=12, help="clicks timed")
     parser.add_argument("--seed", type=int, default=0, help="seed of the clicked rows")

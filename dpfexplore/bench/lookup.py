@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import REPORTS, count, emit, machine_info, median_time
+from ._common import REPORTS, count, dataset_options, emit, machine_info, median_time
 
 JOBS = Path(__file__).resolve().parents[2] / "jobs"
 DEFAULT_DATASET = Path("results") / "lookup-million"
@@ -50,18 +50,7 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--save", action="store_true", help=f"also write the record to {REPORTS}/bench-lookup.json"
     )
-    parser.add_argument(
-        "--dataset",
-        type=Path,
-        default=DEFAULT_DATASET,
-        help=f"sweep dataset (default {DEFAULT_DATASET}; made if missing)",
-    )
-    parser.add_argument(
-        "--job",
-        type=Path,
-        default=JOBS / "lookup-million.toml",
-        help="job that makes the dataset when it is missing",
-    )
+    dataset_options(parser, DEFAULT_DATASET, JOBS / "lookup-million.toml")
     parser.add_argument("--builds", type=count(1), default=3, help="index builds timed (median)")
     parser.add_argument("--queries", type=count(1), default=200, help="query targets")
     parser.add_argument("--k", type=count(1), default=10, help="neighbours per query")

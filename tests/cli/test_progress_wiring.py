@@ -8,42 +8,13 @@ import re
 import pytest
 from numba import njit
 from sweep_helpers import job_dict, toml_text
+from test_result_commands import scene
 
 from dpfexplore.cli import main
 from dpfexplore.inverse.design import design_scene
 from dpfexplore.inverse.kinds import load_scene
 from dpfexplore.io.progress import Progress
 from dpfexplore.solvers import compilation
-
-SCENE = """
-[scene]
-kind = "position"
-name = "small"
-material = "cheetah-95a"
-seed = 1
-
-[variables]
-n_units = 2
-H = {min = 3.0, max = 5.0}
-U_L = {min = 5.5, max = 10.0}
-U_sep = {min = 1.0, max = 5.0}
-t = {min = 0.5, max = 1.0}
-t_lim = {min = 1.0, max = 2.0}
-
-[objective]
-tolerance = 0.01
-
-[optimiser]
-candidates_per_n = 8
-starts_per_n = 1
-max_iter = 15
-
-[[targets]]
-point = [40.0, 20.0]
-
-[[targets]]
-point = [42.0, 21.0]
-"""
 
 
 @pytest.fixture
@@ -121,7 +92,7 @@ def test_each_compiled_group_is_a_stage_while_numba_compiles(monkeypatch, capsys
 
 
 def test_design_reports_every_evaluation_batch_with_done_and_total(tmp_path):
-    spec = load_scene(_scene(tmp_path))
+    spec = load_scene(scene(tmp_path, 2))
 
     class Recorder:
         def __init__(self):
@@ -162,17 +133,11 @@ def test_design_reports_every_evaluation_batch_with_done_and_total(tmp_path):
 
 
 def test_design_shows_targets_done_of_total_and_one_line_per_result(tmp_path, capsys):
-    assert main(["design", str(_scene(tmp_path)), "--out", str(tmp_path / "out")]) in (0, 1)
+    assert main(["design", str(scene(tmp_path, 2)), "--out", str(tmp_path / "out")]) in (0, 1)
     err = capsys.readouterr().err
     assert "design: targets 0/2 (0 %)" in err and "design: targets 2/2 (100 %)" in err
     assert err.rstrip().endswith("design: writing the report")
     assert len(re.findall(r"design: result \d/2 ", err)) == 2
-
-
-def _scene(tmp_path):
-    path = tmp_path / "scene.toml"
-    path.write_text(SCENE)
-    return path
 
 
 def test_unitcell_sweep_chunks_are_a_stage_of_the_display():

@@ -8,8 +8,13 @@ installs it.
 from __future__ import annotations
 
 import json
+import re
 import shutil
+import signal
 import socket
+import subprocess
+import sys
+import urllib.request
 
 import numpy as np
 import pytest
@@ -293,3 +298,24 @@ def test_the_page_in_chromium(data, finder, frame, tmp_path):
     hosts = {url.split("/")[2] for url in requests if url.startswith("http")}
     assert hosts == {f"127.0.0.1:{running.port}"}
     assert not [url for url in requests if not url.startswith(("http://127.0.0.1", "data:"))]
+
+
+def test_ctrl_c_stops_the_server_in_one_line(dataset):
+    """The command serves until Ctrl-C, then says so in one line and exits 0."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "dpfexplore", "explore", str(dataset), "--no-browser"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        line = process.stdout.readline()  # the address: the server listens
+        url = re.search(r"at (http://127\.0\.0\.1:\d+/) \(Ctrl-C stops\)", line).group(1)
+        with urllib.request.urlopen(url, timeout=30) as page:
+            assert page.status == 200
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 0 and out == ""
+    assert err.strip().splitlines() == [f"dpfexplore explore: stopped ({url})"]

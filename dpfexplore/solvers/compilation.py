@@ -130,20 +130,24 @@ def cpu_range(groups: Iterable[str]) -> str:
     return f"about {low}-{high} s of CPU on {COMPILE_MACHINE}"
 
 
-def compile_notice(groups: Iterable[str], *, display: Progress | None = None) -> str | None:
+def compile_notice(
+    groups: Iterable[str], *, display: Progress | None = None, stages: bool = True
+) -> str | None:
     """One line announcing a first compilation of ``groups``, or None if all are cached.
 
     Groups named here count as announced for the rest of the process (:func:`announce` stays
-    quiet about them), so the CLI's notice and the API's log line never both appear. A notice
-    starts the watcher that shows each group's compilation as a stage of ``display`` (default:
-    the display open, else one on standard error; :func:`watch`).
+    quiet about them), so the CLI's notice and the API's log line never both appear. With
+    ``stages`` (the commands), a notice starts the watcher that shows each group's compilation
+    as a stage of ``display`` (default: the display open, else one on standard error;
+    :func:`watch`); the API's log line (:func:`announce`) is its only output.
     """
     groups = [g for g in groups if g not in _SETTLED]
     missing = uncompiled(groups)
     _SETTLED.update(groups)
     if not missing:
         return None
-    watch(missing, display=display)
+    if stages:
+        watch(missing, display=display)
     names = " and ".join(missing)
     return (
         f"compiling the {names} kernels for this machine (first run only: {cpu_range(missing)}, "
@@ -159,7 +163,7 @@ def announce(groups: Iterable[str]) -> None:
     pending = [g for g in groups if g not in _SETTLED]
     if not pending:
         return
-    notice = compile_notice(pending)
+    notice = compile_notice(pending, stages=False)
     if notice is not None:
         logger.warning("%s ...", notice)
 

@@ -272,8 +272,11 @@ def test_the_python_api_announces_a_first_compilation_once(monkeypatch, caplog):
     monkeypatch.setattr(compilation, "_SETTLED", set())
     monkeypatch.setattr(compilation, "uncompiled", lambda groups: list(groups))
     design = load_design(example_path("gripper"))
+    watchers = list(compilation._WATCHERS)
     with caplog.at_level(logging.WARNING, logger="dpfexplore.compile"):
         find_state(design, "11110")
         find_state(design, "11100")
     said = [r.getMessage() for r in caplog.records if r.name == "dpfexplore.compile"]
     assert len(said) == 1 and said[0].startswith("compiling the states kernels"), said
+    # the log line is the API's only notice: no progress display of its own on stderr
+    assert compilation._WATCHERS == watchers

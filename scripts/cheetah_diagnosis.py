@@ -94,6 +94,12 @@ def frame_stiffness(design) -> np.ndarray:
     return out
 
 
+def dome_springs(constants: ConstantsSet, design) -> dict:
+    """``k_b``, ``alpha``, ``d`` of every unit of ``design`` under ``constants``."""
+    H, U_sep = np.asarray(design.H), np.asarray(design.U_sep)
+    return constants.springs(H, design.t, design.r_b, design.E, U_sep, design.t_ch)
+
+
 def dome_law(k_b, alpha, d) -> dict:
     """Capacity, edge distance and the law's barrier seen from the inverted rest (MODEL.md §4)."""
     k_b, alpha, d = (np.asarray(v, dtype=float) for v in (k_b, alpha, d))
@@ -161,10 +167,7 @@ def swaps(fingers, paper, shell) -> tuple[dict, dict]:
                 design = f.design.replace(constants=cs)
                 result = find_state(design, f.state)
                 table[key][f.name] = result.found
-                springs = cs.springs(
-                    np.asarray(design.H), design.t, design.r_b, design.E,
-                    np.asarray(design.U_sep), design.t_ch,
-                )  # fmt: skip
+                springs = dome_springs(cs, design)
                 q = (
                     k_f[f.name]
                     / dome_law(springs["k_b"], springs["alpha"], springs["d"])["capacity"]
@@ -280,10 +283,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     box_q = {}
     for f in fingers:
         design = f.design.replace(constants=box)
-        springs = box.springs(
-            np.asarray(design.H), design.t, design.r_b, design.E,
-            np.asarray(design.U_sep), design.t_ch,
-        )  # fmt: skip
+        springs = dome_springs(box, design)
         law = dome_law(springs["k_b"], springs["alpha"], springs["d"])
         box_q[f.name] = [float(q) for q in frame_stiffness(design) / law["capacity"]]
     box_record = {

@@ -68,6 +68,11 @@ def test_benchmarks_page_is_read_from_the_records(site):
     assert fmt(lookup["build"]["rows_indexed"]) in page
     assert fmt(statics["by_n_units"][0]["ours_us_per_design"]) in page
     assert statics["machine"]["date"] in page
+    explore = json.loads((REPORTS / "bench-explore.json").read_text())
+    grasp = json.loads((REPORTS / "bench-grasp.json").read_text())
+    assert f"{fmt(explore['dataset']['rows'])} rows" in page
+    assert f"{fmt(explore['zoom']['median_ms'])} / {fmt(explore['zoom']['p90_ms'])}" in page
+    assert f"{fmt(grasp['sort']['seconds'])} ({grasp['sort']['failed']} unconverged" in page
 
 
 @pytest.mark.slow

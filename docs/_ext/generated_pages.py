@@ -765,6 +765,79 @@ def bench_unitcell(r: dict) -> str:
     return text + compile_line(r.get("compile_s"), r.get("cache_load_s"))
 
 
+def bench_explore(r: dict) -> str:
+    """``bench explore``: load, first render, zoom and click on a real dataset, the goals."""
+    data, goals, met = r["dataset"], r["goals"], r["goals_met"]
+    rows = [
+        [
+            "first render, warm (ms)",
+            r["first_render_warm_ms"],
+            goals["first_render_warm_ms"],
+            goal_cell(met["first_render_warm"]),
+        ],
+        ["first render, cold (ms)", r["first_render_cold_ms"], None, ""],
+        [
+            "zoom re-render, median / p90 (ms)",
+            f"{fmt(r['zoom']['median_ms'])} / {fmt(r['zoom']['p90_ms'])}",
+            goals["zoom_median_ms"],
+            goal_cell(met["zoom"]),
+        ],
+        [
+            "click to verified designs, median / p90 (ms)",
+            f"{fmt(r['click']['median_ms'])} / {fmt(r['click']['p90_ms'])}",
+            goals["click_median_ms"],
+            goal_cell(met["click"]),
+        ],
+    ]
+    text = table(["measure", "measured", "goal", "met"], rows)
+    rss = r["server_rss_mb"]
+    hosts = ", ".join(sorted({h.split(":")[0] for h in r["request_hosts"]}))
+    return text + (
+        f"\nDataset `{data['path']}`: {fmt(data['rows'])} rows of {fmt(data['designs'])} designs, "
+        f"loaded in {fmt(r['load_s'])} s (index {r['index_action']} in {fmt(r['index_s'])} s). "
+        f"Server memory {fmt(rss['loaded'])} MB loaded, {fmt(rss['after_browsing'])} MB after "
+        f"browsing; every request to {hosts} "
+        f"(offline: {goal_cell(met['offline'])}); {len(r['console_errors'])} console errors. "
+        f"Load average during the run: {', '.join(fmt(x) for x in r['load'])}.\n"
+    )
+
+
+def bench_grasp(r: dict) -> str:
+    """``bench grasp``: one grasp, a sort of 10^4 objects, the sorting map; the tolerance error."""
+    goals, one, srt, grid = r["goals"], r["one_grasp"], r["sort"], r["map"]
+    rows = [
+        [
+            "one grasp (ms)",
+            f"{fmt(one['grasp_ms'])} ({fmt(one['grasp_with_payload_ms'])} with its payload)",
+            goals["grasp_ms"],
+            goal_cell(one["grasp_with_payload_ms"] <= goals["grasp_ms"]),
+        ],
+        [
+            f"sort {fmt(srt['objects'])} objects on {srt['threads']} threads (s)",
+            f"{fmt(srt['seconds'])} ({srt['failed']} unconverged, reported as failures)",
+            goals["sort_1e4_s"],
+            goal_cell(srt["scaled_to_1e4_s"] <= goals["sort_1e4_s"]),
+        ],
+        [
+            f"sorting map {grid['points'][0]} x {grid['points'][1]} (s)",
+            grid["seconds"],
+            goals["map_100_s"],
+            goal_cell(grid["seconds"] <= goals["map_100_s"]),
+        ],
+    ]
+    text = table(["measure", "measured", "goal", "met"], rows)
+    tol = r["tolerance_error"]
+    for label, key in (("frictionless", "mu_0"), ("μ = 0.5", "mu_0.5")):
+        e = tol[key]
+        text += (
+            f"\nError at the penetration tolerance {fmt(tol['tol_mm'])} mm against "
+            f"{fmt(tol['reference_tol_mm'])} mm, {label}, {e['grasps_in_contact']} grasps in "
+            f"contact: grip force {fmt(e['grip_max_abs_err_N'])} N ({pct(e['grip_max_rel_err'])}), "
+            f"payload {fmt(e['payload_max_abs_err_N'])} N ({pct(e['payload_max_rel_err'])}).\n"
+        )
+    return text + compile_line(r.get("compile_s"), r.get("cache_load_s"))
+
+
 #: Placeholder name -> (record file, renderer).
 BENCHMARKS: dict[str, tuple[str, Callable[[dict], str]]] = {
     "statics": ("bench-statics.json", bench_statics),
@@ -779,6 +852,8 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], str]]] = {
     "design-timing": ("bench-design-timing.json", bench_design_timing),
     "identify": ("bench-identify.json", bench_identify),
     "unitcell": ("bench-unitcell.json", bench_unitcell),
+    "explore": ("bench-explore.json", bench_explore),
+    "grasp": ("bench-grasp.json", bench_grasp),
 }
 
 PLACEHOLDER = re.compile(r"\{\{\s*bench\s+([\w-]+)\s*\}\}")

@@ -159,6 +159,7 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path, monkeypatch):
     assert ("snapped back during the ramp" in out) == bool((times < 0).any())
     # the figure: one panel per map; the H panel draws the parquet's finite reset times
     (fig,) = drawn
+    assert_readable(fig)  # the quick maps' figure as reset-maps saves it
     axes = fig.axes
     assert [ax.get_xlabel() for ax in axes] == [
         "dome height H (mm)",

@@ -15,6 +15,11 @@ from numpy.typing import NDArray
 __all__ = ["plot_grasp", "plot_sorting_map"]
 
 
+#: Height of the band above the drawing that holds the legend (fraction of the drawing's height):
+#: three entries at the small font in a panel a few inches tall.
+_LEGEND_BAND = 0.4
+
+
 def _outline(nodes: NDArray) -> NDArray:
     """The finger's outline: the post side (even nodes), back along the limiting layer (odd)."""
     return np.vstack([nodes[0::2], nodes[1::2][::-1], nodes[:1]])
@@ -99,6 +104,9 @@ def plot_grasp(
     ax.legend(handles=handles, loc="upper left", fontsize="small")
     ax.set_aspect("equal")
     ax.autoscale_view()
+    # a band above the fingers and the disk, where the legend stands clear of them
+    low, high = ax.get_ylim()
+    ax.set_ylim(low, high + _LEGEND_BAND * (high - low))
     ax.set_xlabel("depth along the axis (mm)")
     ax.set_ylabel("across the axis (mm)")
     if title:

@@ -53,5 +53,26 @@ def plot_tip_paths(
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(True, alpha=0.3)
         ax.set_title(f"{_AXIS[a]}-{_AXIS[b]} projection (square: end)")
-    axes[0].legend(fontsize="x-small")
+    # under the first projection, below its axis label: inside, it hides the paths' loops
+    axes[0].legend(
+        fontsize="x-small",
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0.0),
+        bbox_transform=axes[0].transAxes + _below_axis_label(axes[0].figure),
+    )
     return axes
+
+
+def _below_axis_label(figure):
+    """A shift down by the height of an x axis's ticks, tick labels and label (points)."""
+    import matplotlib as mpl
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.transforms import ScaledTranslation
+
+    rc = mpl.rcParams
+    sizes = [
+        FontProperties(size=rc["xtick.labelsize"]).get_size_in_points(),
+        FontProperties(size=rc["axes.labelsize"]).get_size_in_points(),
+    ]
+    drop = sum(sizes) * 1.25 + rc["xtick.major.size"] + rc["xtick.major.pad"] + rc["axes.labelpad"]
+    return ScaledTranslation(0.0, -drop / 72.0, figure.dpi_scale_trans)

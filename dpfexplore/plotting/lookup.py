@@ -72,7 +72,8 @@ def plot_reachable(
     if ax is None:
         import matplotlib.pyplot as plt
 
-        _, ax = plt.subplots(figsize=(6.5, 5.5))
+        # constrained: the legend beside the axes stays inside the figure
+        _, ax = plt.subplots(figsize=(6.5, 5.5), layout="constrained")
     import matplotlib as mpl
 
     clouds = {int(n): np.asarray(t, dtype=float).reshape(-1, 2) for n, t in tips_by_n.items()}

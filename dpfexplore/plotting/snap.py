@@ -83,7 +83,8 @@ def plot_snap(sequence: SnapSequence, ax: Axes | None = None, *, quantity: str =
     )
     if not (shared and spec is not None and not spec.is_first_row()):
         ax.set_title(title, fontsize="small")
-    ax.legend(fontsize="small", loc="lower right")
+    # beside the panel: inside, it hides the snaps that land at the highest pressures
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     return ax
 
 

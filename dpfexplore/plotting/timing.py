@@ -22,6 +22,11 @@ CLASS_COLOURS = {
 }
 
 
+#: Height of the band under the screening grid that holds its legend (fraction of the grid's
+#: height): two entries at the smallest font.
+_LEGEND_BAND = 0.15
+
+
 def _axes(ax: Axes | None, size=(7, 5)) -> Axes:
     if ax is None:
         import matplotlib.pyplot as plt
@@ -95,6 +100,9 @@ def plot_reset_screen(
     ax.set_xlabel(h_label + "; dashed: lower end of the fitted range")
     ax.set_ylabel("t (mm)")
     ax.set_title(f"Screening ({method}) and the reported designs (stars)", fontsize="medium")
+    # a band under the lowest row of the grid, where the legend stands clear of the points
+    low, high = ax.get_ylim()
+    ax.set_ylim(low - _LEGEND_BAND * (high - low), high)
     ax.legend(fontsize="x-small", loc="lower left")
     return ax
 
@@ -198,11 +206,21 @@ def plot_gait_timing(
         lane += 1.0
     for t, text in marks:
         ax.axvline(t, color="0.4", lw=0.7, ls="--")
-        ax.text(t, lane + 0.1, text, fontsize="x-small", ha="center", va="bottom")
+        # right of its line: centred on it, the mark at t = 0 would stand half outside the axes
+        ax.annotate(
+            text,
+            (t, lane + 0.1),
+            xytext=(2, 0),
+            textcoords="offset points",
+            fontsize="x-small",
+            ha="left",
+            va="bottom",
+        )
     ax.set_yticks(ticks, labels, fontsize="small")
     ax.set_xlim(0.0, t_end)
     ax.set_ylim(-0.2, lane + 0.6)
     ax.set_xlabel("time (s); bars: unit inverted (colour: its class)")
+    ax.set_ylabel("unit (its class); phase (its pressure)")
     if title:
         ax.set_title(title, fontsize="medium")
     return ax

@@ -6,6 +6,7 @@ import json
 
 import pytest
 from conftest import read_reference, spy
+from plotting.figure_checks import assert_readable
 
 from dpfexplore.cli import main
 from dpfexplore.examples import example_path
@@ -55,6 +56,7 @@ def test_plot_writes_a_png(tmp_path, capsys, monkeypatch):
     out = tmp_path / "states.png"
     assert main(["states", str(example_path("pickplace")), "--sequential", "--plot", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert_readable(drawn[0].figure)
     check_pickplace_states_figure(drawn)
 
 

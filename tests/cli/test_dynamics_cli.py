@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import reference_reset_times, spy
+from plotting.figure_checks import assert_readable, captured_figures
 
 import dpfexplore.cli as cli
 import dpfexplore.cli.bench as cli_bench
@@ -80,6 +81,7 @@ def test_simulate_never_inverted_is_null_and_plot(main, capsys, tmp_path, monkey
     # the two domes' extensions, both below their inversion thresholds (never inverted)
     (axes,) = drawn
     top, bottom = axes
+    assert_readable(top.figure)
     assert top.get_xlabel() == "time (s)" and top.get_ylabel() == "tip displacement (mm)"
     (tip,) = top.get_lines()
     assert tip.get_xdata()[0] == 0.0 and tip.get_xdata()[-1] == pytest.approx(1.0)
@@ -157,6 +159,7 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path, monkeypatch):
     assert ("snapped back during the ramp" in out) == bool((times < 0).any())
     # the figure: one panel per map; the H panel draws the parquet's finite reset times
     (fig,) = drawn
+    assert_readable(fig)  # the quick maps' figure as reset-maps saves it
     axes = fig.axes
     assert [ax.get_xlabel() for ax in axes] == [
         "dome height H (mm)",
@@ -180,21 +183,22 @@ def test_reset_maps_writes_parquet_and_png(main, capsys, tmp_path, monkeypatch):
 def test_bench_dynamics_json(main, capsys, tmp_path, monkeypatch):
     """A tiny run of the benchmark: one record per method, the Radau baseline's time."""
     monkeypatch.chdir(tmp_path)
-    code = main(
-        [
-            "bench",
-            "dynamics",
-            "--json",
-            "--designs",
-            "2",
-            "--radau-designs",
-            "1",
-            "--explicit-designs",
-            "0",
-            "--no-compile",
-            "--save",
-        ]
-    )
+    with captured_figures() as figures:
+        code = main(
+            [
+                "bench",
+                "dynamics",
+                "--json",
+                "--designs",
+                "2",
+                "--radau-designs",
+                "1",
+                "--explicit-designs",
+                "0",
+                "--no-compile",
+                "--save",
+            ]
+        )
     assert code == 0
     record = json.loads(capsys.readouterr().out)
     methods = {r["method"] for r in record["records"]}
@@ -203,3 +207,5 @@ def test_bench_dynamics_json(main, capsys, tmp_path, monkeypatch):
         assert r["us_per_design"] > 0 and np.isfinite(r["reset_time_rel_err"])
     assert record["radau_baseline_us_per_design"]["pickplace"] > 0
     assert (tmp_path / "results" / "reports" / "bench-dynamics.png").exists()
+    (figure,) = figures
+    assert_readable(figure)

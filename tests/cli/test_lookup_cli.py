@@ -10,6 +10,7 @@ import shutil
 import matplotlib
 import numpy as np
 import pytest
+from plotting.figure_checks import assert_readable, captured_figures
 from sweep_helpers import make_job
 
 from dpfexplore.cli import main
@@ -166,21 +167,24 @@ def test_write_round_trips_through_states(dataset, tmp_path, capsys):
 
 def test_unreachable_target_gets_nearest_design_and_plot(dataset, tmp_path, capsys):
     plot = tmp_path / "reach.png"
-    code = main(
-        [
-            "lookup",
-            str(dataset),
-            "--target",
-            "5,80",
-            "--k",
-            "2",
-            "--refine",
-            "--plot",
-            str(plot),
-            "--json",
-        ]
-    )
+    with captured_figures() as figures:
+        code = main(
+            [
+                "lookup",
+                str(dataset),
+                "--target",
+                "5,80",
+                "--k",
+                "2",
+                "--refine",
+                "--plot",
+                str(plot),
+                "--json",
+            ]
+        )
     assert code == 1
+    (figure,) = figures
+    assert_readable(figure)  # the legend beside the region, inside the figure
     record = json.loads(capsys.readouterr().out)
     assert record["reachable"] is False
     best = record["candidates"][0]

@@ -12,6 +12,7 @@ import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
+from plotting.figure_checks import assert_readable
 from sweep_helpers import job_dict, toml_text
 
 from dpfexplore.cli import main
@@ -194,6 +195,7 @@ def test_plotting_functions_draw_the_converged_all_inverted_rows(swept):
     drawn = sum(len(c.get_offsets()) for c in axes[0].collections)
     assert drawn == len(rows)
     assert axes[2].get_ylabel().startswith("log10 stiffness")
+    assert_readable(axes[0].figure)  # the figure plot-space saves
     plt.close(axes[0].figure)
     with pytest.raises(ValueError, match="stiffness"):
         from dpfexplore.plotting.space import plot_stiffness

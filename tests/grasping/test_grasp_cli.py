@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from plotting.figure_checks import assert_readable, captured_figures
 
 from dpfexplore.cli import main
 from dpfexplore.examples import example_path
@@ -115,8 +116,11 @@ def test_figure_draws_both_fingers_the_disk_and_one_arrow_per_contact(gripper):
 
 def test_plot_option_writes_the_figure(tmp_path, capsys):
     path = tmp_path / "fig" / "grasp.png"
-    assert main(["grasp", "gripper", "--object", "40", "--plot", str(path)]) == 0
+    with captured_figures() as figures:
+        assert main(["grasp", "gripper", "--object", "40", "--plot", str(path)]) == 0
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    (figure,) = figures
+    assert_readable(figure)  # each panel's legend in a band above its fingers and disk
 
 
 @pytest.mark.parametrize(

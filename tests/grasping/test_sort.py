@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from plotting.figure_checks import assert_readable
 
 from dpfexplore._kernels.grasp import batch as kb
 from dpfexplore.cli import main
@@ -163,6 +164,7 @@ def test_sort_plot_draws_the_map_boundaries_and_objects(gripper):
     ax.figure.canvas.draw()
     inside, box = ax.get_window_extent(), ax.get_legend().get_window_extent()
     assert inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0 <= inside.y1
+    assert_readable(ax.figure)
     plt.close(ax.figure)
 
 

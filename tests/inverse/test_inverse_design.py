@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import read_reference
+from plotting.figure_checks import assert_readable, captured_figures
 
 from dpfexplore.bench.numpy_model import NumpyLattice
 from dpfexplore.cli import main
@@ -130,8 +131,17 @@ def solved(tmp_path_factory):
     path = root / "scene.toml"
     path.write_text(scene_text(data))
     out = root / "out"
-    code = main(["design", str(path), "--out", str(out), "--json", "--plot"])
-    return {"code": code, "out": out, "tip": tip, "path": path}
+    with captured_figures() as figures:
+        code = main(["design", str(path), "--out", str(out), "--json", "--plot"])
+    return {"code": code, "out": out, "tip": tip, "path": path, "figures": figures}
+
+
+def test_design_figures_are_readable(solved):
+    """objective.png, targets.png and reachable-02.png as design --plot saves them (the
+    gripper scene's objective.png is the same plot_objective_history(history) call)."""
+    assert len(solved["figures"]) == 3
+    for figure in solved["figures"]:
+        assert_readable(figure)
 
 
 def test_known_design_tip_is_met_to_a_micrometre(solved):

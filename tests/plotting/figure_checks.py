@@ -7,9 +7,14 @@
   as one box;
 * every text box and every legend lies inside the figure (nothing cut off at the page edge);
 * no legend covers data: no vertex, marker or segment of a line drawn in data coordinates,
-  no scatter point or errorbar segment, and no bar lies under a legend's box (where the data are
-  drawn: clipped artists count only inside their axes). Lines drawn across the axes in axes
-  coordinates (``axhline``, ``axvline``) are guides, not data;
+  no scatter point or errorbar segment, no bar, no outline or filled area of a patch (a disk, an
+  arrow, a polygon), of a contour line or of a filled band (``fill_between``) lies under a
+  legend's box (where the data are drawn: clipped artists count only inside their axes). Lines
+  drawn across the axes in axes coordinates (``axhline``, ``axvline``) are guides, not data; a
+  colour map that fills the axes (``pcolormesh``, ``imshow``) is the ground a legend stands on;
+* no text placed at a data point inside its axes (``ax.text``, an annotation of a point in data
+  coordinates) crosses the axes' frame: a label half outside its panel runs into the tick
+  labels, a colorbar or the neighbouring panel;
 * every axes that shows tick labels on an axis names that axis (a label, or, for the x axis of
   a panel whose neighbour below shares it, that neighbour's).
 
@@ -27,9 +32,11 @@ matplotlib.use("Agg")
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.collections import LineCollection, PathCollection
+from matplotlib.collections import LineCollection, PathCollection, QuadMesh
 from matplotlib.legend import Legend
 from matplotlib.patches import Rectangle
+from matplotlib.path import Path
+from matplotlib.text import Annotation
 from matplotlib.transforms import Bbox
 
 #: Slack of the box tests, pixels: boxes that only touch (anti-aliasing, rounding) do not fail.
@@ -37,14 +44,24 @@ SLACK = 1.0
 
 
 def _renderer(fig):
+    """The figure laid out and drawn as a saved file is, and the renderer that drew it.
+
+    One draw runs the layout engine and places every artist. With fixed-aspect axes the
+    positions of axis labels read back only settle on the next draw (a saved file is drawn
+    once, after the layout, as that second draw), so such a figure is drawn twice, or once
+    if it was drawn before and is unchanged since (a test's own draw). Nothing is rasterised:
+    the positions and extents of the artists are all the checks read.
+    """
+    drawn_before = isinstance(fig.canvas, FigureCanvasAgg) and not fig.stale
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)
-    # twice: the first draw runs the layout engine, and with fixed-aspect axes the positions of
-    # axis labels read back only settle on the next draw (a saved file is drawn once, after
-    # the layout, as the second draw here)
-    fig.canvas.draw()
-    fig.canvas.draw()
-    return fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()
+    fixed_aspect = any(ax.get_aspect() != "auto" for ax in fig.axes)
+    draws = 2 if fixed_aspect and not drawn_before else 1
+    with renderer._draw_disabled():
+        for _ in range(draws):
+            fig.draw(renderer)
+    return renderer
 
 
 def _drawn_ticklabels(axis) -> list:
@@ -130,6 +147,24 @@ def _segments_hit(points: np.ndarray, box: Bbox, closed: bool = False) -> bool:
     return bool(((t0 <= t1) & ~parallel_out).any())
 
 
+def _paths_hit(paths, transform, box: Bbox, filled: bool) -> bool:
+    """Whether any of ``paths`` (drawn through ``transform``) has an outline in ``box`` or, if
+    ``filled``, an area over the box's centre."""
+    centre = ((box.x0 + box.x1) / 2.0, (box.y0 + box.y1) / 2.0)
+    for path in paths:
+        for polygon in path.to_polygons(transform, closed_only=False):
+            if len(polygon) and _segments_hit(np.asarray(polygon, float), box):
+                return True
+            if filled and len(polygon) > 2 and Path(polygon).contains_point(centre):
+                return True
+    return False
+
+
+def _filled(artist) -> bool:
+    faces = np.atleast_2d(artist.get_facecolor())
+    return bool(faces.size and (faces[:, 3] > 0).any()) if faces.ndim == 2 else False
+
+
 def _points_hit(points: np.ndarray, box: Bbox, radius: float) -> bool:
     points = points[np.isfinite(points).all(axis=1)]
     if not len(points):
@@ -195,12 +230,54 @@ def _data_under(ax, box: Bbox, renderer) -> list[str]:
                 if len(segment) and _segments_hit(transform.transform(segment), where):
                     found.append(f"line collection {k} {collection.get_label()!r}")
                     break
+        elif not isinstance(collection, QuadMesh) and _is_data(collection, ax):
+            # contour lines and filled bands (fill_between, contourf): their outlines and areas
+            paths = collection.get_paths()
+            if _paths_hit(paths, collection.get_transform(), where, _filled(collection)):
+                found.append(f"{type(collection).__name__} {k} {collection.get_label()!r}")
     for k, patch in enumerate(ax.patches):
-        if isinstance(patch, Rectangle) and patch.get_visible() and _is_data(patch, ax):
-            where = inside if patch.get_clip_on() else box
-            if where is not None and patch.get_window_extent(renderer).overlaps(where):
+        if not patch.get_visible() or not _is_data(patch, ax):
+            continue
+        where = inside if patch.get_clip_on() else box
+        if where is None:
+            continue
+        if isinstance(patch, Rectangle):
+            if patch.get_window_extent(renderer).overlaps(where):
                 found.append(f"bar {k}")
+        elif _paths_hit([patch.get_path()], patch.get_transform(), where, patch.get_fill()):
+            found.append(f"{type(patch).__name__} {k} {patch.get_label()!r}")
     return found
+
+
+def _texts_across_frames(fig, renderer) -> list[str]:
+    """Texts placed at a data point inside their axes whose box crosses the axes' frame."""
+    problems = []
+    for i, ax in enumerate(fig.axes):
+        if not ax.get_visible():
+            continue
+        frame = ax.get_window_extent(renderer)
+        for text in ax.texts:
+            if not text.get_visible() or not text.get_text().strip():
+                continue
+            if isinstance(text, Annotation):
+                if text.xycoords != "data":
+                    continue  # placed in axes or figure coordinates
+                anchor = ax.transData.transform(text.xy)
+            else:
+                if not _is_data(text, ax):
+                    continue
+                anchor = ax.transData.transform(text.get_position())
+            if not frame.contains(*anchor):
+                continue  # a text outside the axes by design
+            box = _shrunk(text.get_window_extent(renderer))
+            if not (
+                frame.x0 <= box.x0
+                and box.x1 <= frame.x1
+                and frame.y0 <= box.y0
+                and box.y1 <= frame.y1
+            ):
+                problems.append(f"axes {i} text {text.get_text()!r} crosses the axes' frame")
+    return problems
 
 
 def _labels_missing(fig) -> list[str]:
@@ -268,6 +345,7 @@ def check_figure(fig, *, labels: bool = True) -> list[str]:
                 problems += [
                     f"{name} covers axes {i} {hit}" for hit in _data_under(ax, box, renderer)
                 ]
+    problems += _texts_across_frames(fig, renderer)
     if labels:
         problems += _labels_missing(fig)
     return problems

@@ -13,6 +13,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.text import Annotation
+from plotting.figure_checks import assert_readable
 
 from dpfexplore import load_design, snap_pressures
 from dpfexplore.examples import example_path
@@ -36,7 +37,8 @@ def labels(ax) -> list[Annotation]:
 
 
 def test_one_title_and_one_pressure_label_for_the_column(drawn):
-    _, _, (top, bottom) = drawn
+    _, fig, (top, bottom) = drawn
+    assert_readable(fig)  # the keys beside the panels, off the snaps at the highest pressures
     assert top.get_title().startswith("slow ramp (cycle), snaps at ") and bottom.get_title() == ""
     assert top.get_xlabel() == "" and bottom.get_xlabel() == "chamber pressure (MPa)"
     assert top.get_ylabel() == "dome extension u = x̄/d" and bottom.get_ylabel() == "tip (mm)"

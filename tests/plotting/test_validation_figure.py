@@ -8,6 +8,7 @@ import matplotlib
 import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from plotting.figure_checks import assert_readable
 
 from dpfexplore.measurements import validate
 from dpfexplore.plotting.validation import plot_finger_validation, plot_validation
@@ -39,6 +40,7 @@ def _by_finger(result):
 
 
 def test_one_panel_per_finger_with_each_set_s_lattice(figure, result):
+    assert_readable(figure)  # the figure validate --plot saves
     grouped = _by_finger(result)
     panels = _panels(figure)
     assert len(panels) == len(grouped) == 13

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from conftest import spy
+from plotting.figure_checks import assert_readable
 
 import dpfexplore.cli as cli
 from dpfexplore import Design, PressureProfile, simulate
@@ -226,6 +227,7 @@ def test_simulate_leg_json_and_plot(main, capsys, tmp_path, monkeypatch):
     assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
     # what is drawn: the JSON's tip path (t, x, y, z rows) in the x-y and y-z projections
     (axes,) = drawn
+    assert_readable(axes[0].figure)
     path = np.array(out["tip_path"])[:, 1:]
     assert [(ax.get_xlabel(), ax.get_ylabel()) for ax in axes] == [
         ("tip x (mm)", "tip y (mm)"),

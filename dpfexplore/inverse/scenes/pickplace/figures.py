@@ -17,14 +17,17 @@ from ...evaluation import SceneEvaluator
 from ...spec import SceneSpec
 from .spec import PickPlaceSpec
 
-__all__ = ["pickplace_figures", "target_label"]
+__all__ = [
+    "front_figure",
+    "objective_figure",
+    "pickplace_figures",
+    "reset_map_figure",
+    "target_label",
+]
 
 
 def _save(fig, path: Path) -> Path:
-    import matplotlib.pyplot as plt
-
     fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
     return path
 
 
@@ -39,6 +42,66 @@ def target_label(row: Mapping[str, Any]) -> str:
     return "max RT_2 - RT_1"
 
 
+def reset_map_figure(
+    H: np.ndarray,
+    t: np.ndarray,
+    value: np.ndarray,
+    admissible: np.ndarray,
+    designs: list[tuple[float, float, str]],
+    *,
+    method: str,
+    h_label: str,
+):
+    """``reset-map.png``: the screening over the box (:func:`plot_reset_screen`'s arguments)."""
+    from matplotlib.figure import Figure
+
+    from ....plotting.timing import plot_reset_screen
+
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    plot_reset_screen(
+        H, t, value, admissible, designs=designs, ax=fig.subplots(), method=method, h_label=h_label
+    )
+    return fig
+
+
+def objective_figure(history, rows: list[dict[str, Any]]):
+    """``objective.png``: the best relative error of each result's target against evaluations.
+
+    ``history`` holds the finite objectives only; ``rows`` are the ``--json`` rows (their
+    targets name the lines).
+    """
+    from matplotlib.figure import Figure
+
+    from ....plotting.design import plot_objective_history
+
+    fig = Figure(figsize=(6, 5), layout="constrained")
+    plot_objective_history(
+        history,
+        ax=fig.subplots(),
+        labels={i: target_label(row) for i, row in enumerate(rows)},
+        ylabel="best relative error of the reset time so far",
+    )
+    return fig
+
+
+def front_figure(row: dict[str, Any]):
+    """``front-KK.png``: the difference front of one ``--json`` row that has one."""
+    from matplotlib.figure import Figure
+
+    from ....plotting.timing import plot_difference_front
+
+    fig = Figure(figsize=(6, 5), layout="constrained")
+    plot_difference_front(
+        [(q["difference"], q["stiffness"], q["design"]["t"]) for q in row["front"]],
+        lines=[(q["difference"], q["stiffness"]) for q in row.get("lines", []) if q["ok"]],
+        weighted=None
+        if "weighted" not in row
+        else (row["weighted"]["difference"], row["weighted"]["stiffness"]),
+        ax=fig.subplots(),
+    )
+    return fig
+
+
 def pickplace_figures(
     spec: SceneSpec[PickPlaceSpec],
     rows: list[dict[str, Any]],
@@ -50,10 +113,6 @@ def pickplace_figures(
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ....plotting.design import plot_objective_history
-    from ....plotting.timing import plot_difference_front, plot_reset_screen
     from .screen import screen_pickplace
 
     screen = screen_pickplace(spec, evaluator)
@@ -69,14 +128,12 @@ def pickplace_figures(
         for r in rows
         if r.get("design") is not None
     ]
-    fig, ax = plt.subplots(figsize=(8, 6))
-    plot_reset_screen(
+    fig = reset_map_figure(
         batch.H[:, slot],
         batch.t,
         screen.ev.value,
         screen.ev.admissible,
-        designs=designs,
-        ax=ax,
+        designs,
         method=screen.method,
         h_label=f"H_{slot + 1} (mm)",
     )
@@ -87,24 +144,8 @@ def pickplace_figures(
         else history
     )
     if len(frame):
-        fig, ax = plt.subplots(figsize=(6, 5))
-        plot_objective_history(
-            frame,
-            ax=ax,
-            labels={i: target_label(row) for i, row in enumerate(rows)},
-            ylabel="best relative error of the reset time so far",
-        )
-        paths.append(_save(fig, out / "objective.png"))
+        paths.append(_save(objective_figure(frame, rows), out / "objective.png"))
     for i, row in enumerate(rows):
         if row.get("front"):
-            fig, ax = plt.subplots(figsize=(6, 5))
-            plot_difference_front(
-                [(q["difference"], q["stiffness"], q["design"]["t"]) for q in row["front"]],
-                lines=[(q["difference"], q["stiffness"]) for q in row.get("lines", []) if q["ok"]],
-                weighted=None
-                if "weighted" not in row
-                else (row["weighted"]["difference"], row["weighted"]["stiffness"]),
-                ax=ax,
-            )
-            paths.append(_save(fig, out / f"front-{i + 1:02d}.png"))
+            paths.append(_save(front_figure(row), out / f"front-{i + 1:02d}.png"))
     return paths

@@ -40,6 +40,8 @@ __all__ = [
     "UnitRow",
     "WalkerLegResult",
     "inverted_intervals",
+    "timing_figure",
+    "tip_path_figure",
     "walker_report",
     "write_walker_report",
 ]
@@ -403,10 +405,6 @@ def _figures(
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ....plotting.leg import plot_tip_paths
-    from ....plotting.timing import plot_gait_timing
 
     paths = []
     g = spec.kind_spec.gait
@@ -419,18 +417,14 @@ def _figures(
         if result.turn is not None:
             runs.insert(1, result.turn)
             labels.insert(1, f"designed {kind} leg, turning (phase 2 raised)")
-        fig, axes = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
-        plot_tip_paths(runs, axes, labels=labels)
-        fig.suptitle(
+        title = (
             f"{spec.name}: {kind} leg, stride {row['stride']:.2f} mm vs "
             f"{row['monostable_stride']:.2f} mm (monostable)"
         )
         path = out / f"tip-path-{kind}.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        tip_path_figure(runs, labels, title).savefig(path, dpi=120)
         paths.append(path)
         for mode, leg in result.timing.items():
-            fig, ax = plt.subplots(figsize=(11, 4.5), layout="constrained")
             phases = [(f"phase {s}", leg.t, leg.leg.phases[s](leg.t)) for s in ("1", "2")]
             units = []
             for run in leg.sections:
@@ -449,16 +443,37 @@ def _figures(
                     units.append((label, intervals[k], cls))
             marks = [(c * g.period, f"cycle {c + 1}") for c in range(g.cycles)]
             what = "walking" if mode == "walk" else "turning: phase 2 raised in cycle 1"
-            plot_gait_timing(
+            fig = timing_figure(
                 phases,
                 units,
                 t_end=float(leg.t[-1]),
                 marks=marks,
-                ax=ax,
                 title=f"{kind} leg, {what} ({g.cycles} cycles)",
             )
             path = out / f"timing-{kind}-{mode}.png"
             fig.savefig(path, dpi=120)
-            plt.close(fig)
             paths.append(path)
     return paths
+
+
+def tip_path_figure(runs, labels: list[str], title: str):
+    """``tip-path-KIND.png``: the runs' tip paths (:func:`plot_tip_paths`) under ``title``."""
+    from matplotlib.figure import Figure
+
+    from ....plotting.leg import plot_tip_paths
+
+    fig = Figure(figsize=(12, 5), layout="constrained")
+    plot_tip_paths(runs, fig.subplots(1, 2), labels=labels)
+    fig.suptitle(title)
+    return fig
+
+
+def timing_figure(phases, units, *, t_end: float, marks, title: str):
+    """``timing-KIND-MODE.png``: one leg's timing diagram (:func:`plot_gait_timing`'s arguments)."""
+    from matplotlib.figure import Figure
+
+    from ....plotting.timing import plot_gait_timing
+
+    fig = Figure(figsize=(11, 4.5), layout="constrained")
+    plot_gait_timing(phases, units, t_end=t_end, marks=marks, ax=fig.subplots(), title=title)
+    return fig

@@ -22,8 +22,9 @@ Margin of a class, from the loop itself (no proxy):
   ``T(D)`` the payloads (kg) of the deciding state without and with the tip unit inverted
   (``T = 0`` when the tip unit resets before the lift ends), ``light``: ``min P - m_hi``;
   ``heavy``: ``min(m_lo - max P, min T - m_hi)``; ``not_held`` at the centre:
-  ``min max(P, T) - m_hi``
-  (negative).
+  ``min max(P, T) - m_hi`` (negative), and then the diameter margin is at most minus half the
+  box's width minus the distance from its centre to the nearest diameter where the loop holds
+  ``m_hi`` (so that a class not held still has a margin that grows as a boundary comes near).
 * **Margin**: ``min(diameter / diameter_scale, mass / mass_scale)``, dimensionless; a design's
   margin is the smallest of its classes'. Positive: every class is classified correctly, by at
   least that many scales of diameter or mass.
@@ -317,10 +318,13 @@ def class_margins(
             mass_margin = float(np.min(p_box)) - mass_hi
         elif state[i] >= 0 and w == kb.W_HEAVY:
             mass_margin = min(mass_lo - float(np.max(p_box)), float(np.min(t_box)) - mass_hi)
-        elif state[i] >= 0:
-            mass_margin = min(float(np.min(np.maximum(p_box, t_box))) - mass_hi, 0.0)
         else:
-            mass_margin = -mass_hi
+            mass_margin = min(float(np.min(np.maximum(p_box, t_box))) - mass_hi, 0.0)
+            # not held at its centre: also as far (in diameter) as the nearest diameter that
+            # holds its heaviest mass, beyond half its width (the whole grid when none does)
+            holds = (size[:n] >= 0) & (np.maximum(pay[:n], tip[:n]) >= mass_hi)
+            reach = float(np.min(np.abs(grid[holds] - c.centre[0]))) if holds.any() else top - low
+            diameter_margin = min(diameter_margin, -0.5 * (d_hi - d_lo) - reach)
         records.append((c, label, interval, diameter_margin, mass_margin))
     labels = [r[1] for r in records]
     out = []

@@ -80,10 +80,15 @@ def test_misclassified_classes_are_negative(synthetic):
     m = {c.name: c for c in out.classes}
     assert m["across"].size_margin_mm == pytest.approx(40 - 41, abs=1e-3)  # -1 mm
     assert m["unsized"].label == "none/not_held"
-    assert m["unsized"].size_margin_mm == pytest.approx(-2.0)  # a boundary through its centre
+    # not held: half its width, and 8 mm from its centre (22) to the first diameter that holds
+    # 0.2 g (30 mm, sized there)
+    assert m["unsized"].size_margin_mm == pytest.approx(-(2.0 + 8.0))
     # not held: min over the box of max(P, T) - m_hi = 2 * 60 / 50 - 4 = -1.6 g
     assert m["too-heavy"].label == "11000/not_held"
     assert m["too-heavy"].mass_margin_kg == pytest.approx(-1.6e-3, abs=1e-12)
+    # no diameter up to the open gripper holds 4 g (T >= 4 g from 100 mm): the whole grid,
+    # 90 - 10 mm, beyond half its width
+    assert m["too-heavy"].size_margin_mm == pytest.approx(-(1.0 + 80.0))
     assert all(not c.correct for c in out.classes) and out.margin < 0
     # the same outcome for two classes: both get the half-width penalty
     twin = ObjectClass("twin", (64.0, 66.0), (0.0, 0.2e-3))
@@ -98,6 +103,8 @@ def test_tip_unit_not_lasting_gives_no_heavy_class(synthetic):
     assert out.classes[0].label == "11100/not_held"
     # max(P, 0) - m_hi over the box: 0.88 - 1.5 g
     assert out.classes[0].mass_margin_kg == pytest.approx(0.88e-3 - 1.5e-3, abs=1e-12)
+    # P >= 1.5 g from 75 mm: 30 mm from its centre, beyond half its width
+    assert out.classes[0].size_margin_mm == pytest.approx(-(1.0 + 30.0))
 
 
 def test_samples_cover_the_box_edges():

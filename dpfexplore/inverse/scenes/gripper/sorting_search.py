@@ -14,9 +14,9 @@ variables the scene already fits exactly: the target apertures of the grasp stat
    ``[gripper]`` apertures. The finger's stiffness decides how far above a boundary a state
    still holds an object before the object pushes a dome back, so the start matters as much
    as the apertures. The best start's margin begins the search.
-2. **Secant step.** Each state's lower size boundary follows its aperture nearly one for one,
-   so one trial moves each aperture by the distance from its boundary to a point just below
-   its class (:func:`_secant`).
+2. **Secant steps.** Each state's lower size boundary follows its aperture nearly one for one,
+   so the apertures move by the distance from each boundary to a point just below its class
+   (:func:`_secant`), in four trials of a quarter, a third, a half and all of what remains.
 3. **Nelder-Mead** (:func:`scipy.optimize.minimize`) on the apertures from the best point, the
    initial simplex 2 mm along each aperture, until ``max_evaluations`` margins have been
    computed: it needs no derivative and moves several apertures at once, which a margin that
@@ -24,15 +24,19 @@ variables the scene already fits exactly: the target apertures of the grasp stat
 
 A point becomes the best only if the scene's checks pass on it as they passed on the scene's own
 design (the tip unit metastable under the pulse, a full-model run; the pressure windows, the
-snap continuation): the least squares move every finger variable, the tip unit's height too.
+snap continuation): a fit moves the finger's lengths and heights, which both depend on.
 Each trial's apertures are realised by the engine's trust-region least squares
 (:func:`~dpfexplore.inverse.engine.optimiser.refine_residual`) from the best point so far, to
-within half the aperture tolerance; a trial it cannot realise is skipped. The search assumes the
-tip unit lasts the lift as the start design's does (a reset time is a simulation); the best
-point is then handed to the scene's stiffening stage (:func:`.solve._stiffen`: stiffness, the
-tip unit metastable, the pressure windows) with its apertures as targets, and the stiffened
-design's margin is computed again, with its own tip reset time. The better of it and the start
-design is the answer, so the margin found is never below the scene's default design's.
+within half the aperture tolerance, on every variable but the tip unit's dome (its height and
+the shared thickness ``t``, held at the best start's: that dome's isolated ``α`` decides
+whether the tip unit is metastable, which the start passed); a trial it cannot realise is
+skipped. The search assumes the tip unit lasts the lift as the start design's does (a reset
+time is a simulation). The best point is then handed to the scene's stiffening stage
+(:func:`.solve._stiffen`: stiffness, the tip unit metastable, the pressure windows) with its
+apertures as targets, and both it and the stiffened design are checked again (margin with
+their own tip reset time, the scene's checks): the one with the larger margin that passes the
+checks the scene's own design passed is the answer, else the scene's own design, so the margin
+found is never below the scene's default design's.
 """
 
 from __future__ import annotations
@@ -49,7 +53,7 @@ from scipy.optimize import minimize
 from ....grasping.classes import SortingMargins, class_margins
 from ....grasping.grasp import tip_reset_time
 from ....grasping.setup import Gripper, gripper_of
-from ...engine.optimiser import GOAL_FRACTION, ResidualRefinement, refine_residual
+from ...engine.optimiser import ResidualRefinement, refine_residual
 from ...evaluation import SceneEvaluator
 from .problem import GripperProblem
 from .sorting import SortingSpec
@@ -58,6 +62,13 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["SortingSearch", "gripper_at", "loop_margins", "search_apertures"]
 
+#: A trial's fit stops once its apertures are within this fraction of the tolerance (the
+#: scene's own fits go to GOAL_FRACTION; a trial is kept within half the tolerance).
+TRIAL_GOAL = 0.1
+#: The secant move, in fractions of what remains of it, each trial from the last point kept:
+#: a fit that moves the apertures by millimetres at once can leave the tip unit's
+#: metastability behind, one in steps follows it.
+SECANT_STEPS = (0.25, 1.0 / 3.0, 0.5, 1.0)
 #: Edge of the initial simplex along each aperture, mm.
 SIMPLEX_MM = 2.0
 
@@ -144,6 +155,33 @@ def _secant(margins: SortingMargins, sorting: SortingSpec, apertures: NDArray) -
     return out
 
 
+def _domes_held(problem: GripperProblem, z: NDArray):
+    """The problem's variables with the tip unit's dome (its ``H``, and ``t``) held at ``z``'s.
+
+    Returns the held variables and the maps of box points from the full box to the held one
+    and back (finger variables, then ``θ_B``, ``Base_L``).
+    """
+    from ....model.design import DesignBatch
+
+    design = problem.designs(np.atleast_2d(z)).design(0)
+    heights = problem.variables.H
+    k = problem.spec.metastable_unit - 1
+    held = [float(design.H[k]) if i == k else h for i, h in enumerate(heights)]
+    frozen = replace(problem.variables, H=tuple(held), t=float(design.t))
+    n_full, n_held = problem.n_finger, frozen.n_variables
+
+    def convert(z: NDArray, source, target, n_source: int) -> NDArray:
+        batch = DesignBatch.from_designs([source.design(np.clip(z[:n_source], 0.0, 1.0))])
+        inner, _ = target.encode(batch, tol=1e-6)
+        return np.concatenate([np.asarray(inner[0], dtype=float), z[n_source:]])
+
+    return (
+        frozen,
+        lambda z: convert(z, problem.variables, frozen, n_full),
+        lambda z: convert(z, frozen, problem.variables, n_held),
+    )
+
+
 def search_apertures(
     problem: GripperProblem,
     starts: list[NDArray],
@@ -163,7 +201,7 @@ def search_apertures(
     """
     g = problem.spec
     tol = g.aperture_tol
-    goal = (GOAL_FRACTION * tol) ** 2
+    goal = (TRIAL_GOAL * tol) ** 2
     start = gripper_at(problem, starts[0])
     lasts = tip_lasts(start, sorting, evaluator)
     default = loop_margins(start, sorting, lasts)
@@ -184,15 +222,17 @@ def search_apertures(
             search.best, search.z = margins, np.array(z)
             search.apertures = tuple(float(a) for a in other.apertures)
     best_a = np.array(search.apertures)
+    frozen, to_frozen, to_full = _domes_held(problem, search.z)
+    z_frozen = {"z": to_frozen(search.z)}
 
     def trial(apertures: NDArray) -> float:
         """Realise ``apertures`` and compute its margin (NaN: not realised); keep the best."""
         if search.evaluations >= sorting.max_evaluations or np.any(np.diff(apertures) >= 0):
             return math.nan  # out of budget, or not the decreasing apertures of the sequence
         fit = replace(g, apertures=tuple(float(a) for a in apertures))
-        trial_problem = GripperProblem(problem.variables, fit, evaluator)
+        trial_problem = GripperProblem(frozen, fit, evaluator)
         run: ResidualRefinement = refine_residual(
-            trial_problem, search.z, goal=goal, max_iter=max_iter
+            trial_problem, z_frozen["z"], goal=goal, max_iter=2 * max_iter
         )
         residual = run.evaluation.residual[0]
         search.evaluations += 1
@@ -204,7 +244,8 @@ def search_apertures(
                 margins = None
             if margins is not None and margins.margin > search.best.margin:
                 if accept is None or accept(trial_problem, run.z):
-                    search.best, search.z = margins, run.z
+                    search.best, search.z = margins, to_full(run.z)
+                    z_frozen["z"] = run.z
                     search.apertures = tuple(float(a) for a in apertures)
                     margin = margins.margin
                 else:
@@ -215,7 +256,9 @@ def search_apertures(
         logger.info("sorting trial %s mm: margin %.4f", np.round(apertures, 3), margin)
         return margin
 
-    trial(_secant(search.best, sorting, best_a))
+    goal_a = _secant(search.best, sorting, best_a)
+    for fraction in SECANT_STEPS:  # in steps, each from the last point kept
+        trial(np.array(search.apertures) + fraction * (goal_a - np.array(search.apertures)))
     remaining = sorting.max_evaluations - search.evaluations
     if remaining > 0:
         # Nelder-Mead on the apertures from the best so far: -margin, or a margin below every

@@ -114,7 +114,10 @@ def solve_scene(
         return out
     counts0, wall0 = dict(evaluator.counts), evaluator.wall_s
     problem = gripper_problem(spec, evaluator)
-    starts = [result.best.z, *_reference_start(problem), *_candidate_starts(problem, spec)]
+    starts = [result.best.z]
+    for z in [*_reference_start(problem), *_candidate_starts(problem, spec)]:
+        if not any(np.allclose(z, other, rtol=0.0, atol=1e-9) for other in starts):
+            starts.append(z)
     need_meta = bool(result.metastability.get("ok", False))
     need_windows = g.min_window_kPa > 0 and windows_ok(result.windows, g.min_window_kPa)
 

@@ -1,4 +1,6 @@
-"""The gripper scene's sorting objective: the ``[gripper.sorting]`` table (layout in :mod:`.spec`).
+"""The gripper scene's sorting objective: the ``[gripper.sorting]`` table.
+
+Its layout is in :mod:`dpfexplore.inverse.scenes.gripper.spec`.
 
 Object classes (a name, a diameter range in mm, a mass or mass range in kg) that the paper's
 loop (:mod:`dpfexplore.grasping.sort`) must tell apart; the design then maximises the smallest
@@ -102,7 +104,7 @@ def _classes(value: Any, n_states: int) -> tuple[ObjectClass, ...]:
 def parse_sorting(
     value: Any, states: Sequence[str], metastable_unit: int, min_reset_s: float
 ) -> SortingSpec:
-    """The ``[gripper.sorting]`` table -> :class:`SortingSpec` (layout in :mod:`.spec`)."""
+    """The ``[gripper.sorting]`` table -> :class:`SortingSpec`."""
     if not isinstance(value, Mapping):
         raise SceneSpecError(f"{WHERE} = {value!r}: must be a table")
     check_keys(

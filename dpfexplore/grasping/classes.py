@@ -206,7 +206,7 @@ def class_margins(
     margin: float = 0.1,
     diameter_scale: float = 1.0,
     mass_scale: float = 1e-3,
-    step: float = 0.5,
+    step: float = 1.0,
     tol: float = 0.01,
     options: GraspOptions | None = None,
 ) -> SortingMargins:
@@ -245,8 +245,9 @@ def class_margins(
     low = 0.5 * min(c.diameter[0] for c in classes)
     grid = np.linspace(low, top, max(math.ceil((top - low) / step) + 1, 2))
     n, k = grid.size, len(classes)
-    ends = np.array([d for c in classes for d in c.diameter])
-    centres = np.array([c.centre[0] for c in classes])
+    # a class reaching past the open gripper is evaluated at its aperture (the grid's end)
+    ends = np.minimum([d for c in classes for d in c.diameter], top)
+    centres = np.minimum([c.centre[0] for c in classes], top)
     d_all = np.concatenate([grid, ends, centres])
     size, pay, tip = loop(d_all)
     grid_out = (size[:n], pay[:n], tip[:n])

@@ -90,6 +90,9 @@ def test_misclassified_classes_are_negative(synthetic):
     # 90 - 10 mm, beyond half its width
     assert m["too-heavy"].size_margin_mm == pytest.approx(-(1.0 + 80.0))
     assert all(not c.correct for c in out.classes) and out.margin < 0
+    # past the open gripper (90 mm): the interval ends there, 4 mm inside the class
+    wide = class_margins(synthetic, [ObjectClass("wide", (88.0, 94.0), (0.0, 0.2e-3))], tol=1e-3)
+    assert wide.classes[0].size_margin_mm == pytest.approx(90 - 94)
     # the same outcome for two classes: both get the half-width penalty
     twin = ObjectClass("twin", (64.0, 66.0), (0.0, 0.2e-3))
     light = ObjectClass("light", (57.0, 59.0), (0.0, 0.2e-3))

@@ -31,6 +31,8 @@ __all__ = ["SortingVerification", "verify_sorting"]
 
 #: Samples per class: diameters and masses, edges included.
 SAMPLES = (5, 3)
+#: The confusion table's column of samples wider than the open gripper (not sorted).
+WIDER = "wider than the open gripper"
 
 
 @dataclass(frozen=True)
@@ -122,17 +124,19 @@ def verify_sorting(
     margins = loop_margins(gripper, sorting, lasts)
     expected = {m.name: m.label for m in margins.classes}
     samples = class_samples(sorting.classes, *SAMPLES)
+    fits = samples.diameters <= gripper.open_aperture  # wider objects cannot be sorted
     objects = Objects(
-        samples.names,
-        samples.diameters,
-        samples.masses,
-        tuple(expected[name] for name in samples.classes),
+        tuple(n for n, f in zip(samples.names, fits, strict=True) if f),
+        samples.diameters[fits],
+        samples.masses[fits],
+        tuple(expected[name] for name, f in zip(samples.classes, fits, strict=True) if f),
     )
     report = sort_objects(gripper, objects, mu=sorting.mu, lift_s=sorting.lift_s)
-    confusion: dict[str, dict[str, int]] = {}
-    for name, obj in zip(samples.classes, report.objects, strict=True):
-        cell = confusion.setdefault(name, {})
-        cell[obj.label] = cell.get(obj.label, 0) + 1
+    confusion: dict[str, dict[str, int]] = {name: {} for name in expected}
+    outcomes = iter(report.objects)
+    for name, fit in zip(samples.classes, fits, strict=True):
+        label = next(outcomes).label if fit else WIDER
+        confusion[name][label] = confusion[name].get(label, 0) + 1
     labels = list(expected.values())
     correct = {
         name: (

@@ -122,9 +122,9 @@ def test_search_is_at_least_the_default_and_the_report_reverifies(run):
 
 def test_sorting_map_figure_draws_the_classes(run, monkeypatch):
     from matplotlib.patches import Rectangle
+    from plotting.figure_checks import check_figure
 
     from dpfexplore.inverse.scenes.gripper import sorting_plot
-    from tests.plotting.figure_checks import check_figure
 
     _, outcome, _ = run
     s = outcome.results[0].sorting

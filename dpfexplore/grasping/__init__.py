@@ -15,6 +15,9 @@ grasp
 sort
     :func:`sort_objects`: the size-and-weight loop over many objects (in parallel), the
     confusion table; :func:`sorting_map` over a grid of diameters and masses.
+classes
+    Object classes (diameter and mass ranges): each class's margin to the loop's boundaries
+    (:func:`~.classes.class_margins`) and objects sampled from each.
 """
 
 from .grasp import GraspReport, StateGrasp, grasp

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ...report import RESOLVED_ALONE
 from ...scene_kind import SceneKind
 from .report import gripper_report, write_gripper_report
-from .solve import solve_gripper
+from .sorting_stage import solve_scene
 from .spec import parse_gripper
 from .summary import summary_lines
 
@@ -15,7 +15,7 @@ KIND = SceneKind(
     tables=("targets", "objective", "gripper"),
     own_variables=False,
     parse=parse_gripper,
-    solve=solve_gripper,
+    solve=solve_scene,
     report=gripper_report,
     write=write_gripper_report,
     summary=summary_lines,

@@ -11,12 +11,15 @@ Files (:func:`write_gripper_report`)
                               reads it back) with its base and apertures in ``[result]``
     ``*.png``                 with ``plot=True``: the objective against evaluations and the
                               gripper in its grasp states
+    ``sorting-objects.csv``   with ``[gripper.sorting]``: the objects the re-verification
+                              sorted (true class: the class's outcome); with ``plot=True``
+                              ``sorting.png``, the sorting map with the classes' boxes
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +35,8 @@ from ...evaluation import SceneEvaluator
 from ...report import VERIFIED_BY, verify_state, write_result_row, write_summary
 from ...spec import SceneSpec
 from .solve import GripperTargetResult, Metastability, metastability, windows_ok
+from .sorting_check import SortingVerification, verify_sorting
+from .sorting_stage import SortingTargetResult
 from .spec import GripperSpec
 from .windows import PressureWindows, pressure_windows
 
@@ -156,6 +161,8 @@ class GripperResult:
     wall_s : float
         Seconds of the search.
     reference : GripperReference or None
+    sorting : SortingVerification or None
+        The sorting objective's re-verification (with ``[gripper.sorting]``).
     """
 
     target: tuple[float, ...]
@@ -167,15 +174,20 @@ class GripperResult:
     evaluations: dict[str, int]
     wall_s: float
     reference: GripperReference | None = None
+    sorting: SortingVerification | None = None
 
     @property
     def met(self) -> bool:
-        """Apertures met, windows not refused and, when simulated, the tip unit metastable."""
+        """Apertures met, windows not refused and, when simulated, the tip unit metastable.
+
+        With a sorting objective, also every class sorted correctly by the re-verification.
+        """
         checks = self.metastability
         return (
             self.reachable
             and self.windows_ok is not False
             and not (checks and not checks.get("ok", True))
+            and (self.sorting is None or self.sorting.met)
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -197,6 +209,8 @@ class GripperResult:
             row["reference"] = ref
             if ref["stiffness"] is not None and entry["stiffness"] is not None:
                 row["stiffness_ratio_to_reference"] = entry["stiffness"] / ref["stiffness"]
+        if self.sorting is not None:
+            row["sorting"] = self.sorting.to_dict()
         return row
 
 
@@ -234,6 +248,8 @@ def gripper_report(
 ) -> GripperResult:
     """The verified result of the gripper scene."""
     g = spec.kind_spec
+    if isinstance(result, SortingTargetResult) and result.apertures:
+        g = replace(g, apertures=result.apertures)  # the apertures the sorting objective chose
     best = result.best
     design = best.problem.designs(np.atleast_2d(best.z)).design(0)
     theta, base_l = (float(v[0]) for v in best.problem.base(np.atleast_2d(best.z)))
@@ -251,7 +267,7 @@ def gripper_report(
             metastability=metastability(g.reference, g, evaluator),
             pressure_windows_kPa=pressure_windows(g.reference, g.states, evaluator)["windows"],
         )
-    return GripperResult(
+    verified = GripperResult(
         target=tuple(g.apertures),
         reachable=bool(met),
         gripper=gripper,
@@ -262,6 +278,25 @@ def gripper_report(
         wall_s=result.wall_s,
         reference=reference,
     )
+    if g.sorting is None:
+        return verified
+    search = result.sorting if isinstance(result, SortingTargetResult) else None
+    sorting = verify_sorting(
+        verified.to_dict(),
+        g.sorting,
+        title=_title(spec, list(g.apertures)),
+        constants=spec.constants,
+        scene_apertures=tuple(spec.kind_spec.apertures),
+        apertures=tuple(g.apertures),
+        default_margin=search.default.margin if search and search.default else math.nan,
+        evaluations=search.evaluations if search else 0,
+        trace=search.trace if search else [],
+    )
+    return replace(verified, sorting=sorting)
+
+
+def _title(spec: SceneSpec, target: list) -> str:
+    return f"{spec.name}: gripper, apertures {target} mm"
 
 
 # ----------------------------------------------------------------------------- files
@@ -288,13 +323,58 @@ def write_gripper_report(
     written = write_summary(spec, rows, evaluator, out, wall_s=wall_s, history=history)
     for row in rows:
         path = out / "gripper.toml"
-        title = f"{spec.name}: gripper, apertures {row['target']} mm"
+        title = _title(spec, row["target"])
         write_result_row(path, row, title=title, constants=spec.constants)
         written.append(path)
+    for result in results:
+        if result.sorting is not None:
+            written += _sorting_files(result, out)
     written += write_constants_beside(spec.constants, out)
     if plot:
         written += _figures(spec.kind_spec, results, history, out)
+        written += [_sorting_figure(r, out) for r in results if r.sorting is not None]
     return written
+
+
+def _sorting_files(result: GripperResult, out: Path) -> list[Path]:
+    """The re-verification's objects as a CSV ``sort`` reads; the design file checked."""
+    import csv
+    import io
+
+    from ....grasping.sort import read_objects
+    from ....io.files import atomic_write
+    from ....model.design import load_design
+
+    # the file the report leaves is the one the re-verification read back and sorted
+    verified = result.sorting.report.gripper.design
+    if load_design(out / "gripper.toml").to_dict() != verified.to_dict():
+        raise RuntimeError(f"{out / 'gripper.toml'}: does not read back as the verified design")
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["name", "diameter", "mass", "class"])
+    for o in result.sorting.report.objects:
+        writer.writerow([o.name, repr(o.diameter_mm), repr(o.mass_kg), o.true_class])
+    path = out / "sorting-objects.csv"
+    atomic_write(path, buffer.getvalue().encode())
+    if read_objects(path).classes != tuple(o.true_class for o in result.sorting.report.objects):
+        raise RuntimeError(f"{path}: does not read back as written")
+    return [path]
+
+
+def _sorting_figure(result: GripperResult, out: Path) -> Path:
+    """The sorting map of the verified gripper with the classes' boxes (``sorting.png``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .sorting_plot import plot_sorting_result
+
+    ax = plot_sorting_result(result.sorting)
+    path = out / "sorting.png"
+    ax.figure.savefig(path, dpi=130, bbox_inches="tight")
+    plt.close(ax.figure)
+    return path
 
 
 def _figures(g: GripperSpec, results: list[GripperResult], history, out: Path) -> list[Path]:

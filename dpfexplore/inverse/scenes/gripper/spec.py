@@ -23,12 +23,23 @@ in s::
     min_reset_s = 0.05
     pulse = {P0 = 0.7, tau = [0.0, 0.5, 1.0, 1.1], t_end = 2.0}
     reference = {H = [...], ..., theta_B_deg = -27.065, base_L = 20.081}   # optional
+
+    [gripper.sorting]             # optional: the sorting objective (docs/guide/grasp.md)
+    classes = [                   # diameter ranges must not overlap; masses >= 0
+      {name = "large", diameter = {min = 67.0, max = 73.0}, mass = {min = 0.0, max = 0.001}},
+      {name = "small", diameter = {min = 32.0, max = 38.0}, mass = 0.001},   # kg
+    ]
+    mu = 0.5                      # Coulomb friction at the contacts
+    lift_s = 0.05                 # s; default min_reset_s: the tip unit used if it lasts
+    diameter_scale_mm = 1.0       # the margin counts 1 mm of diameter ...
+    mass_scale_kg = 0.001         # ... as 1 g of mass
+    max_evaluations = 24          # loop margins the aperture search may evaluate
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import pairwise
 from typing import Any
 
@@ -37,6 +48,7 @@ from ....model.design import Design
 from ....model.pressure import PressureProfile
 from ...scene_file import SceneSpecError, reference_design
 from ...spec import SceneCommon
+from .sorting import SortingSpec, check_open_gripper, open_aperture, parse_sorting
 
 __all__ = ["GripperSpec", "parse_gripper"]
 
@@ -67,6 +79,8 @@ class GripperSpec:
         The pulse (MPa, s) and the end of its runs (s).
     reference, reference_theta_B_deg, reference_base_L : Design, float, float, or None
         A gripper to compare with (degrees, mm).
+    sorting : SortingSpec or None
+        The sorting objective (``[gripper.sorting]``), if any.
     """
 
     states: tuple[str, ...]
@@ -84,6 +98,7 @@ class GripperSpec:
     reference: Design | None = None
     reference_theta_B_deg: float | None = None
     reference_base_L: float | None = None
+    sorting: SortingSpec | None = None
 
     @property
     def n_results(self) -> int:
@@ -113,6 +128,7 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
             "min_reset_s",
             "pulse",
             "reference",
+            "sorting",
         ),
     )
     if len(common.n_units) != 1:
@@ -155,7 +171,7 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
             g["reference"], "gripper.reference", common, extra=("theta_B_deg", "base_L")
         )
         theta_ref, base_ref = extra.get("theta_B_deg"), extra.get("base_L")
-    return GripperSpec(
+    spec = GripperSpec(
         states=tuple(states),
         apertures=tuple(apertures),
         aperture_tol=positive_number(g, "gripper", "aperture_tol", 0.05),
@@ -174,3 +190,9 @@ def parse_gripper(data: Mapping[str, Any], common: SceneCommon) -> GripperSpec:
         reference_theta_B_deg=theta_ref,
         reference_base_L=base_ref,
     )
+    if "sorting" not in g:
+        return spec
+    sorting = parse_sorting(g["sorting"], spec.states, spec.metastable_unit, spec.min_reset_s)
+    if reference is not None and theta_ref is not None and base_ref is not None:
+        check_open_gripper(sorting, open_aperture(reference, base_ref, theta_ref), "the reference")
+    return replace(spec, sorting=sorting)

@@ -15,6 +15,9 @@ from numpy.typing import NDArray
 __all__ = ["plot_grasp", "plot_sorting_map"]
 
 
+#: Height of one legend row of the sorting map, as a fraction of the map's mass range.
+_SORT_LEGEND_ROW = 0.11
+
 #: Height of the band above the drawing that holds the legend (fraction of the drawing's height):
 #: three entries at the small font in a panel a few inches tall.
 _LEGEND_BAND = 0.4
@@ -99,7 +102,7 @@ def plot_grasp(
     ]
     if touching.size:
         handles.append(
-            Line2D([], [], color="C3", lw=2, label=f"contact force (largest {biggest:.3g} N)")
+            Line2D([], [], color="C3", lw=2, label=f"contact force\n(largest {biggest:.3g} N)")
         )
     ax.legend(handles=handles, loc="upper left", fontsize="small")
     ax.set_aspect("equal")
@@ -180,7 +183,18 @@ def plot_sorting_map(
     if objects is not None:
         ax.plot(objects[0], 1e3 * np.asarray(objects[1]), "kx", ms=6)
         handles.append(Line2D([], [], color="k", marker="x", ls="", label="objects"))
-    ax.legend(handles=handles, loc="upper right", fontsize="x-small", framealpha=0.8)
+    # the legend stands in a band above the map, clear of its boundaries and objects
+    # as many columns as the axes' width holds (an x-small entry: about 0.055 in per character
+    # of its label plus 0.5 in for its key and padding)
+    width_in = ax.get_position().width * ax.figure.get_figwidth()
+    entry_in = 0.5 + 0.055 * max(len(h.get_label()) for h in handles)
+    ncols = max(1, min(4, len(handles), int(width_in // entry_in)))
+    rows = -(-len(handles) // ncols)
+    cell = float(grams[1] - grams[0]) if grams.size > 1 else 1.0  # the map's cells are centred
+    low, top = float(grams[0]) - 0.5 * cell, float(grams[-1]) + 0.5 * cell
+    height = top - low
+    ax.set_ylim(low, top + _SORT_LEGEND_ROW * rows * height + 0.04 * height)
+    ax.legend(handles=handles, loc="upper center", ncols=ncols, fontsize="x-small", framealpha=0.9)
     ax.set_xlabel("object diameter (mm)")
     ax.set_ylabel("object mass (g)")
     ax.set_title("Sorting map: size state / weight class", fontsize="small")

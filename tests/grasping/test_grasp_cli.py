@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -164,3 +165,44 @@ def test_tip_reset_time_is_the_dynamics_reset_of_the_metastable_tip():
     assert out["unit_class"][0, n - 1] == 1 and np.all(out["unit_class"][0, : n - 1] == 0)
     assert out["snap_back"][0, n - 1] == pytest.approx(1.1 + reset, abs=1e-12)
     assert 0 < reset < 1.0 and np.all(np.isinf(out["reset_time"][0, : n - 1]))
+
+
+def test_the_base_comes_from_base_then_the_files_result_then_the_paper(tmp_path, capsys):
+    """A designed gripper's file names its base in [result]: grasp and sort close on that base."""
+    from dpfexplore.model.gripper import PAPER_GRIPPER_BASE, gripper_aperture
+
+    design = load_design(example_path("gripper"))
+    text = example_path("gripper").read_text()
+    path = tmp_path / "designed.toml"
+    path.write_text(text + "\n[result]\nbase_L = 24.0\ntheta_B_deg = -20.0\n")
+
+    def apertures(argv, base):
+        assert main(["grasp", *argv, "--object", "40", "--json"]) == 0
+        document = json.loads(capsys.readouterr().out)
+        assert (document["base_L_mm"], document["theta_B_deg"]) == pytest.approx(base)
+        return [s["aperture_mm"] for s in document["states"]]
+
+    from dpfexplore import find_state
+    from dpfexplore.solvers.lattice import lattice_params
+
+    n = design.n_units
+    tips = np.array([find_state(design, "1" * k + "0" * (n - k)).tip for k in range(1, n)])
+    h = lattice_params(design).h
+    for argv, base in (
+        ([str(path)], (24.0, -20.0)),
+        ([str(path), "--base", "22", "-25"], (22.0, -25.0)),
+        (["gripper"], PAPER_GRIPPER_BASE),
+    ):
+        expected = gripper_aperture(tips, h, *base)
+        np.testing.assert_allclose(apertures(argv, base), expected, rtol=0, atol=1e-9)
+    # the text output says which base it closed on
+    assert main(["grasp", str(path), "--object", "40"]) == 0
+    assert "base_L 24 mm, theta_B -20 deg (designed.toml [result])" in capsys.readouterr().out
+    # half a base, or a base that is no number: one line, nothing computed
+    path.write_text(text + "\n[result]\nbase_L = 24.0\n")
+    assert main(["grasp", str(path), "--object", "40"]) == 2
+    assert "[result] has base_L but not the other" in capsys.readouterr().err
+    path.write_text(text + '\n[result]\nbase_L = "x"\ntheta_B_deg = -20.0\n')
+    objects = Path(__file__).parents[2] / "jobs" / "sort-objects.csv"
+    assert main(["sort", str(path), str(objects)]) == 2
+    assert "base_L = 'x': must be a finite number" in capsys.readouterr().err

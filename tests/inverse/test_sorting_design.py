@@ -74,7 +74,7 @@ def run(tmp_path_factory):
     return spec, outcome, out
 
 
-def test_search_is_at_least_the_default_and_the_report_reverifies(run):
+def test_search_is_at_least_the_default_and_the_report_reverifies(run, capsys):
     spec, outcome, out = run
     result = outcome.results[0]
     row = outcome.rows[0]["sorting"]
@@ -103,6 +103,16 @@ def test_search_is_at_least_the_default_and_the_report_reverifies(run):
         confusion.setdefault(name, {}).setdefault(o.label, 0)
         confusion[name][o.label] += 1
     assert confusion == row["confusion"]
+    # and so does the command, on the written file alone (its base from the file's [result])
+    capsys.readouterr()
+    files = [str(out / "gripper.toml"), str(out / "sorting-objects.csv")]
+    code = main(["sort", *files, "--lift-s", "0.02", "--json"])
+    assert code == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["base_from"] == "gripper.toml [result]"
+    assert [f"{o['size_state'] or 'none'}/{o['weight_class']}" for o in printed["objects"]] == [
+        o.label for o in report.objects
+    ]
     # met exactly when every class's samples got its own held outcome
     correct = {
         c["name"]: set(confusion[c["name"]]) == {c["label"]}

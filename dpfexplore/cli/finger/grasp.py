@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 from .. import EXIT_FAILURE, EXIT_OK, UsageError
 from ..support.inputs import add_constants_option, design_of
@@ -51,6 +52,14 @@ def _common(parser) -> None:
         type=float,
         dest="lift_s",
         help="the lift's duration, s: the tip unit is used only if it resets later",
+    )
+    parser.add_argument(
+        "--base",
+        nargs=2,
+        type=float,
+        metavar=("BASE_L", "THETA_DEG"),
+        help="the gripper's base: length (mm) and angle (deg); default: the file's [result] "
+        "(as `design` writes a gripper), else the paper's gripper base",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     add_constants_option(parser)
@@ -109,15 +118,66 @@ def _check_options(args) -> None:
             raise UsageError(f"{name} {value:g}: must be > 0 (N)")
 
 
+def gripper_base(args) -> tuple[float, float, str]:
+    """The gripper's base (``base_L`` mm, ``theta_B_deg`` degrees) and where it comes from.
+
+    ``--base`` first; else the ``[result]`` table of a design file (``design`` writes the base it
+    chose there); else the paper's gripper base.
+
+    Raises
+    ------
+    UsageError
+        ``--base`` or ``[result]`` values that are not finite numbers, a ``[result]`` with only
+        one of the two keys.
+    """
+    from ...io.toml_fields import read_toml
+    from ...model.gripper import PAPER_GRIPPER_BASE
+
+    if args.base is not None:
+        base_L, theta = args.base
+        source = "--base"
+    else:
+        path = Path(args.design)
+        result = read_toml(path, "design").get("result", {}) if path.is_file() else {}
+        keys = [k for k in ("base_L", "theta_B_deg") if k in result]
+        if not keys:
+            return (*PAPER_GRIPPER_BASE, "the paper's gripper")
+        if len(keys) == 1:
+            raise UsageError(
+                f"{path}: [result] has {keys[0]} but not the other of base_L, theta_B_deg"
+            )
+        base_L, theta = result["base_L"], result["theta_B_deg"]
+        source = f"{path.name} [result]"
+    for name, value in (("base_L", base_L), ("theta_B_deg", theta)):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise UsageError(f"{source}: {name} = {value!r}: must be a finite number")
+    if base_L <= 0:
+        raise UsageError(f"{source}: base_L = {base_L!r}: must be > 0 (mm)")
+    return float(base_L), float(theta), source
+
+
 def _gripper(args, groups=("states", "grasp")):
     from ...grasping import gripper_of
 
     try:
         design = design_of(args)
+        base_L, theta, source = gripper_base(args)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     announce_compilation(args.command, list(groups))
-    return gripper_of(design)
+    base = {"base_L_mm": base_L, "theta_B_deg": theta, "base_from": source}
+    return gripper_of(design, base_L=base_L, theta_B_deg=theta), base
+
+
+def _base_line(base: dict) -> str:
+    return (
+        f"gripper base: base_L {base['base_L_mm']:g} mm, theta_B {base['theta_B_deg']:g} deg "
+        f"({base['base_from']})"
+    )
 
 
 def run_grasp(args: argparse.Namespace) -> int:
@@ -131,7 +191,7 @@ def run_grasp(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--object {args.object}: {exc}") from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    gripper = _gripper(args, ("states", "grasp", "reset"))
+    gripper, base = _gripper(args, ("states", "grasp", "reset"))
     try:
         check_object(diameter, mass, args.mu, gripper.open_aperture)
     except ValueError as exc:
@@ -148,6 +208,7 @@ def run_grasp(args: argparse.Namespace) -> int:
     )
     document = report.to_dict()
     document["gripper"] = args.design
+    document.update(base)
     for row, s in zip(document["states"], report.states, strict=True):
         row["carries"] = bool(s.holds and s.payload_kg >= mass)
     tip_lasts = args.lift_s is None or (report.tip_reset_s or 0.0) >= args.lift_s
@@ -156,6 +217,7 @@ def run_grasp(args: argparse.Namespace) -> int:
         sys.stdout.write(json_text(document))
         print()
     else:
+        print(_base_line(base))
         _print_grasp(report, document, mass, tip_lasts)
     if plot is not None:
         _plot_grasp(report, plot)
@@ -202,6 +264,7 @@ def _plot_grasp(report, path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from ...plotting.grasp import plot_grasp
 
@@ -219,6 +282,11 @@ def _plot_grasp(report, path) -> None:
             title=f"{s.state}: grip {s.grip_force_N:.3g} N" + ("" if s.holds else " (lost)"),
             ax=ax,
         )
+    # one scale for every panel: the union of their limits (each holds its legend's band)
+    for get, put in (("get_xlim", "set_xlim"), ("get_ylim", "set_ylim")):
+        limits = np.array([getattr(ax, get)() for ax in axes[0]])
+        for ax in axes[0]:
+            getattr(ax, put)(limits[:, 0].min(), limits[:, 1].max())
     fig.tight_layout()
     save_figure(fig, path, dpi=150, bbox_inches="tight")
     plt.close(fig)
@@ -236,7 +304,7 @@ def run_sort(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     plot = output_path(args.plot, "--plot", suffixes=FIGURE_SUFFIXES) if args.plot else None
-    gripper = _gripper(args, ("states", "grasp", "grasp sort", "reset"))
+    gripper, base = _gripper(args, ("states", "grasp", "grasp sort", "reset"))
     try:
         report = sort_objects(
             gripper,
@@ -249,10 +317,11 @@ def run_sort(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"{args.objects}: {exc}") from None
     if args.json:
-        document = {"gripper": args.design, **report.to_dict()}
+        document = {"gripper": args.design, **base, **report.to_dict()}
         sys.stdout.write(json_text(document))
         print()
     else:
+        print(_base_line(base))
         _print_sort(report)
     if plot is not None:
         import matplotlib

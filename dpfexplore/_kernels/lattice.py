@@ -122,7 +122,7 @@ def pack_free(pos, n_units, x):
         x[2 * f + 1] = pos[node, 1]
 
 
-@kernel(inline="always")
+@kernel
 def dome_law(x_bar, row):
     """Isolated dome's energy ``f`` and its first two derivatives in the extension ``x̄``.
 
@@ -165,7 +165,7 @@ def _dome_scalar(x_bar, row):
     return f, f1, f2, pen_energy
 
 
-@kernel(inline="always")
+@kernel
 def _add_block(hess, fi, fj, m00, m01, m10, m11):
     """Add a 2x2 block at free nodes ``(fi, fj)`` (skipped when either is clamped)."""
     if fi < 0 or fj < 0:
@@ -178,7 +178,7 @@ def _add_block(hess, fi, fj, m00, m01, m10, m11):
     hess[i + 1, j + 1] += m11
 
 
-@kernel(inline="always")
+@kernel
 def _add_vector(grad, fi, vx, vy):
     if fi >= 0:
         grad[2 * fi] += vx
@@ -268,7 +268,7 @@ def _torsion(pos, a, c, b, kt, mode, grad, hess):
     return energy
 
 
-@kernel(inline="always")
+@kernel
 def _pair_block(hess, fi, k, g, s, b):
     """Add the diagonal block ``k g gᵀ + s B``, ``B = [[h00, h01], [h01, -h00]]``.
 
@@ -281,7 +281,7 @@ def _pair_block(hess, fi, k, g, s, b):
     _add_block(hess, fi, fi, k * gx * gx + s * h00, m01, m01, k * gy * gy - s * h00)
 
 
-@kernel(inline="always")
+@kernel
 def _pair_block_sym(hess, fi, fj, k, gi, gj, s, b):
     """Add the ``(i, j)`` block of :func:`_pair_block` and its transpose at ``(j, i)``.
 

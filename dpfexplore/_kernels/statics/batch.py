@@ -19,15 +19,15 @@ from .._jit import batch_kernel, kernel
 from ..layout import n_free
 from ..records import DesignTable, Lattice, NewtonControls, RowPlan, StateRows
 from .newton import workspace
-from .states import N_OUT, solve_state
+from .states import N_OUT, solve_state, state_body
 
 #: Rows per parallel block: large enough to amortise the workspace allocation, small enough to
 #: balance load when collapsed states (several attempts) cluster.
 BLOCK_ROWS = 16
 
 
-@kernel
-def _solve_rows(designs, rows, first, last, controls, outputs):
+@kernel(inline="always")
+def _rows_loop(designs, rows, first, last, controls, outputs):
     """Solve rows ``first`` to ``last - 1`` (arguments as :func:`solve_rows`)."""
     ws = workspace()
     x = np.empty(n_free(MAX_UNITS))
@@ -43,7 +43,7 @@ def _solve_rows(designs, rows, first, last, controls, outputs):
             out[r, :] = np.nan
             continue
         up = unit_params[i, : n_units[i]]
-        s, f, it = solve_state(
+        s, f, it = state_body(
             Lattice(up, h[i]),
             rows.state[r],
             controls,
@@ -63,6 +63,12 @@ def _solve_rows(designs, rows, first, last, controls, outputs):
 
 
 @kernel
+def _solve_rows(designs, rows, first, last, controls, outputs):
+    """:func:`_rows_loop` compiled once for the parallel blocks of :func:`solve_rows`."""
+    _rows_loop(designs, rows, first, last, controls, outputs)
+
+
+@kernel(inline="always")
 def name_row_records(designs, rows, controls, outputs):
     """The row entry points' records from the plain tuples they are called with.
 
@@ -115,7 +121,7 @@ def solve_rows_serial(designs, rows, controls, outputs):
     arguments and results as :func:`solve_rows`.
     """
     table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
-    _solve_rows(table, plan, np.int64(0), plan.design.shape[0], newton, written)
+    _rows_loop(table, plan, np.int64(0), plan.design.shape[0], newton, written)
 
 
 @kernel

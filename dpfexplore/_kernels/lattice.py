@@ -16,6 +16,14 @@ Springs
       ``arccos``/``sin ϑ`` form divides by zero. The value is ``atan2(-v_a·v_b, v_a×v_b)``,
       whose branch cut lies at ``ϑ = -π/2``, opposite the rest angle. For every configuration
       with ``0 <= ϑ <= π`` it equals the implementation's unsigned angle.
+
+Compiling. The springs' entry helpers (:func:`spring_nodes`, :func:`_dome_scalar`,
+:func:`_scatter_pair`, :func:`_torsion`) are inlined into :func:`assemble` by Numba; what they
+call (:func:`dome_law`, the 2x2 block and vector adders, the torsion's pair blocks) are functions
+of their own, each compiled once, that LLVM inlines where they are called. Numba inlines a
+function by running its front end again at each call site, and through each nested inline helper
+again: the torsion's six pair blocks, each with its adders, at both of its call sites made
+:func:`assemble` cost about three times as much to compile, for the same machine code.
 """
 
 from __future__ import annotations

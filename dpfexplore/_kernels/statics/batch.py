@@ -26,8 +26,8 @@ from .states import N_OUT, solve_state, state_body
 BLOCK_ROWS = 16
 
 
-@kernel(inline="always")
-def _rows_loop(designs, rows, first, last, controls, outputs):
+@kernel
+def _solve_rows(designs, rows, first, last, controls, outputs):
     """Solve rows ``first`` to ``last - 1`` (arguments as :func:`solve_rows`)."""
     ws = workspace()
     x = np.empty(n_free(MAX_UNITS))
@@ -60,12 +60,6 @@ def _rows_loop(designs, rows, first, last, controls, outputs):
             nf = n_free(n_units[i])
             for j in range(shapes.shape[1]):
                 shapes[r, j] = x[j] if j < nf else np.nan
-
-
-@kernel
-def _solve_rows(designs, rows, first, last, controls, outputs):
-    """:func:`_rows_loop` compiled once for the parallel blocks of :func:`solve_rows`."""
-    _rows_loop(designs, rows, first, last, controls, outputs)
 
 
 @kernel(inline="always")
@@ -121,7 +115,7 @@ def solve_rows_serial(designs, rows, controls, outputs):
     arguments and results as :func:`solve_rows`.
     """
     table, plan, newton, written = name_row_records(designs, rows, controls, outputs)
-    _rows_loop(table, plan, np.int64(0), plan.design.shape[0], newton, written)
+    _solve_rows(table, plan, np.int64(0), plan.design.shape[0], newton, written)
 
 
 @kernel

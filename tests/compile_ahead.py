@@ -37,13 +37,13 @@ from pathlib import Path
 #: lattice and its factorisations as the statics and the sensitivities do. The times order the
 #: ready steps (the longest chain of steps still to run first).
 STEPS: dict[str, tuple[tuple[str, ...], float]] = {
-    "states": ((), 32),
+    "states": ((), 22),
     "unit-cell shell": ((), 24),
     "unit-cell contact": (("unit-cell shell",), 7),
     "statics": (("states",), 9),
     "sensitivities": (("states",), 16),
     "sensitivities batch": (("sensitivities",), 12),
-    "benchmarks": (("statics", "sensitivities"), 9),
+    "benchmarks": (("statics", "sensitivities"), 12),
     "dynamics": (("states",), 21),
     "reset": (("dynamics",), 11),
     "release": (("dynamics",), 16),

@@ -16,6 +16,14 @@ Springs
       ``arccos``/``sin ϑ`` form divides by zero. The value is ``atan2(-v_a·v_b, v_a×v_b)``,
       whose branch cut lies at ``ϑ = -π/2``, opposite the rest angle. For every configuration
       with ``0 <= ϑ <= π`` it equals the implementation's unsigned angle.
+
+Compiling. The springs' entry helpers (:func:`spring_nodes`, :func:`_dome_scalar`,
+:func:`_scatter_pair`, :func:`_torsion`) are inlined into :func:`assemble` by Numba; what they
+call (:func:`dome_law`, the 2x2 block and vector adders, the torsion's pair blocks) are functions
+of their own, each compiled once, that LLVM inlines where they are called. Numba inlines a
+function by running its front end again at each call site, and through each nested inline helper
+again: the torsion's six pair blocks, each with its adders, at both of its call sites made
+:func:`assemble` cost about three times as much to compile, for the same machine code.
 """
 
 from __future__ import annotations
@@ -122,7 +130,7 @@ def pack_free(pos, n_units, x):
         x[2 * f + 1] = pos[node, 1]
 
 
-@kernel(inline="always")
+@kernel
 def dome_law(x_bar, row):
     """Isolated dome's energy ``f`` and its first two derivatives in the extension ``x̄``.
 
@@ -165,7 +173,7 @@ def _dome_scalar(x_bar, row):
     return f, f1, f2, pen_energy
 
 
-@kernel(inline="always")
+@kernel
 def _add_block(hess, fi, fj, m00, m01, m10, m11):
     """Add a 2x2 block at free nodes ``(fi, fj)`` (skipped when either is clamped)."""
     if fi < 0 or fj < 0:
@@ -178,7 +186,7 @@ def _add_block(hess, fi, fj, m00, m01, m10, m11):
     hess[i + 1, j + 1] += m11
 
 
-@kernel(inline="always")
+@kernel
 def _add_vector(grad, fi, vx, vy):
     if fi >= 0:
         grad[2 * fi] += vx
@@ -268,7 +276,7 @@ def _torsion(pos, a, c, b, kt, mode, grad, hess):
     return energy
 
 
-@kernel(inline="always")
+@kernel
 def _pair_block(hess, fi, k, g, s, b):
     """Add the diagonal block ``k g gᵀ + s B``, ``B = [[h00, h01], [h01, -h00]]``.
 
@@ -281,7 +289,7 @@ def _pair_block(hess, fi, k, g, s, b):
     _add_block(hess, fi, fi, k * gx * gx + s * h00, m01, m01, k * gy * gy - s * h00)
 
 
-@kernel(inline="always")
+@kernel
 def _pair_block_sym(hess, fi, fj, k, gi, gj, s, b):
     """Add the ``(i, j)`` block of :func:`_pair_block` and its transpose at ``(j, i)``.
 

@@ -93,7 +93,7 @@ COMPILE_MACHINE = "a 2-core AMD EPYC VM"
 #: the runs on :data:`COMPILE_MACHINE` (``scripts/compile_cpu.py``): the least on a quiet VM,
 #: the most on one shared with four other jobs (load 5-10), where CPU time is higher too.
 COMPILE_CPU_S: dict[str, tuple[int, int]] = {
-    "states": (23, 34),
+    "states": (19, 26),
     "statics": (22, 46),
     "sensitivities": (37, 60),
     "snap": (51, 72),
@@ -118,7 +118,7 @@ def uncompiled(groups: Iterable[str]) -> list[str]:
 
 
 def cpu_range(groups: Iterable[str]) -> str:
-    """What compiling ``groups`` costs: ``"about 23-34 s of CPU on a 2-core AMD EPYC VM"``.
+    """What compiling ``groups`` costs: ``"about 19-26 s of CPU on a 2-core AMD EPYC VM"``.
 
     For several groups, from the least of the dearest group alone to the sum of the most: the
     groups share code, so the second costs less once the first is compiled (``statics`` after

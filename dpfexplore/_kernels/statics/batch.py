@@ -19,7 +19,7 @@ from .._jit import batch_kernel, kernel
 from ..layout import n_free
 from ..records import DesignTable, Lattice, NewtonControls, RowPlan, StateRows
 from .newton import workspace
-from .states import N_OUT, solve_state
+from .states import N_OUT, solve_state, state_body
 
 #: Rows per parallel block: large enough to amortise the workspace allocation, small enough to
 #: balance load when collapsed states (several attempts) cluster.
@@ -43,7 +43,7 @@ def _solve_rows(designs, rows, first, last, controls, outputs):
             out[r, :] = np.nan
             continue
         up = unit_params[i, : n_units[i]]
-        s, f, it = solve_state(
+        s, f, it = state_body(
             Lattice(up, h[i]),
             rows.state[r],
             controls,
@@ -62,7 +62,7 @@ def _solve_rows(designs, rows, first, last, controls, outputs):
                 shapes[r, j] = x[j] if j < nf else np.nan
 
 
-@kernel
+@kernel(inline="always")
 def name_row_records(designs, rows, controls, outputs):
     """The row entry points' records from the plain tuples they are called with.
 

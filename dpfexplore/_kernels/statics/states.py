@@ -104,7 +104,7 @@ OUT_GRAD_NORM = STATE_OUTPUT_NAMES.index("grad_norm")
 N_OUT = len(STATE_OUTPUT_NAMES)
 
 
-@kernel
+@kernel(inline="always")
 def unit_bit(k, n_units):
     """Bit of unit ``k`` (1-based) in a state integer: unit 1 is the most significant."""
     return 1 << (n_units - k)
@@ -181,7 +181,7 @@ def _steering_params(unit_params, state, hold, steer):
         steer[k, COL_PEN] = PENALTY_FACTOR * unit_params[k, COL_KB]
 
 
-@kernel
+@kernel(inline="always")
 def find_state(unit_params, h, requested, controls, x, ws):
     """Search the minimum with inversion vector ``requested`` (see the module docstring).
 
@@ -264,7 +264,7 @@ def find_state(unit_params, h, requested, controls, x, ws):
     return last_status, -1, total_iter
 
 
-@kernel
+@kernel(inline="always")
 def state_outputs(x, unit_params, h, want_stiffness, want_min_eig, out, ws):
     """Fill ``out`` (``N_OUT`` entries) with the outputs of MODEL.md §7 at minimum ``x``.
 
@@ -360,9 +360,12 @@ def tip_stiffness(pos, low, factored, load, response, n_units):
     return 1.0 / compliance
 
 
-@kernel
-def solve_state(lattice, requested, controls, want_stiffness, want_min_eig, x, out, ws):
+@kernel(inline="always")
+def state_body(lattice, requested, controls, want_stiffness, want_min_eig, x, out, ws):
     """Find a state and evaluate its outputs; returns ``(status, found, n_iter)``.
+
+    Compiled inline into the row loops of :mod:`.batch` (with :func:`find_state` and
+    :func:`state_outputs`); :func:`solve_state` is the same as a function of its own.
 
     ``lattice`` (:class:`~.records.Lattice`) and ``controls`` (:class:`~.records.NewtonControls`)
     as in :func:`find_state`.
@@ -385,6 +388,12 @@ def solve_state(lattice, requested, controls, want_stiffness, want_min_eig, x, o
                 if not is_requested_nan:
                     return st.NONFINITE, found, n_iter
     return status, found, n_iter
+
+
+@kernel
+def solve_state(lattice, requested, controls, want_stiffness, want_min_eig, x, out, ws):
+    """:func:`state_body` compiled on its own, for callers outside the row loops."""
+    return state_body(lattice, requested, controls, want_stiffness, want_min_eig, x, out, ws)
 
 
 @kernel

@@ -174,7 +174,7 @@ def _derivative_rows(H, U_L, U_sep, shared, partials, contact, dtab):
     dtab[DC_H, DP_TLIM] = 1.0
 
 
-@kernel
+@kernel(inline="always")
 def batch_block_size(designs):
     """The dome block a batch's table build uses: all its domes, up to ``DOME_BLOCK``."""
     total = 0
@@ -183,7 +183,7 @@ def batch_block_size(designs):
     return block_size(total, MAX_UNITS)
 
 
-@kernel
+@kernel(inline="always")
 def gather_domes(designs, first, block):
     """Put the units of designs ``first, first + 1, ...`` into ``block`` while they fit.
 
@@ -206,7 +206,7 @@ def gather_domes(designs, first, block):
     return end, count
 
 
-@kernel
+@kernel(inline="always")
 def fill_designs(designs, first, end, block, out):
     """Status and tables of designs ``first .. end - 1`` from their domes' constants in ``block``.
 

@@ -78,6 +78,8 @@ def fast_reset_design(lattice, knots, physics, ctrl, t_end, out, newton_ws):
         ``design_diag`` (N_DESIGN_DIAG,).
     newton_ws : tuple
         :func:`.statics.newton.workspace`.
+
+    Compiled inline into :func:`fast_reset_batch` (no machine code of its own).
     """
     # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
     # record built there trips Numba's array analysis (docs/decisions.md, "Less to compile")

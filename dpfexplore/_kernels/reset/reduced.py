@@ -73,7 +73,8 @@ def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
     ``knot_t`` must be a single pulse ``(τ1, τ2, τ3, τ4)``. ``y`` (shape ``(2 (4N - 2),)``)
     receives the final state; ``rec`` the per-unit record of both phases (snap-through times
     from the loose loading). ``lattice``, ``knots``, ``physics``: :mod:`.records` (the model is
-    overdamped: ``physics.mass_per_unit`` is not read). Returns a status.
+    overdamped: ``physics.mass_per_unit`` is not read). Returns a status. Compiled inline into
+    :func:`release_batch` (no machine code of its own).
     """
     # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
     # record built there trips Numba's array analysis (docs/decisions.md, "Less to compile")

@@ -165,7 +165,8 @@ def land(x_fold, direction, p_fold, sign, lattice, landing, x_land, info):
     :func:`default_kick`). On success ``x_land``
     holds the equilibrium at ``p_fold`` and ``info`` (``N_LAND_INFO`` entries, read by the
     ``LAND_*`` indices: certificate, seconds simulated, Rodas4 steps, kick, pressure offset).
-    Returns a status.
+    Returns a status. Compiled inline into the walk (:func:`.snap.steps.snap`, its only caller):
+    no machine code of its own.
     """
     unit_params, h = lattice
     phys, ctrl, kick = landing

@@ -348,7 +348,8 @@ def release_walks(lattice, rising, p_min, landing, out):
 
     ``rising`` is the walk (:class:`~.snap.records.RisingWalk`), started at ``(x_start,
     p_start)``; fills entry ``j`` (0 = the start, ``j`` = the state after event ``j - 1``) of
-    ``out`` (:class:`~.snap.records.Releases`; see :func:`snap_batch`).
+    ``out`` (:class:`~.snap.records.Releases`; see :func:`snap_batch`). Compiled inline into
+    :func:`snap_batch` (its only caller in the kernels: no machine code of its own).
     """
     # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
     # record built there trips Numba's array analysis (docs/decisions.md, "Less to compile")

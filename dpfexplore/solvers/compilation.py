@@ -40,6 +40,7 @@ from numba.core import event as numba_event
 
 from .._kernels._cache import is_cached
 from .._kernels.dynamics import batch as dynamics_batch
+from .._kernels.dynamics.ids import INTEGRATOR_RODAS4
 from .._kernels.grasp import batch as grasp_batch
 from .._kernels.grasp import equilibrium as grasp_equilibrium
 from .._kernels.reset import reduced
@@ -73,8 +74,8 @@ KERNEL_GROUPS = {
     # announce a compilation on every start
     "states": (batch.solve_rows_serial,),
     "statics": (batch.solve_rows,),
-    "dynamics": (dynamics_batch.integrate,),
-    "reset": (dynamics_batch.reset_times_kernel,),
+    "dynamics": (dynamics_batch.INTEGRATORS[INTEGRATOR_RODAS4],),
+    "reset": (dynamics_batch.RESET_TIMES_KERNELS[INTEGRATOR_RODAS4],),
     "release": (reduced.release_batch,),
     "sensitivities": (sensitivity_batch.solve_rows_sensitivities_serial,),
     "snap": (ksnap.follow,),

@@ -41,7 +41,7 @@ from .events import (
     REC_LAST_DOWN,
 )
 from .explicit import dopri5
-from .ids import INTEGRATOR_RODAS4
+from .ids import INTEGRATOR_DOPRI5, INTEGRATOR_RODAS4
 from .motion import N_PHYS, PHYS_MASS
 from .rosenbrock import rodas4
 
@@ -67,17 +67,9 @@ def rest_state(unit_params, h, y):
         y[i] = 0.0
 
 
-@kernel
-def integrate(integrator, y, t0, t_end, model, ctrl, record):
-    """Dispatch to the integrator with id ``integrator``; returns its status.
-
-    ``model`` is a :class:`~.records.MotionModel`, ``ctrl`` the integrator's controls
-    (:mod:`.dynamics.events` layout) and ``record`` a :class:`~.records.RunRecord` receiving the
-    run.
-    """
-    if integrator == INTEGRATOR_RODAS4:
-        return rodas4(y, t0, t_end, model, ctrl, record)
-    return dopri5(y, t0, t_end, model, ctrl, record)
+#: The integrator kernel of each id (:mod:`.dynamics.ids`), each ``(y, t0, t_end, model, ctrl,
+#: record)``: a caller picks one outside the kernels, so only the integrator it runs is compiled.
+INTEGRATORS = {INTEGRATOR_RODAS4: rodas4, INTEGRATOR_DOPRI5: dopri5}
 
 
 @kernel
@@ -112,65 +104,76 @@ def summarise_units(unit_rec, tau_end, status, reset, snap_through, snap_back, u
     return state
 
 
-@batch_kernel
-def reset_times_kernel(lattice, valid, knots, physics, integrator, ctrl, t_end, out):
-    """Simulate every valid design from rest under one profile, in parallel (``prange``).
+def _reset_times_kernel(integrate):
+    """The ``prange`` batch over designs of the integrator kernel ``integrate`` (INTEGRATORS).
 
-    Parameters
-    ----------
-    lattice : LatticeBatch
-        The padded batch tables (:mod:`.records`).
-    valid : ndarray of bool, shape (n,)
-        Rows to run; invalid rows are left untouched.
-    knots : PressureKnots
-        The pressure profile.
-    physics : Physics
-        Damping and mass per unit (0: the overdamped model).
-    integrator : int
-        Integrator id (:mod:`.dynamics.ids`).
-    ctrl : ndarray of shape (N_CTRL,)
-        Integrator controls (:mod:`.dynamics.events` layout).
-    t_end : float, s
-    out : ResetRows
-        Arrays of shape ``(n,)`` or ``(n, MAX_UNITS)``; the padding beyond a design's ``N`` is
-        left untouched.
+    ``integrate`` is the closure's free variable: each integrator has a batch kernel of its own
+    (Numba keys a closure's cache entries by its free variables), so a batch compiles only the
+    integrator it runs.
     """
-    unit_params, h, n_units = lattice
-    knot_t, knot_p = knots
-    eta, eta_iso, mass_per_unit = physics
-    status, final_state, reset, snap_through, snap_back, unit_class = out
-    n = unit_params.shape[0]
-    tau_end = knot_t[knot_t.shape[0] - 1]
-    for i in prange(n):
-        if not valid[i]:
-            continue
-        nu = n_units[i]
-        params = unit_params[i, :nu]
-        nf = n_free(nu)
-        y = np.empty(2 * nf)
-        rest_state(params, h[i], y)
-        phys = np.empty(N_PHYS)
-        phys[0] = eta
-        phys[1] = eta_iso
-        phys[PHYS_MASS] = mass_per_unit * nu / (2.0 * nu + 2.0)
-        rec = np.empty((nu, N_REC))
-        log = np.empty((0, 3))
-        stats = np.zeros(N_STATS, dtype=np.int64)
-        t_out = np.empty(0)
-        x_out = np.empty((0, nf))
-        code = integrate(
-            integrator,
-            y,
-            0.0,
-            t_end,
-            MotionModel(params, h[i], knot_t, knot_p, phys),
-            ctrl,
-            RunRecord(t_out, x_out, rec, log, stats),
-        )
-        status[i] = code
-        cls = np.empty(nu, dtype=np.int64)
-        final_state[i] = summarise_units(
-            rec, tau_end, code, reset[i, :nu], snap_through[i, :nu], snap_back[i, :nu], cls
-        )
-        for k in range(nu):
-            unit_class[i, k] = cls[k]
+
+    @batch_kernel
+    def batch(lattice, valid, knots, physics, ctrl, t_end, out):
+        """Simulate every valid design from rest under one profile, in parallel (``prange``).
+
+        Parameters
+        ----------
+        lattice : LatticeBatch
+            The padded batch tables (:mod:`.records`).
+        valid : ndarray of bool, shape (n,)
+            Rows to run; invalid rows are left untouched.
+        knots : PressureKnots
+            The pressure profile.
+        physics : Physics
+            Damping and mass per unit (0: the overdamped model).
+        ctrl : ndarray of shape (N_CTRL,)
+            Integrator controls (:mod:`.dynamics.events` layout).
+        t_end : float, s
+        out : ResetRows
+            Arrays of shape ``(n,)`` or ``(n, MAX_UNITS)``; the padding beyond a design's ``N`` is
+            left untouched.
+        """
+        unit_params, h, n_units = lattice
+        knot_t, knot_p = knots
+        eta, eta_iso, mass_per_unit = physics
+        status, final_state, reset, snap_through, snap_back, unit_class = out
+        n = unit_params.shape[0]
+        tau_end = knot_t[knot_t.shape[0] - 1]
+        for i in prange(n):
+            if not valid[i]:
+                continue
+            nu = n_units[i]
+            params = unit_params[i, :nu]
+            nf = n_free(nu)
+            y = np.empty(2 * nf)
+            rest_state(params, h[i], y)
+            phys = np.empty(N_PHYS)
+            phys[0] = eta
+            phys[1] = eta_iso
+            phys[PHYS_MASS] = mass_per_unit * nu / (2.0 * nu + 2.0)
+            rec = np.empty((nu, N_REC))
+            log = np.empty((0, 3))
+            stats = np.zeros(N_STATS, dtype=np.int64)
+            t_out = np.empty(0)
+            x_out = np.empty((0, nf))
+            code = integrate(
+                y,
+                0.0,
+                t_end,
+                MotionModel(params, h[i], knot_t, knot_p, phys),
+                ctrl,
+                RunRecord(t_out, x_out, rec, log, stats),
+            )
+            status[i] = code
+            cls = np.empty(nu, dtype=np.int64)
+            final_state[i] = summarise_units(
+                rec, tau_end, code, reset[i, :nu], snap_through[i, :nu], snap_back[i, :nu], cls
+            )
+            for k in range(nu):
+                unit_class[i, k] = cls[k]
+
+    return batch
+
+
+#: The batch kernel of each integrator id: ``(lattice, valid, knots, physics, ctrl, t_end, out)``.
+RESET_TIMES_KERNELS = {key: _reset_times_kernel(value) for key, value in INTEGRATORS.items()}

@@ -57,7 +57,7 @@ UD_RELEASE = 3  # first column of the release's N_RELEASE_DIAG columns
 N_UNIT_DIAG = UD_RELEASE + N_RELEASE_DIAG
 
 
-@kernel
+@kernel(inline="always")
 def fast_reset_design(lattice, knots, physics, ctrl, t_end, out, newton_ws):
     """Reset times of one design under a single pulse; returns ``(status, final_state)``.
 
@@ -78,10 +78,20 @@ def fast_reset_design(lattice, knots, physics, ctrl, t_end, out, newton_ws):
         ``design_diag`` (N_DESIGN_DIAG,).
     newton_ws : tuple
         :func:`.statics.newton.workspace`.
+
+    Compiled inline into :func:`fast_reset_batch` (no machine code of its own).
     """
-    unit_params, h = lattice
-    knot_t, knot_p = knots
-    reset, snap_back, unit_class, unit_diag, design_diag = out
+    # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
+    # record built there trips Numba's array analysis (docs/decisions.md, "Less to compile")
+    unit_params = lattice.unit_params
+    h = lattice.h
+    knot_t = knots.t
+    knot_p = knots.p
+    reset = out.reset
+    snap_back = out.snap_back
+    unit_class = out.unit_class
+    unit_diag = out.unit_diag
+    design_diag = out.design_diag
     n_units = unit_params.shape[0]
     x = np.empty(n_free(n_units))
     margin = np.empty(n_units)

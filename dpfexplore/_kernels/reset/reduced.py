@@ -66,17 +66,22 @@ def loaded_equilibrium(x, unit_params, h, pressure, ftol, max_iter, max_move):
     return code
 
 
-@kernel
+@kernel(inline="always")
 def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
     """Loose loading, the loaded equilibrium at ``τ3`` by Newton, then the release.
 
     ``knot_t`` must be a single pulse ``(τ1, τ2, τ3, τ4)``. ``y`` (shape ``(2 (4N - 2),)``)
     receives the final state; ``rec`` the per-unit record of both phases (snap-through times
     from the loose loading). ``lattice``, ``knots``, ``physics``: :mod:`.records` (the model is
-    overdamped: ``physics.mass_per_unit`` is not read). Returns a status.
+    overdamped: ``physics.mass_per_unit`` is not read). Returns a status. Compiled inline into
+    :func:`release_batch` (no machine code of its own).
     """
-    unit_params, h = lattice
-    knot_t, knot_p = knots
+    # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
+    # record built there trips Numba's array analysis (docs/decisions.md, "Less to compile")
+    unit_params = lattice.unit_params
+    h = lattice.h
+    knot_t = knots.t
+    knot_p = knots.p
     n_units = unit_params.shape[0]
     n = n_free(n_units)
     rest_state(unit_params, h, y)
@@ -116,7 +121,7 @@ def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
 
 @batch_kernel
 def release_batch(lattice, valid, knots, physics, ctrl, t_end, out):
-    """:func:`release_run` over many designs in parallel (arguments as ``reset_times_kernel``)."""
+    """:func:`release_run` over many designs in parallel (arguments as a reset-times batch's)."""
     unit_params, h, n_units = lattice
     status, final_state, reset, snap_through, snap_back, unit_class = out
     n = unit_params.shape[0]

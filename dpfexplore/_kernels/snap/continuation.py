@@ -49,6 +49,9 @@ from ..linalg.bordered_lu import bordered_factor, bordered_solve
 
 #: Scale of the pressure coordinate on the branch, mm per MPa.
 PRESSURE_SCALE = 10.0
+#: ``residual``'s ``want_jacobian`` from the kernels: a NumPy bool, not the literal ``True``,
+#: so they share the one compiled ``residual`` that Python's calls (with a bool) compile.
+WITH_JACOBIAN = np.bool_(True)
 #: Corrector converged: largest residual force (N) below this ...
 FTOL = 1e-9
 #: ... or the last Newton correction (mm) below this (stiff posts keep |R| at round-off).
@@ -173,7 +176,7 @@ def correct(y0, t0, sigma, unit_params, h, ws, y, t):
         y[i] = y0[i] + sigma * t0[i]
     last = np.inf
     for it in range(MAX_CORRECTOR_ITER + 1):
-        biggest = residual(y[:n], y[n] / PRESSURE_SCALE, unit_params, h, ws, True)
+        biggest = residual(y[:n], y[n] / PRESSURE_SCALE, unit_params, h, ws, WITH_JACOBIAN)
         if not math.isfinite(biggest):
             return CORRECT_SINGULAR, it
         if _factor_bordered(t0, ws, n) != 0:

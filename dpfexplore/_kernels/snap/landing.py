@@ -28,7 +28,7 @@ from ..linalg.banded_lu import lu_factor, lu_solve
 from ..linalg.cholesky import cholesky
 from ..records import MotionModel, RunRecord
 from ..reset.reduced import loaded_equilibrium
-from .continuation import residual, workspace
+from .continuation import WITH_JACOBIAN, residual, workspace
 
 #: Default kick (mm, largest coordinate) along the fold's null direction before the motion
 #: starts, and the most it may change any dome's extension, in reaches (:func:`default_kick`).
@@ -121,7 +121,7 @@ def certify_stable(x, pressure, unit_params, h, eta, eta_iso):
     n = n_free(n_units)
     ws = workspace(n_units)
     pos, _, _, jac, _, _, _, _, _ = ws
-    if not math.isfinite(residual(x, pressure, unit_params, h, ws, True)):
+    if not math.isfinite(residual(x, pressure, unit_params, h, ws, WITH_JACOBIAN)):
         return np.nan
     sym = np.empty((n, n))
     for i in range(n):
@@ -154,7 +154,7 @@ def certify_stable(x, pressure, unit_params, h, eta, eta_iso):
     return smallest
 
 
-@kernel
+@kernel(inline="always")
 def land(x_fold, direction, p_fold, sign, lattice, landing, x_land, info):
     """Where the finger comes to rest after snapping at the fold ``(x_fold, p_fold)``.
 
@@ -165,7 +165,8 @@ def land(x_fold, direction, p_fold, sign, lattice, landing, x_land, info):
     :func:`default_kick`). On success ``x_land``
     holds the equilibrium at ``p_fold`` and ``info`` (``N_LAND_INFO`` entries, read by the
     ``LAND_*`` indices: certificate, seconds simulated, Rodas4 steps, kick, pressure offset).
-    Returns a status.
+    Returns a status. Compiled inline into the walk (:func:`.snap.steps.snap`, its only caller):
+    no machine code of its own.
     """
     unit_params, h = lattice
     phys, ctrl, kick = landing

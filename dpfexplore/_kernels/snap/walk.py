@@ -342,17 +342,26 @@ def snap_batch(lattice, valid, ramp, landing, out):
             )
 
 
-@kernel
+@kernel(inline="always")
 def release_walks(lattice, rising, p_min, landing, out):
     """Release each state of a rising walk (start, then its events) down to ``p_min``.
 
     ``rising`` is the walk (:class:`~.snap.records.RisingWalk`), started at ``(x_start,
     p_start)``; fills entry ``j`` (0 = the start, ``j`` = the state after event ``j - 1``) of
-    ``out`` (:class:`~.snap.records.Releases`; see :func:`snap_batch`).
+    ``out`` (:class:`~.snap.records.Releases`; see :func:`snap_batch`). Compiled inline into
+    :func:`snap_batch` (its only caller in the kernels: no machine code of its own).
     """
+    # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
+    # record built there trips Numba's array analysis (docs/decisions.md, "Less to compile")
     unit_params = lattice.unit_params
-    x_start, p_start, ev, ev_x, n_events = rising
-    release_status, release_state, release_p = out
+    x_start = rising.x_start
+    p_start = rising.p_start
+    ev = rising.ev
+    ev_x = rising.ev_x
+    n_events = rising.n_events
+    release_status = out.status
+    release_state = out.state
+    release_p = out.p
     n_units = unit_params.shape[0]
     nf = n_free(n_units)
     capacity = ev.shape[0]

@@ -55,7 +55,7 @@ from numpy.typing import NDArray
 
 from ..._kernels.dynamics import events as kev
 from ..._kernels.dynamics import motion as kdyn
-from ..._kernels.dynamics.batch import integrate, reset_times_kernel, rest_state
+from ..._kernels.dynamics.batch import INTEGRATORS, RESET_TIMES_KERNELS, rest_state
 from ..._kernels.records import (
     LatticeBatch,
     MotionModel,
@@ -241,8 +241,7 @@ def simulate(
     rec = np.empty((n_units, kev.N_REC))
     log = np.zeros((event_capacity, 3))
     stats = np.zeros(kev.N_STATS, dtype=np.int64)
-    code = integrate(
-        info.integrator,
+    code = INTEGRATORS[info.integrator](
         y,
         t_start,
         t_end,
@@ -296,13 +295,13 @@ def reset_times_batch(
 ) -> dict[str, NDArray]:
     """Reset times of many designs under one profile, evaluated in parallel.
 
-    Rows run in a Numba ``prange`` loop (:func:`dpfexplore._kernels.dynamics.batch.
-    reset_times_kernel`): everything per row is compiled, ``nogil`` code, so there is nothing
-    for Python threads to add, and the parallel region is one call with no per-row
-    dispatch. Rows differ in cost by 10x or more (bistable designs run to the horizon,
-    metastable ones stop when they reset), so the chunk size is set to 1 for the call: threads
-    take rows as they free up instead of a fixed half each. Each run stops as soon as every
-    inverted unit has reset after the profile ends.
+    Rows run in a Numba ``prange`` loop (the method's kernel of
+    :data:`dpfexplore._kernels.dynamics.batch.RESET_TIMES_KERNELS`): everything per row is
+    compiled, ``nogil`` code, so there is nothing for Python threads to add, and the parallel
+    region is one call with no per-row dispatch. Rows differ in cost by 10x or more (bistable
+    designs run to the horizon, metastable ones stop when they reset), so the chunk size is set
+    to 1 for the call: threads take rows as they free up instead of a fixed half each. Each run
+    stops as soon as every inverted unit has reset after the profile ends.
 
     Parameters
     ----------
@@ -363,12 +362,11 @@ def reset_times_batch(
 
     def launch(unit_params, h, n_units, valid, knot_t, knot_p, ctrl, codes, out):
         mass = 0.0 if info.model == "overdamped" else kdyn.MASS_PER_UNIT
-        reset_times_kernel(
+        RESET_TIMES_KERNELS[info.integrator](
             LatticeBatch(unit_params, h, n_units),
             valid,
             PressureKnots(knot_t, knot_p),
             Physics(kdyn.ETA_INTERNAL, kdyn.ETA_ISO, mass),
-            info.integrator,
             ctrl,
             t_end,
             ResetRows(

@@ -73,7 +73,7 @@ from ..._kernels.layout import n_free
 from ..._kernels.records import Lattice
 from ..._kernels.snap import continuation as kcont
 from ..._kernels.snap import walk as ksnap
-from ..._kernels.snap.records import Landing, Releases, RisingWalk, WalkOutputs
+from ..._kernels.snap.records import Landing, WalkOutputs
 from ...model import status as st
 from ...model.design import Design
 from ..compilation import announce
@@ -413,13 +413,8 @@ def _release(
     rel_status = np.zeros(m, dtype=np.int64)
     rel_state = np.full(m, -1, dtype=np.int64)
     rel_p = np.full(m, np.nan)
-    ksnap.release_walks(
-        Lattice(params.unit_params, params.h),
-        RisingWalk(walk.x_start, walk.p_start, walk.ev, walk.ev_x, m - 1),
-        p_min,
-        Landing(phys, ctrl, float(kick)),
-        Releases(rel_status, rel_state, rel_p),
-    )
+    landing = Landing(phys, ctrl, float(kick))
+    _release_walks(params, walk, m, float(p_min), landing, rel_status, rel_state, rel_p)
     for j in range(m):
         v = visits[first + j]
         released = state_string(int(rel_state[j]), params.n_units) if rel_state[j] >= 0 else None
@@ -434,6 +429,47 @@ def _release(
             float(rel_p[j]),
         )
     stats["release_walks"] = stats.get("release_walks", 0) + m
+
+
+def _release_walks(params, walk: _Walk, m: int, p_min: float, landing, status, state, p) -> None:
+    """:func:`dpfexplore._kernels.snap.walk.release_walks` of the first ``m`` states of ``walk``.
+
+    The same walks, each a call of the compiled :func:`~dpfexplore._kernels.snap.walk.follow`
+    from here: one design's few releases gain nothing from a compiled loop around them, and
+    ``follow`` is the kernel this module compiles anyway (the batch compiles the loop inline).
+    Fills ``status``, ``state`` (-1: the walk failed) and ``p`` (the first event's pressure on
+    the way down, MPa; NaN: none) of state ``j`` (0 = the start, ``j`` = after event ``j - 1``).
+    """
+    n_units = params.n_units
+    nf = n_free(n_units)
+    lattice = Lattice(params.unit_params, params.h)
+    ev = np.empty((walk.ev.shape[0], ksnap.N_EV))
+    counts = np.zeros(ksnap.N_CNT, dtype=np.int64)
+    x_final = np.empty(nf)
+    outputs = WalkOutputs(
+        ev, np.empty((0, 2, nf)), np.empty((0, ksnap.N_PATH_FIXED + n_units)), counts, x_final
+    )
+    g = np.empty(n_units)
+    for j in range(m):
+        if j > 0 and walk.ev[j - 1, ksnap.EV_KIND] == ksnap.KIND_CROSSING:
+            status[j] = status[j - 1]
+            state[j] = state[j - 1]
+            p[j] = walk.ev[j - 1, ksnap.EV_P]
+            continue
+        if j == 0:
+            p_entry = walk.p_start
+            x_entry = walk.x_start.copy()
+        else:
+            p_entry = float(walk.ev[j - 1, ksnap.EV_P])
+            x_entry = walk.ev_x[j - 1, 1].copy()
+        code = ksnap.follow(lattice, x_entry, p_entry, p_min, ksnap.FALLING, landing, outputs)
+        status[j] = code
+        kevents.margins(x_final, params.unit_params, g)
+        label = 0
+        for k in range(n_units):
+            label = 2 * label + (1 if g[k] > 0.0 else 0)
+        state[j] = label if code == st.OK else -1
+        p[j] = ev[0, ksnap.EV_P] if counts[ksnap.CNT_EVENTS] > 0 else np.nan
 
 
 def _path_columns(parts, n_units: int) -> dict[str, NDArray]:

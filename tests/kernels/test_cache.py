@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 from dpfexplore._kernels._cache import (
@@ -152,3 +154,34 @@ def test_the_digest_without_a_writable_stamp_is_computed(tmp_path):
     blocked = tmp_path / "file"
     blocked.write_text("")
     assert current_digest(kernels, blocked / "stamp.json") == sources_digest(kernels)
+
+
+#: Runs a state search, a reset-times batch and the snap pressures of the gripper; prints how
+#: many functions Numba compiled on the way.
+KERNELS_RUN = """
+import numba.core.event as ev
+from dpfexplore import find_state, snap_pressures
+from dpfexplore.examples import example_path
+from dpfexplore.model.design import DesignBatch, load_design
+from dpfexplore.solvers.dynamics.simulate import PressureProfile, reset_times_batch
+
+finger = load_design(example_path("gripper"))
+pulse = PressureProfile.pulse(0.7, (0.0, 0.1, 0.2, 0.3))
+with ev.install_recorder("numba:compile") as compiled:
+    find_state(finger, "11100")
+    reset_times_batch(DesignBatch.from_designs([finger]), pulse, t_end=0.5, method="rodas4")
+    snap_pressures(finger)
+print(len(compiled.buffer))
+"""
+
+
+def test_a_second_process_loads_every_kernel_it_runs_from_the_cache():
+    """A new process finds each kernel's cache entry again: nothing compiles the second time (a
+    kernel keyed by something that changes between processes, such as a closure over a
+    dispatcher, would compile in every process)."""
+    for _ in range(2):  # the first fills what the cache lacks
+        done = subprocess.run(
+            [sys.executable, "-c", KERNELS_RUN], capture_output=True, text=True, check=False
+        )
+        assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[-1] == "0", done.stdout

@@ -154,3 +154,24 @@ def test_early_stop_waits_for_a_unit_pushed_back_over_its_threshold(method):
     assert down_up_down[-3:] == [-1, 1, -1]  # the hard case is still what it was built to be
     batch = reset_times_batch(DesignBatch.from_designs([design]), profile, t_end=6.0, method=method)
     np.testing.assert_allclose(batch["reset_time"][0, :2], full.reset_time, rtol=2e-3)
+
+
+def test_a_failed_release_row_reports_its_loading_not_uninitialised_memory():
+    """The gripper under a 0.7 MPa pulse: the release model does not converge (NOT_CONVERGED);
+    its row reports what the loading recorded, the same on every call."""
+    batch = DesignBatch.from_designs([Design(**GRIPPER)])
+    pulse = PressureProfile.pulse(0.7, (0.0, 0.1, 0.2, 0.3))
+    runs = [reset_times_batch(batch, pulse, t_end=2.0, method="release") for _ in range(2)]
+    out = runs[0]
+    assert out["status"][0] == st.NOT_CONVERGED
+    n = len(GRIPPER["H"])
+    for key in ("snap_through", "snap_back", "reset_time"):
+        np.testing.assert_array_equal(out[key][0], runs[1][key][0])  # nothing left unwritten
+        times = out[key][0, :n]
+        # a time of the loading (0 to τ3 = 0.2 s) or NaN: no denormal left from np.empty
+        assert np.all(np.isnan(times) | ((times > 1e-6) & (times <= 0.2))), (key, times)
+    # units 1, 2 and 5 snapped through during the loading, 3 and 4 did not
+    assert out["final_state"][0] == 0b11001
+    assert np.isnan(out["snap_through"][0, 2:4]).all()
+    assert np.isfinite(out["snap_through"][0, [0, 1, 4]]).all()
+    assert np.all(np.isnan(out["reset_time"][0, :n]))  # the run did not finish: no reset times

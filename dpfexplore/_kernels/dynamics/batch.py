@@ -104,76 +104,112 @@ def summarise_units(unit_rec, tau_end, status, reset, snap_through, snap_back, u
     return state
 
 
-def _reset_times_kernel(integrate):
-    """The ``prange`` batch over designs of the integrator kernel ``integrate`` (INTEGRATORS).
+@kernel
+def start_run(unit_params, h, physics):
+    """One design's start from rest: its state ``y = [x, v]``, physics and empty run record.
 
-    ``integrate`` is the closure's free variable: each integrator has a batch kernel of its own
-    (Numba keys a closure's cache entries by its free variables), so a batch compiles only the
-    integrator it runs.
+    Parameters
+    ----------
+    unit_params : ndarray of shape (N, N_UNIT)
+    h : float, mm
+    physics : Physics
+        Damping (N·s/mm) and mass per unit (tonne; 0: the overdamped model).
+
+    Returns
+    -------
+    y : ndarray of shape (2 (4N - 2),)
+    phys : ndarray of shape (N_PHYS,)
+        ``eta``, ``eta_iso`` and the node mass of this design.
+    run : RunRecord
+        No samples, no event log; the per-unit record and the step statistics to fill.
     """
+    nu = unit_params.shape[0]
+    nf = n_free(nu)
+    y = np.empty(2 * nf)
+    rest_state(unit_params, h, y)
+    phys = np.empty(N_PHYS)
+    phys[0] = physics.eta
+    phys[1] = physics.eta_iso
+    phys[PHYS_MASS] = physics.mass_per_unit * nu / (2.0 * nu + 2.0)
+    run = RunRecord(
+        np.empty(0),
+        np.empty((0, nf)),
+        np.empty((nu, N_REC)),
+        np.empty((0, 3)),
+        np.zeros(N_STATS, dtype=np.int64),
+    )
+    return y, phys, run
 
-    @batch_kernel
-    def batch(lattice, valid, knots, physics, ctrl, t_end, out):
-        """Simulate every valid design from rest under one profile, in parallel (``prange``).
 
-        Parameters
-        ----------
-        lattice : LatticeBatch
-            The padded batch tables (:mod:`.records`).
-        valid : ndarray of bool, shape (n,)
-            Rows to run; invalid rows are left untouched.
-        knots : PressureKnots
-            The pressure profile.
-        physics : Physics
-            Damping and mass per unit (0: the overdamped model).
-        ctrl : ndarray of shape (N_CTRL,)
-            Integrator controls (:mod:`.dynamics.events` layout).
-        t_end : float, s
-        out : ResetRows
-            Arrays of shape ``(n,)`` or ``(n, MAX_UNITS)``; the padding beyond a design's ``N`` is
-            left untouched.
-        """
-        unit_params, h, n_units = lattice
-        knot_t, knot_p = knots
-        eta, eta_iso, mass_per_unit = physics
-        status, final_state, reset, snap_through, snap_back, unit_class = out
-        n = unit_params.shape[0]
-        tau_end = knot_t[knot_t.shape[0] - 1]
-        for i in prange(n):
-            if not valid[i]:
-                continue
-            nu = n_units[i]
-            params = unit_params[i, :nu]
-            nf = n_free(nu)
-            y = np.empty(2 * nf)
-            rest_state(params, h[i], y)
-            phys = np.empty(N_PHYS)
-            phys[0] = eta
-            phys[1] = eta_iso
-            phys[PHYS_MASS] = mass_per_unit * nu / (2.0 * nu + 2.0)
-            rec = np.empty((nu, N_REC))
-            log = np.empty((0, 3))
-            stats = np.zeros(N_STATS, dtype=np.int64)
-            t_out = np.empty(0)
-            x_out = np.empty((0, nf))
-            code = integrate(
-                y,
-                0.0,
-                t_end,
-                MotionModel(params, h[i], knot_t, knot_p, phys),
-                ctrl,
-                RunRecord(t_out, x_out, rec, log, stats),
-            )
-            status[i] = code
-            cls = np.empty(nu, dtype=np.int64)
-            final_state[i] = summarise_units(
-                rec, tau_end, code, reset[i, :nu], snap_through[i, :nu], snap_back[i, :nu], cls
-            )
-            for k in range(nu):
-                unit_class[i, k] = cls[k]
+@kernel
+def finish_row(i, code, unit_rec, tau_end, out):
+    """Write row ``i`` of ``out`` (ResetRows) from a run's status ``code`` and unit record."""
+    nu = unit_rec.shape[0]
+    out.status[i] = code
+    cls = np.empty(nu, dtype=np.int64)
+    out.final_state[i] = summarise_units(
+        unit_rec,
+        tau_end,
+        code,
+        out.reset[i, :nu],
+        out.snap_through[i, :nu],
+        out.snap_back[i, :nu],
+        cls,
+    )
+    for k in range(nu):
+        out.unit_class[i, k] = cls[k]
 
-    return batch
+
+@batch_kernel
+def reset_times_rodas4(lattice, valid, knots, physics, ctrl, t_end, out):
+    """Simulate every valid design from rest under one profile with Rodas4, in parallel.
+
+    Parameters
+    ----------
+    lattice : LatticeBatch
+        The padded batch tables (:mod:`.records`).
+    valid : ndarray of bool, shape (n,)
+        Rows to run; invalid rows are left untouched.
+    knots : PressureKnots
+        The pressure profile.
+    physics : Physics
+        Damping and mass per unit (0: the overdamped model).
+    ctrl : ndarray of shape (N_CTRL,)
+        Integrator controls (:mod:`.dynamics.events` layout).
+    t_end : float, s
+    out : ResetRows
+        Arrays of shape ``(n,)`` or ``(n, MAX_UNITS)``; the padding beyond a design's ``N`` is
+        left untouched.
+    """
+    n = lattice.unit_params.shape[0]
+    tau_end = knots.t[knots.t.shape[0] - 1]
+    for i in prange(n):
+        if valid[i]:
+            params = lattice.unit_params[i, : lattice.n_units[i]]
+            y, phys, run = start_run(params, lattice.h[i], physics)
+            model = MotionModel(params, lattice.h[i], knots.t, knots.p, phys)
+            code = rodas4(y, 0.0, t_end, model, ctrl, run)
+            finish_row(i, code, run.unit_rec, tau_end, out)
+
+
+@batch_kernel
+def reset_times_dopri5(lattice, valid, knots, physics, ctrl, t_end, out):
+    """:func:`reset_times_rodas4` with the explicit Dormand-Prince integrator (same arguments)."""
+    n = lattice.unit_params.shape[0]
+    tau_end = knots.t[knots.t.shape[0] - 1]
+    for i in prange(n):
+        if valid[i]:
+            params = lattice.unit_params[i, : lattice.n_units[i]]
+            y, phys, run = start_run(params, lattice.h[i], physics)
+            model = MotionModel(params, lattice.h[i], knots.t, knots.p, phys)
+            code = dopri5(y, 0.0, t_end, model, ctrl, run)
+            finish_row(i, code, run.unit_rec, tau_end, out)
 
 
 #: The batch kernel of each integrator id: ``(lattice, valid, knots, physics, ctrl, t_end, out)``.
-RESET_TIMES_KERNELS = {key: _reset_times_kernel(value) for key, value in INTEGRATORS.items()}
+#: Two module-level kernels, not closures over the integrator: Numba keys a closure's cache
+#: entries by its pickled free variables, and a pickled dispatcher differs in every process.
+RESET_TIMES_KERNELS = {
+    INTEGRATOR_RODAS4: reset_times_rodas4,
+    INTEGRATOR_DOPRI5: reset_times_dopri5,
+}

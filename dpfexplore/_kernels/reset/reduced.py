@@ -72,8 +72,9 @@ def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
 
     ``knot_t`` must be a single pulse ``(τ1, τ2, τ3, τ4)``. ``y`` (shape ``(2 (4N - 2),)``)
     receives the final state; ``rec`` the per-unit record of both phases (snap-through times
-    from the loose loading). ``lattice``, ``knots``, ``physics``: :mod:`.records` (the model is
-    overdamped: ``physics.mass_per_unit`` is not read). Returns a status. Compiled inline into
+    from the loose loading), or of the loading alone when it or the loaded equilibrium fails.
+    ``lattice``, ``knots``, ``physics``: :mod:`.records` (the model is overdamped:
+    ``physics.mass_per_unit`` is not read). Returns a status. Compiled inline into
     :func:`release_batch` (no machine code of its own).
     """
     # attribute reads, not unpacking: compiled inline into the batch's prange body, unpacking a
@@ -100,12 +101,14 @@ def release_run(lattice, knots, physics, ctrl, t_end, rec, stats, y):
     model = MotionModel(unit_params, h, knot_t, knot_p, phys)
     code = rodas4(y, 0.0, tau3, model, loose, RunRecord(t_out, x_out, loading, log, stats))
     if code != st.OK:
+        rec[:, :] = loading  # the run's record ends with the loading
         return code
     steps = stats[STAT_STEPS]
     # The state at the end of a long hold: the loaded equilibrium, polished from where the
     # loose loading left the finger (so its inversion pattern is the dynamics').
     code = loaded_equilibrium(y[:n], unit_params, h, knot_p[2], 1e-9, HOLD_MAX_ITER, 0.5)
     if code != st.OK:
+        rec[:, :] = loading  # the run's record ends with the loading
         return code
     code = rodas4(y, tau3, t_end, model, ctrl, RunRecord(t_out, x_out, rec, log, stats))
     stats[STAT_STEPS] += steps

@@ -159,7 +159,7 @@ def test_early_stop_waits_for_a_unit_pushed_back_over_its_threshold(method):
 def test_a_failed_release_row_reports_its_loading_not_uninitialised_memory():
     """The gripper under a 0.7 MPa pulse: the release model does not converge (NOT_CONVERGED);
     its row reports what the loading recorded, the same on every call."""
-    batch = DesignBatch.from_designs([Design(**GRIPPER)])
+    batch = DesignBatch.from_designs([Design(**GRIPPER), Design(**PICKPLACE)])
     pulse = PressureProfile.pulse(0.7, (0.0, 0.1, 0.2, 0.3))
     runs = [reset_times_batch(batch, pulse, t_end=2.0, method="release") for _ in range(2)]
     out = runs[0]
@@ -174,4 +174,10 @@ def test_a_failed_release_row_reports_its_loading_not_uninitialised_memory():
     assert out["final_state"][0] == 0b11001
     assert np.isnan(out["snap_through"][0, 2:4]).all()
     assert np.isfinite(out["snap_through"][0, [0, 1, 4]]).all()
+    # the pick-and-place finger fails the same way: no reset time, no class, from an unfinished
+    # run (uninitialised memory had given it three metastable units resetting after up to 56 s)
+    assert out["status"][1] == st.NOT_CONVERGED
+    assert np.isnan(out["reset_time"][1]).all() and (out["unit_class"][1] == -1).all()
+    through = out["snap_through"][1, : len(PICKPLACE["H"])]
+    assert np.all(np.isnan(through) | ((through > 1e-6) & (through <= 0.2))), through
     assert np.all(np.isnan(out["reset_time"][0, :n]))  # the run did not finish: no reset times

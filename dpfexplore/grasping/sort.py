@@ -427,3 +427,20 @@ def sorting_map(
     weight[pay >= w[:, None]] = kb.W_LIGHT
     weight[size < 0] = kb.W_NOT_HELD
     return size, weight
+
+
+def report_map(report: SortReport, diameters: NDArray, masses: NDArray) -> tuple[NDArray, NDArray]:
+    """:func:`sorting_map` of a sort report's gripper, under the report's conditions.
+
+    Friction, depth, threshold and tip unit as ``report``'s objects were sorted; returns
+    ``(size, weight)`` as :func:`sorting_map` does, over ``diameters`` (mm) x ``masses`` (kg).
+    """
+    return sorting_map(
+        report.gripper,
+        diameters,
+        masses,
+        mu=report.mu,
+        depth=report.depth_mm,
+        threshold=report.threshold_N,
+        tip_lasts=report.tip_lasts,
+    )

@@ -296,7 +296,7 @@ def run_sort(args: argparse.Namespace) -> int:
     """Handler of ``dpfexplore sort``."""
     import numpy as np
 
-    from ...grasping.sort import WEIGHT_CLASSES, read_objects, sort_objects, sorting_map
+    from ...grasping.sort import WEIGHT_CLASSES, read_objects, report_map, sort_objects
 
     _check_options(args)
     try:
@@ -334,15 +334,7 @@ def run_sort(args: argparse.Namespace) -> int:
         lo = 0.5 * float(np.min(objects.diameters))
         diameters = np.linspace(lo, gripper.open_aperture, 100)
         masses = np.linspace(0.0, 1.5 * max(float(np.max(objects.masses)), 1e-3), 100)
-        size, weight = sorting_map(
-            gripper,
-            diameters,
-            masses,
-            mu=report.mu,
-            depth=report.depth_mm,
-            threshold=report.threshold_N,
-            tip_lasts=report.tip_lasts,
-        )
+        size, weight = report_map(report, diameters, masses)
         ax = plot_sorting_map(
             diameters,
             masses,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.axes import Axes
 
-from ....grasping.sort import WEIGHT_CLASSES, sorting_map
+from ....grasping.sort import WEIGHT_CLASSES, report_map
 from ....plotting.grasp import plot_sorting_map
 from .sorting_check import SortingVerification
 
@@ -33,15 +33,7 @@ def plot_sorting_result(verification: SortingVerification, ax: Axes | None = Non
     heaviest = max(b.mass[1] for b in boxes.values())
     diameters = np.linspace(low, gripper.open_aperture, GRID[0])
     masses = np.linspace(0.0, 1.5 * max(heaviest, 1e-3), GRID[1])
-    size, weight = sorting_map(
-        gripper,
-        diameters,
-        masses,
-        mu=report.mu,
-        depth=report.depth_mm,
-        threshold=report.threshold_N,
-        tip_lasts=report.tip_lasts,
-    )
+    size, weight = report_map(report, diameters, masses)
     ax = plot_sorting_map(
         diameters,
         masses,

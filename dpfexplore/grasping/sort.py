@@ -429,13 +429,23 @@ def sorting_map(
     return size, weight
 
 
-def report_map(report: SortReport, diameters: NDArray, masses: NDArray) -> tuple[NDArray, NDArray]:
+def report_map(
+    report: SortReport, smallest_mm: float, heaviest_kg: float, points: tuple[int, int] = (100, 100)
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """:func:`sorting_map` of a sort report's gripper, under the report's conditions.
 
-    Friction, depth, threshold and tip unit as ``report``'s objects were sorted; returns
-    ``(size, weight)`` as :func:`sorting_map` does, over ``diameters`` (mm) x ``masses`` (kg).
+    The grid spans half ``smallest_mm`` to the open gripper's aperture (mm) and 0 to 1.5 times
+    ``heaviest_kg`` (at least 1.5 g), ``points`` = (diameters, masses); friction, depth,
+    threshold and tip unit are those ``report``'s objects were sorted under.
+
+    Returns
+    -------
+    diameters, masses, size, weight
+        The grid (mm, kg) and :func:`sorting_map`'s ``(size, weight)`` over it.
     """
-    return sorting_map(
+    diameters = np.linspace(0.5 * smallest_mm, report.gripper.open_aperture, points[0])
+    masses = np.linspace(0.0, 1.5 * max(heaviest_kg, 1e-3), points[1])
+    size, weight = sorting_map(
         report.gripper,
         diameters,
         masses,
@@ -444,3 +454,4 @@ def report_map(report: SortReport, diameters: NDArray, masses: NDArray) -> tuple
         threshold=report.threshold_N,
         tip_lasts=report.tip_lasts,
     )
+    return diameters, masses, size, weight

@@ -331,10 +331,9 @@ def run_sort(args: argparse.Namespace) -> int:
 
         from ...plotting.grasp import plot_sorting_map
 
-        lo = 0.5 * float(np.min(objects.diameters))
-        diameters = np.linspace(lo, gripper.open_aperture, 100)
-        masses = np.linspace(0.0, 1.5 * max(float(np.max(objects.masses)), 1e-3), 100)
-        size, weight = report_map(report, diameters, masses)
+        diameters, masses, size, weight = report_map(
+            report, float(np.min(objects.diameters)), float(np.max(objects.masses))
+        )
         ax = plot_sorting_map(
             diameters,
             masses,

@@ -29,11 +29,9 @@ def plot_sorting_result(verification: SortingVerification, ax: Axes | None = Non
     gripper = report.gripper
     classes = verification.margins.classes
     boxes = {c.name: c for c in verification.classes}
-    low = 0.5 * min(b.diameter[0] for b in boxes.values())
+    smallest = min(b.diameter[0] for b in boxes.values())
     heaviest = max(b.mass[1] for b in boxes.values())
-    diameters = np.linspace(low, gripper.open_aperture, GRID[0])
-    masses = np.linspace(0.0, 1.5 * max(heaviest, 1e-3), GRID[1])
-    size, weight = report_map(report, diameters, masses)
+    diameters, masses, size, weight = report_map(report, smallest, heaviest, GRID)
     ax = plot_sorting_map(
         diameters,
         masses,
